@@ -1,0 +1,1 @@
+"""Comparisons of engine trajectories with the reference: events, episodes, verdicts, reports."""

@@ -1,0 +1,12 @@
+"""Feigin's sliding model (1967) as an exact, event-driven reference simulator.
+
+    >>> from chatterbench.reference import load_scene, simulate
+    >>> result = simulate(load_scene("feigin-pair"))
+    >>> result.episodes[["wall", "t_stick", "t_exit"]].head()
+
+This package imports no engine: it is the physics the engines are judged against.
+"""
+
+from .scene import Force, Gap, Initial, Prescribed, Scene, SceneError, load_scene, scene_from_dict
+
+__all__ = ["Force", "Gap", "Initial", "Prescribed", "Scene", "SceneError", "load_scene", "scene_from_dict"]

@@ -1,0 +1,485 @@
+"""The scene: two masses on a line with a gap, forces and restitution, in SI units.
+
+    >>> from chatterbench.reference.scene import load_scene
+    >>> scene = load_scene("feigin-pair", overrides=["restitution=0.8"])
+    >>> scene.mu, scene.gap.upper
+    (1.0, 0.1)
+
+A scene is the two-mass system of Feigin (1967), section 1, written in SI units::
+
+    m1 x1'' = F1 + F12,        m2 x2'' = F2 - F12,        y = x2 - x1 in [lower, upper]
+
+``F12`` is the coupling force acting on body 1 (positive F12 pulls the bodies together
+while y > 0); ``F1``, ``F2`` are all other forces on body 1 and body 2.  Every force is
+a small declarative term that is linear in the state or a known function of time, which
+is what lets the reference integrate free flight in closed form.
+
+Sign conventions (all SI):
+
+- ``constant``: F = value [N] on the body (``coupling``: F12 = value).
+- ``harmonic``: F = amplitude * sin(omega * t + phase) [N, rad/s, rad].
+- ``spring``: on body b, F = -stiffness * (x_b - rest); on ``coupling``,
+  F12 = stiffness * (y - rest) [N/m, m] (a spring between the bodies whose natural
+  separation is ``rest``; a rest below the wall means a preload pulling them together).
+- ``damper``: on body b, F = -damping * v_b; on ``coupling``, F12 = damping * vy [N s/m].
+- ``prescribed``: with ``mass1 = inf``, body 1 moves as
+  x1(t) = offset + amplitude * sin(omega * t + phase) [m, rad/s, rad]; without it an
+  infinite body 1 is fixed.
+
+Promises: a ``Scene`` is frozen and validated on construction; every refusal is a
+``SceneError`` naming the field, the value and what is allowed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+BODIES = ("body1", "body2", "coupling")
+FORCE_KINDS = ("constant", "harmonic", "spring", "damper")
+
+
+class SceneError(ValueError):
+    """A scene field has a value that is not allowed; the message names the field."""
+
+
+def did_you_mean(name: str, allowed: Sequence[str]) -> str:
+    """Return ``" (did you mean 'x'?)"`` for the nearest allowed name, or ``""``."""
+    close = difflib.get_close_matches(name, list(allowed), n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def _finite(where: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise SceneError(f"{where} = {value!r}: must be a number")
+    value = float(value)
+    if not math.isfinite(value):
+        raise SceneError(f"{where} = {value!r}: must be a finite number")
+    return value
+
+
+def _positive(where: str, value: Any) -> float:
+    value = _finite(where, value)
+    if value <= 0.0:
+        raise SceneError(f"{where} = {value!r}: must be > 0")
+    return value
+
+
+def _non_negative(where: str, value: Any) -> float:
+    value = _finite(where, value)
+    if value < 0.0:
+        raise SceneError(f"{where} = {value!r}: must be >= 0")
+    return value
+
+
+@dataclass(frozen=True)
+class Force:
+    """One force term (see the module docstring for each kind's formula and sign).
+
+    Only the parameters of its kind are used; the others stay at their defaults.
+    """
+
+    kind: str  # one of FORCE_KINDS
+    on: str  # "body1", "body2" or "coupling"
+    value: float = 0.0  # constant force [N]
+    amplitude: float = 0.0  # harmonic amplitude [N]
+    omega: float = 0.0  # harmonic angular frequency [rad/s], > 0 for harmonic
+    phase: float = 0.0  # harmonic phase [rad]
+    stiffness: float = 0.0  # spring stiffness [N/m], >= 0
+    rest: float = 0.0  # spring rest position [m] (body) or rest separation y [m] (coupling)
+    damping: float = 0.0  # damper coefficient [N s/m], >= 0
+
+    _PARAMS = {
+        "constant": ("value",),
+        "harmonic": ("amplitude", "omega", "phase"),
+        "spring": ("stiffness", "rest"),
+        "damper": ("damping",),
+    }
+
+    def __post_init__(self) -> None:
+        if self.kind not in FORCE_KINDS:
+            raise SceneError(
+                f"force kind = {self.kind!r}: must be one of {', '.join(FORCE_KINDS)}"
+                + did_you_mean(str(self.kind), FORCE_KINDS)
+            )
+        if self.on not in BODIES:
+            raise SceneError(
+                f"force on = {self.on!r}: must be one of {', '.join(BODIES)}"
+                + did_you_mean(str(self.on), BODIES)
+            )
+        for name in ("value", "amplitude", "omega", "phase", "stiffness", "rest", "damping"):
+            object.__setattr__(self, name, _finite(f"{self.kind} force {name}", getattr(self, name)))
+        if self.kind == "harmonic":
+            _positive("harmonic force omega", self.omega)
+        if self.kind == "spring":
+            _non_negative("spring force stiffness", self.stiffness)
+        if self.kind == "damper":
+            _non_negative("damper force damping", self.damping)
+
+    @property
+    def params(self) -> tuple[str, ...]:
+        """Names of the parameters this kind uses."""
+        return self._PARAMS[self.kind]
+
+
+@dataclass(frozen=True)
+class Prescribed:
+    """Prescribed harmonic motion of an infinite body 1: x1 = offset + amplitude sin(omega t + phase)."""
+
+    amplitude: float = 0.0  # [m]
+    omega: float = 1.0  # [rad/s], > 0
+    phase: float = 0.0  # [rad]
+    offset: float = 0.0  # [m]
+
+    def __post_init__(self) -> None:
+        _finite("prescribed.amplitude", self.amplitude)
+        _positive("prescribed.omega", self.omega)
+        _finite("prescribed.phase", self.phase)
+        _finite("prescribed.offset", self.offset)
+
+    def position(self, t: float) -> float:
+        """x1(t) [m]."""
+        return self.offset + self.amplitude * math.sin(self.omega * t + self.phase)
+
+    def velocity(self, t: float) -> float:
+        """x1'(t) [m/s]."""
+        return self.amplitude * self.omega * math.cos(self.omega * t + self.phase)
+
+    def acceleration(self, t: float) -> float:
+        """x1''(t) [m/s^2]."""
+        return -self.amplitude * self.omega**2 * math.sin(self.omega * t + self.phase)
+
+
+@dataclass(frozen=True)
+class Gap:
+    """Limits on y = x2 - x1 [m]: the ``lower`` wall and an optional ``upper`` wall."""
+
+    lower: float = 0.0  # [m]
+    upper: float | None = None  # [m], > lower; None: one-sided gap
+
+    def __post_init__(self) -> None:
+        _finite("gap.lower", self.lower)
+        if self.upper is not None:
+            _finite("gap.upper", self.upper)
+            if not self.upper > self.lower:
+                raise SceneError(
+                    f"gap.upper = {self.upper!r}: must be > gap.lower = {self.lower!r}"
+                )
+
+    @property
+    def walls(self) -> tuple[str, ...]:
+        """Names of the walls present: ``("lower",)`` or ``("lower", "upper")``."""
+        return ("lower",) if self.upper is None else ("lower", "upper")
+
+    def position(self, wall: str) -> float:
+        """y of the named wall [m]."""
+        if wall == "lower":
+            return self.lower
+        if wall == "upper" and self.upper is not None:
+            return self.upper
+        raise SceneError(f"wall = {wall!r}: must be one of {', '.join(self.walls)}")
+
+
+@dataclass(frozen=True)
+class Initial:
+    """Initial state: time [s], body 1 position [m] and velocity [m/s], gap y [m] and vy [m/s]."""
+
+    t: float = 0.0
+    x1: float = 0.0
+    v1: float = 0.0
+    y: float = 0.0
+    vy: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("t", "x1", "v1", "y", "vy"):
+            _finite(f"initial.{name}", getattr(self, name))
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated two-mass scene (see the module docstring for the model and signs)."""
+
+    name: str
+    mass1: float  # [kg], > 0; math.inf: body 1 fixed or prescribed
+    mass2: float  # [kg], > 0 and finite
+    restitution: float  # Newton's R, 0 <= R < 1
+    gap: Gap
+    forces: tuple[Force, ...] = ()
+    prescribed: Prescribed | None = None  # only with mass1 = inf
+    initial: Initial = field(default_factory=Initial)
+    duration: float = 1.0  # [s], > 0
+    description: str = ""
+
+    def __post_init__(self) -> None:
+        if isinstance(self.mass1, bool) or not isinstance(self.mass1, (int, float)):
+            raise SceneError(f"mass1 = {self.mass1!r}: must be a number > 0 or \"inf\"")
+        if math.isnan(self.mass1) or self.mass1 <= 0:
+            raise SceneError(f"mass1 = {self.mass1!r}: must be > 0 (or \"inf\" for a fixed/prescribed body 1)")
+        object.__setattr__(self, "mass1", float(self.mass1))
+        object.__setattr__(self, "mass2", _positive("mass2", self.mass2))
+        r = _finite("restitution", self.restitution)
+        if not 0.0 <= r < 1.0:
+            raise SceneError(f"restitution = {r!r}: must be in [0, 1)")
+        object.__setattr__(self, "restitution", r)
+        object.__setattr__(self, "duration", _positive("duration", self.duration))
+        object.__setattr__(self, "forces", tuple(self.forces))
+        for f in self.forces:
+            if not isinstance(f, Force):
+                raise SceneError(f"forces: {f!r} is not a Force")
+        if self.prescribed is not None and math.isfinite(self.mass1):
+            raise SceneError("prescribed: needs mass1 = \"inf\" (a prescribed body has no finite mass)")
+        if not math.isfinite(self.mass1):
+            for f in self.forces:
+                if f.on == "body1":
+                    raise SceneError(
+                        f"forces: a {f.kind} force on body1 has no effect when mass1 = inf; "
+                        "move it to body2/coupling or give body 1 a finite mass"
+                    )
+            x1, v1 = self.body1_motion(self.initial.t)
+            if abs(self.initial.x1 - x1) > 1e-9 * max(1.0, abs(x1)) or abs(self.initial.v1 - v1) > 1e-9 * max(1.0, abs(v1)):
+                raise SceneError(
+                    f"initial.x1 = {self.initial.x1!r}, initial.v1 = {self.initial.v1!r}: body 1 is "
+                    f"{'prescribed' if self.prescribed else 'fixed'}, so they must be x1 = {x1!r}, v1 = {v1!r} at t = {self.initial.t!r}"
+                )
+        lo, hi = self.gap.lower, self.gap.upper
+        y0 = self.initial.y
+        if y0 < lo or (hi is not None and y0 > hi):
+            allowed = f"[{lo!r}, {hi!r}]" if hi is not None else f">= {lo!r}"
+            raise SceneError(f"initial.y = {y0!r}: must lie in the gap, {allowed}")
+
+    # -- derived quantities -------------------------------------------------------
+    @property
+    def mu(self) -> float:
+        """Mass ratio mu = m2 / m1 (0 when body 1 is infinite)."""
+        return self.mass2 / self.mass1
+
+    @property
+    def body1_infinite(self) -> bool:
+        """True when body 1 is fixed or prescribed (mass1 = inf)."""
+        return not math.isfinite(self.mass1)
+
+    def body1_motion(self, t: float) -> tuple[float, float]:
+        """(x1, v1) of an infinite body 1 at time t [m, m/s]; only for mass1 = inf."""
+        if self.prescribed is None:
+            return self.initial.x1, 0.0
+        return self.prescribed.position(t), self.prescribed.velocity(t)
+
+    @property
+    def forcing_omegas(self) -> tuple[float, ...]:
+        """Distinct angular frequencies of the time forcing [rad/s], sorted."""
+        om = {f.omega for f in self.forces if f.kind == "harmonic"}
+        if self.prescribed is not None:
+            om.add(self.prescribed.omega)
+        return tuple(sorted(om))
+
+    @property
+    def time_scale(self) -> float:
+        """A characteristic time [s]: the longest forcing period, else the duration."""
+        om = self.forcing_omegas
+        return 2.0 * math.pi / min(om) if om else self.duration
+
+    @property
+    def t_end(self) -> float:
+        """End time of the run [s]."""
+        return self.initial.t + self.duration
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-data form (the TOML layout); ``mass1 = inf`` becomes the string ``"inf"``."""
+        d = dataclasses.asdict(self)
+        if not math.isfinite(self.mass1):
+            d["mass1"] = "inf"
+        if self.gap.upper is None:
+            del d["gap"]["upper"]
+        if self.prescribed is None:
+            del d["prescribed"]
+        d["forces"] = [{k: f[k] for k in ("kind", "on", *Force._PARAMS[f["kind"]])} for f in d["forces"]]
+        return d
+
+
+# -- building scenes from plain data (TOML, catalogue, --set) ---------------------
+
+_TOP_KEYS = ("name", "mass1", "mass2", "restitution", "gap", "forces", "prescribed", "initial", "duration", "description")
+_SECTION_KEYS = {
+    "gap": tuple(f.name for f in dataclasses.fields(Gap)),
+    "initial": tuple(f.name for f in dataclasses.fields(Initial)),
+    "prescribed": tuple(f.name for f in dataclasses.fields(Prescribed)),
+}
+
+
+def _mass1(value: Any) -> float:
+    if isinstance(value, str):
+        if value.strip().lower() in ("inf", "infinity"):
+            return math.inf
+        raise SceneError(f"mass1 = {value!r}: must be a number > 0 or \"inf\"")
+    return value
+
+
+def _section(name: str, cls: type, data: Any) -> Any:
+    if not isinstance(data, Mapping):
+        raise SceneError(f"{name} = {data!r}: must be a table with keys {', '.join(_SECTION_KEYS[name])}")
+    for k in data:
+        if k not in _SECTION_KEYS[name]:
+            raise SceneError(
+                f"{name}.{k}: unknown key; allowed: {', '.join(_SECTION_KEYS[name])}"
+                + did_you_mean(str(k), _SECTION_KEYS[name])
+            )
+    try:
+        return cls(**data)
+    except TypeError as exc:  # pragma: no cover - keys are checked above
+        raise SceneError(f"{name}: {exc}") from None
+
+
+def _force(i: int, data: Any) -> Force:
+    where = f"forces[{i}]"
+    if not isinstance(data, Mapping):
+        raise SceneError(f"{where} = {data!r}: must be a table with 'kind', 'on' and its parameters")
+    kind = data.get("kind")
+    if kind not in FORCE_KINDS:
+        raise SceneError(
+            f"{where}.kind = {kind!r}: must be one of {', '.join(FORCE_KINDS)}" + did_you_mean(str(kind), FORCE_KINDS)
+        )
+    allowed = ("kind", "on", *Force._PARAMS[kind])
+    for k in data:
+        if k not in allowed:
+            raise SceneError(
+                f"{where}.{k}: unknown key for a {kind} force; allowed: {', '.join(allowed)}" + did_you_mean(str(k), allowed)
+            )
+    if "on" not in data:
+        raise SceneError(f"{where}.on: missing; must be one of {', '.join(BODIES)}")
+    try:
+        return Force(**data)
+    except SceneError as exc:
+        raise SceneError(f"{where}: {exc}") from None
+
+
+def scene_from_dict(data: Mapping[str, Any]) -> Scene:
+    """Build and validate a Scene from plain data (the TOML layout).
+
+    Raises
+    ------
+    SceneError
+        For unknown keys, missing fields, wrong types and out-of-range values.
+    """
+    if not isinstance(data, Mapping):
+        raise SceneError(f"scene must be a table, got {type(data).__name__}")
+    for k in data:
+        if k not in _TOP_KEYS:
+            raise SceneError(f"{k}: unknown key; allowed: {', '.join(_TOP_KEYS)}" + did_you_mean(str(k), _TOP_KEYS))
+    for k in ("mass1", "mass2", "restitution", "gap"):
+        if k not in data:
+            raise SceneError(f"{k}: missing (required fields: mass1, mass2, restitution, gap)")
+    forces = data.get("forces", [])
+    if not isinstance(forces, (list, tuple)):
+        raise SceneError(f"forces = {forces!r}: must be an array of tables")
+    prescribed = data.get("prescribed")
+    name = data.get("name", "scene")
+    if not isinstance(name, str):
+        raise SceneError(f"name = {name!r}: must be a string")
+    return Scene(
+        name=name,
+        mass1=_mass1(data["mass1"]),
+        mass2=data["mass2"],
+        restitution=data["restitution"],
+        gap=_section("gap", Gap, data["gap"]),
+        forces=tuple(_force(i, f) for i, f in enumerate(forces)),
+        prescribed=None if prescribed is None else _section("prescribed", Prescribed, prescribed),
+        initial=_section("initial", Initial, data.get("initial", {})),
+        duration=data.get("duration", 1.0),
+        description=str(data.get("description", "")),
+    )
+
+
+def parse_value(text: str) -> Any:
+    """Parse the right-hand side of ``--set key=value`` as a TOML value (bare words stay strings)."""
+    text = text.strip()
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text
+
+
+def split_assignment(item: str) -> tuple[str, Any]:
+    """Split ``"a.b=value"`` into ``("a.b", parsed value)``; raises SceneError when malformed."""
+    if "=" not in item:
+        raise SceneError(f"--set {item!r}: expected KEY=VALUE, e.g. restitution=0.8")
+    key, _, value = item.partition("=")
+    key = key.strip()
+    if not key:
+        raise SceneError(f"--set {item!r}: empty key")
+    return key, parse_value(value)
+
+
+def apply_overrides(data: Mapping[str, Any], overrides: Sequence[str] | Mapping[str, Any]) -> dict[str, Any]:
+    """Return a deep copy of scene data with dotted-key overrides applied.
+
+    ``overrides`` is a sequence of ``"key=value"`` strings or a mapping of dotted keys.
+    Keys address tables (``initial.vy``, ``gap.upper``) and forces by index
+    (``forces.0.amplitude``). Unknown keys are refused with the nearest valid name.
+    """
+    import copy
+
+    out = copy.deepcopy(dict(data))
+    items = overrides.items() if isinstance(overrides, Mapping) else (split_assignment(s) for s in overrides)
+    for key, value in items:
+        parts = key.split(".")
+        if parts[0] not in _TOP_KEYS or parts[0] == "name":
+            raise SceneError(f"--set {key}: unknown scene key; allowed: {', '.join(_TOP_KEYS[1:])}" + did_you_mean(parts[0], _TOP_KEYS))
+        if len(parts) == 1:
+            if parts[0] in ("gap", "initial", "prescribed", "forces"):
+                raise SceneError(f"--set {key}: {parts[0]} is a table; set one of its keys, e.g. {parts[0]}.{(_SECTION_KEYS.get(parts[0]) or ('0.amplitude',))[0]}")
+            out[parts[0]] = value
+        elif parts[0] == "forces":
+            forces = out.get("forces", [])
+            if len(parts) != 3 or not parts[1].isdigit() or int(parts[1]) >= len(forces):
+                raise SceneError(f"--set {key}: forces are addressed as forces.N.param with N in 0..{len(forces) - 1}")
+            forces[int(parts[1])] = {**forces[int(parts[1])], parts[2]: value}
+        elif parts[0] in _SECTION_KEYS and len(parts) == 2:
+            if parts[1] not in _SECTION_KEYS[parts[0]]:
+                raise SceneError(
+                    f"--set {key}: unknown key; allowed: "
+                    + ", ".join(f"{parts[0]}.{k}" for k in _SECTION_KEYS[parts[0]])
+                    + did_you_mean(parts[1], _SECTION_KEYS[parts[0]])
+                )
+            section = dict(out.get(parts[0]) or {})
+            section[parts[1]] = value
+            out[parts[0]] = section
+        else:
+            raise SceneError(f"--set {key}: unknown scene key")
+    return out
+
+
+def load_scene(source: str | Path | Mapping[str, Any], overrides: Sequence[str] | Mapping[str, Any] = ()) -> Scene:
+    """Load a scene by catalogue name, from a TOML file, or from plain data, then apply overrides.
+
+    Raises
+    ------
+    SceneError
+        Unknown scene name, unreadable or malformed TOML, or any invalid field.
+    """
+    from .catalogue import CATALOGUE
+
+    if isinstance(source, Mapping):
+        data = dict(source)
+    elif str(source) in CATALOGUE:
+        data = CATALOGUE[str(source)]
+    else:
+        path = Path(source)
+        if not path.suffix == ".toml" and not path.exists():
+            raise SceneError(
+                f"scene {str(source)!r}: not a built-in scene ({', '.join(CATALOGUE)}) nor a TOML file"
+                + did_you_mean(str(source), list(CATALOGUE))
+            )
+        try:
+            data = tomllib.loads(path.read_text())
+        except OSError as exc:
+            raise SceneError(f"scene file {str(path)!r}: cannot be read ({exc.strerror})") from None
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+            raise SceneError(f"scene file {str(path)!r}: not valid TOML ({exc})") from None
+        data.setdefault("name", path.stem)
+    data = apply_overrides(data, overrides)
+    return scene_from_dict(data)
