@@ -10,3 +10,7 @@ This package imports no engine: it is the physics the engines are judged against
 from .scene import Force, Gap, Initial, Prescribed, Scene, SceneError, load_scene, scene_from_dict
 
 __all__ = ["Force", "Gap", "Initial", "Prescribed", "Scene", "SceneError", "load_scene", "scene_from_dict"]
+
+from .simulate import Options, Result, simulate  # noqa: E402
+
+__all__ += ["Options", "Result", "simulate"]

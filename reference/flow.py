@@ -1,0 +1,73 @@
+"""Exact propagation of s' = A s by local Taylor expansion of the matrix exponential.
+
+    >>> flow = Flow(system.free, horizon=scene.time_scale)
+    >>> coeffs = flow.taylor(s0)          # (order + 1, n): s(t0 + h) = sum_k coeffs[k] h^k
+    >>> s1 = flow.advance(s0, 0.3)        # s(t0 + 0.3)
+
+expm(A h) = sum_k (A h)^k / k! is evaluated as a truncated series on steps no longer than
+``step``, chosen so that rho * step <= 3/2 with rho an estimate of the growth rate of A
+(max over k of ||A^k||^(1/k)); with ``order`` = 28 the truncated tail is below
+(3/2)^29 / 29! ~ 1e-26 of the leading term, far under double precision, and the terms
+never exceed e^(3/2) ~ 4.5 times the result, so at most one digit is lost to cancellation. Longer
+intervals are walked in whole steps. The Taylor coefficients of the state are also the
+exact local expansion used by the root finder: an impact time h after an impact solves
+c_1 + c_2 h + ... = 0 (the zero c_0 divided out), which keeps full relative precision
+when h shrinks to 1e-12 s and below.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+class Flow:
+    """The exact flow of s' = A s.
+
+    Parameters
+    ----------
+    A : ndarray, shape (n, n)
+        The generator.
+    horizon : float
+        Longest step ever needed [s] (the scene's time scale); caps ``step`` when A is
+        nilpotent (constant forcing only) and rho = 0.
+    order : int
+        Degree of the truncated series (default 28).
+    """
+
+    def __init__(self, A: np.ndarray, horizon: float, order: int = 28) -> None:
+        self.A = np.asarray(A, dtype=float)
+        self.order = order
+        n = self.A.shape[0]
+        powers = np.empty((order + 1, n, n))
+        powers[0] = np.eye(n)
+        for k in range(1, order + 1):
+            powers[k] = powers[k - 1] @ self.A / k  # A^k / k!
+        self.powers = powers
+        growth = 0.0
+        Ak = np.eye(n)
+        for k in range(1, order + 1):
+            Ak = Ak @ self.A
+            norm = np.abs(Ak).sum(axis=1).max()
+            if norm > 0.0:
+                growth = max(growth, norm ** (1.0 / k))
+        self.growth = growth  # [1/s]
+        self.step = horizon if growth == 0.0 else min(horizon, 1.5 / growth)
+        self._step_matrix = self.matrix(self.step)
+
+    def matrix(self, h: float) -> np.ndarray:
+        """expm(A h) for 0 <= h <= step, shape (n, n)."""
+        hp = h ** np.arange(self.order + 1)
+        return np.tensordot(hp, self.powers, axes=1)
+
+    def taylor(self, s: np.ndarray) -> np.ndarray:
+        """Taylor coefficients of s(t0 + h) in h, shape (order + 1, n): row k is A^k s / k!."""
+        return self.powers @ s
+
+    def advance(self, s: np.ndarray, h: float) -> np.ndarray:
+        """s(t0 + h) for any h >= 0 [s], walking whole steps then the remainder."""
+        while h > self.step:
+            s = self._step_matrix @ s
+            h -= self.step
+        return (h ** np.arange(self.order + 1)) @ (self.powers @ s)

@@ -1,0 +1,115 @@
+"""The event log and the episode table: the vocabulary every simulator in the suite speaks.
+
+    >>> log = EventLog()
+    >>> log.add(0.45, "impact", "lower", v_minus=-4.43, v_plus=2.21, x1=0.0, v1=0.0)
+    >>> episodes(log.frame())
+
+Event log columns (one row per event, in time order):
+
+=========  =================================================================================
+t          event time [s]
+kind       ``impact``, ``plate_entry``, ``stick`` or ``exit``
+wall       ``lower`` or ``upper``
+v_minus    relative velocity y' just before the event [m/s] (y = x2 - x1)
+v_plus     relative velocity y' just after the event [m/s] (0 for plate_entry/stick/exit
+           in Feigin's model)
+x1, v1     body 1 position [m] and velocity [m/s] just after the event
+rule       what started a ``stick``: ``plate`` (strike inside Feigin's Pi_2, (2.1)-(2.2)),
+           ``accumulation`` (impacts accumulating outside the plate), ``zeno`` (the
+           accumulation point of the full impact sequence, exhaustive mode), ``inelastic``
+           (R = 0 and y'' into the wall), ``contact`` (a state resting on a wall, e.g. the
+           initial one); for an ``impact`` that Feigin's model makes perfectly inelastic,
+           ``plate``; empty otherwise
+=========  =================================================================================
+
+Episodes (one per visit to a wall that ends in sticking; a visit starts at the first
+impact after an exit, after an impact on the other wall, or at the start of the run):
+
+=================  =========================================================================
+wall               ``lower`` or ``upper``
+t_first_impact     first impact of the visit [s]
+t_plate_entry      first strike of the visit inside Pi_2 [s] (NaN if none)
+t_stick            start of the motion in kinematic constraint [s]
+t_exit             separation, when y'' of the free motion turns away from the wall [s]
+                   (NaN if the run ends stuck)
+n_impacts          impacts of the visit up to the sticking (a Feigin plate strike counts)
+stick_rule         the ``rule`` of the stick event
+=================  =========================================================================
+"""
+
+from __future__ import annotations
+
+import math
+
+import pandas as pd
+
+KINDS = ("impact", "plate_entry", "stick", "exit")
+WALLS = ("lower", "upper")
+LOG_COLUMNS = ["t", "kind", "wall", "v_minus", "v_plus", "x1", "v1", "rule"]
+EPISODE_COLUMNS = ["wall", "t_first_impact", "t_plate_entry", "t_stick", "t_exit", "n_impacts", "stick_rule"]
+
+
+class EventLog:
+    """An append-only list of events, turned into a DataFrame with ``frame()``."""
+
+    def __init__(self) -> None:
+        self.rows: list[tuple] = []
+
+    def add(self, t: float, kind: str, wall: str, v_minus: float, v_plus: float, x1: float, v1: float, rule: str = "") -> None:
+        """Append one event (units and meaning in the module docstring)."""
+        self.rows.append((t, kind, wall, v_minus, v_plus, x1, v1, rule))
+
+    def __len__(self) -> int:
+        return len(self.rows)
+
+    def frame(self) -> pd.DataFrame:
+        """The log as a DataFrame with ``LOG_COLUMNS``."""
+        return log_frame(self.rows)
+
+
+def log_frame(rows) -> pd.DataFrame:
+    """DataFrame with ``LOG_COLUMNS`` and fixed dtypes from an iterable of row tuples."""
+    df = pd.DataFrame(list(rows), columns=LOG_COLUMNS)
+    for col in ("t", "v_minus", "v_plus", "x1", "v1"):
+        df[col] = df[col].astype(float)
+    for col in ("kind", "wall", "rule"):
+        df[col] = df[col].astype(object)
+    return df
+
+
+def episodes(log: pd.DataFrame) -> pd.DataFrame:
+    """Derive the episode table (``EPISODE_COLUMNS``) from an event log."""
+    out = []
+    visit = None  # the open visit: dict of episode fields
+    stuck = False
+    for t, kind, wall in zip(log["t"].to_numpy(), log["kind"].to_numpy(), log["wall"].to_numpy()):
+        if kind == "impact":
+            if stuck:
+                continue
+            if visit is None or visit["wall"] != wall:
+                visit = {"wall": wall, "t_first_impact": t, "t_plate_entry": math.nan, "n_impacts": 0}
+            visit["n_impacts"] += 1
+        elif kind == "plate_entry":
+            if visit is None or visit["wall"] != wall:
+                visit = {"wall": wall, "t_first_impact": math.nan, "t_plate_entry": math.nan, "n_impacts": 0}
+            if math.isnan(visit["t_plate_entry"]):
+                visit["t_plate_entry"] = t
+        elif kind == "stick":
+            if visit is None or visit["wall"] != wall:
+                visit = {"wall": wall, "t_first_impact": math.nan, "t_plate_entry": math.nan, "n_impacts": 0}
+            visit["t_stick"] = t
+            visit["t_exit"] = math.nan
+            visit["stick_rule"] = ""
+            out.append(visit)
+            stuck = True
+        elif kind == "exit":
+            if out and stuck:
+                out[-1]["t_exit"] = t
+            stuck = False
+            visit = None
+    rules = log.loc[log["kind"] == "stick", "rule"].tolist()
+    for ep, rule in zip(out, rules):
+        ep["stick_rule"] = rule
+    df = pd.DataFrame(out, columns=EPISODE_COLUMNS)
+    df["n_impacts"] = df["n_impacts"].astype(int)
+    return df

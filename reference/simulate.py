@@ -1,0 +1,336 @@
+"""The event-driven reference: exact free flight, impacts, sliding by Feigin's model, exits.
+
+    >>> from chatterbench.reference import load_scene, simulate
+    >>> result = simulate(load_scene("feigin-pair"), chatter="feigin")
+    >>> result.episodes[["wall", "t_stick", "t_exit"]]
+
+Between events the motion is the closed-form flow of ``linear.py``. Events:
+
+- ``impact``: y reaches a wall; Newton's law (1.3) with restitution R.
+- ``plate_entry``: the strike lies in Feigin's sliding plate Pi_2 ((2.1)-(2.2), ``plate.py``).
+  In ``feigin`` mode the strike is made perfectly inelastic and the masses move in
+  kinematic constraint (1.4) at once; in ``exhaustive`` mode it is only recorded and every
+  impact of the chatter sequence is followed.
+- ``stick``: motion in kinematic constraint starts. Besides the plate, a chatter sequence is
+  caught by the accumulation test: after an impact with rebound speed v+ and relative
+  acceleration a into the wall, the remaining flights sum to dt* = 2 v+ / ((1 - R) |a|)
+  (= 2 R v / ((1 - R) |a|) for an incoming speed v); once dt* is below
+  ``accumulation_time`` the sequence is summed in closed form and sticking starts at its
+  accumulation (Zeno) point t + dt*. The error of that sum is O(|a'| / |a| dt*^2).
+- ``exit``: the free relative acceleration (3.1) along the constrained motion reaches zero
+  and turns away from the wall, found as a root of its closed form.
+
+Promises: events strictly increase in time (an impact, its plate entry and its stick share
+one time); y is put exactly on the wall at every impact; momentum m1 v1 + m2 v2 is
+conserved by every impact to rounding; the result is bit-identical for the same inputs.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from .flow import Flow
+from .impact import impact
+from .linear import ONE, V1, VY, X1, Y, LinearSystem
+from .log import EventLog, episodes
+from .plate import jerk_bounds, plate_conditions, quick_reject
+from .roots import first_root_kernel
+from .scene import Scene, SceneError
+
+CHATTER_MODES = ("feigin", "exhaustive")
+
+
+@dataclass(frozen=True)
+class Options:
+    """How the reference resolves chatter, and its tolerances."""
+
+    chatter: str = "feigin"  # "feigin": plate entry -> inelastic impact; "exhaustive": every impact
+    accumulation_time: float | None = None  # [s] dt* below which chatter is summed; default 1e-9 * time scale
+    root_rtol: float = 1e-14  # relative precision of event times
+    max_events: int = 5_000_000  # guard against an endless event sequence
+
+    def __post_init__(self) -> None:
+        if self.chatter not in CHATTER_MODES:
+            raise SceneError(f"chatter = {self.chatter!r}: must be one of {', '.join(CHATTER_MODES)}")
+        if self.accumulation_time is not None and not (math.isfinite(self.accumulation_time) and self.accumulation_time > 0):
+            raise SceneError(f"accumulation_time = {self.accumulation_time!r}: must be a finite number > 0 [s]")
+        if not 0 < self.root_rtol < 1e-6:
+            raise SceneError(f"root_rtol = {self.root_rtol!r}: must be in (0, 1e-6)")
+        if not self.max_events > 0:
+            raise SceneError(f"max_events = {self.max_events!r}: must be > 0")
+
+
+@dataclass(frozen=True)
+class Result:
+    """A reference run: the event log, its episodes and the final state.
+
+    ``log`` and ``episodes`` are DataFrames documented in ``log.py``; ``final`` is
+    (t, x1, v1, y, vy) at the end of the run [s, m, m/s, m, m/s]; ``status`` is ``"ok"``
+    or ``"max_events"`` (the guard stopped the run; the log up to there is kept).
+    """
+
+    scene: Scene
+    options: Options
+    log: pd.DataFrame
+    episodes: pd.DataFrame
+    final: tuple[float, float, float, float, float]
+    status: str = "ok"
+    message: str = ""
+    wall_time: float = 0.0  # [s] of wall clock
+    stats: dict = field(default_factory=dict)
+
+    @property
+    def n_impacts(self) -> int:
+        """Number of impact events in the log."""
+        return int((self.log["kind"] == "impact").sum())
+
+
+def _normal(wall: str) -> float:
+    """+1 for the lower wall (gap opens upwards), -1 for the upper wall."""
+    return 1.0 if wall == "lower" else -1.0
+
+
+class _Simulator:
+    """The event loop; one instance per run (holds the flows and the log)."""
+
+    def __init__(self, scene: Scene, options: Options) -> None:
+        self.scene = scene
+        self.options = options
+        self.system = LinearSystem.from_scene(scene)
+        horizon = scene.time_scale / 4.0
+        self.free = Flow(self.system.free, horizon=horizon)
+        self.stuck = Flow(self.system.stuck, horizon=horizon)
+        self.accel_row = self.system.accel_row
+        self.jerk_row = self.accel_row @ self.system.free  # y''' of the free motion
+        self.walls = scene.gap.walls
+        self.wall_y = {w: scene.gap.position(w) for w in self.walls}
+        self.R = scene.restitution
+        self.m1, self.m2 = scene.mass1, scene.mass2
+        self.t_end = scene.t_end
+        self.acc_time = options.accumulation_time or 1e-9 * scene.time_scale
+        self.exhaustive = options.chatter == "exhaustive"
+        self.log = EventLog()
+        self._pw = np.arange(self.free.order + 1)
+        self.stats = {"steps": 0, "plate_tests": 0}
+        self._known_exit = None  # (t_exit, state) found by a plate test, reused by _stay
+
+    # -- helpers ---------------------------------------------------------------------
+    def _powers(self, h: float) -> np.ndarray:
+        return h**self._pw
+
+    def _reseed(self, s: np.ndarray, t: float) -> None:
+        """Put the forcing generators back on their exact values at time t."""
+        s[ONE:] = self.system.forcing(t)
+
+    def _event(self, t: float, kind: str, wall: str, v_minus: float, v_plus: float, s: np.ndarray, rule: str = "") -> None:
+        self.log.add(t, kind, wall, v_minus, v_plus, float(s[X1]), float(s[V1]), rule)
+        if len(self.log) > self.options.max_events:
+            raise _EventLimit
+
+    def _constrained(self, s: np.ndarray, t: float, wall: str, bounds: bool):
+        """Walk the constrained motion from (s, t) until the exit or the end of the run.
+
+        Returns (t_exit or None, state at t_exit or t_end, Y*, Y) where Y*, Y bound the
+        wall-normal derivative of the free relative acceleration over the walk (only when
+        ``bounds``; the walk stops early once Y* <= 0, returning t_exit = nan).
+        """
+        n = _normal(wall)
+        jmin, jmax = math.inf, -math.inf
+        s = s.copy()
+        while True:
+            hl = min(self.stuck.step, self.t_end - t)
+            if hl <= 0.0:
+                return None, s, jmin, jmax
+            coeff_state = self.stuck.taylor(s)
+            lam = coeff_state @ self.accel_row  # lambda(t + h) Taylor coefficients
+            r = first_root_kernel(-n * lam, hl, 0, self.options.root_rtol)
+            r = None if r != r else r
+            span = hl if r is None else r
+            if bounds and span > 0.0:
+                jerk = n * lam[1:] * np.arange(1, len(lam))
+                lo, hi = jerk_bounds(np.ascontiguousarray(jerk), span)
+                jmin, jmax = min(jmin, lo), max(jmax, hi)
+                if jmin <= 0.0:
+                    return math.nan, s, jmin, jmax
+            if r is not None:
+                s = self._powers(r) @ coeff_state
+                t = t + r
+                s[Y], s[VY] = self.wall_y[wall], 0.0
+                self._reseed(s, t)
+                return t, s, jmin, jmax
+            s = self._powers(hl) @ coeff_state
+            t = t + hl
+            s[Y], s[VY] = self.wall_y[wall], 0.0
+            self.stats["steps"] += 1
+
+    def _stuck_state(self, s: np.ndarray) -> np.ndarray:
+        """The state after a perfectly inelastic impact (R = 0 in (1.3))."""
+        out = s.copy()
+        out[VY], out[V1] = impact(s[VY], s[V1], 0.0, self.m1, self.m2)
+        return out
+
+    # -- the loop --------------------------------------------------------------------
+    def run(self) -> tuple[float, np.ndarray]:
+        sc = self.scene
+        t = sc.initial.t
+        s = self.system.state(t, sc.initial.x1, sc.initial.v1, sc.initial.y, sc.initial.vy)
+        deflate = {w: 0 for w in self.walls}
+        plate_seen = False  # a plate entry was logged in the current visit (exhaustive mode)
+        visit_wall = None
+        # a state starting on a wall, moving into it or resting, is handled as a strike
+        for w in self.walls:
+            if s[Y] == self.wall_y[w] and _normal(w) * s[VY] <= 0.0:
+                outcome = self._strike(t, s, w, plate_seen)
+                t, s, stuck_wall, plate_seen = outcome
+                visit_wall = w
+                if stuck_wall is not None:
+                    t, s = self._stay(t, s, stuck_wall)
+                    if t is None:
+                        return self.t_end, s
+                    deflate = {x: 0 for x in self.walls}
+                    deflate[stuck_wall] = 3
+                    visit_wall, plate_seen = None, False
+                else:
+                    deflate[w] = 1
+                break
+        while t < self.t_end:
+            hl = min(self.free.step, self.t_end - t)
+            coeff_state = self.free.taylor(s)
+            ycoef = coeff_state[:, Y]
+            best, best_wall = None, None
+            for w in self.walls:
+                n = _normal(w)
+                p = n * ycoef
+                p[0] = n * (s[Y] - self.wall_y[w])
+                r = first_root_kernel(p, hl, deflate[w], self.options.root_rtol)
+                r = None if r != r else r
+                if r is not None and (best is None or r < best):
+                    best, best_wall = r, w
+            if best is None:
+                s = self._powers(hl) @ coeff_state
+                t = t + hl
+                deflate = {w: 0 for w in self.walls}
+                self.stats["steps"] += 1
+                continue
+            s = self._powers(best) @ coeff_state
+            t = t + best
+            s[Y] = self.wall_y[best_wall]
+            self._reseed(s, t)
+            if visit_wall != best_wall:
+                plate_seen, visit_wall = False, best_wall
+            t, s, stuck_wall, plate_seen = self._strike(t, s, best_wall, plate_seen)
+            deflate = {w: 0 for w in self.walls}
+            if stuck_wall is None:
+                deflate[best_wall] = 1
+                continue
+            t, s = self._stay(t, s, stuck_wall)
+            if t is None:
+                return self.t_end, s
+            deflate[stuck_wall] = 3  # y = y' = y'' = 0 at an exit: the first three coefficients vanish
+            visit_wall, plate_seen = None, False
+        return t, s
+
+    def _stay(self, t: float, s: np.ndarray, wall: str):
+        """Constrained motion from a stick to the exit; logs the exit. (None, s) at the run's end."""
+        if self._known_exit is not None:
+            (t_exit, s), self._known_exit = self._known_exit, None
+        else:
+            t_exit, s, _, _ = self._constrained(s, t, wall, bounds=False)
+        if t_exit is None:
+            return None, s
+        self._event(t_exit, "exit", wall, 0.0, 0.0, s)
+        return t_exit, s
+
+    def _strike(self, t: float, s: np.ndarray, wall: str, plate_seen: bool):
+        """Resolve a strike at a wall. Returns (t, s, stuck_wall or None, plate_seen)."""
+        n = _normal(wall)
+        R = self.R
+        v_minus = float(s[VY])
+        v = n * v_minus  # wall-normal incoming velocity, <= 0
+        acc = n * float(self.accel_row @ s)
+        if R == 0.0 or v >= 0.0:
+            # perfectly inelastic, or a graze with no incoming speed
+            s_in = self._stuck_state(s)
+            self._event(t, "impact", wall, v_minus, 0.0, s_in)
+            if acc < 0.0:
+                self._event(t, "stick", wall, 0.0, 0.0, s_in, "inelastic" if v < 0.0 else "contact")
+                return t, s_in, wall, plate_seen
+            return t, s_in, None, plate_seen
+        if not (plate_seen and self.exhaustive):
+            jerk = n * float(self.jerk_row @ s)
+            if not quick_reject(R, v, acc, jerk):
+                self.stats["plate_tests"] += 1
+                s_in = self._stuck_state(s)
+                t_edge, s_edge, jmin, jmax = self._constrained(s_in, t, wall, bounds=True)
+                window = (t_edge if t_edge is not None else self.t_end) - t
+                inside = not math.isnan(window) and plate_conditions(R, v, acc, jmin, jmax, window).inside
+                if inside and not self.exhaustive:
+                    self._event(t, "impact", wall, v_minus, 0.0, s_in, "plate")
+                    self._event(t, "plate_entry", wall, v_minus, 0.0, s_in)
+                    self._event(t, "stick", wall, 0.0, 0.0, s_in, "plate")
+                    # the walk to the edge of the plate was the constrained motion itself
+                    self._known_exit = (t_edge, s_edge)
+                    return t, s_in, wall, True
+                if inside:
+                    self._event(t, "plate_entry", wall, v_minus, -R * v_minus, s)
+                    plate_seen = True
+        vy_plus, v1_plus = impact(v_minus, float(s[V1]), R, self.m1, self.m2)
+        s = s.copy()
+        s[VY], s[V1] = vy_plus, v1_plus
+        self._event(t, "impact", wall, v_minus, vy_plus, s)
+        if acc < 0.0:
+            dt_star = 2.0 * n * vy_plus / ((1.0 - R) * -acc)  # sum of all later flights
+            if dt_star <= self.acc_time:
+                s_in = self._stuck_state(s)
+                t_z = t + dt_star
+                s_in = self.stuck.advance(s_in, dt_star)
+                s_in[Y], s_in[VY] = self.wall_y[wall], 0.0
+                self._reseed(s_in, t_z)
+                self._event(t_z, "stick", wall, 0.0, 0.0, s_in, "zeno" if self.exhaustive else "accumulation")
+                return t_z, s_in, wall, plate_seen
+        return t, s, None, plate_seen
+
+
+class _EventLimit(Exception):
+    pass
+
+
+def simulate(scene: Scene, chatter: str = "feigin", options: Options | None = None) -> Result:
+    """Run the reference on ``scene`` for ``scene.duration`` seconds.
+
+    Parameters
+    ----------
+    scene : Scene
+        The validated scene.
+    chatter : {"feigin", "exhaustive"}
+        How chatter is resolved (see the module docstring); ignored when ``options`` is given.
+    options : Options, optional
+        Full options (tolerances, guard).
+    """
+    options = options or Options(chatter=chatter)
+    sim = _Simulator(scene, options)
+    start = time.perf_counter()
+    status, message = "ok", ""
+    try:
+        t, s = sim.run()
+    except _EventLimit:
+        status, message = "max_events", f"stopped after {options.max_events} events"
+        t, s = math.nan, np.full(5, math.nan)
+    wall = time.perf_counter() - start
+    log = sim.log.frame()
+    return Result(
+        scene=scene,
+        options=options,
+        log=log,
+        episodes=episodes(log),
+        final=(float(t), float(s[X1]), float(s[V1]), float(s[Y]), float(s[VY])),
+        status=status,
+        message=message,
+        wall_time=wall,
+        stats=dict(sim.stats, events=len(sim.log)),
+    )
