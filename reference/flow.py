@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
 
@@ -45,6 +46,7 @@ class Flow:
         for k in range(1, order + 1):
             powers[k] = powers[k - 1] @ self.A / k  # A^k / k!
         self.powers = powers
+        self._flat = np.ascontiguousarray(powers.reshape((order + 1) * n, n))  # one GEMV per expansion
         growth = 0.0
         Ak = np.eye(n)
         for k in range(1, order + 1):
@@ -63,11 +65,22 @@ class Flow:
 
     def taylor(self, s: np.ndarray) -> np.ndarray:
         """Taylor coefficients of s(t0 + h) in h, shape (order + 1, n): row k is A^k s / k!."""
-        return self.powers @ s
+        return (self._flat @ s).reshape(self.order + 1, -1)
 
     def advance(self, s: np.ndarray, h: float) -> np.ndarray:
         """s(t0 + h) for any h >= 0 [s], walking whole steps then the remainder."""
         while h > self.step:
             s = self._step_matrix @ s
             h -= self.step
-        return (h ** np.arange(self.order + 1)) @ (self.powers @ s)
+        return evaluate(self.taylor(s), h)
+
+
+@numba.njit(cache=True)
+def evaluate(coeffs: np.ndarray, h: float) -> np.ndarray:
+    """sum_k coeffs[k] h^k for Taylor coefficients of shape (order + 1, n) (Horner)."""
+    m, n = coeffs.shape
+    out = coeffs[m - 1].copy()
+    for k in range(m - 2, -1, -1):
+        for i in range(n):
+            out[i] = out[i] * h + coeffs[k, i]
+    return out

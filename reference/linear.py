@@ -67,6 +67,12 @@ class LinearSystem:
             out[2 + 2 * j] = math.cos(w * t)
         return out
 
+    def reseed(self, s: np.ndarray, t: float) -> None:
+        """Put the forcing generators of state ``s`` back on their exact values at time t (in place)."""
+        for j, w in enumerate(self.omegas):
+            s[5 + 2 * j] = math.sin(w * t)
+            s[6 + 2 * j] = math.cos(w * t)
+
     def state(self, t: float, x1: float, v1: float, y: float, vy: float) -> np.ndarray:
         """The augmented state at time t [s] for (x1, v1, y, vy) [m, m/s]."""
         return np.concatenate(([x1, v1, y, vy], self.forcing(t)))

@@ -163,3 +163,26 @@ def first_root(c, hmax: float, deflate: int = 0, rtol: float = 1e-14) -> float |
     """
     r = first_root_kernel(np.asarray(c, dtype=float), float(hmax), int(deflate), float(rtol))
     return None if math.isnan(r) else r
+
+
+@numba.njit(cache=True)
+def first_wall_root(ycoef, y, walls, normals, deflate, hmax, rtol):
+    """First strike on any wall within (0, hmax]: returns (h, wall index), or (NaN, -1).
+
+    ``ycoef`` are the Taylor coefficients of y(t0 + h); wall j is at ``walls[j]`` [m] with
+    wall-normal sign ``normals[j]`` (+1 lower, -1 upper) and ``deflate[j]`` coefficients
+    of its gap function known to vanish (see ``first_root``).
+    """
+    best = math.nan
+    best_j = -1
+    p = np.empty(len(ycoef))
+    for j in range(len(walls)):
+        n = normals[j]
+        for k in range(len(ycoef)):
+            p[k] = n * ycoef[k]
+        p[0] = n * (y - walls[j])
+        r = first_root_kernel(p, hmax, deflate[j], rtol)
+        if r == r and (best_j < 0 or r < best):
+            best = r
+            best_j = j
+    return best, best_j

@@ -34,12 +34,12 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from .flow import Flow
+from .flow import Flow, evaluate
 from .impact import impact
 from .linear import ONE, V1, VY, X1, Y, LinearSystem
 from .log import EventLog, episodes
 from .plate import jerk_bounds, plate_conditions, quick_reject
-from .roots import first_root_kernel
+from .roots import first_root_kernel, first_wall_root
 from .scene import Scene, SceneError
 
 CHATTER_MODES = ("feigin", "exhaustive")
@@ -125,7 +125,7 @@ class _Simulator:
 
     def _reseed(self, s: np.ndarray, t: float) -> None:
         """Put the forcing generators back on their exact values at time t."""
-        s[ONE:] = self.system.forcing(t)
+        self.system.reseed(s, t)
 
     def _event(self, t: float, kind: str, wall: str, v_minus: float, v_plus: float, s: np.ndarray, rule: str = "") -> None:
         self.log.add(t, kind, wall, v_minus, v_plus, float(s[X1]), float(s[V1]), rule)
@@ -158,12 +158,12 @@ class _Simulator:
                 if jmin <= 0.0:
                     return math.nan, s, jmin, jmax
             if r is not None:
-                s = self._powers(r) @ coeff_state
+                s = evaluate(coeff_state, r)
                 t = t + r
                 s[Y], s[VY] = self.wall_y[wall], 0.0
                 self._reseed(s, t)
                 return t, s, jmin, jmax
-            s = self._powers(hl) @ coeff_state
+            s = evaluate(coeff_state, hl)
             t = t + hl
             s[Y], s[VY] = self.wall_y[wall], 0.0
             self.stats["steps"] += 1
@@ -198,40 +198,35 @@ class _Simulator:
                 else:
                     deflate[w] = 1
                 break
+        walls_y = np.array([self.wall_y[w] for w in self.walls])
+        normals = np.array([_normal(w) for w in self.walls])
+        deflate = np.array([deflate[w] for w in self.walls], dtype=np.int64)
+        rtol = self.options.root_rtol
         while t < self.t_end:
             hl = min(self.free.step, self.t_end - t)
             coeff_state = self.free.taylor(s)
-            ycoef = coeff_state[:, Y]
-            best, best_wall = None, None
-            for w in self.walls:
-                n = _normal(w)
-                p = n * ycoef
-                p[0] = n * (s[Y] - self.wall_y[w])
-                r = first_root_kernel(p, hl, deflate[w], self.options.root_rtol)
-                r = None if r != r else r
-                if r is not None and (best is None or r < best):
-                    best, best_wall = r, w
-            if best is None:
-                s = self._powers(hl) @ coeff_state
+            best, j = first_wall_root(coeff_state[:, Y], s[Y], walls_y, normals, deflate, hl, rtol)
+            deflate[:] = 0
+            if j < 0:
+                s = evaluate(coeff_state, hl)
                 t = t + hl
-                deflate = {w: 0 for w in self.walls}
                 self.stats["steps"] += 1
                 continue
-            s = self._powers(best) @ coeff_state
+            best_wall = self.walls[j]
+            s = evaluate(coeff_state, best)
             t = t + best
             s[Y] = self.wall_y[best_wall]
             self._reseed(s, t)
             if visit_wall != best_wall:
                 plate_seen, visit_wall = False, best_wall
             t, s, stuck_wall, plate_seen = self._strike(t, s, best_wall, plate_seen)
-            deflate = {w: 0 for w in self.walls}
             if stuck_wall is None:
-                deflate[best_wall] = 1
+                deflate[j] = 1  # y = wall exactly after an impact: c0 = 0
                 continue
             t, s = self._stay(t, s, stuck_wall)
             if t is None:
                 return self.t_end, s
-            deflate[stuck_wall] = 3  # y = y' = y'' = 0 at an exit: the first three coefficients vanish
+            deflate[self.walls.index(stuck_wall)] = 3  # y = y' = y'' = 0 at an exit: three coefficients vanish
             visit_wall, plate_seen = None, False
         return t, s
 

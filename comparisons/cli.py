@@ -1,0 +1,182 @@
+"""The ``chatterbench`` command: one entry point, one subcommand per job.
+
+    $ chatterbench scenes
+    $ chatterbench run feigin-pair --set restitution=0.8 --chatter exhaustive --events log.csv
+    $ chatterbench bench reference
+
+Every subcommand prints a short table and writes files only where asked (``--out``,
+``--events``). Exit codes: 0 ok, 1 a check failed (gate), 2 bad input. A user mistake
+is one line naming the field, the value and what is allowed, never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import pandas as pd
+
+from chatterbench.reference.catalogue import CATALOGUE, describe
+from chatterbench.reference.scene import SceneError, load_scene, split_assignment
+from chatterbench.reference.simulate import CHATTER_MODES, simulate
+
+from .atomic import write_frame
+
+ENGINE_PREFIXES = ("mujoco", "pybullet")
+
+
+class UsageError(Exception):
+    """A command-line mistake (exit code 2)."""
+
+
+def print_table(frame: pd.DataFrame, title: str | None = None, file=None) -> None:
+    """Print a DataFrame as a compact fixed-width table."""
+    file = file or sys.stdout
+    if title:
+        print(title, file=file)
+    if frame.empty:
+        print("  (none)", file=file)
+        return
+    print(frame.to_string(index=False, float_format=lambda v: f"{v:.9g}"), file=file)
+
+
+def split_overrides(items: list[str]) -> tuple[list[str], list[str]]:
+    """Split ``--set`` items into (scene overrides, engine overrides ``mujoco.*``/``pybullet.*``)."""
+    scene, engine = [], []
+    for item in items:
+        key, _ = split_assignment(item)
+        (engine if key.split(".")[0] in ENGINE_PREFIXES else scene).append(item)
+    return scene, engine
+
+
+# -- subcommands ---------------------------------------------------------------------
+
+def cmd_scenes(args: argparse.Namespace) -> int:
+    rows = []
+    for name in CATALOGUE:
+        s = load_scene(name)
+        rows.append({
+            "scene": name,
+            "R": s.restitution,
+            "mu": s.mu,
+            "walls": "+".join(s.gap.walls),
+            "duration_s": s.duration,
+            "description": describe(name),
+        })
+    print_table(pd.DataFrame(rows))
+    return 0
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    scene_over, engine_over = split_overrides(args.set or [])
+    scene = load_scene(args.scene, scene_over)
+    if args.engine == "reference":
+        if engine_over:
+            raise UsageError(f"--set {engine_over[0]}: engine settings need --engine mujoco|pybullet")
+        result = simulate(scene, args.chatter)
+        log, episodes = result.log, result.episodes
+        summary = f"reference ({args.chatter} mode): {len(log)} events, {result.n_impacts} impacts, {result.wall_time * 1e3:.2f} ms"
+    else:
+        from .engine_run import run_engine_events
+
+        log, episodes, summary = run_engine_events(scene, args.engine, args.dt, engine_over, args.export_model)
+    print(f"{scene.name}: {summary}")
+    print_table(episodes, title="episodes:")
+    if args.events:
+        write_frame(Path(args.events), log)
+        print(f"event log: {args.events}")
+    if args.out:
+        out = Path(args.out)
+        write_frame(out / "events.csv", log)
+        write_frame(out / "episodes.csv", episodes)
+        print(f"wrote {out / 'events.csv'}, {out / 'episodes.csv'}")
+    return 0
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    if args.what == "reference":
+        from .bench import bench_reference
+
+        figures = bench_reference(periods=args.periods, repeats=args.repeats)
+        print_table(pd.DataFrame([figures]), title="reference on feigin-pair (best of repeats, one core):")
+        print("goals: feigin mode < 20 ms per 100 periods; exhaustive mode < 20 us per impact")
+        return 0
+    from .bench import bench_engines
+
+    table = bench_engines(steps=args.steps, repeats=args.repeats)
+    print_table(table, title="engines on feigin-pair (steps per second, best of repeats):")
+    print("goal: adapter keeps >= 80% of the raw engine loop")
+    return 0
+
+
+# -- parser --------------------------------------------------------------------------
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not value > 0 or value != value or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number > 0")
+    return value
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"{text!r}: must be an integer > 0")
+    return value
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="chatterbench",
+        description="Cross-validate MuJoCo and PyBullet impact chatter against Feigin's sliding model.",
+    )
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = sub.add_parser("scenes", help="list the built-in scenes")
+    p.set_defaults(func=cmd_scenes)
+
+    p = sub.add_parser("run", help="run one scene in the reference or an engine; print its episodes")
+    p.add_argument("scene", help="built-in scene name or path to a scene TOML file")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE",
+                   help="override a scene field (restitution=0.8, initial.vy=0.04) or an engine setting (mujoco.w0_dt=0.05)")
+    p.add_argument("--chatter", choices=CHATTER_MODES, default="feigin",
+                   help="reference chatter model: feigin (plate entry -> inelastic impact) or exhaustive (every impact)")
+    p.add_argument("--engine", choices=("reference", "mujoco", "pybullet"), default="reference")
+    p.add_argument("--dt", type=_positive_float, default=None, help="engine timestep [s] (default: the engine settings' dt)")
+    p.add_argument("--events", metavar="PATH", help="write the event log (CSV) here")
+    p.add_argument("--export-model", metavar="PATH", help="MuJoCo: write the generated MJCF here")
+    p.add_argument("--out", metavar="DIR", help="write events.csv and episodes.csv under DIR")
+    p.set_defaults(func=cmd_run)
+
+    p = sub.add_parser("bench", help="benchmarks: reference speed, engine steps per second")
+    p.add_argument("what", choices=("reference", "engines"))
+    p.add_argument("--periods", type=_positive_int, default=100, help="forcing periods for `bench reference`")
+    p.add_argument("--steps", type=_positive_int, default=200_000, help="engine steps for `bench engines`")
+    p.add_argument("--repeats", type=_positive_int, default=5)
+    p.set_defaults(func=cmd_bench)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``chatterbench`` console script; returns the exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except (SceneError, UsageError) as exc:
+        print(f"chatterbench: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("chatterbench: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
