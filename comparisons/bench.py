@@ -45,3 +45,25 @@ def bench_reference(periods: int = 100, repeats: int = 5) -> dict[str, float]:
         "exhaustive_impacts": float(res_e.n_impacts),
         "exhaustive_us_per_impact": 1e6 * t_exh / max(res_e.n_impacts, 1),
     }
+
+
+def bench_engines(steps: int = 200_000, repeats: int = 3):
+    """Steps per second of each adapter on feigin-pair next to the raw engine loop, same run.
+
+    Raw loops: MuJoCo, one ``mujoco.rollout`` of the same model with no adapter work;
+    PyBullet, ``stepSimulation`` plus the two joint-state reads. Returns a DataFrame with
+    columns engine, steps, adapter_steps_per_s, raw_steps_per_s, ratio.
+    """
+    import pandas as pd
+
+    from chatterbench.engines.registry import ENGINE_NAMES, engine_module, make_settings
+
+    scene = load_scene("feigin-pair")
+    rows = []
+    for name in ENGINE_NAMES:
+        figures = engine_module(name).benchmark(scene, make_settings(name), steps, repeats)
+        adapter = figures["adapter_steps_per_s"]
+        raw = figures["raw_steps_per_s"]
+        rows.append({"engine": name, "steps": steps, "adapter_steps_per_s": adapter, "raw_steps_per_s": raw,
+                     "ratio": adapter / raw})
+    return pd.DataFrame(rows)

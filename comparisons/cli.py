@@ -94,6 +94,32 @@ def cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _engine_list(text: str) -> tuple[str, ...]:
+    from chatterbench.engines.registry import check_engine
+
+    names = tuple(n.strip() for n in text.split(",") if n.strip())
+    if not names:
+        raise UsageError("--engines: give at least one of mujoco, pybullet (comma-separated)")
+    return tuple(check_engine(n) for n in names)
+
+
+def cmd_compare(args: argparse.Namespace) -> int:
+    from .compare import compare
+    from .outputs import write_comparison
+
+    scene_over, engine_over = split_overrides(args.set or [])
+    scene = load_scene(args.scene, scene_over)
+    result = compare(scene, engines=_engine_list(args.engines), dt=args.dt, overrides=engine_over)
+    show = ["engine", "wall", "ref_t_stick", "t_stick", "ref_t_exit", "t_exit", "stick_error_zeno", "exit_error",
+            "n_impacts", "ref_n_impacts", "verdict"]
+    print_table(result.table[show], title=f"{scene.name}: engine episodes against the reference (errors in s)")
+    print_table(result.summary(), title="summary:")
+    if args.out:
+        paths = write_comparison(result, Path(args.out), figures=not args.no_figures)
+        print(f"wrote {len(paths)} files under {args.out}")
+    return 0
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
     if args.what == "reference":
         from .bench import bench_reference
@@ -155,6 +181,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", metavar="DIR", help="write events.csv and episodes.csv under DIR")
     p.set_defaults(func=cmd_run)
 
+    p = sub.add_parser("compare", help="run the reference and the engines on a scene; judge every episode")
+    p.add_argument("scene", help="built-in scene name or path to a scene TOML file")
+    p.add_argument("--engines", default="mujoco,pybullet", help="comma-separated engines (default: mujoco,pybullet)")
+    p.add_argument("--dt", type=_positive_float, default=None, help="engine timestep [s] (default: each engine's default)")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE", help="scene field or engine setting override")
+    p.add_argument("--out", metavar="DIR", help="write tables (CSV, Parquet), event logs, provenance and figures under DIR")
+    p.add_argument("--no-figures", action="store_true", help="skip the figures under --out")
+    p.set_defaults(func=cmd_compare)
+
     p = sub.add_parser("bench", help="benchmarks: reference speed, engine steps per second")
     p.add_argument("what", choices=("reference", "engines"))
     p.add_argument("--periods", type=_positive_int, default=100, help="forcing periods for `bench reference`")
@@ -170,7 +205,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         return args.func(args)
-    except (SceneError, UsageError) as exc:
+    except (SceneError, UsageError) as exc:  # SettingsError is a SceneError
         print(f"chatterbench: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -94,16 +94,19 @@ class Comparison:
         return pd.DataFrame(rows)
 
 
-def allowed_penetration(scene: Scene, traj: Trajectory) -> float:
+def allowed_penetration(scene: Scene, traj: Trajectory, v_max: float) -> float:
     """How far past a wall an engine may go before the run counts as ``penetrated`` [m].
 
-    The adapter's own documented bound when it reports one (``settings["penetration"]``),
-    else 1% of the gap width (or of 1 m for a one-sided gap): soft contacts sink
-    a few v/w0 into the wall by design, a body past that went through.
+    A soft contact (the adapter reports its natural frequency ``w0`` [rad/s]) sinks by
+    design: a strike at speed v reaches at most about v / w0 (undamped), one more step of
+    travel, v dt, before the contact reacts; twice that, (2 / w0 + dt) v_max, with
+    ``v_max`` the reference's fastest strike, is allowed. A hard contact (no ``w0``) may
+    overshoot by 1% of the gap width (of 1 m for a one-sided gap). Past that, the body
+    went through the wall.
     """
-    declared = traj.settings.get("penetration")
-    if declared is not None and math.isfinite(declared) and declared > 0:
-        return float(declared)
+    w0 = traj.settings.get("w0")
+    if w0 is not None and math.isfinite(w0) and w0 > 0:
+        return (2.0 / w0 + traj.settings.get("dt", 0.0)) * v_max
     width = (scene.gap.upper - scene.gap.lower) if scene.gap.upper is not None else 1.0
     return 0.01 * width
 
@@ -118,7 +121,7 @@ def _failed_trajectory(name: str, scene: Scene, settings: Any, exc: BaseExceptio
     )
 
 
-def run_one(scene: Scene, name: str, settings: Any, ref_energy_max: float, tol: Tolerances) -> EngineRun:
+def run_one(scene: Scene, name: str, settings: Any, ref_energy_max: float, v_max: float, tol: Tolerances) -> EngineRun:
     """Run one engine and recover its events; exceptions become an ``error`` run."""
     try:
         traj = run_engine(name, scene, settings)
@@ -130,7 +133,7 @@ def run_one(scene: Scene, name: str, settings: Any, ref_energy_max: float, tol: 
         from chatterbench.reference.log import log_frame
 
         log = log_frame([])
-    t_div, t_pen = run_failures(scene, traj, ref_energy_max, tol, allowed_penetration(scene, traj))
+    t_div, t_pen = run_failures(scene, traj, ref_energy_max, tol, allowed_penetration(scene, traj, v_max))
     return EngineRun(
         engine=name, settings=dict(traj.settings) or settings_dict(settings), trajectory=traj, log=log,
         episodes=episodes_from_log(log), wall_time=traj.wall_time, version=engine_version(name),
@@ -177,9 +180,10 @@ def compare(
     ref_time = time.perf_counter() - start
     ref = reference_episodes(feigin, exhaustive, scene)
     e_max = _energy_max(scene, exhaustive)
+    v_max = float(np.abs(exhaustive.log["v_minus"]).max()) if len(exhaustive.log) else abs(scene.initial.vy)
     runs, tables = {}, []
     for name in engines:
-        run = run_one(scene, name, settings[name], e_max, tol)
+        run = run_one(scene, name, settings[name], e_max, v_max, tol)
         runs[name] = run
         table = judge(scene, ref, run.episodes, run.log, run.t_diverged, run.t_penetrated, tol)
         if run.status in ("error", "timeout"):

@@ -43,6 +43,49 @@ def _segments(scene: Scene, log: pd.DataFrame):
     return starts
 
 
+def sample_states(scene: Scene, log: pd.DataFrame, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Exact (x1, v1, y, vy) at non-decreasing ``times`` [s], shape (n, 4), and the wall y of
+    the kinematic constraint at each time (NaN while the masses move freely), shape (n,).
+
+    Each segment's Taylor polynomial is evaluated by Horner's rule over all of its samples
+    at once (whole flow steps first), so 1e6 samples take about a second.
+    """
+    times = np.asarray(times, dtype=float)
+    system = LinearSystem.from_scene(scene)
+    horizon = scene.time_scale / 4.0
+    flows = {False: Flow(system.free, horizon=horizon), True: Flow(system.stuck, horizon=horizon)}
+    starts = _segments(scene, log)
+    t_starts = np.array([s[0] for s in starts])
+    # an event shares its time with the ones logged right after it: take the last of them
+    idx = np.clip(np.searchsorted(t_starts, times, side="right") - 1, 0, len(starts) - 1)
+    out = np.empty((len(times), 4))
+    stuck_y = np.full(len(times), np.nan)
+    cuts = np.searchsorted(idx, np.arange(len(starts) + 1))  # idx is sorted: segment j is cuts[j]:cuts[j+1]
+    for j in np.flatnonzero(np.diff(cuts)):
+        lo, hi = cuts[j], cuts[j + 1]
+        t0, x1, v1, y, vy, stuck = starts[j]
+        flow = flows[stuck]
+        s = system.state(t0, x1, v1, y, vy)
+        h = np.maximum(times[lo:hi] - t0, 0.0)
+        # as Flow.advance: whole steps while h > step, then the remainder in (0, step]
+        whole = np.maximum(np.ceil(h / flow.step) - 1.0, 0.0).astype(np.int64)
+        done = 0
+        for m in np.unique(whole):
+            while done < m:
+                s = flow.step_matrix @ s
+                done += 1
+            sel = np.flatnonzero(whole == m)
+            r = h[sel] - m * flow.step
+            coeffs = flow.taylor(s)  # (order + 1, n_state)
+            vals = np.broadcast_to(coeffs[-1], (len(sel), coeffs.shape[1])).copy()
+            for c in coeffs[-2::-1]:
+                vals = vals * r[:, None] + c
+            out[lo + sel] = vals[:, [X1, V1, Y, VY]]
+        if stuck:
+            stuck_y[lo:hi] = y
+    return out, stuck_y
+
+
 def sample(scene: Scene, log: pd.DataFrame, times) -> pd.DataFrame:
     """Sample the reference motion at ``times`` [s] (any order, inside the run).
 
@@ -52,23 +95,10 @@ def sample(scene: Scene, log: pd.DataFrame, times) -> pd.DataFrame:
         One row per time, columns ``DENSE_COLUMNS``.
     """
     times = np.asarray(times, dtype=float)
-    system = LinearSystem.from_scene(scene)
-    flows = {
-        False: Flow(system.free, horizon=scene.time_scale / 4.0),
-        True: Flow(system.stuck, horizon=scene.time_scale / 4.0),
-    }
-    starts = _segments(scene, log)
-    t_starts = np.array([s[0] for s in starts])
-    # an event shares its time with the ones logged right after it: take the last of them
-    idx = np.searchsorted(t_starts, times, side="right") - 1
-    idx = np.clip(idx, 0, len(starts) - 1)
-    out = np.empty((len(times), 7))
-    for j in np.unique(idx):
-        t0, x1, v1, y, vy, stuck = starts[j]
-        flow = flows[stuck]
-        s0 = system.state(t0, x1, v1, y, vy)
-        for i in np.nonzero(idx == j)[0]:
-            h = times[i] - t0
-            s = flow.advance(s0, max(h, 0.0))
-            out[i] = (times[i], s[X1], s[X1] + s[Y], s[V1], s[V1] + s[VY], s[Y], s[VY])
-    return pd.DataFrame(out, columns=DENSE_COLUMNS)
+    order = np.argsort(times, kind="stable")
+    state, _ = sample_states(scene, log, times[order])
+    out = np.empty((len(times), 4))
+    out[order] = state
+    x1, v1, y, vy = out.T
+    return pd.DataFrame({"t": times, "x1": x1, "x2": x1 + y, "v1": v1, "v2": v1 + vy, "y": y, "vy": vy},
+                        columns=DENSE_COLUMNS)

@@ -40,6 +40,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
+import numpy as np
+
 BODIES = ("body1", "body2", "coupling")
 FORCE_KINDS = ("constant", "harmonic", "spring", "damper")
 
@@ -142,17 +144,17 @@ class Prescribed:
         _finite("prescribed.phase", self.phase)
         _finite("prescribed.offset", self.offset)
 
-    def position(self, t: float) -> float:
-        """x1(t) [m]."""
-        return self.offset + self.amplitude * math.sin(self.omega * t + self.phase)
+    def position(self, t):
+        """x1(t) [m]; t may be a float or a numpy array [s]."""
+        return self.offset + self.amplitude * np.sin(self.omega * t + self.phase)
 
-    def velocity(self, t: float) -> float:
+    def velocity(self, t):
         """x1'(t) [m/s]."""
-        return self.amplitude * self.omega * math.cos(self.omega * t + self.phase)
+        return self.amplitude * self.omega * np.cos(self.omega * t + self.phase)
 
-    def acceleration(self, t: float) -> float:
+    def acceleration(self, t):
         """x1''(t) [m/s^2]."""
-        return -self.amplitude * self.omega**2 * math.sin(self.omega * t + self.phase)
+        return -self.amplitude * self.omega**2 * np.sin(self.omega * t + self.phase)
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,61 @@
+"""Files written for a comparison under ``--out DIR`` (all atomic).
+
+    >>> paths = write_comparison(comparison, Path("out/feigin-pair"))
+
+Layout of DIR:
+
+- ``episodes.csv`` / ``episodes.parquet``: the comparison table (``compare.COLUMNS``);
+- ``reference_episodes.csv``: plate entry, Zeno point and exit of every reference episode;
+- ``events_reference_feigin.csv``, ``events_reference_exhaustive.csv``, ``events_ENGINE.csv``:
+  event logs in the reference format;
+- ``provenance.json``: scene, engine versions and settings, tolerances, wall-clock cost of
+  each run, machine and date;
+- ``timeseries.png`` / ``timeseries.svg``: the time-series chart.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+from pathlib import Path
+
+from .atomic import write_bytes, write_frame, write_text
+
+
+def _json_default(obj):
+    try:
+        return float(obj)
+    except (TypeError, ValueError):
+        return str(obj)
+
+
+def figure_bytes(fig, fmt: str) -> bytes:
+    """Render a matplotlib Figure to bytes (``png`` at 120 dpi, or ``svg``)."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format=fmt, dpi=120)
+    return buf.getvalue()
+
+
+def write_comparison(comparison, out: Path, figures: bool = True) -> list[Path]:
+    """Write every file of a comparison under ``out``; returns the paths written."""
+    import matplotlib.pyplot as plt
+
+    out = Path(out)
+    paths = [
+        write_frame(out / "episodes.csv", comparison.table),
+        write_frame(out / "episodes.parquet", comparison.table),
+        write_frame(out / "reference_episodes.csv", comparison.reference),
+        write_frame(out / "events_reference_feigin.csv", comparison.feigin.log),
+        write_frame(out / "events_reference_exhaustive.csv", comparison.exhaustive.log),
+    ]
+    for name, run in comparison.runs.items():
+        paths.append(write_frame(out / f"events_{name}.csv", run.log))
+    paths.append(write_text(out / "provenance.json", json.dumps(comparison.provenance, indent=2, default=_json_default)))
+    if figures:
+        from .charts import timeseries_figure
+
+        fig = timeseries_figure(comparison)
+        paths.append(write_bytes(out / "timeseries.png", figure_bytes(fig, "png")))
+        paths.append(write_bytes(out / "timeseries.svg", figure_bytes(fig, "svg")))
+        plt.close(fig)
+    return paths
