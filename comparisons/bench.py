@@ -67,3 +67,24 @@ def bench_engines(steps: int = 200_000, repeats: int = 3):
         rows.append({"engine": name, "steps": steps, "adapter_steps_per_s": adapter, "raw_steps_per_s": raw,
                      "ratio": adapter / raw})
     return pd.DataFrame(rows)
+
+
+def bench_platemap(strikes: int = 100_000, repeats: int = 3) -> dict[str, float]:
+    """Time the reference's strike fates (exhaustive mode) for random strikes on feigin-pair's lower wall."""
+    import numpy as np
+
+    from chatterbench.reference.chatter import strike_fates
+
+    scene = load_scene("feigin-pair")
+    rng = np.random.default_rng(0)
+    t = rng.uniform(0.0, 2.0 * math.pi, strikes)
+    v = -rng.uniform(0.0, 0.3, strikes)
+    strike_fates(scene, "lower", t[:10], v[:10])  # warm-up (numba cache)
+    best, fates = _best(lambda: strike_fates(scene, "lower", t, v), repeats)
+    return {
+        "strikes": strikes,
+        "seconds": best,
+        "us_per_strike": 1e6 * best / strikes,
+        "impacts_followed": float(fates.n_impacts.sum()),
+        "fraction_sliding": float(fates.slides.mean()),
+    }

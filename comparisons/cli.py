@@ -12,6 +12,7 @@ is one line naming the field, the value and what is allowed, never a traceback.
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
 from pathlib import Path
 
@@ -24,6 +25,8 @@ from chatterbench.reference.simulate import CHATTER_MODES, simulate
 from .atomic import write_frame
 
 ENGINE_PREFIXES = ("mujoco", "pybullet")
+# modules that add their own subcommands through register(subparsers)
+SUBCOMMAND_MODULES: tuple[str, ...] = ()
 
 
 class UsageError(Exception):
@@ -120,6 +123,38 @@ def cmd_compare(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_platemap(args: argparse.Namespace) -> int:
+    from .atomic import write_bytes
+    from .outputs import figure_bytes
+    from .plate_map import plate_map, plate_map_figure
+
+    scene_over, engine_over = split_overrides(args.set or [])
+    scene = load_scene(args.scene, scene_over)
+    engines = _engine_list(args.engines) if args.engines else ()
+    table = plate_map(scene, args.wall, args.phases, args.speeds, args.max_speed, engines, args.dt, engine_over)
+    cols = ["reference", "feigin", *engines]
+    summary = pd.DataFrame({
+        "region": cols,
+        "strikes_sliding": [int(table[c].sum()) for c in cols],
+        "fraction": [float(table[c].mean()) for c in cols],
+        "agrees_with_reference": [float((table[c] == table["reference"]).mean()) for c in cols],
+    })
+    print_table(summary, title=f"{scene.name}, {args.wall} wall: {len(table)} strikes ({args.phases} phases x {args.speeds} speeds)")
+    outside = int((table["feigin"] & ~table["reference"]).sum())
+    print(f"strikes inside Feigin's sufficient plate that do not slide: {outside} (the conditions are sufficient: expect 0)")
+    if args.out:
+        import matplotlib.pyplot as plt
+
+        out = Path(args.out)
+        write_frame(out / "plate_map.csv", table)
+        fig = plate_map_figure(table, scene, args.wall)
+        write_bytes(out / "plate_map.png", figure_bytes(fig, "png"))
+        write_bytes(out / "plate_map.svg", figure_bytes(fig, "svg"))
+        plt.close(fig)
+        print(f"wrote {out / 'plate_map.csv'}, plate_map.png, plate_map.svg")
+    return 0
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
     if args.what == "reference":
         from .bench import bench_reference
@@ -127,6 +162,13 @@ def cmd_bench(args: argparse.Namespace) -> int:
         figures = bench_reference(periods=args.periods, repeats=args.repeats)
         print_table(pd.DataFrame([figures]), title="reference on feigin-pair (best of repeats, one core):")
         print("goals: feigin mode < 20 ms per 100 periods; exhaustive mode < 20 us per impact")
+        return 0
+    if args.what == "platemap":
+        from .bench import bench_platemap
+
+        figures = bench_platemap(strikes=args.strikes, repeats=args.repeats)
+        print_table(pd.DataFrame([figures]), title="plate map, feigin-pair lower wall, reference exhaustive mode (best of repeats):")
+        print("goal: 100,000 strikes in under 30 s")
         return 0
     from .bench import bench_engines
 
@@ -190,12 +232,27 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-figures", action="store_true", help="skip the figures under --out")
     p.set_defaults(func=cmd_compare)
 
+    p = sub.add_parser("platemap", help="map which strikes on a wall end in sliding: reference, Feigin's plate, engines")
+    p.add_argument("scene", help="built-in scene name or path to a scene TOML file")
+    p.add_argument("--wall", choices=("lower", "upper"), default="lower")
+    p.add_argument("--phases", type=_positive_int, default=96, help="strike times over one forcing period")
+    p.add_argument("--speeds", type=_positive_int, default=64, help="incoming speeds")
+    p.add_argument("--max-speed", type=_positive_float, default=None, help="largest incoming speed [m/s]")
+    p.add_argument("--engines", default="", help="also map these engines (comma-separated; slow: one run per strike)")
+    p.add_argument("--dt", type=_positive_float, default=None, help="engine timestep [s]")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE", help="scene field or engine setting override")
+    p.add_argument("--out", metavar="DIR", help="write plate_map.csv and the figure (PNG, SVG) under DIR")
+    p.set_defaults(func=cmd_platemap)
+
     p = sub.add_parser("bench", help="benchmarks: reference speed, engine steps per second")
-    p.add_argument("what", choices=("reference", "engines"))
+    p.add_argument("what", choices=("reference", "engines", "platemap"))
+    p.add_argument("--strikes", type=_positive_int, default=100_000, help="strikes for `bench platemap`")
     p.add_argument("--periods", type=_positive_int, default=100, help="forcing periods for `bench reference`")
     p.add_argument("--steps", type=_positive_int, default=200_000, help="engine steps for `bench engines`")
     p.add_argument("--repeats", type=_positive_int, default=5)
     p.set_defaults(func=cmd_bench)
+    for name in SUBCOMMAND_MODULES:
+        importlib.import_module(f"{__package__}.{name}").register(sub)
     return parser
 
 

@@ -28,8 +28,9 @@ early / late   the engine's sticking starts before Feigin's entry - tolerance, o
                Zeno point + tolerance; or its exit is off by more than the tolerance (sign
                of the exit error decides when the start is within tolerance)
 match          every error within tolerance
-error/timeout  the engine raised or ran past its time limit before this episode's end (the
+error/timeout  the engine raised, or ran past its time limit, before this episode's end (the
                run's status); episodes finished before that keep their verdicts
+crashed        the engine process died (segfault, abort): the sweep's isolation reports it
 =============  ===============================================================================
 
 Tolerances are in units of the scene's time scale (the forcing period, see
@@ -46,7 +47,7 @@ import pandas as pd
 
 from chatterbench.reference.scene import Scene, SceneError
 
-VERDICTS = ("match", "early", "late", "missed", "spurious", "endless", "penetrated", "diverged", "error", "timeout")
+VERDICTS = ("match", "early", "late", "missed", "spurious", "endless", "penetrated", "diverged", "error", "timeout", "crashed")
 TABLE_COLUMNS = [
     "wall", "ref_t_first_impact", "ref_t_plate_entry", "ref_t_stick", "ref_t_exit",
     "t_first_impact", "t_stick", "t_exit", "n_impacts", "ref_n_impacts",

@@ -64,6 +64,7 @@ from mujoco import rollout as mj_rollout
 
 from chatterbench.reference.scene import Scene, did_you_mean
 
+from .faults import FAULTS
 from .restitution import contact_duration, damping_ratio_from_restitution
 from .settings import SettingsError
 from .trajectory import Trajectory
@@ -152,6 +153,7 @@ class MujocoSettings:
     ball_radius: float = 0.01  # radius of body 2's sphere in the geom model [m], > 0
     wall_thickness: float = 0.01  # thickness of the wall boxes in the geom model [m], > 0
     plastic_zeta_w0_dt: float = 0.5  # for R = 0: zeta w0 dt; 0.5 stops the approach in one Euler step [-]
+    fault: str = ""  # test-only: "segfault", "hang" or "raise" (engines/faults.py)
 
     def __post_init__(self) -> None:
         for name in ("dt", "w0_dt", "impedance", "ball_radius", "wall_thickness", "plastic_zeta_w0_dt"):
@@ -164,6 +166,8 @@ class MujocoSettings:
                 raise SettingsError(f"mujoco.{name} = {getattr(self, name)!r}: must be > 0")
         if not isinstance(self.allow_unstable, bool):
             raise SettingsError(f"mujoco.allow_unstable = {self.allow_unstable!r}: must be true or false")
+        if self.fault not in FAULTS:
+            raise SettingsError(f"mujoco.fault = {self.fault!r}: must be one of {', '.join(repr(f) for f in FAULTS)} (test-only)")
         if self.integrator not in INTEGRATORS:
             raise SettingsError(
                 f"mujoco.integrator = {self.integrator!r}: must be one of {', '.join(INTEGRATORS)}"

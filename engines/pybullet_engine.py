@@ -19,7 +19,9 @@ Promises:
 - Each run opens its own ``p.DIRECT`` connection in a context manager and closes it, so runs
   can follow one another (or run in different threads' processes) in one interpreter.
 - Sample k of the trajectory is the state after k ``stepSimulation`` calls; the contact flag
-  and normal force at sample k belong to the step that ended there.
+  and normal force at sample k belong to the step that ended there. ``contact[wall][k]`` is
+  True when that wall pushed body 2 in that step (PyBullet normal force > 0); normal force is
+  PyBullet's ``appliedImpulse / dt`` summed over the wall's contact points.
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ from typing import Any, Iterator
 import numpy as np
 import pybullet as p
 
+from chatterbench.engines.faults import FAULTS
 from chatterbench.engines.settings import SettingsError
 from chatterbench.engines.trajectory import Trajectory
 from chatterbench.reference.forces import evaluate_forces
@@ -49,6 +52,13 @@ NAME = "pybullet"
 BODY2_HALF = 0.05  # radius of body 2, its half extent along x
 WALL_HALF = 0.05  # half thickness of each wall along x
 WALL_SIDE = 0.2  # half extent of each wall across x
+
+# A step's velocity change of body 2 beyond what its forces give, above which the step is taken
+# to have had a contact impulse and the contact points are read: relative to |v2| [1], plus an
+# absolute floor [m/s]. Rounding in Bullet's v += F dt / m is about 1e-16 relative; an impulse
+# below these moves v2 by less than 1e-12 |v2| + 1e-15 m/s and is reported as no contact.
+IMPULSE_RELATIVE_TOLERANCE = 1e-12
+IMPULSE_ABSOLUTE_TOLERANCE = 1e-15  # [m/s]
 
 
 @dataclass(frozen=True)
@@ -87,7 +97,11 @@ class PybulletSettings:
     use_split_impulse: bool = True  # useSplitImpulse (PyBullet: True)
     split_impulse_penetration_threshold: float = -0.04  # [m], <= 0 (PyBullet: -0.04)
     contact_breaking_threshold: float = 0.02  # distance [m] a manifold point survives, > 0
+    # Joint speed clamp [m/s] (PyBullet's maxJointVelocity: 100). Velocities above it are cut
+    # silently, so free flight faster than 100 m/s would be wrong; 1e10 means no clamp.
+    max_joint_velocity: float = 1e10
     mass1_inf: float = 1e6  # mass [kg] standing in for a prescribed infinite body 1, > 0
+    fault: str = ""  # test-only: "segfault", "hang" or "raise" (engines/faults.py, via registry)
 
     def __post_init__(self) -> None:
         def check(name: str, ok: bool, allowed: str) -> None:
@@ -114,7 +128,12 @@ class PybulletSettings:
         check("use_split_impulse", isinstance(self.use_split_impulse, bool), "true or false")
         check("split_impulse_penetration_threshold", number("split_impulse_penetration_threshold") <= 0.0, "<= 0 [m]")
         check("contact_breaking_threshold", number("contact_breaking_threshold") > 0.0, "> 0 [m]")
+        check("max_joint_velocity", number("max_joint_velocity") > 0.0, "> 0 [m/s]")
         check("mass1_inf", number("mass1_inf") > 0.0, "> 0 [kg]")
+        if self.fault not in FAULTS:
+            raise SettingsError(
+                f"pybullet.fault = {self.fault!r}: must be one of {', '.join(repr(f) for f in FAULTS)} (test-only)"
+            )
 
     def engine_parameters(self) -> dict[str, Any]:
         """Keyword arguments for ``p.setPhysicsEngineParameter``."""
@@ -134,7 +153,11 @@ class PybulletSettings:
         }
 
     def dynamics(self, restitution: float) -> dict[str, Any]:
-        """Keyword arguments for ``p.changeDynamics`` on a colliding link."""
+        """Keyword arguments for ``p.changeDynamics`` on a colliding link.
+
+        ``maxJointVelocity`` is not among them: PyBullet 3.2.7 then drops the restitution
+        (rebound 0); it goes in a call of its own, ``joint_limits``.
+        """
         return {
             "restitution": restitution,
             "lateralFriction": 0.0,
@@ -148,6 +171,11 @@ class PybulletSettings:
         }
 
 
+    def joint_limits(self) -> dict[str, Any]:
+        """Keyword arguments for a separate ``p.changeDynamics`` call on each prismatic link."""
+        return {"maxJointVelocity": self.max_joint_velocity}
+
+
 def settings_snippet(settings: PybulletSettings, restitution: float = 0.5) -> str:
     """The PyBullet calls these settings make, as Python a user can paste into their own setup.
 
@@ -155,7 +183,10 @@ def settings_snippet(settings: PybulletSettings, restitution: float = 0.5) -> st
     combined restitution is the product of the two bodies' values, so one carries R.
     """
     def call(fn: str, head: str, kwargs: dict[str, Any]) -> str:
-        args = "".join(f"\n    {k}={v!r}," for k, v in kwargs.items())
+        names = {p.ACTIVATION_STATE_DISABLE_SLEEPING: "p.ACTIVATION_STATE_DISABLE_SLEEPING"}
+        args = "".join(
+            f"\n    {k}={names[v] if k == 'activationState' else repr(v)}," for k, v in kwargs.items()
+        )
         return f"p.{fn}({head}{args}\n)"
 
     wall = settings.dynamics(1.0)
@@ -167,6 +198,9 @@ def settings_snippet(settings: PybulletSettings, restitution: float = 0.5) -> st
             call("setPhysicsEngineParameter", "", settings.engine_parameters()),
             call("changeDynamics", "body, 0,", body),
             call("changeDynamics", "wall, 0,", wall),
+            "# separately: passed together with restitution, PyBullet 3.2.7 drops the restitution",
+            call("changeDynamics", "body, 0,", settings.joint_limits()),
+            call("changeDynamics", "wall, 0,", settings.joint_limits()),
             "",
         ]
     )
@@ -256,6 +290,7 @@ def build(scene: Scene, settings: PybulletSettings, client: int) -> PybulletWorl
         r = scene.restitution if body == body2 else 1.0
         p.changeDynamics(body, link, **settings.dynamics(r), physicsClientId=cid)
         if link == 0:
+            p.changeDynamics(body, link, **settings.joint_limits(), physicsClientId=cid)
             p.setJointMotorControl2(body, 0, p.VELOCITY_CONTROL, targetVelocity=0.0, force=0.0, physicsClientId=cid)
     # The two shapeless bases never touch anything; only the links (and a static body 1) collide.
     if link1 == 0:
@@ -325,7 +360,8 @@ def _simulate(scene: Scene, settings: PybulletSettings, world: PybulletWorld, n:
     The loop is the cost the benchmark measures, so it keeps Python work per step small:
     forces come from a plan precomputed with ``evaluate_forces`` (time part as a list, state
     part as eight gains), states go into preallocated lists, the finiteness check runs every
-    1024 steps, and contact points are read only near a wall.
+    1024 steps, and contact points are read only for steps that start near a wall and change
+    body 2's momentum by more than the forces do (so the wall pushed).
     """
     cid = world.client
     dt = settings.dt
@@ -345,6 +381,11 @@ def _simulate(scene: Scene, settings: PybulletSettings, world: PybulletWorld, n:
     # step starts from); 1e-9 m more covers rounding in the sphere-box distance. Outside that band
     # getContactPoints would return nothing the solver used, so it is skipped.
     band = settings.contact_processing_threshold + 1e-9
+    # Near a wall a step may still have no contact impulse (a chattering body spends about
+    # half its steps just apart). Bullet updates v2 += f2 dt / m2 plus the contact impulse, so a
+    # velocity off that prediction by more than rounding marks the steps worth a query.
+    kick = dt / scene.mass2
+    rel_tol = IMPULSE_RELATIVE_TOLERANCE
     prescribed = scene.prescribed if scene.body1_infinite else None
     if prescribed is not None:
         px = (prescribed.offset + prescribed.amplitude * np.sin(prescribed.omega * t + prescribed.phase)).tolist()
@@ -377,13 +418,16 @@ def _simulate(scene: Scene, settings: PybulletSettings, world: PybulletWorld, n:
                 if dep:
                     f += g10 * x1 + g11 * v1 + g12 * x2 + g13 * v2
                 push(b1, l1, (f, 0.0, 0.0), origin, frame, physicsClientId=cid)
+            f2 = 0.0
             if on2:
-                f = time2[k]
+                f2 = time2[k]
                 if dep:
-                    f += g20 * x1 + g21 * v1 + g22 * x2 + g23 * v2
-                push(b2, 0, (f, 0.0, 0.0), origin, frame, physicsClientId=cid)
+                    f2 += g20 * x1 + g21 * v1 + g22 * x2 + g23 * v2
+                push(b2, 0, (f2, 0.0, 0.0), origin, frame, physicsClientId=cid)
             y = x2 - x1
             near = y - lower <= band or upper - y <= band
+            if near:
+                w2 = v2 + f2 * kick
             step(physicsClientId=cid)
             if moving1:
                 x1, v1, _, _ = joint(b1, 0, physicsClientId=cid)
@@ -392,7 +436,7 @@ def _simulate(scene: Scene, settings: PybulletSettings, world: PybulletWorld, n:
             x2, v2, _, _ = joint(b2, 0, physicsClientId=cid)
             x2s[k + 1] = x2
             v2s[k + 1] = v2
-            if near:
+            if near and abs(v2 - w2) > rel_tol * abs(w2) + IMPULSE_ABSOLUTE_TOLERANCE:
                 contacts.append((k + 1, points(b1, b2, physicsClientId=cid)))
             if not k & 1023 and not isfinite(x1 + v1 + x2 + v2):
                 last = k + 1
@@ -421,7 +465,6 @@ def _trajectory(scene: Scene, settings: PybulletSettings, world: PybulletWorld, 
     force = {w: np.zeros(n) for w in world.walls}
     # Body 1 is bodyA: contactNormalOnB points from body 2 towards body 1. The lower wall lies
     # on body 2's -x side, the upper wall on its +x side, so the normal's x sign names the wall.
-    cpt = settings.contact_processing_threshold
     for k, pts in raw["contacts"]:
         if k >= n:
             break
@@ -429,9 +472,9 @@ def _trajectory(scene: Scene, settings: PybulletSettings, world: PybulletWorld, 
             wall = "lower" if pt[7][0] < 0.0 else "upper"
             if wall not in contact:
                 continue
-            if pt[8] <= cpt or pt[9] > 0.0:  # in the solver (distance <= threshold) or pushing
+            if pt[9] > 0.0:  # the wall pushed during the step
                 contact[wall][k] = True
-                force[wall][k] += max(pt[9], 0.0)
+                force[wall][k] += pt[9]
     return Trajectory(
         engine=NAME,
         t=cols["t"], x1=cols["x1"], x2=cols["x2"], v1=cols["v1"], v2=cols["v2"],

@@ -15,6 +15,7 @@ from typing import Any, Sequence
 
 from chatterbench.reference.scene import Scene, did_you_mean
 
+from .faults import inject
 from .settings import SettingsError, settings_with_overrides
 from .trajectory import Trajectory
 
@@ -51,7 +52,13 @@ def settings_dict(settings: Any) -> dict[str, Any]:
 
 
 def run_engine(name: str, scene: Scene, settings: Any) -> Trajectory:
-    """Run ``scene`` in engine ``name``; failures come back as a Trajectory status, not an exception."""
+    """Run ``scene`` in engine ``name``; failures come back as a Trajectory status, not an exception.
+
+    A settings ``fault`` (test-only, see ``faults.py``) is injected before the engine starts.
+    """
+    fault = getattr(settings, "fault", "")
+    if fault:
+        inject(fault)
     return engine_module(name).run(scene, settings)
 
 

@@ -241,6 +241,26 @@ class _Simulator:
         self._event(t_exit, "exit", wall, 0.0, 0.0, s)
         return t_exit, s
 
+    def plate_test(self, t: float, s: np.ndarray, wall: str):
+        """Is the strike (state ``s`` on ``wall`` at time t, before the impact) inside Pi_2?
+
+        Returns (inside, t_edge, state at the edge): the edge, where the free relative
+        acceleration along the constrained motion returns to zero, is the exit of the
+        sliding that would follow (None when the run ends first).
+        """
+        n = _normal(wall)
+        R = self.R
+        v = n * float(s[VY])
+        acc = n * float(self.accel_row @ s)
+        jerk = n * float(self.jerk_row @ s)
+        if quick_reject(R, v, acc, jerk):
+            return False, None, None
+        self.stats["plate_tests"] += 1
+        t_edge, s_edge, jmin, jmax = self._constrained(self._stuck_state(s), t, wall, bounds=True)
+        window = (t_edge if t_edge is not None else self.t_end) - t
+        inside = not math.isnan(window) and plate_conditions(R, v, acc, jmin, jmax, window).inside
+        return inside, t_edge, s_edge
+
     def _strike(self, t: float, s: np.ndarray, wall: str, plate_seen: bool):
         """Resolve a strike at a wall. Returns (t, s, stuck_wall or None, plate_seen)."""
         n = _normal(wall)
@@ -256,28 +276,26 @@ class _Simulator:
                 self._event(t, "stick", wall, 0.0, 0.0, s_in, "inelastic" if v < 0.0 else "contact")
                 return t, s_in, wall, plate_seen
             return t, s_in, None, plate_seen
+        entered = False
         if not (plate_seen and self.exhaustive):
-            jerk = n * float(self.jerk_row @ s)
-            if not quick_reject(R, v, acc, jerk):
-                self.stats["plate_tests"] += 1
+            inside, t_edge, s_edge = self.plate_test(t, s, wall)
+            if inside:
                 s_in = self._stuck_state(s)
-                t_edge, s_edge, jmin, jmax = self._constrained(s_in, t, wall, bounds=True)
-                window = (t_edge if t_edge is not None else self.t_end) - t
-                inside = not math.isnan(window) and plate_conditions(R, v, acc, jmin, jmax, window).inside
-                if inside and not self.exhaustive:
+                if not self.exhaustive:
                     self._event(t, "impact", wall, v_minus, 0.0, s_in, "plate")
                     self._event(t, "plate_entry", wall, v_minus, 0.0, s_in)
                     self._event(t, "stick", wall, 0.0, 0.0, s_in, "plate")
                     # the walk to the edge of the plate was the constrained motion itself
                     self._known_exit = (t_edge, s_edge)
                     return t, s_in, wall, True
-                if inside:
-                    self._event(t, "plate_entry", wall, v_minus, -R * v_minus, s)
-                    plate_seen = True
+                entered = True
         vy_plus, v1_plus = impact(v_minus, float(s[V1]), R, self.m1, self.m2)
         s = s.copy()
         s[VY], s[V1] = vy_plus, v1_plus
         self._event(t, "impact", wall, v_minus, vy_plus, s)
+        if entered:  # exhaustive mode: Feigin's model would slide from here; the impacts go on
+            self._event(t, "plate_entry", wall, v_minus, vy_plus, s)
+            plate_seen = True
         if acc < 0.0:
             dt_star = 2.0 * n * vy_plus / ((1.0 - R) * -acc)  # sum of all later flights
             if dt_star <= self.acc_time:
@@ -329,3 +347,20 @@ def simulate(scene: Scene, chatter: str = "feigin", options: Options | None = No
         wall_time=wall,
         stats=dict(sim.stats, events=len(sim.log)),
     )
+
+
+def in_plate(scene: Scene, wall: str, t, v, x1=0.0, v1=0.0) -> np.ndarray:
+    """Feigin's sufficient region: is each strike (time t [s], incoming y' = v [m/s]) inside Pi_2?
+
+    Evaluates (2.1)-(2.2) exactly as the event loop does (window to the edge of the
+    plate, bounds of the jerk from the closed-form motion). Arrays broadcast; returns bool.
+    """
+    sim = _Simulator(scene, Options())
+    t, v, x1, v1 = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (t, v, x1, v1)))
+    out = np.zeros(t.shape, dtype=bool)
+    y_wall = scene.gap.position(wall)
+    for idx in np.ndindex(t.shape):
+        state = sim.system.state(float(t[idx]), float(x1[idx]), float(v1[idx]), y_wall, float(v[idx]))
+        sim.t_end = float(t[idx]) + scene.time_scale  # the window never needs more than a period here
+        out[idx] = sim.plate_test(float(t[idx]), state, wall)[0]
+    return out

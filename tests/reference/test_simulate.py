@@ -155,7 +155,9 @@ def test_plate_strikes_slide_exhaustive(tau):
         v = frac * FIVE_24 * math.sin(tau) ** 2
         result = simulate(_strike_scene(tau, v), "exhaustive")
         log = result.log
-        assert log.kind.iloc[0] == "plate_entry" and log.t.iloc[0] == tau
+        # the strike's impact, then its plate entry (same time, same order as in Feigin mode)
+        assert list(log.kind[:2]) == ["impact", "plate_entry"] and (log.t[:2] == tau).all()
+        assert result.episodes.t_first_impact.iloc[0] == tau
         stick = log[log.kind == "stick"]
         assert len(stick) >= 1
         first_stick = stick.index[0]

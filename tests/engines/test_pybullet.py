@@ -1,0 +1,174 @@
+"""The PyBullet adapter against Newton's impact law and the bouncing ball, with the real engine."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from chatterbench.engines.pybullet_engine import (
+    PybulletEngine,
+    PybulletSettings,
+    _force_plan,
+    benchmark,
+    run,
+    settings_snippet,
+)
+from chatterbench.engines.settings import SettingsError, settings_with_overrides
+from chatterbench.reference.catalogue import G
+from chatterbench.reference.forces import evaluate_forces
+from chatterbench.reference.scene import load_scene, scene_from_dict
+
+
+def _single_impact(restitution: float, mu: float):
+    return scene_from_dict(
+        {
+            "mass1": 1.0,
+            "mass2": mu,
+            "restitution": restitution,
+            "gap": {"lower": 0.0},
+            "initial": {"y": 0.01, "vy": -1.0},
+            "duration": 0.03,  # impact at 0.01 s, then 0.02 s of free flight apart
+        }
+    )
+
+
+def _onsets(traj, wall: str = "lower") -> np.ndarray:
+    """Times [s] of the samples where the wall's contact flag switches on."""
+    c = traj.contact[wall]
+    return traj.t[1:][c[1:] & ~c[:-1]]
+
+
+def _rest_time(traj, speed: float = 2e-3) -> float:
+    """Last time [s] body 2 moved faster than ``speed`` [m/s]; after it the ball lies still."""
+    return float(traj.t[np.flatnonzero(np.abs(traj.v2) > speed)[-1]])
+
+
+@pytest.mark.parametrize("restitution", [0.3, 0.5, 0.8])
+@pytest.mark.parametrize("mu", [0.1, 1.0, 10.0])
+def test_single_impact_follows_newton(restitution, mu):
+    scene = _single_impact(restitution, mu)
+    traj = run(scene)
+    assert traj.status == "ok", traj.message
+    # Free flight before and after: the first and last samples are the incoming and outgoing
+    # relative speeds. 0.01 is the brief's tolerance; measured |error| < 1e-15.
+    assert -traj.vy[-1] / traj.vy[0] == pytest.approx(restitution, abs=0.01)
+    assert traj.contact["lower"].any()
+    # Contact impulses are equal and opposite: only rounding (1e-16) may change m1 v1 + m2 v2.
+    momentum = scene.mass1 * traj.v1 + scene.mass2 * traj.v2
+    assert np.max(np.abs(momentum - momentum[0])) <= 1e-6 * abs(momentum[0])
+
+
+def test_bouncing_ball_impact_times():
+    scene = load_scene("bouncing-ball", ["duration=1.2"])
+    settings = PybulletSettings(dt=1e-4)
+    traj = run(scene, settings)
+    assert traj.status == "ok", traj.message
+    r = scene.restitution
+    t1 = math.sqrt(2.0 * scene.initial.y / G)
+    v1 = G * t1
+    reference = [t1]
+    for k in range(1, 3):
+        reference.append(reference[-1] + 2.0 * r**k * v1 / G)  # flight k lasts 2 R^k v1 / g
+    onsets = _onsets(traj)[:3]
+    # A contact is seen one step after the crossing (0..1 dt), each impact penetrates up to
+    # one step and so shifts later flights by about dt; 1 ms more absorbs the accumulated
+    # error (measured: 0.08, 0.25, 0.39 ms).
+    tol = 2.0 * settings.dt + 1e-3
+    assert len(onsets) == 3
+    np.testing.assert_allclose(onsets, reference, atol=tol, rtol=0)
+    # The wall pushes with the impact impulse: (1 + R) m v1 in one step.
+    assert traj.normal_force["lower"].max() == pytest.approx((1 + r) * scene.mass2 * v1 / settings.dt, rel=0.05)
+
+
+def test_restitution_velocity_threshold_stops_the_ball_early():
+    scene = load_scene("bouncing-ball", ["duration=1.6"])
+    t1 = math.sqrt(2.0 * scene.initial.y / G)
+    zeno = t1 * (1 + scene.restitution) / (1 - scene.restitution)
+    sticky = run(scene, PybulletSettings(restitution_velocity_threshold=0.5))
+    exact = run(scene, PybulletSettings())
+    # Bounces slower than 0.5 m/s get R = 0: measured rest at 1.30 s, 55 ms before the
+    # 1.355 s Zeno point; 20 ms margin is 200 steps, far above timing noise.
+    assert _rest_time(sticky) < zeno - 0.02
+    # With the default threshold 0 the bounces run on to the Zeno point (measured 1.358 s);
+    # the 10 ms allowance covers the last bounces being shorter than one step.
+    assert _rest_time(exact) > zeno - 0.01
+    # The resting ball is held by the floor: mean normal force over the last 0.1 s is m g
+    # (the engine alternates tiny bounces, so only the mean is m g; 5 % covers that).
+    tail = sticky.t > sticky.t[-1] - 0.1
+    assert sticky.normal_force["lower"][tail].mean() == pytest.approx(scene.mass2 * G, rel=0.05)
+
+
+def test_feigin_pair_stays_in_its_gap():
+    scene = load_scene("feigin-pair", [f"duration={4 * math.pi}"])
+    settings = PybulletSettings()
+    traj = run(scene, settings)
+    assert traj.status == "ok", traj.message
+    assert len(traj.t) == round(scene.duration / settings.dt) + 1
+    # Penetration: a contact is found only once the sphere has crossed the wall, so the
+    # depth is at most one step of approach, |vy| dt (plus dt^2 |y''| <= 1e-8 m).
+    # Measured: 4.3e-5 m beyond each wall.
+    allowed = np.max(np.abs(traj.vy)) * settings.dt + 1e-8
+    assert traj.y.min() >= scene.gap.lower - allowed
+    assert traj.y.max() <= scene.gap.upper + allowed
+    assert traj.contact["lower"].any() and traj.contact["upper"].any()
+    assert np.all(traj.normal_force["lower"] >= 0) and np.all(traj.normal_force["upper"] >= 0)
+    # Far from a wall nothing may push: contact only within one step's travel of it.
+    far = (traj.y > scene.gap.lower + allowed) & (traj.y < scene.gap.upper - allowed)
+    assert not np.any(traj.contact["lower"][far] & (traj.normal_force["lower"][far] > 0))
+
+
+def test_runs_one_after_another_are_identical():
+    scene = load_scene("spring-pair", ["duration=0.2"])
+    a, b = PybulletEngine().run(scene, PybulletSettings()), run(scene, PybulletSettings())
+    # Each run has its own DIRECT client; PyBullet is deterministic, so bit-identical.
+    np.testing.assert_array_equal(a.y, b.y)
+    assert PybulletEngine.name == "pybullet"
+
+
+def test_force_plan_matches_evaluate_forces():
+    scene = load_scene("impact-damper")
+    t = np.linspace(0.0, 1.0, 11)
+    plan = _force_plan(scene, t)
+    rng = np.random.default_rng(1)
+    for k in range(len(t)):
+        x1, v1, x2, v2 = rng.normal(size=4) * 0.01
+        f1, f2, f12 = evaluate_forces(scene, t[k], x1, v1, x2 - x1, v2 - v1)
+        got = plan.gain @ np.array([x1, v1, x2, v2]) + [plan.time1[k], plan.time2[k]]
+        # Affine split of affine terms: only rounding differs (forces are O(10 N)).
+        np.testing.assert_allclose(got, [f1 + f12, f2 - f12], rtol=0, atol=1e-12)
+
+
+def test_settings_snippet_is_python():
+    snippet = settings_snippet(PybulletSettings(), restitution=0.5)
+    compile(snippet, "<snippet>", "exec")
+    assert "restitutionVelocityThreshold=0.0" in snippet and "contactERP=0.0" in snippet
+
+
+def test_benchmark_reports_both_loops():
+    result = benchmark(load_scene("feigin-pair"), PybulletSettings(), n_steps=2000, repeat=1)
+    assert result["adapter_steps_per_s"] > 0 and result["raw_steps_per_s"] > 0
+    assert result["ratio"] == pytest.approx(result["adapter_steps_per_s"] / result["raw_steps_per_s"])
+
+
+@pytest.mark.parametrize(
+    "overrides, field",
+    [
+        (["pybullet.dt=0"], "pybullet.dt = 0"),
+        (["pybullet.dt=-1e-4"], "pybullet.dt = -0.0001"),
+        (["pybullet.restitution_velocity_threshold=-0.1"], "pybullet.restitution_velocity_threshold = -0.1"),
+        (["pybullet.contact_erp=1.5"], "pybullet.contact_erp = 1.5"),
+        (["pybullet.num_solver_iterations=0"], "pybullet.num_solver_iterations = 0"),
+        (["pybullet.restitution_threshold=0.5"], "did you mean 'restitution_velocity_threshold'"),
+    ],
+)
+def test_bad_settings_are_refused_with_the_field_named(overrides, field):
+    with pytest.raises(SettingsError) as info:
+        settings_with_overrides(PybulletSettings(), overrides, prefix="pybullet")
+    assert field in str(info.value)
+
+
+def test_good_override_applies():
+    s = settings_with_overrides(PybulletSettings(), ["pybullet.restitution_velocity_threshold=0.5", "mujoco.x=1"], prefix="pybullet")
+    assert s.restitution_velocity_threshold == 0.5 and s.dt == 1e-4
