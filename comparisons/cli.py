@@ -155,6 +155,37 @@ def cmd_platemap(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_tune(args: argparse.Namespace) -> int:
+    import matplotlib.pyplot as plt
+
+    from .atomic import write_bytes, write_text
+    from .guide import guide_markdown, tradeoff_figure
+    from .outputs import figure_bytes
+    from .tune import tune
+
+    scene_over, engine_over = split_overrides(args.set or [])
+    if engine_over:
+        raise UsageError(f"--set {engine_over[0]}: tune searches the engine settings itself; set scene fields only")
+    scene = load_scene(args.scene, scene_over)
+    result = tune(scene, _engine_list(args.engine)[0], args.tolerance, workers=args.workers)
+    show = ["stage", "settings", "verdict", "n_match", "n_episodes", "exit_error_max", "stick_error_max", "cost_per_sim_s"]
+    print_table(result.table[show], title=f"tune {args.engine} on {scene.name}, tolerance {args.tolerance:g} of the period:")
+    if result.best is None:
+        b = result.best_reachable
+        print("no setting meets the tolerance" + (f"; best reachable: {b['settings']} (worst exit error {b['exit_error_max']:.3g} s)" if b else ""))
+    else:
+        print(f"recommended: {result.best['settings']} (cost {result.best['cost_per_sim_s']:.3g} s per simulated s)")
+    if args.out:
+        out = Path(args.out)
+        write_text(out / "guide.md", guide_markdown(result))
+        write_frame(out / "candidates.csv", result.table.drop(columns=["_run_settings"], errors="ignore"))
+        fig = tradeoff_figure(result)
+        write_bytes(out / "tradeoff.png", figure_bytes(fig, "png"))
+        plt.close(fig)
+        print(f"wrote {out / 'guide.md'}, candidates.csv, tradeoff.png")
+    return 0 if result.best is not None else 1
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
     if args.what == "reference":
         from .bench import bench_reference
@@ -243,6 +274,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="scene field or engine setting override")
     p.add_argument("--out", metavar="DIR", help="write plate_map.csv and the figure (PNG, SVG) under DIR")
     p.set_defaults(func=cmd_platemap)
+
+    p = sub.add_parser("tune", help="find the cheapest engine settings whose episodes all match within a tolerance")
+    p.add_argument("scene", help="built-in scene name or path to a scene TOML file")
+    p.add_argument("--engine", required=True, help="mujoco or pybullet")
+    p.add_argument("--tolerance", type=_positive_float, required=True, help="allowed error as a fraction of the forcing period, e.g. 0.01")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE", help="scene field override")
+    p.add_argument("--workers", type=_positive_int, default=None, help="parallel candidate runs (default: all cores)")
+    p.add_argument("--out", metavar="DIR", help="write guide.md, candidates.csv and tradeoff.png under DIR")
+    p.set_defaults(func=cmd_tune)
 
     p = sub.add_parser("bench", help="benchmarks: reference speed, engine steps per second")
     p.add_argument("what", choices=("reference", "engines", "platemap"))

@@ -1,0 +1,105 @@
+"""The engine-tuning guide: a recommendation a user can paste, with its evidence.
+
+    >>> result = tune(scene, "mujoco", tolerance=0.01)
+    >>> text = guide_markdown(result)             # Markdown: snippet, errors, cost, failures nearby
+    >>> fig = tradeoff_figure(result)             # cost vs error of every candidate, the choice marked
+
+The snippet is MJCF for MuJoCo (the model ``export_mjcf`` writes for the scene with the
+recommended settings, whose ``<option>`` and ``solreflimit``/``solref`` attributes carry
+the tuning) and ``setPhysicsEngineParameter``/``changeDynamics`` calls for PyBullet.
+"""
+
+from __future__ import annotations
+
+import math
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import pandas as pd  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+
+from chatterbench.engines.registry import engine_module, make_settings  # noqa: E402
+
+VERDICT_COLORS = {"match": "#2ca02c", "early": "#ff7f0e", "late": "#bcbd22", "missed": "#9467bd", "spurious": "#8c564b",
+                  "endless": "#e377c2", "penetrated": "#d62728", "diverged": "black", "error": "gray", "refused": "lightgray"}
+
+
+def _settings_of(result, row):
+    overrides = [f"{k}={v!r}" if isinstance(v, str) else f"{k}={v}" for k, v in row.items()
+                 if "." in k and k.split(".")[0] == result.engine]
+    return make_settings(result.engine, float(row["dt"]), overrides)
+
+
+def snippet(result, row: dict) -> str:
+    """Paste-able settings for the candidate ``row``: MJCF (MuJoCo) or Python (PyBullet)."""
+    settings = _settings_of(result, row)
+    module = engine_module(result.engine)
+    if result.engine == "mujoco":
+        return module.export_mjcf(result.scene, settings)
+    return module.settings_snippet(settings, result.scene.restitution)
+
+
+def tradeoff_figure(result) -> Figure:
+    """Cost per simulated second against the worst exit error, every candidate, the choice marked."""
+    table = result.table
+    T = result.scene.time_scale
+    fig, ax = plt.subplots(figsize=(8, 5), layout="constrained")
+    for verdict, grp in table.groupby("verdict"):
+        y = grp["exit_error_max"].fillna(T)  # no exit measured: drawn at one period
+        ax.scatter(grp["cost_per_sim_s"], y, s=28, color=VERDICT_COLORS.get(verdict, "gray"), label=verdict,
+                   marker="o" if verdict == "match" else "x")
+    ax.axhline(result.tolerance * T, color="0.3", ls="--", lw=1, label=f"tolerance {result.tolerance:g} T")
+    if result.best is not None:
+        ax.scatter([result.best["cost_per_sim_s"]], [result.best["exit_error_max"]], s=220, facecolors="none",
+                   edgecolors="black", linewidths=2, label="recommended")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("cost: wall-clock s per simulated s")
+    ax.set_ylabel("worst |exit error| [s]")
+    ax.set_title(f"tune {result.engine} on {result.scene.name}: every candidate")
+    ax.legend(fontsize=8)
+    return fig
+
+
+def _fmt(v) -> str:
+    return "nan" if isinstance(v, float) and math.isnan(v) else (f"{v:.3g}" if isinstance(v, float) else str(v))
+
+
+def guide_markdown(result) -> str:
+    """The guide as Markdown (see the module docstring)."""
+    T = result.scene.time_scale
+    lines = [f"# Tuning {result.engine} for {result.scene.name}", ""]
+    lines.append(f"Tolerance: {result.tolerance:g} of the forcing period T = {T:.4g} s "
+                 f"({result.tolerance * T:.3g} s) on the sticking start, exit and first impact of every episode.")
+    lines.append("")
+    table = result.table
+    if result.best is None:
+        lines.append("**No candidate met the tolerance.**")
+        if result.best_reachable is not None:
+            b = result.best_reachable
+            lines.append(f"Best reachable: `{b['settings']}` with worst exit error {_fmt(b['exit_error_max'])} s "
+                         f"and worst sticking error {_fmt(b['stick_error_max'])} s (verdict {b['verdict']}), "
+                         f"at {_fmt(b['cost_per_sim_s'])} s per simulated s.")
+    else:
+        b = result.best
+        lines += [f"**Recommended:** `{b['settings']}`", "",
+                  f"- worst |exit error| {_fmt(b['exit_error_max'])} s, worst |sticking start error| (Zeno point) "
+                  f"{_fmt(b['stick_error_max'])} s, {b['n_match']} of {b['n_episodes']} episodes `match`;",
+                  f"- cost {_fmt(b['cost_per_sim_s'])} wall-clock s per simulated s.", "",
+                  "Paste:", "", "```" + ("xml" if result.engine == "mujoco" else "python"), snippet(result, b).rstrip(), "```", ""]
+        # nearby settings that fail: the cheaper candidates around the choice
+        cheaper = table[(table["cost_per_sim_s"] < b["cost_per_sim_s"]) & (table["verdict"] != "match")]
+        if len(cheaper):
+            lines += ["Cheaper settings that fail, and how:", "", "| settings | verdict | worst exit error [s] | cost |",
+                      "| --- | --- | --- | --- |"]
+            for r in cheaper.head(8).itertuples():
+                lines.append(f"| `{r.settings}` | {r.verdict} | {_fmt(r.exit_error_max)} | {_fmt(r.cost_per_sim_s)} |")
+            lines.append("")
+    lines += ["Every candidate tried:", "", "| stage | settings | verdict | matches | worst exit error [s] | worst stick error [s] | cost |",
+              "| --- | --- | --- | --- | --- | --- | --- |"]
+    for r in table.itertuples():
+        lines.append(f"| {r.stage} | `{r.settings}` | {r.verdict} | {r.n_match}/{r.n_episodes} | "
+                     f"{_fmt(r.exit_error_max)} | {_fmt(r.stick_error_max)} | {_fmt(r.cost_per_sim_s)} |")
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,45 @@
+"""`tune`: the recommended settings really match when rerun through `compare`."""
+
+import math
+
+import pytest
+
+from chatterbench.comparisons.compare import compare
+from chatterbench.comparisons.guide import guide_markdown, tradeoff_figure
+from chatterbench.comparisons.tune import tune
+from chatterbench.comparisons.verdict import Tolerances
+from chatterbench.reference import SceneError, load_scene
+
+
+def test_tune_mujoco_feigin_pair_one_percent_reruns_as_match():
+    # two forcing periods keep it fast; the space is a slice of the default grid that
+    # brackets the front (dt = 1e-3 is late at w0 dt = 0.1, 3e-4 matches: measured)
+    scene = load_scene("feigin-pair", [f"duration={4 * math.pi}"])
+    space = {"dt": (1e-3, 3e-4), "mujoco.w0_dt": (0.1,), "mujoco.integrator": ("euler",)}
+    result = tune(scene, "mujoco", tolerance=0.01, space=space, workers=2, refine_steps=2)
+    assert result.best is not None
+    assert (result.table["stage"] == "refine").any()  # the front was refined, not brute-forced
+    best = result.best
+    # the cheapest match is no more expensive than every other match
+    matches = result.table[result.table["verdict"] == "match"]
+    assert best["cost_per_sim_s"] == matches["cost_per_sim_s"].min()
+    rerun = compare(scene, engines=("mujoco",), dt=best["dt"],
+                    overrides=[f"mujoco.w0_dt={best['mujoco.w0_dt']}", f"mujoco.integrator={best['mujoco.integrator']}"],
+                    tol=Tolerances(stick=0.01, exit=0.01, first_impact=0.01))
+    assert (rerun.table["verdict"] == "match").all()
+    text = guide_markdown(result)
+    assert "Recommended" in text and "<mujoco" in text  # the MJCF snippet is in the guide
+    assert tradeoff_figure(result).axes[0].get_xscale() == "log"
+
+
+def test_tune_says_when_nothing_meets_the_tolerance():
+    scene = load_scene("bouncing-ball", ["duration=1.5"])
+    space = {"dt": (1e-3,), "mujoco.w0_dt": (0.01,), "mujoco.integrator": ("euler",)}
+    result = tune(scene, "mujoco", tolerance=1e-4, space=space, workers=1, refine_steps=0)
+    assert result.best is None and result.best_reachable is not None
+    assert "No candidate met the tolerance" in guide_markdown(result)
+
+
+def test_tune_refuses_bad_tolerance():
+    with pytest.raises(SceneError, match="tolerance"):
+        tune(load_scene("bouncing-ball"), "mujoco", tolerance=1.5)
