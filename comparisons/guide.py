@@ -79,7 +79,7 @@ def guide_markdown(result) -> str:
         lines.append("**No candidate met the tolerance.**")
         if result.best_reachable is not None:
             b = result.best_reachable
-            lines.append(f"Best reachable: `{b['settings']}` with worst exit error {_fmt(b['exit_error_max'])} s "
+            lines.append(f"Best reachable (smallest worst error): `{b['settings']}` with worst exit error {_fmt(b['exit_error_max'])} s "
                          f"and worst sticking error {_fmt(b['stick_error_max'])} s (verdict {b['verdict']}), "
                          f"at {_fmt(b['cost_per_sim_s'])} s per simulated s.")
     else:

@@ -168,7 +168,9 @@ def tune(
     table = table[[c for c in cols if c in table.columns]].sort_values("cost_per_sim_s", na_position="last").reset_index(drop=True)
     matches = table[table["verdict"] == "match"]
     best = matches.iloc[0].to_dict() if len(matches) else None
-    finite = table.dropna(subset=["exit_error_max"])
-    reach = finite.sort_values(["exit_error_max", "cost_per_sim_s"]).iloc[0].to_dict() if len(finite) else None
+    # best reachable: the smallest worst error over exit and sticking start, whatever the verdict
+    table["error_max"] = table[["exit_error_max", "stick_error_max"]].max(axis=1, skipna=True)
+    finite = table.dropna(subset=["error_max"])
+    reach = finite.sort_values(["error_max", "cost_per_sim_s"]).iloc[0].to_dict() if len(finite) else None
     return TuneResult(scene=scene, engine=engine, tolerance=tolerance, table=table, best=best, best_reachable=reach,
                       extra={"dts": dts})
