@@ -1,0 +1,89 @@
+"""`compare`: the reference and both engines, episode by episode, with verdicts that say why."""
+
+import json
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from chatterbench.comparisons.cli import main
+from chatterbench.comparisons.compare import COLUMNS, compare
+from chatterbench.reference import load_scene
+
+
+@pytest.fixture(scope="module")
+def feigin_both():
+    return compare(load_scene("feigin-pair"), engines=("mujoco", "pybullet"), dt=1e-4)
+
+
+def test_feigin_pair_both_engines_slide_on_both_walls_every_half_period(feigin_both):
+    table = feigin_both.table
+    assert list(table.columns) == COLUMNS
+    T = 2 * math.pi
+    for engine in ("mujoco", "pybullet"):
+        sub = table[table["engine"] == engine]
+        # one sliding episode per half period, alternating walls, as the reference has
+        assert len(sub) == len(feigin_both.reference) == 13
+        assert list(sub["wall"]) == ["lower", "upper"] * 6 + ["lower"]
+        assert (sub["verdict"] == "match").all(), sub[["wall", "verdict"]]
+        exits = sub.dropna(subset=["t_exit"])
+        # exits at pi (lower) and 0 (upper) mod 2 pi: within a few steps for PyBullet's hard
+        # contact, within 2 dt + 1/w0 for MuJoCo's soft contact, which must unload first
+        run = feigin_both.runs[engine]
+        bound = 5 * 1e-4 if engine == "pybullet" else 2 * 1e-4 + 1.0 / run.settings["w0"]
+        phase = np.where(exits["wall"] == "lower", math.pi, 0.0)
+        off = np.mod(exits["t_exit"] - phase + T / 2, T) - T / 2
+        assert np.abs(off).max() <= bound
+        assert np.abs(exits["exit_error"]).max() <= bound
+
+
+def test_pybullet_velocity_threshold_sticks_the_ball_early():
+    # restitutionVelocityThreshold = 0.5 m/s kills the bounces below 0.5 m/s: the ball stops
+    # at the 5th impact (1.299 s), 56 ms before the Zeno point 1.3546 s (tolerance 40 ms)
+    c = compare(load_scene("bouncing-ball"), engines=("pybullet",), dt=1e-4,
+                overrides=["pybullet.restitution_velocity_threshold=0.5"])
+    row = c.table.iloc[0]
+    assert row["verdict"] == "early"
+    assert row["stick_error_zeno"] < -0.04
+
+
+@pytest.mark.parametrize("w0_dt", [2.5, 5.0])
+def test_mujoco_w0_dt_far_past_stability_is_caught(w0_dt):
+    # past Euler's stability limit (1.55 at R = 0.5) the contact gains energy and blows up:
+    # it must be reported as diverged or penetrated, never as a match
+    c = compare(load_scene("feigin-pair", ["duration=8"]), engines=("mujoco",), dt=1e-4,
+                overrides=[f"mujoco.w0_dt={w0_dt}", "mujoco.allow_unstable=true"])
+    assert set(c.table["verdict"]) <= {"diverged", "penetrated"}
+    assert len(c.table) >= 1
+
+
+def test_an_engine_fault_is_classified_and_the_other_engine_kept():
+    c = compare(load_scene("bouncing-ball"), engines=("mujoco", "pybullet"), dt=1e-4, overrides=["mujoco.fault=raise"])
+    assert c.runs["mujoco"].status == "error" and "InjectedFault" in c.runs["mujoco"].trajectory.message
+    assert set(c.table.loc[c.table["engine"] == "mujoco", "verdict"]) == {"error"}
+    # the other engine's run is complete and judged as usual
+    assert c.runs["pybullet"].status == "ok"
+    pyb = c.table[c.table["engine"] == "pybullet"]
+    assert len(pyb) == 1 and pyb["verdict"].iloc[0] not in ("error", "crashed", "timeout")
+
+
+def test_compare_cli_writes_tables_logs_provenance_and_figures(tmp_path, capsys):
+    out = tmp_path / "cmp"
+    code = main(["compare", "bouncing-ball", "--engines", "mujoco", "--dt", "1e-4", "--out", str(out)])
+    assert code == 0
+    printed = capsys.readouterr().out
+    assert "verdict" in printed and "summary" in printed
+    for name in ("episodes.csv", "episodes.parquet", "reference_episodes.csv", "events_reference_feigin.csv",
+                 "events_reference_exhaustive.csv", "events_mujoco.csv", "provenance.json", "timeseries.png", "timeseries.svg"):
+        assert (out / name).stat().st_size > 0, name
+    table = pd.read_parquet(out / "episodes.parquet")
+    assert pd.read_csv(out / "episodes.csv")["verdict"].tolist() == table["verdict"].tolist()
+    prov = json.loads((out / "provenance.json").read_text())
+    assert prov["engines"]["mujoco"]["version"] and prov["engines"]["mujoco"]["settings"]["dt"] == 1e-4
+    assert (out / "timeseries.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_compare_cli_refuses_unknown_engine(capsys):
+    assert main(["compare", "bouncing-ball", "--engines", "mujoko"]) == 2
+    assert "did you mean 'mujoco'" in capsys.readouterr().err
