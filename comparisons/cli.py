@@ -26,7 +26,7 @@ from .atomic import write_frame
 
 ENGINE_PREFIXES = ("mujoco", "pybullet")
 # modules that add their own subcommands through register(subparsers)
-SUBCOMMAND_MODULES: tuple[str, ...] = ()
+SUBCOMMAND_MODULES: tuple[str, ...] = ("sweep_cli",)
 
 
 class UsageError(Exception):

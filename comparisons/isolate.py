@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
+import functools
 import math
 import os
 import signal
@@ -47,15 +48,20 @@ class Outcome:
     wall_time: float  # [s] from fork to result, crash or kill, measured by the parent
 
 
+@functools.cache
+def _libc():
+    """The C library, looked up once in the parent (``find_library`` runs a subprocess: slow)."""
+    try:
+        return ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
+    except OSError:
+        return None
+
+
 def die_with_parent() -> None:
     """Ask Linux to SIGKILL this process when its parent exits (no-op elsewhere)."""
-    if not sys.platform.startswith("linux"):
-        return
-    try:
-        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
+    libc = _libc() if sys.platform.startswith("linux") else None
+    if libc is not None:  # without libc a child simply outlives a killed parent
         libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
-    except OSError:  # no libc to ask: the child simply outlives a killed parent
-        pass
 
 
 def _child(fn: Callable[..., Any], args: tuple, send, parent: int) -> None:
@@ -96,6 +102,8 @@ def run_isolated(fn: Callable[..., Any], *args: Any, timeout: float = math.inf) 
     """
     if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not timeout > 0:
         raise ValueError(f"timeout = {timeout!r}: must be a number of seconds > 0")
+    if sys.platform.startswith("linux"):
+        _libc()  # before the fork, so that no child looks it up
     recv, send = Pipe(duplex=False)
     parent = os.getpid()
     start = time.perf_counter()

@@ -185,3 +185,92 @@ def strike_fates(
         slides=(outcome == SLIDES).reshape(shape), outcome=outcome.reshape(shape),
         t_stick=t_stick.reshape(shape), n_impacts=n_imp.reshape(shape),
     )
+
+
+# codes returned by ``chase``
+CHASE_LEFT, CHASE_STRIKE, CHASE_ACCUMULATED = 0, 1, 2
+
+
+@numba.njit(cache=True)
+def chase(flat, order, n, accel_row, jerk_row, s, t, t_end, wall, normal, other, has_other, R, share,
+          acc_time, rtol, step, omegas, check_plate, out):
+    """Follow a chatter sequence on one wall from just after an impact, logging every impact.
+
+    ``s`` (the state just after an impact at time ``t``, y exactly on ``wall``) is updated
+    in place. Impacts go into ``out`` (rows: t, v_minus, v_plus, x1, v1). Stops and returns
+    (code, impacts logged, t):
+
+    - ``CHASE_LEFT``: the next strike on this wall is not within one flow step, or the other
+      wall comes first: ``s``, ``t`` are still just after the last logged impact;
+    - ``CHASE_STRIKE``: a strike the caller must resolve itself (y'' not into the wall, or,
+      with ``check_plate``, a strike that ``plate.quick_reject`` does not rule out):
+      ``s``, ``t`` are at that strike, before its impact;
+    - ``CHASE_ACCUMULATED``: after the last logged impact dt* <= acc_time: ``s``, ``t`` are
+      just after it, and the caller sums the rest.
+    """
+    m = order + 1
+    coeffs = np.empty((m, n))
+    yc = np.empty(m)
+    count = 0
+    while count < out.shape[0]:
+        hl = min(step, t_end - t)
+        if hl <= 0.0:
+            return CHASE_LEFT, count, t
+        for k in range(m):
+            for i in range(n):
+                acc_i = 0.0
+                for j in range(n):
+                    acc_i += flat[k * n + i, j] * s[j]
+                coeffs[k, i] = acc_i
+        for k in range(m):
+            yc[k] = normal * coeffs[k, 2]
+        yc[0] = 0.0
+        h = first_root_kernel(yc, hl, 1, rtol)
+        if h != h:
+            return CHASE_LEFT, count, t
+        if has_other:
+            for k in range(m):
+                yc[k] = -normal * coeffs[k, 2]
+            yc[0] = -normal * (s[2] - other)
+            h_other = first_root_kernel(yc, hl, 0, rtol)
+            if h_other == h_other and h_other < h:
+                return CHASE_LEFT, count, t
+        # the strike: state at t + h, y exactly on the wall, forcing re-seeded
+        for i in range(n):
+            acc_i = coeffs[m - 1, i]
+            for k in range(m - 2, -1, -1):
+                acc_i = acc_i * h + coeffs[k, i]
+            s[i] = acc_i
+        s[2] = wall
+        t_hit = t + h
+        for j in range(len(omegas)):
+            s[5 + 2 * j] = math.sin(omegas[j] * t_hit)
+            s[6 + 2 * j] = math.cos(omegas[j] * t_hit)
+        vy = s[3]
+        acc = 0.0
+        jerk = 0.0
+        for i in range(n):
+            acc += accel_row[i] * s[i]
+            jerk += jerk_row[i] * s[i]
+        acc *= normal
+        jerk *= normal
+        v = normal * vy
+        if acc >= 0.0 or v >= 0.0 or R == 0.0:
+            return CHASE_STRIKE, count, t_hit
+        if check_plate and jerk > 0.0 and -v < 5.0 * (1.0 - R) / (24.0 * R * jerk) * acc * acc:
+            return CHASE_STRIKE, count, t_hit  # a plate candidate: the caller runs the full test
+        # impact (1.3)
+        vplus = -R * vy
+        s[1] = s[1] + share * (1.0 + R) * vy
+        s[3] = vplus
+        out[count, 0] = t_hit
+        out[count, 1] = vy
+        out[count, 2] = vplus
+        out[count, 3] = s[0]
+        out[count, 4] = s[1]
+        count += 1
+        t = t_hit
+        dt_star = 2.0 * normal * vplus / ((1.0 - R) * -acc)
+        if dt_star <= acc_time:
+            return CHASE_ACCUMULATED, count, t
+    return CHASE_LEFT, count, t

@@ -82,7 +82,7 @@ def episodes(log: pd.DataFrame) -> pd.DataFrame:
     out = []
     visit = None  # the open visit: dict of episode fields
     stuck = False
-    for t, kind, wall in zip(log["t"].to_numpy(), log["kind"].to_numpy(), log["wall"].to_numpy()):
+    for t, kind, wall in zip(log["t"].tolist(), log["kind"].tolist(), log["wall"].tolist()):
         if kind == "impact":
             if stuck:
                 continue

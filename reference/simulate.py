@@ -34,12 +34,14 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
+from .chatter import CHASE_LEFT, CHASE_STRIKE, chase
 from .flow import Flow, evaluate
 from .impact import impact
 from .linear import ONE, V1, VY, X1, Y, LinearSystem
 from .log import EventLog, episodes
-from .plate import jerk_bounds, plate_conditions, quick_reject
-from .roots import first_root_kernel, first_wall_root
+from .plate import plate_conditions, quick_reject
+from .roots import first_wall_root
+from .stuck import BOUNDS_FAILED, RUN_END, walk
 from .scene import Scene, SceneError
 
 CHATTER_MODES = ("feigin", "exhaustive")
@@ -118,6 +120,11 @@ class _Simulator:
         self._pw = np.arange(self.free.order + 1)
         self.stats = {"steps": 0, "plate_tests": 0}
         self._known_exit = None  # (t_exit, state) found by a plate test, reused by _stay
+        self._flat = np.ascontiguousarray(self.free.powers.reshape(-1, self.system.size))
+        self._flat_stuck = np.ascontiguousarray(self.stuck.powers.reshape(-1, self.system.size))
+        self._share = 0.0 if scene.body1_infinite else scene.mass2 / (scene.mass1 + scene.mass2)
+        self._omegas = np.asarray(self.system.omegas, dtype=float)
+        self._chase_buf = np.empty((4096, 5))  # impacts logged per compiled chase
 
     # -- helpers ---------------------------------------------------------------------
     def _powers(self, h: float) -> np.ndarray:
@@ -139,34 +146,14 @@ class _Simulator:
         wall-normal derivative of the free relative acceleration over the walk (only when
         ``bounds``; the walk stops early once Y* <= 0, returning t_exit = nan).
         """
-        n = _normal(wall)
-        jmin, jmax = math.inf, -math.inf
         s = s.copy()
-        while True:
-            hl = min(self.stuck.step, self.t_end - t)
-            if hl <= 0.0:
-                return None, s, jmin, jmax
-            coeff_state = self.stuck.taylor(s)
-            lam = coeff_state @ self.accel_row  # lambda(t + h) Taylor coefficients
-            r = first_root_kernel(-n * lam, hl, 0, self.options.root_rtol)
-            r = None if r != r else r
-            span = hl if r is None else r
-            if bounds and span > 0.0:
-                jerk = n * lam[1:] * np.arange(1, len(lam))
-                lo, hi = jerk_bounds(np.ascontiguousarray(jerk), span)
-                jmin, jmax = min(jmin, lo), max(jmax, hi)
-                if jmin <= 0.0:
-                    return math.nan, s, jmin, jmax
-            if r is not None:
-                s = evaluate(coeff_state, r)
-                t = t + r
-                s[Y], s[VY] = self.wall_y[wall], 0.0
-                self._reseed(s, t)
-                return t, s, jmin, jmax
-            s = evaluate(coeff_state, hl)
-            t = t + hl
-            s[Y], s[VY] = self.wall_y[wall], 0.0
-            self.stats["steps"] += 1
+        code, t, jmin, jmax = walk(self._flat_stuck, self.stuck.order, self.system.size, self.accel_row, s, t,
+                                   self.t_end, self.wall_y[wall], _normal(wall), self.stuck.step, self._omegas, bounds)
+        if code == BOUNDS_FAILED:
+            return math.nan, s, jmin, jmax
+        if code == RUN_END:
+            return None, s, jmin, jmax
+        return t, s, jmin, jmax
 
     def _stuck_state(self, s: np.ndarray) -> np.ndarray:
         """The state after a perfectly inelastic impact (R = 0 in (1.3))."""
@@ -296,17 +283,45 @@ class _Simulator:
         if entered:  # exhaustive mode: Feigin's model would slide from here; the impacts go on
             self._event(t, "plate_entry", wall, v_minus, vy_plus, s)
             plate_seen = True
-        if acc < 0.0:
-            dt_star = 2.0 * n * vy_plus / ((1.0 - R) * -acc)  # sum of all later flights
-            if dt_star <= self.acc_time:
-                s_in = self._stuck_state(s)
-                t_z = t + dt_star
-                s_in = self.stuck.advance(s_in, dt_star)
-                s_in[Y], s_in[VY] = self.wall_y[wall], 0.0
-                self._reseed(s_in, t_z)
-                self._event(t_z, "stick", wall, 0.0, 0.0, s_in, "zeno" if self.exhaustive else "accumulation")
-                return t_z, s_in, wall, plate_seen
-        return t, s, None, plate_seen
+        if acc >= 0.0:
+            return t, s, None, plate_seen
+        dt_star = 2.0 * n * vy_plus / ((1.0 - R) * -acc)  # sum of all later flights
+        if dt_star > self.acc_time:
+            # follow the sequence in compiled code while nothing needs the event loop
+            code, t, s, acc = self._chase(t, s, wall, check_plate=not (plate_seen and self.exhaustive))
+            if code == CHASE_STRIKE:
+                return self._strike(t, s, wall, plate_seen)
+            if code == CHASE_LEFT:
+                return t, s, None, plate_seen
+            dt_star = 2.0 * n * float(s[VY]) / ((1.0 - R) * -acc)
+        return self._accumulate(t, s, wall, dt_star, plate_seen)
+
+    def _accumulate(self, t: float, s: np.ndarray, wall: str, dt_star: float, plate_seen: bool):
+        """Sum the rest of the sequence: stick at the accumulation point t + dt*."""
+        s_in = self._stuck_state(s)
+        t_z = t + dt_star
+        s_in = self.stuck.advance(s_in, dt_star)
+        s_in[Y], s_in[VY] = self.wall_y[wall], 0.0
+        self._reseed(s_in, t_z)
+        self._event(t_z, "stick", wall, 0.0, 0.0, s_in, "zeno" if self.exhaustive else "accumulation")
+        return t_z, s_in, wall, plate_seen
+
+    def _chase(self, t: float, s: np.ndarray, wall: str, check_plate: bool):
+        """Run ``chatter.chase`` from just after an impact; log its impacts. Returns (code, t, s, acc)."""
+        n = _normal(wall)
+        other = "upper" if wall == "lower" else "lower"
+        s = s.copy()
+        code, count, t = chase(
+            self._flat, self.free.order, self.system.size, self.accel_row, self.jerk_row, s, t, self.t_end,
+            self.wall_y[wall], n, self.wall_y.get(other, 0.0), other in self.wall_y, self.R, self._share,
+            self.acc_time, self.options.root_rtol, self.free.step, self._omegas, check_plate, self._chase_buf,
+        )
+        if count:
+            rows = self._chase_buf[:count].tolist()
+            self.log.rows.extend((r[0], "impact", wall, r[1], r[2], r[3], r[4], "") for r in rows)
+            if len(self.log) > self.options.max_events:
+                raise _EventLimit
+        return code, t, s, n * float(self.accel_row @ s)
 
 
 class _EventLimit(Exception):

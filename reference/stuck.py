@@ -1,0 +1,74 @@
+"""Motion in kinematic constraint (1.4) until the exit, compiled: the sliding stretch's end.
+
+    >>> code, t_exit, jmin, jmax = walk(flat, order, n, accel_row, s, t, t_end, wall_y, normal, step, omegas, True)
+
+Walks the constrained flow step by step from state ``s`` (updated in place) and finds the
+first time the free relative acceleration (3.1), lambda = accel_row . s, reaches zero and
+turns away from the wall (normal * lambda >= 0), as a root of its Taylor polynomial
+(``roots.first_root_kernel``). With ``bounds`` it also returns the extremes of
+normal * lambda' over the walk (Y*, Y of the plate conditions, ``plate.jerk_bounds``) and
+stops early once Y* <= 0 (the strike cannot be in the plate). Same arithmetic as the
+event loop's Python path it replaces, in one call per stretch.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from .plate import jerk_bounds
+from .roots import first_root_kernel
+
+EXITED, RUN_END, BOUNDS_FAILED = 0, 1, 2
+
+
+@numba.njit(cache=True)
+def walk(flat, order, n, accel_row, s, t, t_end, wall_y, normal, step, omegas, bounds):
+    """Returns (code, t, Y*, Y): EXITED (s, t at the exit), RUN_END (at t_end) or BOUNDS_FAILED."""
+    m = order + 1
+    coeffs = np.empty((m, n))
+    lam = np.empty(m)
+    jerk = np.empty(m - 1)
+    jmin = math.inf
+    jmax = -math.inf
+    while True:
+        hl = min(step, t_end - t)
+        if hl <= 0.0:
+            return RUN_END, t, jmin, jmax
+        for k in range(m):
+            for i in range(n):
+                acc_i = 0.0
+                for j in range(n):
+                    acc_i += flat[k * n + i, j] * s[j]
+                coeffs[k, i] = acc_i
+        for k in range(m):
+            acc_k = 0.0
+            for i in range(n):
+                acc_k += accel_row[i] * coeffs[k, i]
+            lam[k] = -normal * acc_k  # positive while pressed into the wall
+        r = first_root_kernel(lam, hl, 0, 1e-14)
+        span = hl if r != r else r
+        if bounds and span > 0.0:
+            for k in range(1, m):
+                jerk[k - 1] = -lam[k] * k  # normal * lambda'
+            lo, hi = jerk_bounds(jerk, span)
+            jmin = min(jmin, lo)
+            jmax = max(jmax, hi)
+            if jmin <= 0.0:
+                return BOUNDS_FAILED, t, jmin, jmax
+        h = hl if r != r else r
+        for i in range(n):
+            acc_i = coeffs[m - 1, i]
+            for k in range(m - 2, -1, -1):
+                acc_i = acc_i * h + coeffs[k, i]
+            s[i] = acc_i
+        s[2] = wall_y
+        s[3] = 0.0
+        t = t + h
+        if r == r:
+            for j in range(len(omegas)):
+                s[5 + 2 * j] = math.sin(omegas[j] * t)
+                s[6 + 2 * j] = math.cos(omegas[j] * t)
+            return EXITED, t, jmin, jmax
