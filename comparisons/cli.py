@@ -26,7 +26,7 @@ from .atomic import write_frame
 
 ENGINE_PREFIXES = ("mujoco", "pybullet")
 # modules that add their own subcommands through register(subparsers)
-SUBCOMMAND_MODULES: tuple[str, ...] = ("sweep_cli",)
+SUBCOMMAND_MODULES: tuple[str, ...] = ("sweep_cli", "chart_cli")
 
 
 class UsageError(Exception):
@@ -194,6 +194,14 @@ def cmd_bench(args: argparse.Namespace) -> int:
         print_table(pd.DataFrame([figures]), title="reference on feigin-pair (best of repeats, one core):")
         print("goals: feigin mode < 20 ms per 100 periods; exhaustive mode < 20 us per impact")
         return 0
+    if args.what == "sweep":
+        from .sweep import bench_sweep
+
+        figures = bench_sweep(points=args.points, workers=args.workers or 2)
+        print_table(pd.DataFrame([figures]).T.reset_index().rename(columns={"index": "figure", 0: "value"}),
+                    title="sweep overhead: feigin-pair, both engines, 3 periods, dt = 1e-4")
+        print("goals: wall <= 1.15 x (sum of run times) / workers; 2 workers >= 1.7x faster than 1")
+        return 0
     if args.what == "platemap":
         from .bench import bench_platemap
 
@@ -285,7 +293,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_tune)
 
     p = sub.add_parser("bench", help="benchmarks: reference speed, engine steps per second")
-    p.add_argument("what", choices=("reference", "engines", "platemap"))
+    p.add_argument("what", choices=("reference", "engines", "platemap", "sweep"))
+    p.add_argument("--points", type=_positive_int, default=200, help="comparison points for `bench sweep`")
+    p.add_argument("--workers", type=_positive_int, default=None, help="workers for `bench sweep` (default 2)")
     p.add_argument("--strikes", type=_positive_int, default=100_000, help="strikes for `bench platemap`")
     p.add_argument("--periods", type=_positive_int, default=100, help="forcing periods for `bench reference`")
     p.add_argument("--steps", type=_positive_int, default=200_000, help="engine steps for `bench engines`")

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
+import faulthandler
 import functools
 import math
 import os
@@ -69,6 +70,8 @@ def _child(fn: Callable[..., Any], args: tuple, send, parent: int) -> None:
     code = 0
     try:
         die_with_parent()
+        # a crash is reported in the outcome; a faulthandler dump would only scribble over the progress bar
+        faulthandler.disable()
         if os.getppid() != parent:  # the parent died before prctl took effect
             os._exit(1)
         try:

@@ -247,6 +247,8 @@ def _validate(sweep: Sweep) -> None:
     set_ = lambda name, value: object.__setattr__(sweep, name, value)  # noqa: E731
     if not isinstance(sweep.scene, str) or not sweep.scene:
         raise sweep.fail(f"scene = {sweep.scene!r}: must be a built-in scene ({', '.join(CATALOGUE)}) or a scene TOML path")
+    if sweep.scene not in CATALOGUE and Path(sweep.scene).exists():  # a file: the same one from any directory
+        set_("scene", str(Path(sweep.scene).resolve()))
     engines = sweep.engines
     if isinstance(engines, str) or not isinstance(engines, (list, tuple)) or not engines:
         raise sweep.fail(f"engines = {engines!r}: must be a non-empty array of {', '.join(repr(e) for e in ENGINE_NAMES)}")
