@@ -26,7 +26,7 @@ from .atomic import write_frame
 
 ENGINE_PREFIXES = ("mujoco", "pybullet")
 # modules that add their own subcommands through register(subparsers)
-SUBCOMMAND_MODULES: tuple[str, ...] = ("sweep_cli", "chart_cli")
+SUBCOMMAND_MODULES: tuple[str, ...] = ("sweep_cli", "chart_cli", "report_cli", "gate_cli")
 
 
 class UsageError(Exception):

@@ -1,0 +1,554 @@
+"""Accuracy gates for CI: limits on an engine's verdict and errors on a scene, checked against the reference.
+
+    >>> gate = load_gate("gates/default.toml")        # validated in full before anything runs
+    >>> result = run_gate(gate)
+    >>> result.passed, result.table()                   # one row per (check, limit)
+
+Gate file format (TOML)::
+
+    description = "what these checks promise"      # optional
+
+    [defaults]                                       # optional: every check inherits these keys
+    dt = 1e-4                                        # unless it sets them itself
+
+    [[check]]
+    name = "feigin-pair/mujoco"                      # optional, default "SCENE/ENGINE"; unique in the file
+    scene = "feigin-pair"                            # built-in scene, or a scene TOML path (relative to this file)
+    engine = "mujoco"                                # mujoco | pybullet
+    dt = 1e-4                                        # engine timestep [s]; default: the engine's default
+    settings = { w0_dt = 0.03 }                      # engine settings by the engine's own names (no prefix)
+    scene_overrides = { duration = 20.0, "initial.vy" = 0.0 }   # scene fields by dotted key
+    tolerances = { stick = 0.02, exit = 0.01 }       # verdict tolerances (verdict.Tolerances), fractions of T
+    limits = [                                       # "METRIC OP VALUE", all must hold
+        "verdict == match",
+        "exit_error_max <= 2e-3",                    # [s]
+        "n_match >= 13",
+    ]
+
+Keys of a check: ``name``, ``scene`` (required), ``engine`` (required), ``dt``,
+``settings``, ``scene_overrides``, ``tolerances``, ``limits`` (required, at least one).
+Nested tables in ``scene_overrides`` are dotted keys too (``initial = { vy = 0.0 }``).
+
+Metrics are the engine's summary row over the scene's episodes (``rows.summarize``):
+
+=========================  ======  ======================================================
+metric                     kind    operators
+=========================  ======  ======================================================
+verdict, status            text    ``==``, ``!=``, ``in`` (``verdict in [match, late]``)
+exit_error_max [s]         number  ``<=``, ``<``, ``>=``, ``>``, ``==``, ``!=``
+stick_error_max [s]        number  (against the Zeno point)
+stick_error_plate_max [s]  number  (against Feigin's plate entry)
+first_impact_error_max [s] number
+cost_per_sim_s             number  wall-clock s per simulated s (machine-dependent)
+n_match, n_episodes        number  integers
+=========================  ======  ======================================================
+
+A number limit on a metric that was not measured (NaN: e.g. no episode exits) fails: nothing
+measured is not evidence that the limit holds.
+
+Promises: a gate file is validated in full (keys, types, scenes, engine settings,
+tolerances, metrics, operators, values) before any engine runs, and every problem is
+reported at once, each naming the file, the check, the key, the value and what is allowed
+(``GateError``, exit code 2 in the CLI). Checks that ask for the same run share it.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import operator
+import re
+import socket
+import time
+import tomllib
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any, Callable, Mapping, Sequence
+from xml.etree import ElementTree as ET
+
+import pandas as pd
+
+from chatterbench.engines.registry import ENGINE_NAMES, make_settings
+from chatterbench.reference.catalogue import CATALOGUE
+from chatterbench.reference.scene import Scene, SceneError, did_you_mean, load_scene
+
+from .atomic import write_text
+from .verdict import VERDICTS, Tolerances
+
+TEXT_METRICS = {"verdict": VERDICTS + ("none",), "status": ("ok", "diverged", "penetrated", "error", "timeout", "crashed")}
+NUMBER_METRICS = ("exit_error_max", "stick_error_max", "stick_error_plate_max", "first_impact_error_max",
+                  "cost_per_sim_s", "n_match", "n_episodes")
+METRICS = tuple(TEXT_METRICS) + NUMBER_METRICS
+TEXT_OPS = ("==", "!=", "in")
+NUMBER_OPS = ("<=", "<", ">=", ">", "==", "!=")
+# the operator a bare value means (pytest fixture keywords): an error or a cost is a ceiling,
+# matches a floor, the episode count and the texts exact
+DEFAULT_OPS = {"verdict": "==", "status": "==", "n_match": ">=", "n_episodes": "==",
+               **{m: "<=" for m in NUMBER_METRICS if m not in ("n_match", "n_episodes")}}
+CHECK_KEYS = ("name", "scene", "engine", "dt", "settings", "scene_overrides", "tolerances", "limits")
+TOP_KEYS = ("description", "defaults", "check")
+_OPS: dict[str, Callable[[Any, Any], bool]] = {
+    "<=": operator.le, "<": operator.lt, ">=": operator.ge, ">": operator.gt, "==": operator.eq, "!=": operator.ne,
+    "in": lambda a, b: a in b,
+}
+_LIMIT_RE = re.compile(r"^\s*([A-Za-z_][\w.]*)\s*(<=|>=|==|!=|<|>|\bin\b)\s*(.+?)\s*$")
+
+
+class GateError(SceneError):
+    """A gate file or a check that cannot run as written; the message lists every problem (exit code 2)."""
+
+
+@dataclass(frozen=True)
+class Limit:
+    """One ``METRIC OP VALUE`` limit."""
+
+    metric: str  # one of METRICS
+    op: str  # one of TEXT_OPS or NUMBER_OPS
+    value: float | str | tuple[str, ...]  # number [metric's unit], text, or texts for ``in``
+
+    def holds(self, measured: Any) -> bool:
+        """Whether ``measured`` satisfies the limit; a NaN number never does."""
+        if self.metric in NUMBER_METRICS:
+            if measured is None or (isinstance(measured, float) and math.isnan(measured)):
+                return False
+            return bool(_OPS[self.op](float(measured), float(self.value)))
+        return bool(_OPS[self.op](str(measured), self.value))
+
+    def __str__(self) -> str:
+        if isinstance(self.value, tuple):
+            shown = "[" + ", ".join(self.value) + "]"
+        elif isinstance(self.value, float):
+            shown = f"{self.value:g}"
+        else:
+            shown = str(self.value)
+        return f"{self.metric} {self.op} {shown}"
+
+
+@dataclass(frozen=True)
+class Check:
+    """One validated check: which run, and the limits its summary row must meet."""
+
+    name: str
+    scene: Scene
+    engine: str  # "mujoco" or "pybullet"
+    dt: float | None  # [s]; None: the engine's default
+    settings: Mapping[str, Any]  # engine settings by the engine's own names
+    scene_overrides: Mapping[str, Any]  # dotted scene keys -> values (already applied to ``scene``)
+    tolerances: Tolerances
+    limits: tuple[Limit, ...]
+    source: str = ""  # "FILE, check N" for messages
+
+    def run_key(self) -> str:
+        """Identity of the run this check needs (checks with equal keys share one run)."""
+        return json.dumps({"scene": self.scene.to_dict(), "engine": self.engine, "dt": self.dt,
+                           "settings": dict(self.settings), "tol": self.tolerances.__dict__}, sort_keys=True, default=repr)
+
+
+@dataclass(frozen=True)
+class Gate:
+    """A validated gate file."""
+
+    path: str
+    checks: tuple[Check, ...]
+    description: str = ""
+
+
+@dataclass(frozen=True)
+class LimitOutcome:
+    limit: Limit
+    measured: Any  # the metric's value in the run's summary row
+    passed: bool
+
+
+@dataclass(frozen=True)
+class CheckResult:
+    """A check's run: its summary row (``rows.summarize``), each limit's outcome, and the run's cost."""
+
+    check: Check
+    row: Mapping[str, Any]
+    outcomes: tuple[LimitOutcome, ...]
+    wall_s: float  # [s] of the comparison (0 when the run was shared with an earlier check)
+
+    @property
+    def passed(self) -> bool:
+        return all(o.passed for o in self.outcomes)
+
+    def failure_message(self) -> str:
+        """Readable account: measured against the limit, per limit, with the run's context."""
+        c = self.check
+        head = (f"chatter gate {c.name!r} {'passed' if self.passed else 'failed'}: {c.scene.name} on {c.engine}, "
+                f"dt = {_fmt(self.row.get('dt'))} s"
+                + (f", settings {dict(c.settings)}" if c.settings else "")
+                + (f", scene {dict(c.scene_overrides)}" if c.scene_overrides else ""))
+        width = max(len(str(o.limit)) for o in self.outcomes)
+        lines = [head]
+        for o in self.outcomes:
+            lines.append(f"  {str(o.limit):<{width}}  measured {_fmt(o.measured):>12}  {'ok' if o.passed else 'FAIL'}")
+        lines.append(f"  episodes {self.row.get('n_episodes')}, matched {self.row.get('n_match')}, "
+                     f"engine run {self.row.get('status')}"
+                     + (f": {str(self.row.get('message')).splitlines()[0]}" if self.row.get("message") else ""))
+        return "\n".join(lines)
+
+
+@dataclass(frozen=True)
+class GateResult:
+    """Every check's result, in the file's order."""
+
+    gate: Gate
+    results: tuple[CheckResult, ...]
+    wall_s: float  # [s]
+    versions: Mapping[str, str] = field(default_factory=dict)  # engine -> version
+
+    @property
+    def passed(self) -> bool:
+        return all(r.passed for r in self.results)
+
+    def table(self) -> pd.DataFrame:
+        """One row per (check, limit): check, limit, measured, result (``pass`` / ``FAIL``)."""
+        rows = [{"check": r.check.name, "limit": str(o.limit), "measured": _fmt(o.measured),
+                 "result": "pass" if o.passed else "FAIL"} for r in self.results for o in r.outcomes]
+        return pd.DataFrame(rows, columns=["check", "limit", "measured", "result"])
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, bool) or v is None:
+        return str(v)
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        return "NaN (not measured)" if math.isnan(v) else f"{v:.4g}"
+    return str(v)
+
+
+# -- parsing -----------------------------------------------------------------------------
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def parse_limit(text: Any) -> Limit:
+    """``"exit_error_max <= 2e-3"`` -> Limit; raises GateError (message without location)."""
+    if not isinstance(text, str):
+        raise GateError(f"{text!r} is not a string; write limits as \"METRIC OP VALUE\", e.g. \"exit_error_max <= 2e-3\"")
+    m = _LIMIT_RE.match(text)
+    if not m:
+        raise GateError(f"{text!r}: expected \"METRIC OP VALUE\" with OP one of {', '.join(NUMBER_OPS + ('in',))}, "
+                        "e.g. \"exit_error_max <= 2e-3\" or \"verdict == match\"")
+    metric, op, raw = m.groups()
+    return make_limit(metric, op, raw, text=text)
+
+
+def make_limit(metric: str, op: str, value: Any, text: str | None = None) -> Limit:
+    """Validate one limit; ``value`` may be text to parse (from a gate file) or a Python value."""
+    where = repr(text) if text is not None else f"{metric} {op} {value!r}"
+    if metric not in METRICS:
+        raise GateError(f"{where}: unknown metric {metric!r}{did_you_mean(metric, METRICS)}; allowed: {', '.join(METRICS)}")
+    if metric in TEXT_METRICS:
+        if op not in TEXT_OPS:
+            raise GateError(f"{where}: operator {op!r} does not apply to the text metric {metric}; allowed: {', '.join(TEXT_OPS)}")
+        allowed = TEXT_METRICS[metric]
+        if isinstance(value, str):
+            words = [w.strip().strip("'\"") for w in value.strip().strip("[]").split(",")] if op == "in" else [value.strip().strip("'\"")]
+        elif isinstance(value, (list, tuple)) and op == "in":
+            words = [str(w) for w in value]
+        else:
+            raise GateError(f"{where}: {metric} takes a name" + (" list" if op == "in" else "") + f"; allowed: {', '.join(allowed)}")
+        words = [w for w in words if w]
+        if not words:
+            raise GateError(f"{where}: no {metric} given; allowed: {', '.join(allowed)}")
+        for w in words:
+            if w not in allowed:
+                raise GateError(f"{where}: unknown {metric} {w!r}{did_you_mean(w, allowed)}; allowed: {', '.join(allowed)}")
+        return Limit(metric, op, tuple(words) if op == "in" else words[0])
+    if op not in NUMBER_OPS:
+        raise GateError(f"{where}: operator {op!r} does not apply to the number metric {metric}; allowed: {', '.join(NUMBER_OPS)}")
+    if isinstance(value, str):
+        try:
+            number = float(value)
+        except ValueError:
+            raise GateError(f"{where}: {value!r} is not a number; {metric} takes a number") from None
+    elif _is_number(value):
+        number = float(value)
+    else:
+        raise GateError(f"{where}: {value!r} is not a number; {metric} takes a number")
+    if not math.isfinite(number):
+        raise GateError(f"{where}: the limit must be a finite number")
+    return Limit(metric, op, number)
+
+
+def limits_from_keywords(**limits: Any) -> tuple[Limit, ...]:
+    """Limits from keywords (the pytest fixture's form): ``exit_error_max=2e-3`` means ``<=``
+    (see ``DEFAULT_OPS``), ``verdict="match"`` means ``==``, ``verdict=["match", "late"]``
+    means ``in``, and ``n_match=(">=", 12)`` names the operator."""
+    out = []
+    for metric, value in limits.items():
+        if metric not in METRICS:
+            raise GateError(f"limit {metric}={value!r}: unknown metric{did_you_mean(metric, METRICS)}; allowed: {', '.join(METRICS)}")
+        if isinstance(value, tuple) and len(value) == 2 and isinstance(value[0], str) and value[0] in _OPS:
+            op, v = value
+        elif isinstance(value, (list, tuple)) and metric in TEXT_METRICS:
+            op, v = "in", list(value)
+        else:
+            op, v = DEFAULT_OPS[metric], value
+        if isinstance(v, str) and metric in NUMBER_METRICS:
+            raise GateError(f"limit {metric}={value!r}: {metric} takes a number")
+        out.append(make_limit(metric, op, v))
+    return tuple(out)
+
+
+def _flatten(table: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for k, v in table.items():
+        key = f"{prefix}{k}"
+        if isinstance(v, Mapping):
+            out.update(_flatten(v, key + "."))
+        else:
+            out[key] = v
+    return out
+
+
+def _scene_source(scene: str, base_dir: Path | None) -> str:
+    if scene in CATALOGUE or base_dir is None or not (scene.endswith(".toml") or "/" in scene):
+        return scene  # a name: load_scene suggests the nearest built-in one
+    path = Path(scene)
+    return str(path if path.is_absolute() else base_dir / path)
+
+
+def make_check(
+    scene: str | Scene,
+    engine: str,
+    limits: Sequence[Limit],
+    dt: float | None = None,
+    settings: Mapping[str, Any] | None = None,
+    scene_overrides: Mapping[str, Any] | None = None,
+    tolerances: Mapping[str, Any] | Tolerances | None = None,
+    name: str | None = None,
+    base_dir: Path | None = None,
+    source: str = "",
+) -> Check:
+    """Validate one check's parts (scene loads, settings build, tolerances hold) without running it.
+
+    Raises GateError listing every problem; ``source`` ("FILE, check N") prefixes each.
+    """
+    problems: list[str] = []
+    pre = f"{source}: " if source else ""
+    scene_obj = None
+    overrides = _flatten(scene_overrides or {})
+    if isinstance(scene, Scene):
+        scene_obj = scene if not overrides else None
+        if overrides:
+            try:
+                scene_obj = load_scene(scene.to_dict(), overrides)
+            except SceneError as exc:
+                problems.append(f"{pre}scene_overrides: {exc}")
+    elif not isinstance(scene, str) or not scene:
+        problems.append(f"{pre}scene = {scene!r}: must be a built-in scene name ({', '.join(CATALOGUE)}) or a scene TOML path")
+    else:
+        try:
+            scene_obj = load_scene(_scene_source(scene, base_dir), overrides)
+        except SceneError as exc:
+            problems.append(f"{pre}{'scene_overrides' if overrides and scene in CATALOGUE else 'scene'}: {exc}")
+    if not isinstance(engine, str) or engine not in ENGINE_NAMES:
+        problems.append(f"{pre}engine = {engine!r}: must be one of {', '.join(ENGINE_NAMES)}"
+                        + (did_you_mean(engine, ENGINE_NAMES) if isinstance(engine, str) else ""))
+    if dt is not None and (not _is_number(dt) or not math.isfinite(dt) or dt <= 0):
+        problems.append(f"{pre}dt = {dt!r}: must be a finite number > 0 [s]")
+    settings = dict(settings or {})
+    if "dt" in settings:
+        problems.append(f"{pre}settings.dt = {settings['dt']!r}: set the timestep with the check's own dt key")
+    elif engine in ENGINE_NAMES and (dt is None or (_is_number(dt) and dt > 0)):
+        try:
+            make_settings(engine, dt, {f"{engine}.{k}": v for k, v in settings.items()})
+        except SceneError as exc:  # SettingsError: names the key and what is allowed
+            problems.append(f"{pre}settings: {str(exc).removeprefix('--set ')}")
+    tol = None
+    if isinstance(tolerances, Tolerances):
+        tol = tolerances
+    else:
+        tolerances = dict(tolerances or {})
+        allowed = list(Tolerances.__dataclass_fields__)
+        unknown = [k for k in tolerances if k not in allowed]
+        if unknown:
+            problems.append(f"{pre}tolerances.{unknown[0]}: unknown tolerance{did_you_mean(unknown[0], allowed)}; "
+                            f"allowed: {', '.join(allowed)}")
+        else:
+            try:
+                tol = Tolerances(**tolerances)
+            except SceneError as exc:
+                problems.append(f"{pre}tolerances: {exc}")
+    if not limits:
+        problems.append(f"{pre}limits: at least one limit is needed, e.g. \"verdict == match\"")
+    if problems:
+        raise GateError("\n".join(problems))
+    return Check(name=name or f"{scene_obj.name}/{engine}", scene=scene_obj, engine=engine,
+                 dt=None if dt is None else float(dt), settings=settings, scene_overrides=overrides,
+                 tolerances=tol, limits=tuple(limits), source=source)
+
+
+def parse_gate(data: Mapping[str, Any], path: str = "<gate>", base_dir: Path | None = None) -> Gate:
+    """Validate gate data (the TOML layout of the module docstring); raises GateError with every problem."""
+    problems: list[str] = []
+    for key in data:
+        if key not in TOP_KEYS:
+            problems.append(f"{path}: unknown top-level key {key!r}{did_you_mean(key, TOP_KEYS)}; allowed: {', '.join(TOP_KEYS)}"
+                            " (each check is a [[check]] table)")
+    description = data.get("description", "")
+    if not isinstance(description, str):
+        problems.append(f"{path}: description = {description!r}: must be a string")
+    defaults = data.get("defaults", {})
+    if not isinstance(defaults, Mapping):
+        problems.append(f"{path}: defaults must be a table ([defaults]), got {defaults!r}")
+        defaults = {}
+    for key in defaults:
+        if key not in CHECK_KEYS or key in ("name", "limits"):
+            allowed = [k for k in CHECK_KEYS if k not in ("name", "limits")]
+            problems.append(f"{path}, [defaults]: unknown key {key!r}{did_you_mean(key, allowed)}; allowed: {', '.join(allowed)}")
+    checks_data = data.get("check", [])
+    if not isinstance(checks_data, list) or not all(isinstance(c, Mapping) for c in checks_data):
+        problems.append(f"{path}: check must be an array of tables, each written [[check]]")
+        checks_data = []
+    if not checks_data and not problems:
+        problems.append(f"{path}: no checks; add at least one [[check]] table with scene, engine and limits")
+    checks, names = [], {}
+    for i, raw in enumerate(checks_data, 1):
+        label = f"{path}, check {i}" + (f" ({raw['name']!r})" if isinstance(raw.get("name"), str) else "")
+        entry = {**{k: v for k, v in defaults.items() if k in CHECK_KEYS}, **raw}
+        bad = False
+        for key in raw:
+            if key not in CHECK_KEYS:
+                problems.append(f"{label}: unknown key {key!r}{did_you_mean(key, CHECK_KEYS)}; allowed: {', '.join(CHECK_KEYS)}")
+                bad = True
+        for key in ("scene", "engine", "limits"):
+            if key not in entry:
+                problems.append(f"{label}: {key} is required")
+                bad = True
+        for key in ("settings", "scene_overrides", "tolerances"):
+            if key in entry and not isinstance(entry[key], Mapping):
+                problems.append(f"{label}: {key} = {entry[key]!r}: must be a table, e.g. {key} = {{ key = value }}")
+                bad = True
+        for key in ("name", "scene", "engine"):
+            if key in entry and not isinstance(entry[key], str):
+                problems.append(f"{label}: {key} = {entry[key]!r}: must be a string")
+                bad = True
+        if "dt" in entry and not _is_number(entry["dt"]):
+            problems.append(f"{label}: dt = {entry['dt']!r}: must be a number [s]")
+            bad = True
+        limits = []
+        raw_limits = entry.get("limits", [])
+        if not isinstance(raw_limits, list):
+            problems.append(f"{label}: limits = {raw_limits!r}: must be a list of \"METRIC OP VALUE\" strings")
+            bad = True
+        else:
+            for j, text in enumerate(raw_limits):
+                try:
+                    limits.append(parse_limit(text))
+                except GateError as exc:
+                    problems.append(f"{label}: limits[{j}] {exc}")
+                    bad = True
+        if bad:
+            continue
+        try:
+            check = make_check(entry["scene"], entry["engine"], limits, dt=entry.get("dt"), settings=entry.get("settings"),
+                               scene_overrides=entry.get("scene_overrides"), tolerances=entry.get("tolerances"),
+                               name=entry.get("name"), base_dir=base_dir, source=label)
+        except GateError as exc:
+            problems.extend(str(exc).splitlines())
+            continue
+        if check.name in names:
+            problems.append(f"{label}: name {check.name!r} is already used by check {names[check.name]}; "
+                            "give each check a unique name (JUnit reports them by name)")
+            continue
+        names[check.name] = i
+        checks.append(check)
+    if problems:
+        raise GateError(f"{len(problems)} problem{'s' if len(problems) > 1 else ''} in the gate file:\n  " + "\n  ".join(problems))
+    return Gate(path=path, checks=tuple(checks), description=description)
+
+
+def load_gate(path: str | Path) -> Gate:
+    """Read and validate a gate file; raises GateError (unreadable, not TOML, or any invalid check)."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise GateError(f"gate file {str(path)!r}: cannot be read ({exc.strerror})") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise GateError(f"gate file {str(path)!r}: not valid TOML ({exc})") from None
+    return parse_gate(data, str(path), path.parent)
+
+
+# -- running -----------------------------------------------------------------------------
+
+def run_check(check: Check, cache: dict[str, tuple[dict, str]] | None = None) -> CheckResult:
+    """Run the check's comparison (or reuse an equal one from ``cache``) and test every limit."""
+    from .compare import compare
+    from .rows import summarize
+
+    key = check.run_key()
+    start = time.perf_counter()
+    if cache is not None and key in cache:
+        row, _ = cache[key]
+    else:
+        c = compare(check.scene, engines=(check.engine,), dt=check.dt,
+                    overrides={f"{check.engine}.{k}": v for k, v in check.settings.items()}, tol=check.tolerances)
+        row = summarize(c, check.engine, {})
+        if cache is not None:
+            cache[key] = (row, row["engine_version"])
+    outcomes = tuple(LimitOutcome(lim, row.get(lim.metric), lim.holds(row.get(lim.metric))) for lim in check.limits)
+    return CheckResult(check=check, row=row, outcomes=outcomes, wall_s=time.perf_counter() - start)
+
+
+def run_gate(gate: Gate, progress: Callable[[str], None] | None = None) -> GateResult:
+    """Run every check of a validated gate, in order; checks needing the same run share it."""
+    cache: dict[str, tuple[dict, str]] = {}
+    results = []
+    start = time.perf_counter()
+    for i, check in enumerate(gate.checks, 1):
+        result = run_check(check, cache)
+        results.append(result)
+        if progress:
+            progress(f"[{i}/{len(gate.checks)}] {check.name}: {'pass' if result.passed else 'FAIL'} ({result.wall_s:.1f} s)")
+    versions = {r.check.engine: str(r.row.get("engine_version", "")) for r in results}
+    return GateResult(gate=gate, results=tuple(results), wall_s=time.perf_counter() - start, versions=versions)
+
+
+# -- JUnit XML ---------------------------------------------------------------------------
+
+def junit_xml(result: GateResult) -> str:
+    """The result as JUnit XML: one testcase per check; a failing one carries a <failure> with the numbers."""
+    failures = sum(not r.passed for r in result.results)
+    stem = Path(result.gate.path).stem
+    suites = ET.Element("testsuites", name="chatterbench gate", tests=str(len(result.results)),
+                        failures=str(failures), errors="0", time=f"{result.wall_s:.3f}")
+    suite = ET.SubElement(suites, "testsuite", name=result.gate.path, tests=str(len(result.results)),
+                          failures=str(failures), errors="0", skipped="0", time=f"{result.wall_s:.3f}",
+                          timestamp=datetime.now(timezone.utc).isoformat(timespec="seconds"), hostname=socket.gethostname())
+    props = ET.SubElement(suite, "properties")
+    for engine, version in sorted(result.versions.items()):
+        ET.SubElement(props, "property", name=f"{engine}.version", value=version)
+    for r in result.results:
+        case = ET.SubElement(suite, "testcase", classname=f"chatterbench.gate.{stem}", name=r.check.name, time=f"{r.wall_s:.3f}")
+        if not r.passed:
+            bad = [o for o in r.outcomes if not o.passed]
+            message = "; ".join(f"{o.limit.metric} = {_fmt(o.measured)}, limit {o.limit}" for o in bad)
+            failure = ET.SubElement(case, "failure", message=message, type="GateFailure")
+            failure.text = r.failure_message()
+        out = ET.SubElement(case, "system-out")
+        out.text = json.dumps({k: _json_value(r.row[k]) for k in ("scene", "engine", "dt", "status", "verdict", "n_episodes", "n_match",
+                                                    "exit_error_max", "stick_error_max", "stick_error_plate_max",
+                                                    "first_impact_error_max", "cost_per_sim_s", "engine_version")},
+                              default=str)
+    ET.indent(suites)
+    return '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(suites, encoding="unicode") + "\n"
+
+
+def _json_value(v: Any) -> Any:
+    return None if isinstance(v, float) and math.isnan(v) else v
+
+
+def write_junit(result: GateResult, path: str | Path) -> Path:
+    """Write ``junit_xml(result)`` to ``path`` atomically."""
+    return write_text(Path(path), junit_xml(result))

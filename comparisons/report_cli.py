@@ -1,0 +1,66 @@
+"""The ``chatterbench report`` subcommand: every scene on every engine, one HTML page and its Markdown twin.
+
+    $ chatterbench report                                   # all built-in scenes, both engines
+    $ chatterbench report feigin-pair bouncing-ball --dt 5e-5 --out report-dt5e-5
+    $ chatterbench report --sweep out/fp --set duration=20  # add a sweep's charts
+
+Writes ``index.html`` (self-contained: figures embedded, no network) and ``report.md`` under
+``--out`` (default ``report``), prints the summary table, and reports progress on stderr,
+one line per scene and engine. Exit codes: 0 written (a report is not a check: verdicts
+other than ``match`` do not fail it; use ``chatterbench gate`` for that), 2 bad input.
+"""
+
+from __future__ import annotations
+
+import argparse
+import shlex
+from pathlib import Path
+
+
+def _command_line(args: argparse.Namespace) -> str:
+    """The command, rebuilt from the parsed options (for the report's provenance)."""
+    words = ["chatterbench", "report", *args.scenes, "--out", args.out, "--engines", args.engines]
+    if args.dt is not None:
+        words += ["--dt", f"{args.dt:g}"]
+    for item in args.set or []:
+        words += ["--set", item]
+    if args.sweep:
+        words += ["--sweep", args.sweep]
+    return " ".join(shlex.quote(w) for w in words)
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    from chatterbench.reference.catalogue import CATALOGUE
+
+    from .chart_cli import load_rows
+    from .cli import _engine_list, print_table, split_overrides
+    from .report import SUMMARY_COLUMNS, SweepSection, build_report, write_report
+
+    scene_over, engine_over = split_overrides(args.set or [])
+    sweep = SweepSection(str(args.sweep), load_rows(args.sweep)) if args.sweep else None  # bad input before any run
+    report = build_report(
+        scenes=args.scenes or tuple(CATALOGUE), engines=_engine_list(args.engines), dt=args.dt,
+        scene_overrides=scene_over, engine_overrides=engine_over, sweep=sweep,
+        command=_command_line(args),
+    )
+    print_table(report.summary[SUMMARY_COLUMNS], title=f"summary ({report.wall_time_s:.1f} s of runs; errors in s):")
+    paths = write_report(report, Path(args.out))
+    print(f"wrote {paths[0]} and {paths[1]}")
+    return 0
+
+
+def register(sub) -> None:
+    """Add ``report`` to the ``chatterbench`` subparsers."""
+    from .cli import _positive_float
+
+    p = sub.add_parser("report", help="every scene on every engine: one self-contained HTML report and a Markdown twin")
+    p.add_argument("scenes", nargs="*", metavar="SCENE",
+                   help="built-in scene names or scene TOML files (default: every built-in scene)")
+    p.add_argument("--out", metavar="DIR", default="report", help="output directory (default: report)")
+    p.add_argument("--engines", default="mujoco,pybullet", help="comma-separated engines (default: mujoco,pybullet)")
+    p.add_argument("--dt", type=_positive_float, default=None, help="engine timestep [s] (default: each engine's default)")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE",
+                   help="scene field (applied to every scene, e.g. duration=1.6) or engine setting (mujoco.w0_dt=0.05)")
+    p.add_argument("--sweep", metavar="DIR", help="a sweep dataset (directory with rows.parquet): add its work-precision "
+                                                  "chart and stability maps")
+    p.set_defaults(func=cmd_report)
