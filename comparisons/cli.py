@@ -159,7 +159,7 @@ def cmd_tune(args: argparse.Namespace) -> int:
     import matplotlib.pyplot as plt
 
     from .atomic import write_bytes, write_text
-    from .guide import guide_markdown, tradeoff_figure
+    from .guide import guide_html, guide_markdown, guide_section_html, tradeoff_figure
     from .outputs import figure_bytes
     from .tune import tune
 
@@ -178,11 +178,13 @@ def cmd_tune(args: argparse.Namespace) -> int:
     if args.out:
         out = Path(args.out)
         write_text(out / "guide.md", guide_markdown(result))
+        write_text(out / "guide.html", guide_html(result))
+        write_text(out / "guide_section.html", guide_section_html(result))  # for `report --tune DIR`
         write_frame(out / "candidates.csv", result.table.drop(columns=["_run_settings"], errors="ignore"))
         fig = tradeoff_figure(result)
         write_bytes(out / "tradeoff.png", figure_bytes(fig, "png"))
         plt.close(fig)
-        print(f"wrote {out / 'guide.md'}, candidates.csv, tradeoff.png")
+        print(f"wrote {out / 'guide.md'}, guide.html, guide_section.html, candidates.csv, tradeoff.png")
     return 0 if result.best is not None else 1
 
 

@@ -103,3 +103,45 @@ def guide_markdown(result) -> str:
         lines.append(f"| {r.stage} | `{r.settings}` | {r.verdict} | {r.n_match}/{r.n_episodes} | "
                      f"{_fmt(r.exit_error_max)} | {_fmt(r.stick_error_max)} | {_fmt(r.cost_per_sim_s)} |")
     return "\n".join(lines) + "\n"
+
+
+def guide_section_html(result) -> str:
+    """The guide as an HTML fragment (a report section): the same content, figure embedded."""
+    import base64
+    import html
+
+    from .outputs import figure_bytes
+
+    T = result.scene.time_scale
+    esc = html.escape
+    parts = [f'<h2 id="tuning-{esc(result.engine)}-{esc(result.scene.name)}">Tuning {esc(result.engine)} for {esc(result.scene.name)}</h2>',
+             f"<p>Tolerance: {result.tolerance:g} of the forcing period T = {T:.4g} s ({result.tolerance * T:.3g} s) on the "
+             "sticking start, exit and first impact of every episode.</p>"]
+    if result.best is None:
+        parts.append("<p><strong>No candidate met the tolerance.</strong></p>")
+        if result.best_reachable is not None:
+            b = result.best_reachable
+            parts.append(f"<p>Best reachable: <code>{esc(b['settings'])}</code>, worst exit error {_fmt(b['exit_error_max'])} s, "
+                         f"worst sticking error {_fmt(b['stick_error_max'])} s ({esc(str(b['verdict']))}).</p>")
+    else:
+        b = result.best
+        parts.append(f"<p><strong>Recommended:</strong> <code>{esc(b['settings'])}</code>: worst |exit error| "
+                     f"{_fmt(b['exit_error_max'])} s, worst |sticking start error| {_fmt(b['stick_error_max'])} s, "
+                     f"{b['n_match']} of {b['n_episodes']} episodes match, {_fmt(b['cost_per_sim_s'])} s per simulated s.</p>")
+        parts.append(f"<pre>{esc(snippet(result, b))}</pre>")
+    fig = tradeoff_figure(result)
+    png = base64.b64encode(figure_bytes(fig, "png")).decode()
+    plt.close(fig)
+    parts.append(f'<img alt="tuning trade-off" src="data:image/png;base64,{png}">')
+    shown = result.table[["stage", "settings", "verdict", "n_match", "n_episodes", "exit_error_max", "stick_error_max", "cost_per_sim_s"]]
+    parts.append(shown.to_html(index=False, float_format=lambda v: f"{v:.3g}", border=0))
+    return "\n".join(parts)
+
+
+def guide_html(result) -> str:
+    """The guide as one self-contained HTML page."""
+    import html
+
+    return ("<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\">"
+            f"<title>tuning {html.escape(result.engine)} for {html.escape(result.scene.name)}</title></head><body>"
+            + guide_section_html(result) + "</body></html>")

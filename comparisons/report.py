@@ -79,6 +79,7 @@ class Report:
     created: str  # ISO date, UTC
     command: str = ""  # the command line that produced it, for the provenance
     sweep: SweepSection | None = None
+    tuning: tuple[str, ...] = ()  # HTML sections written by `chatterbench tune --out DIR` (guide_section.html)
 
 
 def _stderr(line: str) -> None:
@@ -375,6 +376,7 @@ def report_html(report: Report) -> str:
                      f'({", ".join(sorted(report.sweep.rows["engine"].astype(str).unique()))}).</p>')
         parts.extend(_img(f) for f in figs)
         parts.extend(f'<p class="note">{html.escape(n)}</p>' for n in notes)
+    parts.extend(report.tuning)  # tuning guides, as `chatterbench tune` wrote them
     parts.append('<h2 id="provenance">What produced this report</h2><table class="prov"><tbody>')
     for key, value in _provenance_items(report):
         shown = f"<code>{html.escape(value)}</code>" if key == "command" else html.escape(value)

@@ -37,6 +37,15 @@ def cmd_report(args: argparse.Namespace) -> int:
     from .report import SUMMARY_COLUMNS, SweepSection, build_report, write_report
 
     scene_over, engine_over = split_overrides(args.set or [])
+    tuning = []
+    for d in args.tune or ():  # tuning guides are read before any run, so a bad path costs nothing
+        f = Path(d) / "guide_section.html"
+        if not f.is_file():
+            from .cli import UsageError
+
+            raise UsageError(f"--tune {d}: no guide_section.html there (write one with `chatterbench tune ... --out {d}`)")
+        tuning.append(f.read_text(encoding="utf-8"))
+    tuning = tuple(tuning)
     sweep = SweepSection(str(args.sweep), load_rows(args.sweep)) if args.sweep else None  # bad input before any run
     report = build_report(
         scenes=args.scenes or tuple(CATALOGUE), engines=_engine_list(args.engines), dt=args.dt,
@@ -44,6 +53,10 @@ def cmd_report(args: argparse.Namespace) -> int:
         command=_command_line(args),
     )
     print_table(report.summary[SUMMARY_COLUMNS], title=f"summary ({report.wall_time_s:.1f} s of runs; errors in s):")
+    if tuning:
+        import dataclasses
+
+        report = dataclasses.replace(report, tuning=tuning)
     paths = write_report(report, Path(args.out))
     print(f"wrote {paths[0]} and {paths[1]}")
     return 0
@@ -63,4 +76,6 @@ def register(sub) -> None:
                    help="scene field (applied to every scene, e.g. duration=1.6) or engine setting (mujoco.w0_dt=0.05)")
     p.add_argument("--sweep", metavar="DIR", help="a sweep dataset (directory with rows.parquet): add its work-precision "
                                                   "chart and stability maps")
+    p.add_argument("--tune", action="append", metavar="DIR",
+                   help="include the tuning guide that `chatterbench tune ... --out DIR` wrote (repeatable)")
     p.set_defaults(func=cmd_report)

@@ -5,7 +5,7 @@ import math
 import pytest
 
 from chatterbench.comparisons.compare import compare
-from chatterbench.comparisons.guide import guide_markdown, tradeoff_figure
+from chatterbench.comparisons.guide import guide_html, guide_markdown, tradeoff_figure
 from chatterbench.comparisons.tune import tune
 from chatterbench.comparisons.verdict import Tolerances
 from chatterbench.reference import SceneError, load_scene
@@ -30,6 +30,8 @@ def test_tune_mujoco_feigin_pair_one_percent_reruns_as_match():
     text = guide_markdown(result)
     assert "Recommended" in text and "<mujoco" in text  # the MJCF snippet is in the guide
     assert tradeoff_figure(result).axes[0].get_xscale() == "log"
+    page = guide_html(result)  # the same guide as an HTML section for the report
+    assert "Recommended" in page and "data:image/png;base64," in page and "&lt;mujoco" in page
 
 
 def test_tune_says_when_nothing_meets_the_tolerance():
