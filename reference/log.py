@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pandas as pd
 
 KINDS = ("impact", "plate_entry", "stick", "exit")
@@ -69,12 +70,17 @@ class EventLog:
 
 def log_frame(rows) -> pd.DataFrame:
     """DataFrame with ``LOG_COLUMNS`` and fixed dtypes from an iterable of row tuples."""
-    df = pd.DataFrame(list(rows), columns=LOG_COLUMNS)
-    for col in ("t", "v_minus", "v_plus", "x1", "v1"):
-        df[col] = df[col].astype(float)
-    for col in ("kind", "wall", "rule"):
-        df[col] = df[col].astype(object)
-    return df
+    rows = list(rows)
+    cols = list(zip(*rows)) if rows else [()] * len(LOG_COLUMNS)
+    data = {}
+    for name, values in zip(LOG_COLUMNS, cols):
+        if name in ("kind", "wall", "rule"):
+            arr = np.empty(len(values), dtype=object)
+            arr[:] = values
+        else:
+            arr = np.asarray(values, dtype=float)
+        data[name] = arr
+    return pd.DataFrame(data, columns=LOG_COLUMNS)
 
 
 def episodes(log: pd.DataFrame) -> pd.DataFrame:
