@@ -155,6 +155,20 @@ class _Simulator:
             return None, s, jmin, jmax
         return t, s, jmin, jmax
 
+    def _pressed(self, s: np.ndarray, wall: str) -> bool:
+        """Is a state resting on ``wall`` (vy = 0) pressed into it from now on?
+
+        The sign of the free relative acceleration (3.1) along the constrained motion just
+        after now: its first non-zero Taylor coefficient, so that y'' = 0 with the jerk into
+        the wall (feigin-pair at rest on the lower wall at t = 0) counts as pressed.
+        """
+        lam = self.stuck.taylor(s) @ self.accel_row
+        scale = np.abs(lam).max()
+        for c in lam:
+            if abs(c) > 1e-14 * scale:
+                return _normal(wall) * c < 0.0
+        return False
+
     def _stuck_state(self, s: np.ndarray) -> np.ndarray:
         """The state after a perfectly inelastic impact (R = 0 in (1.3))."""
         out = s.copy()
@@ -259,7 +273,7 @@ class _Simulator:
             # perfectly inelastic, or a graze with no incoming speed
             s_in = self._stuck_state(s)
             self._event(t, "impact", wall, v_minus, 0.0, s_in)
-            if acc < 0.0:
+            if self._pressed(s_in, wall):
                 self._event(t, "stick", wall, 0.0, 0.0, s_in, "inelastic" if v < 0.0 else "contact")
                 return t, s_in, wall, plate_seen
             return t, s_in, None, plate_seen
