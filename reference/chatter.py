@@ -26,7 +26,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from .flow import Flow
+from .flow import Flow, evaluate_into, taylor_into
 from .linear import LinearSystem
 from .roots import first_root_kernel
 from .scene import Scene, SceneError
@@ -77,12 +77,7 @@ def _follow(flat, order, n, accel_row, s0, t0, wall, normal, other, has_other, R
             if t >= t_max or flown >= max_flight:
                 return (OPEN if t >= t_max else LEAVES), math.nan, count
             hl = min(step, t_max - t, max_flight - flown)
-            for k in range(m):  # Taylor rows of the state: A^k s / k!
-                for i in range(n):
-                    acc_i = 0.0
-                    for j in range(n):
-                        acc_i += flat[k * n + i, j] * s[j]
-                    coeffs[k, i] = acc_i
+            taylor_into(flat, s, coeffs)  # A^k s / k!
             for k in range(m):
                 yc[k] = normal * coeffs[k, 2]
             yc[0] = normal * (s[2] - wall)
@@ -97,11 +92,7 @@ def _follow(flat, order, n, accel_row, s0, t0, wall, normal, other, has_other, R
                 return LEAVES, math.nan, count
             hh = hl if h != h else h
             # evaluate the state at hh (Horner over the Taylor rows)
-            for i in range(n):
-                acc_i = coeffs[m - 1, i]
-                for k in range(m - 2, -1, -1):
-                    acc_i = acc_i * hh + coeffs[k, i]
-                s[i] = acc_i
+            evaluate_into(coeffs, hh, s)
             t += hh
             flown += hh
             for j in range(len(omegas)):
@@ -216,12 +207,7 @@ def chase(flat, order, n, accel_row, jerk_row, s, t, t_end, wall, normal, other,
         hl = min(step, t_end - t)
         if hl <= 0.0:
             return CHASE_LEFT, count, t
-        for k in range(m):
-            for i in range(n):
-                acc_i = 0.0
-                for j in range(n):
-                    acc_i += flat[k * n + i, j] * s[j]
-                coeffs[k, i] = acc_i
+        taylor_into(flat, s, coeffs)  # A^k s / k!
         for k in range(m):
             yc[k] = normal * coeffs[k, 2]
         yc[0] = 0.0
@@ -236,11 +222,7 @@ def chase(flat, order, n, accel_row, jerk_row, s, t, t_end, wall, normal, other,
             if h_other == h_other and h_other < h:
                 return CHASE_LEFT, count, t
         # the strike: state at t + h, y exactly on the wall, forcing re-seeded
-        for i in range(n):
-            acc_i = coeffs[m - 1, i]
-            for k in range(m - 2, -1, -1):
-                acc_i = acc_i * h + coeffs[k, i]
-            s[i] = acc_i
+        evaluate_into(coeffs, h, s)
         s[2] = wall
         t_hit = t + h
         for j in range(len(omegas)):

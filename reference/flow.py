@@ -85,3 +85,26 @@ def evaluate(coeffs: np.ndarray, h: float) -> np.ndarray:
         for i in range(n):
             out[i] = out[i] * h + coeffs[k, i]
     return out
+
+
+@numba.njit(cache=True)
+def taylor_into(flat: np.ndarray, s: np.ndarray, coeffs: np.ndarray) -> None:
+    """Compiled ``Flow.taylor``: coeffs[k] = A^k s / k! from the stacked powers ``flat``, shape ((order+1) n, n)."""
+    m, n = coeffs.shape
+    for k in range(m):
+        for i in range(n):
+            acc = 0.0
+            for j in range(n):
+                acc += flat[k * n + i, j] * s[j]
+            coeffs[k, i] = acc
+
+
+@numba.njit(cache=True)
+def evaluate_into(coeffs: np.ndarray, h: float, out: np.ndarray) -> None:
+    """Compiled ``evaluate``: out = sum_k coeffs[k] h^k (Horner), in place."""
+    m, n = coeffs.shape
+    for i in range(n):
+        acc = coeffs[m - 1, i]
+        for k in range(m - 2, -1, -1):
+            acc = acc * h + coeffs[k, i]
+        out[i] = acc

@@ -18,6 +18,7 @@ import math
 import numba
 import numpy as np
 
+from .flow import evaluate_into, taylor_into
 from .plate import jerk_bounds
 from .roots import first_root_kernel
 
@@ -37,12 +38,7 @@ def walk(flat, order, n, accel_row, s, t, t_end, wall_y, normal, step, omegas, b
         hl = min(step, t_end - t)
         if hl <= 0.0:
             return RUN_END, t, jmin, jmax
-        for k in range(m):
-            for i in range(n):
-                acc_i = 0.0
-                for j in range(n):
-                    acc_i += flat[k * n + i, j] * s[j]
-                coeffs[k, i] = acc_i
+        taylor_into(flat, s, coeffs)  # A^k s / k!
         for k in range(m):
             acc_k = 0.0
             for i in range(n):
@@ -59,11 +55,7 @@ def walk(flat, order, n, accel_row, s, t, t_end, wall_y, normal, step, omegas, b
             if jmin <= 0.0:
                 return BOUNDS_FAILED, t, jmin, jmax
         h = hl if r != r else r
-        for i in range(n):
-            acc_i = coeffs[m - 1, i]
-            for k in range(m - 2, -1, -1):
-                acc_i = acc_i * h + coeffs[k, i]
-            s[i] = acc_i
+        evaluate_into(coeffs, h, s)
         s[2] = wall_y
         s[3] = 0.0
         t = t + h
