@@ -45,6 +45,9 @@ from .stuck import BOUNDS_FAILED, RUN_END, walk
 from .scene import Scene, SceneError
 
 CHATTER_MODES = ("feigin", "exhaustive")
+# a Taylor coefficient of (3.1) this small against the largest (in units of the flow step)
+# is rounding, not a sign (see ``_Simulator._rest``)
+NEGLIGIBLE = 1e-14
 
 
 @dataclass(frozen=True)
@@ -120,6 +123,7 @@ class _Simulator:
         self._pw = np.arange(self.free.order + 1)
         self.stats = {"steps": 0, "plate_tests": 0}
         self._known_exit = None  # (t_exit, state) found by a plate test, reused by _stay
+        self._lead = 0  # negligible leading coefficients of (3.1) at the last resting strike (_rest)
         self._flat = np.ascontiguousarray(self.free.powers.reshape(-1, self.system.size))
         self._flat_stuck = np.ascontiguousarray(self.stuck.powers.reshape(-1, self.system.size))
         self._share = 0.0 if scene.body1_infinite else scene.mass2 / (scene.mass1 + scene.mass2)
@@ -139,35 +143,52 @@ class _Simulator:
         if len(self.log) > self.options.max_events:
             raise _EventLimit
 
-    def _constrained(self, s: np.ndarray, t: float, wall: str, bounds: bool):
+    def _constrained(self, s: np.ndarray, t: float, wall: str, bounds: bool, deflate: int = 0):
         """Walk the constrained motion from (s, t) until the exit or the end of the run.
 
         Returns (t_exit or None, state at t_exit or t_end, Y*, Y) where Y*, Y bound the
         wall-normal derivative of the free relative acceleration over the walk (only when
-        ``bounds``; the walk stops early once Y* <= 0, returning t_exit = nan).
+        ``bounds``; the walk stops early once Y* <= 0, returning t_exit = nan). ``deflate``
+        leading coefficients of (3.1) are rounding (see ``_rest``).
         """
         s = s.copy()
         code, t, jmin, jmax = walk(self._flat_stuck, self.stuck.order, self.system.size, self.accel_row, s, t,
-                                   self.t_end, self.wall_y[wall], _normal(wall), self.stuck.step, self._omegas, bounds)
+                                   self.t_end, self.wall_y[wall], _normal(wall), self.stuck.step, self._omegas, bounds,
+                                   deflate)
         if code == BOUNDS_FAILED:
             return math.nan, s, jmin, jmax
         if code == RUN_END:
             return None, s, jmin, jmax
         return t, s, jmin, jmax
 
-    def _pressed(self, s: np.ndarray, wall: str) -> bool:
-        """Is a state resting on ``wall`` (vy = 0) pressed into it from now on?
+    def _rest(self, s: np.ndarray, wall: str) -> tuple[bool, int]:
+        """Is a state resting on ``wall`` (vy = 0) pressed into it from now on? And how many
+        leading Taylor coefficients of (3.1) are rounding?
 
         The sign of the free relative acceleration (3.1) along the constrained motion just
-        after now: its first non-zero Taylor coefficient, so that y'' = 0 with the jerk into
-        the wall (feigin-pair at rest on the lower wall at t = 0) counts as pressed.
+        after now is the sign of its first non-negligible Taylor coefficient, so that y'' = 0
+        with the jerk into the wall (feigin-pair at rest on the lower wall at t = 0) counts
+        as pressed. Negligible: |c_k| tau^k <= NEGLIGIBLE max_j |c_j| tau^j, tau the
+        constrained flow's step [s] (a unit-consistent comparison; at t = 2 pi, sin t =
+        -2.4e-16 is negligible). Whatever follows, the stuck walk (pressed) or the free
+        flight (not), skips the same leading coefficients, so the two decisions agree; a
+        function that is negligible throughout (no force at all) counts as pressed.
         """
-        lam = self.stuck.taylor(s) @ self.accel_row
-        scale = np.abs(lam).max()
-        for c in lam:
-            if abs(c) > 1e-14 * scale:
-                return _normal(wall) * c < 0.0
-        return False
+        lam = _normal(wall) * (self.stuck.taylor(s) @ self.accel_row)
+        scaled = np.abs(lam) * self.stuck.step ** np.arange(len(lam))
+        big = np.flatnonzero(scaled > NEGLIGIBLE * scaled.max())
+        if not len(big):
+            return True, len(lam)
+        lead = int(big[0])
+        return bool(lam[lead] < 0.0), lead
+
+    def _after_strike(self) -> int:
+        """Coefficients of the gap function known to vanish after a strike that did not stick.
+
+        y = wall exactly: c0 = 0. After a resting contact that lets go (y' = 0), also c1 = 0
+        and the leading coefficients of y'' that ``_rest`` found to be rounding.
+        """
+        return 1 if self._lead == 0 else 2 + self._lead
 
     def _stuck_state(self, s: np.ndarray) -> np.ndarray:
         """The state after a perfectly inelastic impact (R = 0 in (1.3))."""
@@ -197,7 +218,7 @@ class _Simulator:
                     deflate[stuck_wall] = 3
                     visit_wall, plate_seen = None, False
                 else:
-                    deflate[w] = 1
+                    deflate[w] = self._after_strike()
                 break
         walls_y = np.array([self.wall_y[w] for w in self.walls])
         normals = np.array([_normal(w) for w in self.walls])
@@ -222,7 +243,7 @@ class _Simulator:
                 plate_seen, visit_wall = False, best_wall
             t, s, stuck_wall, plate_seen = self._strike(t, s, best_wall, plate_seen)
             if stuck_wall is None:
-                deflate[j] = 1  # y = wall exactly after an impact: c0 = 0
+                deflate[j] = self._after_strike()
                 continue
             t, s = self._stay(t, s, stuck_wall)
             if t is None:
@@ -236,7 +257,7 @@ class _Simulator:
         if self._known_exit is not None:
             (t_exit, s), self._known_exit = self._known_exit, None
         else:
-            t_exit, s, _, _ = self._constrained(s, t, wall, bounds=False)
+            t_exit, s, _, _ = self._constrained(s, t, wall, bounds=False, deflate=self._lead)
         if t_exit is None:
             return None, s
         self._event(t_exit, "exit", wall, 0.0, 0.0, s)
@@ -266,6 +287,7 @@ class _Simulator:
         """Resolve a strike at a wall. Returns (t, s, stuck_wall or None, plate_seen)."""
         n = _normal(wall)
         R = self.R
+        self._lead = 0
         v_minus = float(s[VY])
         v = n * v_minus  # wall-normal incoming velocity, <= 0
         acc = n * float(self.accel_row @ s)
@@ -273,7 +295,8 @@ class _Simulator:
             # perfectly inelastic, or a graze with no incoming speed
             s_in = self._stuck_state(s)
             self._event(t, "impact", wall, v_minus, 0.0, s_in)
-            if self._pressed(s_in, wall):
+            pressed, self._lead = self._rest(s_in, wall)
+            if pressed:
                 self._event(t, "stick", wall, 0.0, 0.0, s_in, "inelastic" if v < 0.0 else "contact")
                 return t, s_in, wall, plate_seen
             return t, s_in, None, plate_seen

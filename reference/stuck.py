@@ -26,14 +26,19 @@ EXITED, RUN_END, BOUNDS_FAILED = 0, 1, 2
 
 
 @numba.njit(cache=True)
-def walk(flat, order, n, accel_row, s, t, t_end, wall_y, normal, step, omegas, bounds):
-    """Returns (code, t, Y*, Y): EXITED (s, t at the exit), RUN_END (at t_end) or BOUNDS_FAILED."""
+def walk(flat, order, n, accel_row, s, t, t_end, wall_y, normal, step, omegas, bounds, deflate):
+    """Returns (code, t, Y*, Y): EXITED (s, t at the exit), RUN_END (at t_end) or BOUNDS_FAILED.
+
+    ``deflate``: leading coefficients of lambda to treat as zero on the first step (those
+    the stick decision found to be rounding, ``simulate._Simulator._rest``).
+    """
     m = order + 1
     coeffs = np.empty((m, n))
     lam = np.empty(m)
     jerk = np.empty(m - 1)
     jmin = math.inf
     jmax = -math.inf
+    first = True
     while True:
         hl = min(step, t_end - t)
         if hl <= 0.0:
@@ -44,7 +49,13 @@ def walk(flat, order, n, accel_row, s, t, t_end, wall_y, normal, step, omegas, b
             for i in range(n):
                 acc_k += accel_row[i] * coeffs[k, i]
             lam[k] = -normal * acc_k  # positive while pressed into the wall
-        r = first_root_kernel(lam, hl, 0, 1e-14)
+        skip = deflate if first else 0
+        first = False
+        zero = True
+        for k in range(skip, m):
+            zero = zero and lam[k] == 0.0
+        # (3.1) is zero to rounding all along the step: no force pulls away, the contact stays
+        r = math.nan if zero else first_root_kernel(lam, hl, skip, 1e-14)
         span = hl if r != r else r
         if bounds and span > 0.0:
             for k in range(1, m):
