@@ -33,6 +33,24 @@ class UsageError(Exception):
     """A command-line mistake (exit code 2)."""
 
 
+class Parser(argparse.ArgumentParser):
+    """argparse with the CLI's refusal format: one stderr line ``chatterbench: error: ...``, exit 2.
+
+    (argparse's own prints the usage first; the usage is one ``--help`` away.)
+    """
+
+    def error(self, message: str):  # type: ignore[override]
+        sub = self.prog.split(" ", 1)[1] if " " in self.prog else ""
+        print(f"chatterbench: error: {sub + ': ' if sub else ''}{one_line(message)} (see {self.prog} --help)",
+              file=sys.stderr)
+        sys.exit(2)
+
+
+def one_line(message: str) -> str:
+    """A message on one line: newlines (from a key or value the user typed) shown as \\n."""
+    return message.replace("\r", "\\r").replace("\n", "\\n")
+
+
 def print_table(frame: pd.DataFrame, title: str | None = None, file=None) -> None:
     """Print a DataFrame as a compact fixed-width table."""
     file = file or sys.stdout
@@ -94,6 +112,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         write_frame(out / "events.csv", log)
         write_frame(out / "episodes.csv", episodes)
         print(f"wrote {out / 'events.csv'}, {out / 'episodes.csv'}")
+    if args.engine == "reference" and result.status != "ok":  # the partial log is printed and written above
+        print(f"chatterbench: error: the reference run stopped ({result.status}): {one_line(result.message)}", file=sys.stderr)
+        return 2
     return 0
 
 
@@ -242,7 +263,7 @@ def _positive_int(text: str) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="chatterbench",
         description="Cross-validate MuJoCo and PyBullet impact chatter against Feigin's sliding model.",
     )
@@ -315,7 +336,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return args.func(args)
     except (SceneError, UsageError) as exc:  # SettingsError is a SceneError
-        print(f"chatterbench: error: {exc}", file=sys.stderr)
+        text = str(exc) if getattr(exc, "multiline", False) else one_line(str(exc))
+        print(f"chatterbench: error: {text}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("chatterbench: interrupted", file=sys.stderr)

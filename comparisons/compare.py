@@ -18,14 +18,14 @@ import platform
 import time
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
-from typing import Any, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
 
 from chatterbench.engines.registry import check_engine, engine_version, make_settings, run_engine, settings_dict
 from chatterbench.engines.trajectory import Trajectory
-from chatterbench.reference.scene import Scene
+from chatterbench.reference.scene import Scene, SceneError
 from chatterbench.reference.simulate import Result, simulate
 
 from .extract import extract_events
@@ -121,10 +121,14 @@ def _failed_trajectory(name: str, scene: Scene, settings: Any, exc: BaseExceptio
     )
 
 
-def run_one(scene: Scene, name: str, settings: Any, ref_energy_max: float, v_max: float, tol: Tolerances) -> EngineRun:
-    """Run one engine and recover its events; exceptions become an ``error`` run."""
+def run_one(scene: Scene, name: str, settings: Any, ref_energy_max: float, v_max: float, tol: Tolerances,
+            trajectory: Trajectory | None = None) -> EngineRun:
+    """Run one engine (or take its ``trajectory``, already run) and recover its events.
+
+    Exceptions of the engine become an ``error`` run.
+    """
     try:
-        traj = run_engine(name, scene, settings)
+        traj = trajectory if trajectory is not None else run_engine(name, scene, settings)
     except Exception as exc:  # an engine fault must not lose the other results
         traj = _failed_trajectory(name, scene, settings, exc)
     if len(traj.t) > 1:
@@ -160,6 +164,7 @@ def compare(
     dt: float | None = None,
     overrides: Sequence[str] = (),
     tol: Tolerances | None = None,
+    trajectories: Mapping[str, Trajectory] | None = None,
 ) -> Comparison:
     """Run the reference (both chatter modes) and each engine on ``scene``; judge every episode.
 
@@ -171,6 +176,9 @@ def compare(
     overrides : sequence of str
         ``mujoco.KEY=VALUE`` / ``pybullet.KEY=VALUE`` engine settings.
     tol : Tolerances, optional
+    trajectories : mapping engine name -> Trajectory, optional
+        Engine runs already made with these settings (a sweep's MuJoCo batch); those
+        engines are judged on them instead of being run again.
     """
     tol = tol or Tolerances()
     settings = {name: make_settings(check_engine(name), dt, overrides) for name in engines}  # validate all first
@@ -178,12 +186,16 @@ def compare(
     feigin = simulate(scene, "feigin")
     exhaustive = simulate(scene, "exhaustive")
     ref_time = time.perf_counter() - start
+    for ref_run in (feigin, exhaustive):  # no engine runs against a reference that did not finish
+        if ref_run.status != "ok":
+            raise SceneError(f"scene {scene.name!r}: the reference run stopped ({ref_run.status}, "
+                             f"{ref_run.options.chatter} mode): {ref_run.message}")
     ref = reference_episodes(feigin, exhaustive, scene)
     e_max = _energy_max(scene, exhaustive)
     v_max = float(np.abs(exhaustive.log["v_minus"]).max()) if len(exhaustive.log) else abs(scene.initial.vy)
     runs, tables = {}, []
     for name in engines:
-        run = run_one(scene, name, settings[name], e_max, v_max, tol)
+        run = run_one(scene, name, settings[name], e_max, v_max, tol, (trajectories or {}).get(name))
         runs[name] = run
         table = judge(scene, ref, run.episodes, run.log, run.t_diverged, run.t_penetrated, tol)
         if run.status in ("error", "timeout"):

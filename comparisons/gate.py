@@ -98,6 +98,8 @@ _LIMIT_RE = re.compile(r"^\s*([A-Za-z_][\w.]*)\s*(<=|>=|==|!=|<|>|\bin\b)\s*(.+?
 class GateError(SceneError):
     """A gate file or a check that cannot run as written; the message lists every problem (exit code 2)."""
 
+    multiline = True  # one problem per line, by design (keys are quoted with repr, so a line is a problem)
+
 
 @dataclass(frozen=True)
 class Limit:
@@ -473,6 +475,8 @@ def load_gate(path: str | Path) -> Gate:
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
         raise GateError(f"gate file {str(path)!r}: cannot be read ({exc.strerror})") from None
+    except UnicodeDecodeError as exc:
+        raise GateError(f"gate file {str(path)!r}: not valid TOML (not UTF-8 text: {exc.reason} at byte {exc.start})") from None
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

@@ -49,6 +49,11 @@ Promises:
   executor, so under a local process pool and under Dask alike a run that segfaults is a
   ``crashed`` row, one past the timeout a ``timeout`` row, one that raises an ``error``
   row, and the sweep goes on.
+- MuJoCo runs with the same dt and duration are sent to a worker in batches, and those
+  whose models are compatible go through one ``mujoco.rollout`` call (a list of models:
+  restitution, masses, gap, initial state, forcing, w0 dt, solver options may all differ).
+  The rows are the same as unbatched, bit for bit; a batch that does not come back whole
+  is rerun one run at a time, so a faulty run is still classified alone.
 - Rows reach ``OUT/rows/part-*.parquet`` as runs finish, each part written atomically. A
   sweep killed at any moment and resumed (``resume=True``) ends with exactly the rows of an
   uninterrupted one: finished rows are never re-run, unfinished runs are run once.
@@ -76,7 +81,7 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import pandas as pd
 
-from chatterbench.engines.registry import ENGINE_NAMES, engine_version, make_settings
+from chatterbench.engines.registry import ENGINE_NAMES, can_batch, engine_version, make_settings, run_engine_batch
 from chatterbench.reference.catalogue import CATALOGUE
 from chatterbench.reference.scene import SceneError, did_you_mean, load_scene
 
@@ -457,6 +462,75 @@ def run_task(task: RunTask) -> RunResult:
     return RunResult(index=task.index, row=row, run_time=outcome.wall_time)
 
 
+def _compute_batch_rows(tasks: Sequence[RunTask]) -> list[dict[str, Any]]:
+    """The rows of runs of one engine whose engine runs go together (runs in the isolated child)."""
+    from .compare import compare
+    from .rows import summarize
+    from .verdict import Tolerances
+
+    scenes = [load_scene(t.scene, t.scene_overrides()) for t in tasks]
+    settings = [make_settings(t.engine, t.dt, t.engine_overrides()) for t in tasks]
+    trajectories = run_engine_batch(tasks[0].engine, list(zip(scenes, settings)))
+    rows = []
+    for task, scene, traj in zip(tasks, scenes, trajectories):
+        result = compare(scene, engines=(task.engine,), dt=task.dt, overrides=task.engine_overrides(),
+                         tol=Tolerances(**dict(task.tolerances)), trajectories={task.engine: traj})
+        rows.append(summarize(result, task.engine, dict(task.params)))
+    return rows
+
+
+def run_batch_task(tasks: Sequence[RunTask]) -> list[RunResult]:
+    """The function submitted for a MuJoCo batch: one isolated call for all -> their rows.
+
+    The batch's limit is the sum of its runs' limits. If the batch does not come back whole
+    (a run crashed, hung or raised, or a run's settings refuse the batch), every run of it
+    is run again alone through ``run_task``, so the faulty run is classified by itself and
+    the others get their rows. Each row's ``run_time`` is its share of the batch's time.
+    """
+    if len(tasks) == 1:
+        return [run_task(tasks[0])]
+    _warm_up((tasks[0].engine,))
+    outcome = run_isolated(_compute_batch_rows, list(tasks), timeout=sum(t.timeout for t in tasks))
+    if outcome.status != "ok":
+        return [run_task(t) for t in tasks]
+    share = outcome.wall_time / len(tasks)
+    return [RunResult(index=t.index, row=row, run_time=share) for t, row in zip(tasks, outcome.value)]
+
+
+MAX_BATCH = 8  # runs per MuJoCo batch by default: long enough to amortize, short enough to balance
+
+
+def work_units(runs: Sequence[RunTask], batch: int | None, slots: int) -> list[tuple[RunTask, ...]]:
+    """Group ``runs`` into units of work, in run order.
+
+    Runs of an engine that batches (MuJoCo) with the same ``dt`` and duration go together
+    in units of at most ``batch`` runs (default: enough units to keep every slot busy,
+    at most ``MAX_BATCH`` runs each); the worker then rolls out together the ones whose
+    compiled models are compatible. Every other run is its own unit. ``batch = 1``: no batching.
+    """
+    groups: dict[tuple, list[RunTask]] = {}
+    for r in runs:
+        if can_batch(r.engine):
+            params = dict(r.params)
+            groups.setdefault((r.engine, r.dt, params.get("duration")), []).append(r)
+    n_batchable = sum(len(g) for g in groups.values())
+    if batch is None:
+        batch = max(1, min(MAX_BATCH, math.ceil(n_batchable / (8 * max(1, slots)))))
+    first_of: dict[int, tuple[RunTask, ...]] = {}
+    for g in groups.values():
+        for i in range(0, len(g), batch):
+            chunk = tuple(g[i:i + batch])
+            first_of[chunk[0].index] = chunk
+    batched = {r.index for g in groups.values() for r in g}
+    units: list[tuple[RunTask, ...]] = []
+    for r in runs:
+        if r.index in first_of:
+            units.append(first_of[r.index])
+        elif r.index not in batched:
+            units.append((r,))
+    return units
+
+
 # -- the dataset ---------------------------------------------------------------------------
 
 def _normalize(frame: pd.DataFrame) -> pd.DataFrame:
@@ -561,6 +635,7 @@ def run_sweep(
     resume: bool = False,
     workers: int | None = None,
     progress: bool = True,
+    batch: int | None = None,
 ) -> pd.DataFrame:
     """Run every run of ``sweep`` not yet in ``out_dir``; returns all its rows in run order.
 
@@ -576,16 +651,22 @@ def run_sweep(
         Local pool size; with a given executor only bounds the runs in flight.
     progress : bool
         tqdm bar on stderr (done/total, failures, ETA) when stderr is a terminal.
+    batch : int, optional
+        Most MuJoCo runs rolled out in one ``mujoco.rollout`` call (see ``work_units``);
+        default automatic, 1 turns batching off. The rows are the same either way.
 
     Returns
     -------
     DataFrame
         ``rows.ROW_COLUMNS`` plus one column per parameter; ``attrs["sweep"]`` holds this
-        call's ``wall_s``, ``runs`` executed, ``run_s_sum`` (isolated runs' own wall time),
+        call's ``wall_s``, ``runs`` executed, ``units`` of work submitted (a MuJoCo batch is
+        one), ``run_s_sum`` (isolated runs' own wall time),
         ``engine_s_sum`` (their engine stepping time) and ``workers``.
     """
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
         raise SpecError(f"workers = {workers!r}: must be an integer >= 1")
+    if batch is not None and (isinstance(batch, bool) or not isinstance(batch, int) or batch < 1):
+        raise SpecError(f"batch = {batch!r}: must be an integer >= 1")
     out = Path(out_dir)
     runs = sweep_runs(sweep)
     _prepare_out(sweep, out, resume)
@@ -594,7 +675,7 @@ def run_sweep(
     done_keys = set(zip(have["point_id"], have["engine"]))
     todo = [r for r in runs if (r.point_id, r.engine) not in done_keys]
     failures = int(have["status"].isin(FAILED).sum()) if len(have) else 0
-    stats = {"wall_s": 0.0, "runs": 0, "run_s_sum": 0.0, "engine_s_sum": 0.0, "workers": 0}
+    stats = {"wall_s": 0.0, "runs": 0, "units": 0, "run_s_sum": 0.0, "engine_s_sum": 0.0, "workers": 0}
     start = time.perf_counter()
     owned = None
     if todo:
@@ -607,19 +688,21 @@ def run_sweep(
         bar = _progress(len(runs), len(runs) - len(todo), progress)
         bar.set_postfix(failed=failures)
         pending: set[Future] = set()
-        queue = iter(todo)
+        units = work_units(todo, batch, slots)
+        stats["units"] = len(units)
+        queue = iter(units)
         try:
             while True:
                 # a bounded window: Ctrl-C cancels little, and memory stays flat for any sweep size
                 while len(pending) < 2 * slots:
-                    task = next(queue, None)
-                    if task is None:
+                    unit = next(queue, None)
+                    if unit is None:
                         break
-                    pending.add(executor.submit(run_task, task))
+                    pending.add(executor.submit(run_batch_task, unit))
                 if not pending:
                     break
                 finished, pending = wait(pending, return_when=FIRST_COMPLETED)
-                results = [f.result() for f in finished if f.exception() is None]
+                results = [r for f in finished if f.exception() is None for r in f.result()]
                 writer.append([r.row for r in results])
                 for f in finished:  # an executor failure (a broken pool, a lost Dask worker) ends the sweep
                     if f.exception() is not None:
@@ -637,7 +720,7 @@ def run_sweep(
                 f.cancel()
             # rows of runs that finished meanwhile are kept; the rest run on --resume
             done_now = [f for f in pending if f.done() and not f.cancelled() and f.exception() is None]
-            writer.append([f.result().row for f in done_now])
+            writer.append([r.row for f in done_now for r in f.result()])
             raise
         finally:
             bar.close()

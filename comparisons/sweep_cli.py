@@ -48,7 +48,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         except (OSError, TimeoutError, ValueError) as exc:
             raise UsageError(f"--dask {args.dask}: cannot reach the Dask scheduler ({exc})") from None
     try:
-        rows = run_sweep(sweep, out, executor=client, resume=args.resume, workers=args.workers)
+        rows = run_sweep(sweep, out, executor=client, resume=args.resume, workers=args.workers, batch=args.batch)
     finally:
         if client is not None:
             client.close()
@@ -74,5 +74,7 @@ def register(sub) -> None:
     p.add_argument("--resume", action="store_true", help="finish the sweep already under --out; skip its finished runs")
     p.add_argument("--workers", type=_positive_int, default=None, help="local worker processes (default: all cores)")
     p.add_argument("--dask", metavar="ADDRESS", help="run on this Dask scheduler (tcp://host:8786) instead of local processes")
+    p.add_argument("--batch", type=_positive_int, default=None,
+                   help="most MuJoCo runs per mujoco.rollout batch (default: automatic; 1: no batching)")
     p.add_argument("--timeout", type=_positive_float, default=None, help="wall-clock limit of one run [s] (default: the spec's)")
     p.set_defaults(func=cmd_sweep)

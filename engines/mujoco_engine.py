@@ -556,6 +556,64 @@ def run(scene: Scene, settings: MujocoSettings | None = None) -> Trajectory:
     return _trajectory(scene, s, p, state, sensordata, wall, record)
 
 
+def _signature(p: _Prepared) -> tuple:
+    """What must agree for runs to share one ``rollout`` call: sizes, steps, control layout."""
+    return (p.model.signature, p.initial_state.shape[1], p.nstep, p.control_spec,
+            None if p.control is None else p.control.shape[2])
+
+
+def run_batch(jobs: list[tuple[Scene, MujocoSettings]]) -> list[Trajectory]:
+    """Run many (scene, settings) pairs, each group of compatible models in one ``rollout`` call.
+
+    Runs whose compiled models share a size signature, step count and control layout (they
+    may differ in anything rollout takes per model: restitution, masses, gap, initial
+    state and time, forcing, w0 dt, solver options, integrator) go to ``mujoco.rollout`` as
+    one batch (a list of models); the others run alone. Each trajectory is the one ``run``
+    gives, bit for bit; its ``wall_time`` is its share of its batch's stepping time (batch
+    wall / batch size) and ``settings["batch_size"]`` says how many shared the call.
+    A batch in which MuJoCo raised a warning (a possible blow-up: the warnings are counted
+    per MjData, not per run) is rerun one run at a time, so that a diverged run is
+    classified alone. Raises SettingsError, like ``run``, before anything runs.
+    """
+    for scene, s in jobs:
+        build_spec(scene, s)  # settings errors first, for every job
+    out: list[Trajectory | None] = [None] * len(jobs)
+    groups: dict[tuple, list[tuple[int, _Prepared]]] = {}
+    for i, (scene, s) in enumerate(jobs):
+        try:
+            p = _prepare(scene, s, _n_steps(scene, s.dt))
+        except Exception as exc:  # an engine failure is a result, not a crash
+            out[i] = _failed(scene, _settings_record(scene, s), "error", f"{type(exc).__name__}: {exc}")
+            continue
+        groups.setdefault(_signature(p), []).append((i, p))
+    for members in groups.values():
+        if len(members) == 1:
+            i, _ = members[0]
+            out[i] = run(*jobs[i])
+            continue
+        ps = [p for _, p in members]
+        data = mujoco.MjData(ps[0].model)
+        try:
+            with _quiet_mujoco_log():
+                start = time.perf_counter()
+                state, sensordata = mj_rollout.rollout(
+                    [p.model for p in ps], data, np.concatenate([p.initial_state for p in ps]),
+                    None if ps[0].control is None else np.concatenate([p.control for p in ps]),
+                    control_spec=ps[0].control_spec, nstep=ps[0].nstep)
+                wall = time.perf_counter() - start
+        except Exception:  # rerun alone: each run's own failure is then its own result
+            state = None
+        if state is None or any(w.number > 0 for w in data.warning):
+            for i, _ in members:
+                out[i] = run(*jobs[i])
+            continue
+        for k, (i, p) in enumerate(members):
+            scene, s = jobs[i]
+            record = {**_settings_record(scene, s), "batch_size": len(members)}
+            out[i] = _trajectory(scene, s, p, state[k], sensordata[k], wall / len(members), record)
+    return out  # type: ignore[return-value]
+
+
 def _trajectory(scene, s, p: _Prepared, state, sensordata, wall, record) -> Trajectory:
     model, n = p.model, p.nstep - 1
     nq = model.nq

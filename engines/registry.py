@@ -10,6 +10,7 @@ Engine modules are imported on first use, so asking for one engine never loads t
 from __future__ import annotations
 
 import dataclasses
+import functools
 import importlib
 from typing import Any, Sequence
 
@@ -62,6 +63,30 @@ def run_engine(name: str, scene: Scene, settings: Any) -> Trajectory:
     return engine_module(name).run(scene, settings)
 
 
+def run_engine_batch(name: str, jobs: Sequence[tuple[Scene, Any]]) -> list[Trajectory]:
+    """Run many (scene, settings) pairs of engine ``name``; one trajectory per pair, in order.
+
+    Engines with a batched runner (MuJoCo: ``mujoco_engine.run_batch``, compatible models in
+    one ``mujoco.rollout`` call) use it; the others run the pairs one by one. Each pair's
+    ``fault`` (test-only) is injected first, as ``run_engine`` does.
+    """
+    for _, settings in jobs:
+        fault = getattr(settings, "fault", "")
+        if fault:
+            inject(fault)
+    module = engine_module(name)
+    batch = getattr(module, "run_batch", None)
+    if batch is None:
+        return [module.run(scene, settings) for scene, settings in jobs]
+    return batch(list(jobs))
+
+
+def can_batch(name: str) -> bool:
+    """Does engine ``name`` run compatible jobs together (see ``run_engine_batch``)?"""
+    return hasattr(engine_module(name), "run_batch")
+
+
+@functools.cache
 def engine_version(name: str) -> str:
     """Version string of the engine's Python package."""
     from importlib.metadata import version

@@ -41,7 +41,7 @@ from .linear import ONE, V1, VY, X1, Y, LinearSystem
 from .log import EventLog, episodes
 from .plate import plate_conditions, quick_reject
 from .roots import first_wall_root
-from .stuck import BOUNDS_FAILED, RUN_END, walk
+from .stuck import BOUNDS_FAILED, RUN_END, STALLED, walk
 from .scene import Scene, SceneError
 
 CHATTER_MODES = ("feigin", "exhaustive")
@@ -58,6 +58,7 @@ class Options:
     accumulation_time: float | None = None  # [s] dt* below which chatter is summed; default 1e-9 * time scale
     root_rtol: float = 1e-14  # relative precision of event times
     max_events: int = 5_000_000  # guard against an endless event sequence
+    max_steps: int = 1_000_000  # guard against a run that cannot finish: flow steps [1] the run may need
 
     def __post_init__(self) -> None:
         if self.chatter not in CHATTER_MODES:
@@ -68,6 +69,8 @@ class Options:
             raise SceneError(f"root_rtol = {self.root_rtol!r}: must be in (0, 1e-6)")
         if not self.max_events > 0:
             raise SceneError(f"max_events = {self.max_events!r}: must be > 0")
+        if not self.max_steps > 0:
+            raise SceneError(f"max_steps = {self.max_steps!r}: must be > 0")
 
 
 @dataclass(frozen=True)
@@ -75,8 +78,11 @@ class Result:
     """A reference run: the event log, its episodes and the final state.
 
     ``log`` and ``episodes`` are DataFrames documented in ``log.py``; ``final`` is
-    (t, x1, v1, y, vy) at the end of the run [s, m, m/s, m, m/s]; ``status`` is ``"ok"``
-    or ``"max_events"`` (the guard stopped the run; the log up to there is kept).
+    (t, x1, v1, y, vy) at the end of the run [s, m, m/s, m, m/s]; ``status`` is ``"ok"``,
+    ``"max_events"`` (the event guard stopped the run) or ``"stalled"`` (the run stopped
+    making progress: a flight or a stuck stretch past ``max_steps`` flow steps, a step
+    below the resolution of t, a non-finite state; absurd scene values such as a forcing
+    frequency of 1e300 rad/s). Either way the log up to there is kept.
     """
 
     scene: Scene
@@ -154,7 +160,10 @@ class _Simulator:
         s = s.copy()
         code, t, jmin, jmax = walk(self._flat_stuck, self.stuck.order, self.system.size, self.accel_row, s, t,
                                    self.t_end, self.wall_y[wall], _normal(wall), self.stuck.step, self._omegas, bounds,
-                                   deflate)
+                                   deflate, self.options.max_steps)
+        if code == STALLED:
+            raise _Stalled(f"the constrained motion on the {wall} wall stopped making progress at t = {float(t)!r} s "
+                           f"(non-finite state, a step below the resolution of t, or over {self.options.max_steps} steps)")
         if code == BOUNDS_FAILED:
             return math.nan, s, jmin, jmax
         if code == RUN_END:
@@ -224,6 +233,7 @@ class _Simulator:
         normals = np.array([_normal(w) for w in self.walls])
         deflate = np.array([deflate[w] for w in self.walls], dtype=np.int64)
         rtol = self.options.root_rtol
+        flight_steps = 0
         while t < self.t_end:
             hl = min(self.free.step, self.t_end - t)
             coeff_state = self.free.taylor(s)
@@ -231,9 +241,14 @@ class _Simulator:
             deflate[:] = 0
             if j < 0:
                 s = evaluate(coeff_state, hl)
+                flight_steps += 1
+                if not (t + hl > t and np.isfinite(s).all()) or flight_steps > self.options.max_steps:
+                    raise _Stalled(f"the free flight stopped making progress at t = {float(t)!r} s (non-finite state, a step "
+                                   f"of {hl:.3g} s below the resolution of t, or over {self.options.max_steps} steps)")
                 t = t + hl
                 self.stats["steps"] += 1
                 continue
+            flight_steps = 0
             best_wall = self.walls[j]
             s = evaluate(coeff_state, best)
             t = t + best
@@ -361,6 +376,10 @@ class _Simulator:
         return code, t, s, n * float(self.accel_row @ s)
 
 
+class _Stalled(Exception):
+    """The run stopped making progress (see ``Result``); the message says where."""
+
+
 class _EventLimit(Exception):
     pass
 
@@ -378,13 +397,22 @@ def simulate(scene: Scene, chatter: str = "feigin", options: Options | None = No
         Full options (tolerances, guard).
     """
     options = options or Options(chatter=chatter)
-    sim = _Simulator(scene, options)
+    with np.errstate(over="ignore", invalid="ignore"):  # absurd scales overflow the flow: reported as "stalled"
+        sim = _Simulator(scene, options)
     start = time.perf_counter()
     status, message = "ok", ""
     try:
+        needed = scene.duration / min(sim.free.step, sim.stuck.step)
+        if not needed <= options.max_steps:
+            raise _Stalled(f"the run needs about {needed:.3g} flow steps of {min(sim.free.step, sim.stuck.step):.3g} s "
+                           f"(the scene's fastest time scale) over {scene.duration:g} s, more than max_steps = "
+                           f"{options.max_steps}; check the forcing frequencies and stiffnesses")
         t, s = sim.run()
     except _EventLimit:
         status, message = "max_events", f"stopped after {options.max_events} events"
+        t, s = math.nan, np.full(5, math.nan)
+    except _Stalled as exc:
+        status, message = "stalled", str(exc)
         t, s = math.nan, np.full(5, math.nan)
     wall = time.perf_counter() - start
     log = sim.log.frame()

@@ -1,6 +1,6 @@
 """Motion in kinematic constraint (1.4) until the exit, compiled: the sliding stretch's end.
 
-    >>> code, t_exit, jmin, jmax = walk(flat, order, n, accel_row, s, t, t_end, wall_y, normal, step, omegas, True)
+    >>> code, t_exit, jmin, jmax = walk(flat, order, n, accel_row, s, t, t_end, wall_y, normal, step, omegas, True, 0, 10**7)
 
 Walks the constrained flow step by step from state ``s`` (updated in place) and finds the
 first time the free relative acceleration (3.1), lambda = accel_row . s, reaches zero and
@@ -22,12 +22,14 @@ from .flow import evaluate_into, taylor_into
 from .plate import jerk_bounds
 from .roots import first_root_kernel
 
-EXITED, RUN_END, BOUNDS_FAILED = 0, 1, 2
+EXITED, RUN_END, BOUNDS_FAILED, STALLED = 0, 1, 2, 3
 
 
 @numba.njit(cache=True)
-def walk(flat, order, n, accel_row, s, t, t_end, wall_y, normal, step, omegas, bounds, deflate):
-    """Returns (code, t, Y*, Y): EXITED (s, t at the exit), RUN_END (at t_end) or BOUNDS_FAILED.
+def walk(flat, order, n, accel_row, s, t, t_end, wall_y, normal, step, omegas, bounds, deflate, max_steps):
+    """Returns (code, t, Y*, Y): EXITED (s, t at the exit), RUN_END (at t_end), BOUNDS_FAILED,
+    or STALLED (after ``max_steps`` steps, or when a step no longer advances t or leaves the
+    state finite: absurd scene values such as a force of 1e100 N; s, t where it stopped).
 
     ``deflate``: leading coefficients of lambda to treat as zero on the first step (those
     the stick decision found to be rounding, ``simulate._Simulator._rest``).
@@ -39,7 +41,11 @@ def walk(flat, order, n, accel_row, s, t, t_end, wall_y, normal, step, omegas, b
     jmin = math.inf
     jmax = -math.inf
     first = True
+    steps = 0
     while True:
+        steps += 1
+        if steps > max_steps:
+            return STALLED, t, jmin, jmax
         hl = min(step, t_end - t)
         if hl <= 0.0:
             return RUN_END, t, jmin, jmax
@@ -69,7 +75,13 @@ def walk(flat, order, n, accel_row, s, t, t_end, wall_y, normal, step, omegas, b
         evaluate_into(coeffs, h, s)
         s[2] = wall_y
         s[3] = 0.0
-        t = t + h
+        t_next = t + h
+        finite = t_next - t_next == 0.0
+        for i in range(n):
+            finite = finite and s[i] - s[i] == 0.0
+        if not finite or (t_next == t and r != r):
+            return STALLED, t, jmin, jmax
+        t = t_next
         if r == r:
             for j in range(len(omegas)):
                 s[5 + 2 * j] = math.sin(omegas[j] * t)

@@ -96,7 +96,17 @@ def test_dask_cluster_gives_the_rows_of_the_local_pool(tmp_path):
     pd.testing.assert_frame_equal(_rows(remote), _rows(local))
 
 
-def test_crashing_and_hanging_points_are_classified_and_the_rest_kept(tmp_path):
+def test_mujoco_batches_give_the_rows_of_single_runs(tmp_path):
+    """Batched MuJoCo runs (one rollout call per batch) and single runs: the same rows."""
+    single = run_sweep(SMALL, tmp_path / "single", workers=2, progress=False, batch=1)
+    batched = run_sweep(SMALL, tmp_path / "batched", workers=2, progress=False, batch=2)
+    # 4 MuJoCo runs in 2 batches (one per dt: a batch shares the step count) + 4 PyBullet runs
+    assert single.attrs["sweep"]["units"] == 8 and batched.attrs["sweep"]["units"] == 6
+    pd.testing.assert_frame_equal(_rows(batched), _rows(single))
+
+
+@pytest.mark.parametrize("batch", [1, 4])
+def test_crashing_and_hanging_points_are_classified_and_the_rest_kept(tmp_path, batch):
     spec = _spec(tmp_path, """
 scene = "bouncing-ball"
 engines = ["mujoco", "pybullet"]
@@ -111,8 +121,9 @@ mujoco.fault = ["", "segfault", "hang", "raise"]
 restitution = [0.3, 0.6]
 """)
     start = time.monotonic()
-    rows = run_sweep(load_sweep(spec), tmp_path / "out", workers=2, progress=False)
-    assert time.monotonic() - start < 30
+    # batch = 4: two MuJoCo batches, each with a fault; each is rerun one run at a time
+    rows = run_sweep(load_sweep(spec), tmp_path / "out", workers=2, progress=False, batch=batch)
+    assert time.monotonic() - start < 40
     # 4 faults x 2 restitutions for MuJoCo; PyBullet ignores mujoco.fault: one run per restitution
     assert len(rows) == 10 and not rows.duplicated(KEY).any()
     mj = rows[rows["engine"] == "mujoco"].set_index(["mujoco.fault", "restitution"])

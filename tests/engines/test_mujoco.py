@@ -188,6 +188,40 @@ def test_divergence_is_reported_not_hidden():
     assert np.isfinite(traj.y).all()
 
 
+def _same(a, b) -> bool:
+    arrays = ("t", "x1", "x2", "v1", "v2")
+    return (all(np.array_equal(getattr(a, k), getattr(b, k)) for k in arrays)
+            and all(np.array_equal(a.normal_force[w], b.normal_force[w]) for w in a.normal_force)
+            and a.status == b.status)
+
+
+def test_batch_gives_each_run_bit_for_bit_and_groups_by_signature():
+    """run_batch: restitution, w0 dt, initial phase and integrator vary inside one rollout
+    call; a different gap model (another model signature) and a different step count run
+    in their own groups; a run that diverges is rerun alone and classified alone."""
+    period = 2.0 * math.pi
+    jobs = [(load_scene("feigin-pair", {"initial.t": period * i / 5, "restitution": 0.3 + 0.1 * i, "duration": 2.0}),
+             MujocoSettings(dt=1e-4, w0_dt=0.03 + 0.01 * (i % 2), integrator=("euler", "implicitfast")[i % 2]))
+            for i in range(5)]
+    jobs.append((load_scene("feigin-pair", {"duration": 2.0}), MujocoSettings(dt=1e-4, gap_model="geom")))
+    jobs.append((load_scene("feigin-pair", {"duration": 1.0}), MujocoSettings(dt=1e-4)))
+    jobs.append((load_scene("feigin-pair", {"duration": 2.0}), MujocoSettings(dt=1e-4, w0_dt=2.5, allow_unstable=True)))
+    batch = me.run_batch(jobs)
+    for (scene, settings), traj in zip(jobs, batch):
+        assert _same(traj, run(scene, settings))
+    sizes = [traj.settings.get("batch_size", 1) for traj in batch]
+    # the five and the unstable one share a rollout call, found a warning, and were rerun alone
+    assert batch[-1].status == "diverged" and all(t.status == "ok" for t in batch[:-1])
+    assert sizes == [1] * 8
+
+    batch = me.run_batch(jobs[:-1])  # without the unstable run: the five go together
+    assert [traj.settings.get("batch_size", 1) for traj in batch] == [5] * 5 + [1, 1]
+    for (scene, settings), traj in zip(jobs, batch):
+        assert _same(traj, run(scene, settings))
+    # each run is charged its share of the batch's stepping time
+    assert len({traj.wall_time for traj in batch[:5]}) == 1
+
+
 def test_export_and_engine_protocol():
     scene = load_scene("impact-damper")
     xml = export_mjcf(scene, MujocoSettings(gap_model="geom"))

@@ -10,11 +10,6 @@ from chatterbench.reference import Force, Gap, Initial, Prescribed, Scene, Scene
 from chatterbench.reference.catalogue import CATALOGUE
 from chatterbench.reference.scene import split_assignment
 
-try:
-    import tomli_w
-except ImportError:  # pragma: no cover - tomli_w is optional
-    tomli_w = None
-
 
 def test_catalogue_scenes_load():
     for name in CATALOGUE:
@@ -195,12 +190,6 @@ def test_infinite_body_initial_state_must_match_its_motion():
 
 
 # -- round trip through TOML -----------------------------------------------------------
-def _toml_text(data: dict) -> str:
-    if tomli_w is not None:
-        return tomli_w.dumps(data)
-    raise AssertionError("unreachable")  # pragma: no cover
-
-
 def _handwritten_toml(data: dict) -> str:
     """Minimal TOML writer for the scene layout (tables, one array of tables, scalars)."""
 
@@ -239,14 +228,11 @@ PRESCRIBED = {
 }
 
 
-@pytest.mark.parametrize("writer", ["tomli_w", "handwritten"])
 @pytest.mark.parametrize("source", [*CATALOGUE, "prescribed"])
-def test_toml_round_trip(tmp_path, source, writer):
-    if writer == "tomli_w" and tomli_w is None:
-        pytest.skip("tomli_w not installed")
+def test_toml_round_trip(tmp_path, source):
     scene = scene_from_dict(PRESCRIBED) if source == "prescribed" else load_scene(source)
     data = scene.to_dict()
-    text = tomli_w.dumps(data) if writer == "tomli_w" else _handwritten_toml(data)
+    text = _handwritten_toml(data)
     path = tmp_path / f"{scene.name}.toml"
     path.write_text(text)
     # exact equality: TOML floats round-trip the shortest repr, so nothing may change
