@@ -49,11 +49,12 @@ Promises:
   executor, so under a local process pool and under Dask alike a run that segfaults is a
   ``crashed`` row, one past the timeout a ``timeout`` row, one that raises an ``error``
   row, and the sweep goes on.
-- MuJoCo runs with the same dt and duration are sent to a worker in batches, and those
-  whose models are compatible go through one ``mujoco.rollout`` call (a list of models:
-  restitution, masses, gap, initial state, forcing, w0 dt, solver options may all differ).
-  The rows are the same as unbatched, bit for bit; a batch that does not come back whole
-  is rerun one run at a time, so a faulty run is still classified alone.
+- Runs go to workers in units of a few runs of one engine, each unit in one isolated child
+  (``work_units``); MuJoCo runs of a unit share dt and duration, and those whose models are
+  compatible go through one ``mujoco.rollout`` call (a list of models: restitution,
+  masses, gap, initial state, forcing, w0 dt, solver options may all differ). The rows
+  are the same as run one by one, bit for bit; a unit that does not come back whole is
+  rerun one run at a time, so a faulty run is still classified alone.
 - Rows reach ``OUT/rows/part-*.parquet`` as runs finish, each part written atomically. A
   sweep killed at any moment and resumed (``resume=True``) ends with exactly the rows of an
   uninterrupted one: finished rows are never re-run, unfinished runs are run once.
@@ -463,7 +464,7 @@ def run_task(task: RunTask) -> RunResult:
 
 
 def _compute_batch_rows(tasks: Sequence[RunTask]) -> list[dict[str, Any]]:
-    """The rows of runs of one engine whose engine runs go together (runs in the isolated child)."""
+    """The rows of runs of one engine, in one isolated child (MuJoCo: compatible runs in one rollout call)."""
     from .compare import compare
     from .rows import summarize
     from .verdict import Tolerances
@@ -480,7 +481,7 @@ def _compute_batch_rows(tasks: Sequence[RunTask]) -> list[dict[str, Any]]:
 
 
 def run_batch_task(tasks: Sequence[RunTask]) -> list[RunResult]:
-    """The function submitted for a MuJoCo batch: one isolated call for all -> their rows.
+    """The function submitted for a unit of work (``work_units``): one isolated call for all -> their rows.
 
     The batch's limit is the sum of its runs' limits. If the batch does not come back whole
     (a run crashed, hung or raised, or a run's settings refuse the batch), every run of it
@@ -497,38 +498,33 @@ def run_batch_task(tasks: Sequence[RunTask]) -> list[RunResult]:
     return [RunResult(index=t.index, row=row, run_time=share) for t, row in zip(tasks, outcome.value)]
 
 
-MAX_BATCH = 8  # runs per MuJoCo batch by default: long enough to amortize, short enough to balance
+MAX_BATCH = 8  # runs per unit of work by default: long enough to amortize, short enough to balance
 
 
 def work_units(runs: Sequence[RunTask], batch: int | None, slots: int) -> list[tuple[RunTask, ...]]:
-    """Group ``runs`` into units of work, in run order.
+    """Group ``runs`` into units of work (one isolated child each), ordered by their first run.
 
-    Runs of an engine that batches (MuJoCo) with the same ``dt`` and duration go together
-    in units of at most ``batch`` runs (default: enough units to keep every slot busy,
-    at most ``MAX_BATCH`` runs each); the worker then rolls out together the ones whose
-    compiled models are compatible. Every other run is its own unit. ``batch = 1``: no batching.
+    A unit holds runs of one engine; for an engine that batches (MuJoCo) also of one ``dt``
+    and duration, and the worker rolls out together the ones whose compiled models are
+    compatible. Other engines' runs in a unit run one after another in the same child,
+    which saves a fork per run. Sizes: ``batch`` runs per unit, or by default guided
+    self-scheduling, ``remaining // (4 slots)`` clipped to [1, MAX_BATCH], so units
+    shrink towards the end of each group and no slot waits long for the last one.
+    ``batch = 1``: every run alone.
     """
     groups: dict[tuple, list[RunTask]] = {}
     for r in runs:
-        if can_batch(r.engine):
-            params = dict(r.params)
-            groups.setdefault((r.engine, r.dt, params.get("duration")), []).append(r)
-    n_batchable = sum(len(g) for g in groups.values())
-    if batch is None:
-        batch = max(1, min(MAX_BATCH, math.ceil(n_batchable / (8 * max(1, slots)))))
+        key = (r.engine, r.dt, dict(r.params).get("duration")) if can_batch(r.engine) else (r.engine,)
+        groups.setdefault(key, []).append(r)
     first_of: dict[int, tuple[RunTask, ...]] = {}
     for g in groups.values():
-        for i in range(0, len(g), batch):
-            chunk = tuple(g[i:i + batch])
+        i = 0
+        while i < len(g):
+            size = batch if batch is not None else max(1, min(MAX_BATCH, (len(g) - i) // (4 * max(1, slots))))
+            chunk = tuple(g[i:i + size])
             first_of[chunk[0].index] = chunk
-    batched = {r.index for g in groups.values() for r in g}
-    units: list[tuple[RunTask, ...]] = []
-    for r in runs:
-        if r.index in first_of:
-            units.append(first_of[r.index])
-        elif r.index not in batched:
-            units.append((r,))
-    return units
+            i += size
+    return [first_of[r.index] for r in runs if r.index in first_of]
 
 
 # -- the dataset ---------------------------------------------------------------------------
@@ -652,15 +648,14 @@ def run_sweep(
     progress : bool
         tqdm bar on stderr (done/total, failures, ETA) when stderr is a terminal.
     batch : int, optional
-        Most MuJoCo runs rolled out in one ``mujoco.rollout`` call (see ``work_units``);
-        default automatic, 1 turns batching off. The rows are the same either way.
+        Runs per unit of work (one isolated child; MuJoCo: one ``mujoco.rollout`` call), see
+        ``work_units``; default automatic, 1 runs every run alone. The rows are the same either way.
 
     Returns
     -------
     DataFrame
         ``rows.ROW_COLUMNS`` plus one column per parameter; ``attrs["sweep"]`` holds this
-        call's ``wall_s``, ``runs`` executed, ``units`` of work submitted (a MuJoCo batch is
-        one), ``run_s_sum`` (isolated runs' own wall time),
+        call's ``wall_s``, ``runs`` executed, ``units`` of work submitted (``work_units``), ``run_s_sum`` (isolated runs' own wall time),
         ``engine_s_sum`` (their engine stepping time) and ``workers``.
     """
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):

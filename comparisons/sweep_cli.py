@@ -75,6 +75,6 @@ def register(sub) -> None:
     p.add_argument("--workers", type=_positive_int, default=None, help="local worker processes (default: all cores)")
     p.add_argument("--dask", metavar="ADDRESS", help="run on this Dask scheduler (tcp://host:8786) instead of local processes")
     p.add_argument("--batch", type=_positive_int, default=None,
-                   help="most MuJoCo runs per mujoco.rollout batch (default: automatic; 1: no batching)")
+                   help="runs per isolated unit of work, MuJoCo's in one mujoco.rollout call (default: automatic; 1: each run alone)")
     p.add_argument("--timeout", type=_positive_float, default=None, help="wall-clock limit of one run [s] (default: the spec's)")
     p.set_defaults(func=cmd_sweep)

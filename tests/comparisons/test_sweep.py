@@ -96,12 +96,12 @@ def test_dask_cluster_gives_the_rows_of_the_local_pool(tmp_path):
     pd.testing.assert_frame_equal(_rows(remote), _rows(local))
 
 
-def test_mujoco_batches_give_the_rows_of_single_runs(tmp_path):
-    """Batched MuJoCo runs (one rollout call per batch) and single runs: the same rows."""
+def test_units_and_mujoco_batches_give_the_rows_of_single_runs(tmp_path):
+    """Units of two runs (MuJoCo: one rollout call per unit) and single runs: the same rows."""
     single = run_sweep(SMALL, tmp_path / "single", workers=2, progress=False, batch=1)
     batched = run_sweep(SMALL, tmp_path / "batched", workers=2, progress=False, batch=2)
-    # 4 MuJoCo runs in 2 batches (one per dt: a batch shares the step count) + 4 PyBullet runs
-    assert single.attrs["sweep"]["units"] == 8 and batched.attrs["sweep"]["units"] == 6
+    # 4 MuJoCo runs in 2 batches (one per dt: a batch shares the step count) + 4 PyBullet runs in 2 units
+    assert single.attrs["sweep"]["units"] == 8 and batched.attrs["sweep"]["units"] == 4
     pd.testing.assert_frame_equal(_rows(batched), _rows(single))
 
 
@@ -178,3 +178,24 @@ def test_bad_spec_is_one_clear_message_and_exit_code_2(tmp_path, capsys, text, s
     for s in says:
         assert s in err, err
     assert not (tmp_path / "out").exists(), "nothing is written for a bad spec"
+
+
+def test_work_units_cover_every_run_once_and_shrink_towards_the_end():
+    from chatterbench.comparisons.sweep import MAX_BATCH, work_units
+
+    sweep = Sweep(scene="bouncing-ball", engines=("mujoco", "pybullet"), fixed={"duration": 0.6},
+                  grid={"dt": (1e-3, 5e-4), "restitution": tuple(0.01 * i for i in range(1, 51))})
+    runs = sweep_runs(sweep)
+    units = work_units(runs, None, slots=2)
+    assert sorted(r.index for u in units for r in u) == list(range(len(runs)))
+    for u in units:
+        assert len({r.engine for r in u}) == 1
+        if u[0].engine == "mujoco":  # a MuJoCo batch shares its step count
+            assert len({r.dt for r in u}) == 1
+    for key in [("mujoco", 1e-3), ("mujoco", 5e-4), ("pybullet", None)]:
+        sizes = [len(u) for u in units if u[0].engine == key[0] and key[1] in (None, u[0].dt)]
+        assert sizes == sorted(sizes, reverse=True) and sizes[-1] == 1 and max(sizes) <= MAX_BATCH
+    # 100 PyBullet runs on 2 slots start at the cap; 50 MuJoCo runs per dt at 50 // 8 = 6
+    assert max(len(u) for u in units if u[0].engine == "pybullet") == MAX_BATCH
+    assert [u[0].index for u in units] == sorted(u[0].index for u in units)
+    assert all(len(u) == 1 for u in work_units(runs, 1, slots=2))
