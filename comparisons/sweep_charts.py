@@ -295,6 +295,8 @@ def work_precision_figure(rows: pd.DataFrame, error: str = "exit_error_max", ref
                     gid="pareto-front")
         ax.set_xscale("log")
         ax.set_yscale("log")
+        # a cost range of about a decade gets labels on minor ticks: keep 2 and 5 only, so they do not overlap
+        ax.xaxis.set_minor_locator(matplotlib.ticker.LogLocator(subs=(2.0, 5.0)))
         if has.any():
             if reference_cost is not None:
                 ref_err = reference_error if reference_error is not None else ROOT_PRECISION

@@ -65,7 +65,12 @@ class Tolerances:
     stick: float = 0.02  # sticking start outside [plate entry - tol, Zeno + tol] is early/late
     exit: float = 0.01  # |exit error| above this is early/late
     first_impact: float = 0.01  # |first impact error| above this is early/late
-    energy_gain: float = 0.05  # relative growth of the mechanical energy that means diverged
+    # relative growth of the relative kinetic energy past the reference's largest that means
+    # diverged. Not 5%: a forced scene's engine run that follows another, bounded trajectory
+    # (a spurious stick, then the forcing pumps) can exceed the reference's maximum by tens
+    # of percent without any numerical trouble (measured 21%: PyBullet, feigin-pair R = 0.8,
+    # velocity threshold 0.1); a blow-up passes a doubling within a few steps.
+    energy_gain: float = 1.0
     endless_impacts: int = 10  # impacts inside a reference sliding stretch that make it endless
 
     def __post_init__(self) -> None:

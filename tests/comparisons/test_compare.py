@@ -58,6 +58,18 @@ def test_mujoco_w0_dt_far_past_stability_is_caught(w0_dt):
     assert len(c.table) >= 1
 
 
+def test_another_bounded_trajectory_is_not_called_diverged():
+    # feigin-pair at R = 0.8 never slides; PyBullet with a velocity threshold of 0.1 m/s makes
+    # the slow strikes inelastic and sticks (a spurious episode), after which the forcing
+    # takes it 21% above the reference's largest relative kinetic energy: another trajectory,
+    # not a numerical blow-up (every sample finite, energy bounded)
+    scene = load_scene("feigin-pair", {"duration": 18.84955592153876, "restitution": 0.8, "mass2": 0.5})
+    c = compare(scene, engines=("pybullet",), dt=1e-3, overrides=["pybullet.restitution_velocity_threshold=0.1"])
+    assert c.runs["pybullet"].status == "ok"
+    assert "diverged" not in set(c.table["verdict"])
+    assert "spurious" in set(c.table["verdict"])
+
+
 def test_an_engine_fault_is_classified_and_the_other_engine_kept():
     c = compare(load_scene("bouncing-ball"), engines=("mujoco", "pybullet"), dt=1e-4, overrides=["mujoco.fault=raise"])
     assert c.runs["mujoco"].status == "error" and "InjectedFault" in c.runs["mujoco"].trajectory.message
