@@ -105,6 +105,8 @@ def timeseries_figure(comparison, inset: bool = True) -> Figure:
             m = (tr.t >= lo) & (tr.t <= hi)
             axin.plot(tr.t[m], tr.y[m], color=ENGINE_COLORS.get(name, None), lw=0.8)
         amp = float(np.nanmax(np.abs(dz["y"] - wall))) if sel.any() else 1.0
+        if not amp > 0:  # the pair starts resting on the wall: no bounce to frame, show a thin band around it
+            amp = 1e-3 * max(float(np.ptp(dense["y"])), 1e-9)
         axin.set_xlim(lo, hi)
         sgn = 1.0 if r["wall"] == "lower" else -1.0
         axin.set_ylim(wall - 0.15 * amp * sgn if sgn > 0 else wall - 1.1 * amp, wall + 1.1 * amp if sgn > 0 else wall + 0.15 * amp)
