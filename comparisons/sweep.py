@@ -88,13 +88,13 @@ from chatterbench.reference.scene import SceneError, did_you_mean, load_scene
 
 from .atomic import write_frame, write_text
 from .isolate import die_with_parent, run_isolated
-from .rows import ROW_COLUMNS, failure_row, point_id
+from .rows import ROW_COLUMNS, failure_row, mass_ratio, point_id
 
 SPEC_KEYS = ("scene", "engines", "timeout", "description", "set", "grid", "points", "tolerances")
 DEFAULT_TIMEOUT = 120.0  # [s] per run
 FAILED = ("crashed", "timeout", "error")  # run statuses counted as failures by the progress bar
-_FLOAT_COLUMNS = ("dt", "exit_error_max", "stick_error_max", "stick_error_plate_max", "first_impact_error_max",
-                  "cost_per_sim_s", "wall_time_s")
+_FLOAT_COLUMNS = ("dt", "mass_ratio", "exit_error_max", "stick_error_max", "stick_error_plate_max",
+                  "first_impact_error_max", "cost_per_sim_s", "reference_cost_per_sim_s", "wall_time_s")
 _INT_COLUMNS = ("n_episodes", "n_match")
 _MESSAGE_CHARS = 4000  # a failure row keeps the end of a traceback, where the cause is
 
@@ -402,24 +402,30 @@ def sweep_runs(sweep: Sweep) -> list[RunTask]:
 
 # -- one run (inside a worker) -----------------------------------------------------------
 
-_WARM: set[str] = set()
+_WARM: set = set()  # engine names and ("scene", scene) keys already warmed in this process
 _WARM_LOCK = threading.Lock()
 
 
-def _warm_up(engines: Sequence[str]) -> None:
-    """Once per worker process: load the engines and compile the reference's kernels.
+def _warm_up(task: RunTask) -> None:
+    """Once per worker process: load the task's engine and the reference's kernels for its scene.
 
     Every run is a fork of the worker, so what is loaded here is loaded for all of them;
-    without it each run would pay the imports and numba's cache loading (~0.6 s).
+    without it each run would pay the imports and numba's cache loading (~0.6 s). The
+    reference is run once on the task's own scene too: numba loads a compiled kernel the
+    first time a scene's code path calls it (~10 ms for feigin-pair after a ball warm-up),
+    and a forked run would otherwise pay that again every time.
     """
     with _WARM_LOCK:
-        todo = [e for e in engines if e not in _WARM]
+        todo = [key for key in (task.engine, ("scene", task.scene)) if key not in _WARM]
         if not todo:
             return
         from .compare import compare
 
         try:
-            compare(load_scene("bouncing-ball", {"duration": 0.6}), engines=tuple(todo), dt=1e-3)
+            if task.engine in todo:
+                compare(load_scene("bouncing-ball", {"duration": 0.6}), engines=(task.engine,), dt=1e-3)
+            if ("scene", task.scene) in todo:
+                compare(load_scene(task.scene, task.scene_overrides()), engines=())
         except Exception:  # a warm-up failure is only slower runs; the runs report real errors
             pass
         _WARM.update(todo)
@@ -448,7 +454,7 @@ class RunResult:
 
 def run_task(task: RunTask) -> RunResult:
     """The function submitted to the executor: one isolated run -> its row (never raises for the run)."""
-    _warm_up((task.engine,))
+    _warm_up(task)
     outcome = run_isolated(_compute_row, task, timeout=task.timeout)
     if outcome.status == "ok":
         row = outcome.value
@@ -458,7 +464,11 @@ def run_task(task: RunTask) -> RunResult:
             version = engine_version(task.engine)
         except Exception:
             version = ""
-        row = failure_row(task.scene_name, task.engine, dict(task.params), outcome.status, message, version)
+        try:  # the spec was validated: the scene loads; the guard keeps a failure row whatever happens
+            mu = mass_ratio(load_scene(task.scene, task.scene_overrides()))
+        except Exception:
+            mu = math.nan
+        row = failure_row(task.scene_name, task.engine, dict(task.params), outcome.status, message, version, mu)
         row["dt"] = task.dt
     return RunResult(index=task.index, row=row, run_time=outcome.wall_time)
 
@@ -490,7 +500,7 @@ def run_batch_task(tasks: Sequence[RunTask]) -> list[RunResult]:
     """
     if len(tasks) == 1:
         return [run_task(tasks[0])]
-    _warm_up((tasks[0].engine,))
+    _warm_up(tasks[0])
     outcome = run_isolated(_compute_batch_rows, list(tasks), timeout=sum(t.timeout for t in tasks))
     if outcome.status != "ok":
         return [run_task(t) for t in tasks]
