@@ -57,7 +57,13 @@ def load_rows(path: str | Path) -> pd.DataFrame:
 
 
 def _where(rows: pd.DataFrame, items: list[str]) -> pd.DataFrame:
-    """Keep the rows whose parameter KEY equals VALUE (numbers compared to 1e-9 relative)."""
+    """Keep the rows whose parameter KEY equals VALUE (numbers compared to 1e-9 relative).
+
+    An engine's setting (``mujoco.w0_dt``, ``pybullet.restitution_velocity_threshold``)
+    selects among that engine's rows only: the other engines' rows stay, so
+    ``--where mujoco.w0_dt=0.03 --where pybullet.restitution_velocity_threshold=0`` keeps
+    each engine at one setting.
+    """
     from .cli import UsageError
     from .sweep_charts import check_columns, parameter_columns
 
@@ -77,6 +83,9 @@ def _where(rows: pd.DataFrame, items: list[str]) -> pd.DataFrame:
         if not keep.any():
             values = ", ".join(sorted({f"{v:g}" if isinstance(v, float) else str(v) for v in col.dropna().unique()}))
             raise UsageError(f"--where {item}: no row has {key} = {text} (values: {values})")
+        owner = key.split(".")[0]
+        if "." in key and owner in set(rows["engine"].astype(str)):
+            keep |= rows["engine"].astype(str) != owner
         rows = rows[keep]
     return rows
 

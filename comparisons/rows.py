@@ -12,6 +12,9 @@ engine                  ``mujoco`` or ``pybullet``
 <param>                 one column per swept parameter, named by its dotted key
                         (``dt``, ``restitution``, ``mujoco.w0_dt``, ``initial.t`` ...)
 dt                      engine timestep [s]
+mass_ratio              mu = mass2 / mass1 of the point's scene (0 when mass1 is infinite: a fixed
+                        body); the relative motion between impacts and the impact law (1.3) do
+                        not depend on it, an engine's contact solver may
 status                  engine run status: ``ok``, ``diverged``, ``error``, ``timeout``, ``crashed``
 verdict                 the point's verdict: ``match`` when every episode matches, else the worst
                         one present in the order of ``VERDICT_SEVERITY``; ``none`` when the
@@ -22,6 +25,8 @@ stick_error_max         max |sticking start error| against the Zeno point [s]
 stick_error_plate_max   max |sticking start error| against Feigin's plate entry [s]
 first_impact_error_max  max |first impact error| [s]
 cost_per_sim_s          wall-clock seconds of engine stepping per simulated second
+reference_cost_per_sim_s  wall-clock seconds of the reference (Feigin's model, event-driven) per
+                        simulated second, on the same machine in the same process
 wall_time_s             wall-clock seconds of engine stepping
 engine_version          the engine package's version
 message                 failure message, "" when ok
@@ -36,10 +41,12 @@ import math
 from typing import Any, Mapping
 
 ROW_COLUMNS = [
-    "point_id", "scene", "engine", "dt", "status", "verdict", "n_episodes", "n_match",
+    "point_id", "scene", "engine", "dt", "mass_ratio", "status", "verdict", "n_episodes", "n_match",
     "exit_error_max", "stick_error_max", "stick_error_plate_max", "first_impact_error_max",
-    "cost_per_sim_s", "wall_time_s", "engine_version", "message",
+    "cost_per_sim_s", "reference_cost_per_sim_s", "wall_time_s", "engine_version", "message",
 ]
+# columns a sweep does not set but charts may use as an axis, like a swept parameter
+DERIVED_PARAMETERS = ("dt", "mass_ratio")
 # worst first: the verdict that names a point when its episodes disagree
 VERDICT_SEVERITY = ("crashed", "timeout", "error", "diverged", "penetrated", "endless", "missed", "spurious", "late", "early", "match")
 
@@ -61,6 +68,11 @@ def point_verdict(verdicts) -> str:
     return sorted(present)[0]
 
 
+def mass_ratio(scene) -> float:
+    """mu = m2 / m1 (Feigin's mass ratio); 0 when body 1 is infinitely heavy (fixed)."""
+    return 0.0 if math.isinf(scene.mass1) else float(scene.mass2 / scene.mass1)
+
+
 def _absmax(series) -> float:
     vals = series.abs().dropna()
     return float(vals.max()) if len(vals) else math.nan
@@ -76,6 +88,7 @@ def summarize(comparison, engine: str, params: Mapping[str, Any]) -> dict[str, A
         "engine": engine,
         **dict(params),
         "dt": float(run.settings.get("dt", math.nan)),
+        "mass_ratio": mass_ratio(comparison.scene),
         "status": run.status,
         "verdict": point_verdict(sub["verdict"]),
         "n_episodes": int(len(sub)),
@@ -85,6 +98,7 @@ def summarize(comparison, engine: str, params: Mapping[str, Any]) -> dict[str, A
         "stick_error_plate_max": _absmax(sub["stick_error_plate"]),
         "first_impact_error_max": _absmax(sub["first_impact_error"]),
         "cost_per_sim_s": run.cost_per_sim_s,
+        "reference_cost_per_sim_s": float(comparison.provenance.get("reference", {}).get("cost_per_sim_s", math.nan)),
         "wall_time_s": run.wall_time,
         "engine_version": run.version,
         "message": run.trajectory.message,
@@ -92,12 +106,17 @@ def summarize(comparison, engine: str, params: Mapping[str, Any]) -> dict[str, A
     return row
 
 
-def failure_row(scene: str, engine: str, params: Mapping[str, Any], status: str, message: str, version: str = "") -> dict[str, Any]:
-    """The row of a point whose run crashed, hung or raised before any result (verdict = status)."""
+def failure_row(scene: str, engine: str, params: Mapping[str, Any], status: str, message: str, version: str = "",
+                mu: float = math.nan) -> dict[str, Any]:
+    """The row of a point whose run crashed, hung or raised before any result (verdict = status).
+
+    ``mu`` is the point's mass ratio (``mass_ratio``), NaN when unknown.
+    """
     return {
         "point_id": point_id(scene, engine, params), "scene": scene, "engine": engine, **dict(params),
-        "dt": float(params.get("dt", math.nan)), "status": status, "verdict": status, "n_episodes": 0, "n_match": 0,
+        "dt": float(params.get("dt", math.nan)), "mass_ratio": mu, "status": status, "verdict": status,
+        "n_episodes": 0, "n_match": 0,
         "exit_error_max": math.nan, "stick_error_max": math.nan, "stick_error_plate_max": math.nan,
-        "first_impact_error_max": math.nan, "cost_per_sim_s": math.nan, "wall_time_s": math.nan,
-        "engine_version": version, "message": message,
+        "first_impact_error_max": math.nan, "cost_per_sim_s": math.nan, "reference_cost_per_sim_s": math.nan,
+        "wall_time_s": math.nan, "engine_version": version, "message": message,
     }

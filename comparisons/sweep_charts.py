@@ -28,6 +28,7 @@ engine that is not in the rows is a ``ChartError`` naming the nearest valid name
 from __future__ import annotations
 
 import math
+import textwrap
 from typing import Iterable, Sequence
 
 import matplotlib
@@ -45,7 +46,7 @@ from matplotlib.transforms import blended_transform_factory  # noqa: E402
 from chatterbench.reference.scene import SceneError, did_you_mean  # noqa: E402
 
 from .charts import ENGINE_COLORS  # noqa: E402
-from .rows import ROW_COLUMNS, VERDICT_SEVERITY  # noqa: E402
+from .rows import DERIVED_PARAMETERS, ROW_COLUMNS, VERDICT_SEVERITY  # noqa: E402
 
 # every verdict a row can carry, best first; "none": neither the reference nor the engine
 # has an episode, nothing to judge
@@ -91,6 +92,7 @@ ROOT_PRECISION = 1e-12  # [s] the reference's event times: its root finder's tol
 OFF_SCALE = 1e3  # a reference error this many times below the engines' smallest is drawn on the panel's foot
 COST = "cost_per_sim_s"
 LOG_SPAN = 10.0  # stability map: an axis whose values span this ratio (a decade) or more is log-scaled
+IRREGULAR = 2.0  # stability map: a linear axis whose steps differ by more than this factor gets equal cells
 ANNOTATE_MAX_CELLS = 150  # stability map: write the verdict in the cells up to this many per panel
 
 
@@ -101,8 +103,24 @@ class ChartError(SceneError):
 # -- dataset helpers -----------------------------------------------------------------------
 
 def parameter_columns(rows: pd.DataFrame) -> list[str]:
-    """The swept parameters of a dataset: ``dt`` and every column not in ``rows.ROW_COLUMNS``."""
-    return ["dt"] + [c for c in rows.columns if c not in ROW_COLUMNS]
+    """The parameters of a dataset: ``dt``, ``mass_ratio`` (when present) and every column not in ``rows.ROW_COLUMNS``."""
+    derived = [c for c in DERIVED_PARAMETERS if c == "dt" or c in rows.columns]
+    return derived + [c for c in rows.columns if c not in ROW_COLUMNS]
+
+
+def folded_parameters(frame: pd.DataFrame, shown: Sequence[str], candidates: Iterable[str]) -> list[str]:
+    """The ``candidates`` that vary in ``frame`` and are not drawn (``shown``): what a chart folds.
+
+    ``mass_ratio`` is derived from ``mass1`` and ``mass2``: it is named only when it is not
+    drawn and neither mass varies, and the masses are not named when it is drawn.
+    """
+    skip = set(shown)
+    if "mass_ratio" in skip:
+        skip |= {"mass1", "mass2"}
+    varying = _varying(frame, [c for c in candidates if c not in skip])
+    if {"mass1", "mass2"} & set(varying):
+        varying = [c for c in varying if c != "mass_ratio"]
+    return varying
 
 
 def check_columns(rows: pd.DataFrame, names: Iterable[str], allowed: Sequence[str] | None = None, what: str = "column") -> None:
@@ -140,6 +158,12 @@ def _varying(frame: pd.DataFrame, columns: Iterable[str]) -> list[str]:
 
 def _fmt(v) -> str:
     return f"{v:g}" if isinstance(v, (int, float, np.floating, np.integer)) and not isinstance(v, bool) else str(v)
+
+
+def _suptitle(fig: Figure, text: str, size: float = 11.0) -> None:
+    """The figure's title, wrapped to its width (a one-panel map is narrower than its longest title)."""
+    chars = max(30, int(fig.get_figwidth() * 72.0 / (0.6 * size)))
+    fig.suptitle(textwrap.fill(text, chars), fontsize=size)
 
 
 # -- work-precision --------------------------------------------------------------------------
@@ -227,11 +251,20 @@ def _curve_styles(points: pd.DataFrame) -> dict[str, dict]:
 
 def _folded_note(rows: pd.DataFrame) -> str:
     engines = set(rows["engine"].astype(str)) | {"mujoco", "pybullet"}
-    scene_params = [c for c in parameter_columns(rows) if c != "dt" and c.split(".")[0] not in engines]
-    varied = _varying(rows, scene_params)
+    scene_params = [c for c in parameter_columns(rows) if c.split(".")[0] not in engines]
+    varied = folded_parameters(rows, ["dt"], scene_params)
     if not varied:
         return ""
     return "worst case over " + ", ".join(f"{c} ({rows[c].dropna().nunique()} values)" for c in varied)
+
+
+def measured_reference_cost(rows: pd.DataFrame) -> float | None:
+    """Median of the rows' ``reference_cost_per_sim_s`` [s per simulated s]; None when not measured."""
+    if "reference_cost_per_sim_s" not in rows:
+        return None
+    cost = pd.to_numeric(rows["reference_cost_per_sim_s"], errors="coerce")
+    cost = cost[np.isfinite(cost) & (cost > 0)]
+    return float(cost.median()) if len(cost) else None
 
 
 def work_precision_figure(rows: pd.DataFrame, error: str = "exit_error_max", reference_cost: float | None = None,
@@ -246,8 +279,9 @@ def work_precision_figure(rows: pd.DataFrame, error: str = "exit_error_max", ref
         ``stick_error_max`` (a single panel when ``error`` is that).
     reference_cost : float, optional
         The reference's own wall-clock seconds per simulated second: drawn as a star at
-        (``reference_cost``, ``reference_error`` or ``ROOT_PRECISION``). Without it a band at
-        the foot of each panel stands for the reference (exact).
+        (``reference_cost``, ``reference_error`` or ``ROOT_PRECISION``). Default: the median
+        of the rows' ``reference_cost_per_sim_s`` (measured in each run); where the rows
+        have none, a band at the foot of each panel stands for the reference (exact).
     reference_error : float, optional
         The reference's error [s], its root precision (~1e-12 s).
     """
@@ -255,6 +289,8 @@ def work_precision_figure(rows: pd.DataFrame, error: str = "exit_error_max", ref
     points = work_precision_points(rows, metrics)
     if points.empty:
         raise ChartError("no rows to draw")
+    if reference_cost is None:
+        reference_cost = measured_reference_cost(rows)
     styles = _curve_styles(points)
     fig, axes = plt.subplots(1, len(metrics), figsize=(6.4 * len(metrics), 5.6), layout="constrained", squeeze=False)
     classes_seen: set[str] = set()
@@ -358,7 +394,7 @@ def work_precision_figure(rows: pd.DataFrame, error: str = "exit_error_max", ref
     if len(uncosted):  # crashed, timed out or refused before any step: nothing to place on a cost axis
         counts = uncosted["verdict"].astype(str).value_counts()
         notes.append("not drawn (no cost measured): " + ", ".join(f"{counts[v]} {v}" for v in sorted(counts.index, key=_rank)))
-    fig.suptitle("; ".join([f"{scene}: work-precision, {len(rows)} runs", *filter(None, notes)]), fontsize=11)
+    _suptitle(fig, "; ".join([f"{scene}: work-precision, {len(rows)} runs", *filter(None, notes)]))
     return fig
 
 
@@ -380,13 +416,22 @@ def verdict_grid(rows: pd.DataFrame, x: str, y: str, engine: str) -> pd.DataFram
 
 
 def _axis(values: Sequence) -> tuple[np.ndarray, np.ndarray, str]:
-    """Cell centres, cell edges and scale (``log``, ``linear`` or ``category``) of one map axis."""
+    """Cell centres, cell edges and scale (``log``, ``linear`` or ``category``) of one map axis.
+
+    Positive numbers spanning a decade or more: log. Other numbers: linear when evenly
+    enough spaced (largest step at most ``IRREGULAR`` times the smallest), else equal
+    cells in value order, like strings (0, 0.1, 0.5 or 0, 0.1, 1, 10 would otherwise
+    squeeze the small values into slivers).
+    """
     vals = list(values)
     numeric = all(isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_)) for v in vals)
+    v = np.asarray(vals, float) if numeric else np.empty(0)
+    if numeric and not (v.min() > 0 and v.max() / v.min() >= LOG_SPAN) and len(v) > 2:
+        steps = np.diff(v)
+        numeric = steps.max() <= IRREGULAR * steps.min()
     if not numeric:
         pos = np.arange(len(vals), dtype=float)
         return pos, np.arange(len(vals) + 1) - 0.5, "category"
-    v = np.asarray(vals, float)
     scale = "log" if v.min() > 0 and v.max() / v.min() >= LOG_SPAN else "linear"
     u = np.log10(v) if scale == "log" else v
     if len(u) == 1:
@@ -461,7 +506,7 @@ def stability_map_figure(rows: pd.DataFrame, x: str, y: str, engine: str | None 
         ax.set_xlabel(x + (" [s]" if x == "dt" else ""))
         ax.set_ylabel(y + (" [s]" if y == "dt" else ""))
         sub = rows[rows["engine"] == eng].dropna(subset=[x, y])
-        folded = _varying(sub, [c for c in parameter_columns(rows) if c not in (x, y)])
+        folded = folded_parameters(sub, (x, y), parameter_columns(rows))
         note = ("\nworst over " + ", ".join(f"{c} ({sub[c].nunique()})" for c in folded)) if folded else ""
         ax.set_title(f"{eng}: {len(sub)} runs{note}", fontsize=10)
     handles = [Patch(facecolor=VERDICT_COLORS[v], edgecolor="0.5", label=f"{VERDICT_ABBREV[v]}  {v}: {VERDICT_MEANING[v]}")
@@ -469,5 +514,5 @@ def stability_map_figure(rows: pd.DataFrame, x: str, y: str, engine: str | None 
     ncol = max(1, min(3, len(handles), int(fig.get_figwidth() // 3.6)))
     fig.legend(handles=handles, loc="outside lower center", ncol=ncol, fontsize=8, frameon=False)
     scene = ", ".join(sorted(rows["scene"].astype(str).unique())) if "scene" in rows else ""
-    fig.suptitle(f"{scene}: verdict over {x} and {y}", fontsize=11)
+    _suptitle(fig, f"{scene}: verdict over {x} and {y}")
     return fig

@@ -136,6 +136,11 @@ restitution = [0.3, 0.6]
         assert "InjectedFault" in mj.loc[("raise", r), "message"]
     assert (rows.loc[rows["engine"] == "pybullet", "status"] == "ok").all()
     assert (rows["dt"] == 1e-3).all()
+    # a failed run's row still says where it sits on a map: mu = m2 / m1 = 0 for the ball on a fixed floor
+    assert (rows["mass_ratio"] == 0.0).all()
+    # the reference ran (and was timed) wherever the run got as far as a result, an engine exception included
+    lost = rows["status"].isin(["crashed", "timeout"])
+    assert (rows.loc[~lost, "reference_cost_per_sim_s"] > 0).all() and rows.loc[lost, "reference_cost_per_sim_s"].isna().all()
 
 
 def test_resolved_spec_reads_back_and_guards_the_output(tmp_path, capsys):

@@ -262,3 +262,63 @@ def test_cli_missing_or_empty_dataset_exits_2(tmp_path, capsys, feigin_rows):
     feigin_rows.iloc[:0].to_parquet(tmp_path / "empty.parquet", index=False)
     assert main(["chart", str(tmp_path / "empty.parquet"), "--kind", "work-precision"]) == 2
     assert "no rows" in capsys.readouterr().err
+
+
+# -- the reference's cost, engine-scoped filters, irregular and derived axes ----------------------
+
+def test_reference_star_at_the_measured_reference_cost_by_default(feigin_rows):
+    ref = feigin_rows["reference_cost_per_sim_s"]
+    # every run timed the reference (Feigin's model) in the same process as its engine
+    assert (ref > 0).all() and np.isfinite(ref).all()
+    fig = work_precision_figure(feigin_rows)
+    stars = _lines(fig, "reference")
+    assert len(stars) == 2  # one per panel
+    for star in stars:
+        assert star.get_xdata()[0] == pytest.approx(ref.median(), rel=1e-12)
+    # rows without the column (an older dataset): the band, no star
+    assert not _lines(work_precision_figure(feigin_rows.drop(columns="reference_cost_per_sim_s")), "reference")
+
+
+def test_rows_carry_the_mass_ratio_of_their_scene(feigin_rows, ball_rows):
+    assert (feigin_rows["mass_ratio"] == 1.0).all()  # m2 / m1 = 1 / 1
+    assert (ball_rows["mass_ratio"] == 0.0).all()  # the floor is infinitely heavy, whatever mass2 is
+
+
+def test_cli_where_on_an_engine_setting_keeps_the_other_engines_rows(dataset, tmp_path, capsys):
+    assert main(["chart", str(dataset), "--kind", "work-precision", "--where", "mujoco.w0_dt=0.1",
+                 "--out", str(tmp_path)]) == 0
+    # 15 MuJoCo rows at w0_dt = 0.1 (5 dt x 3 R) and all 15 PyBullet rows: 5 dt each
+    assert "10 points from 30 rows" in capsys.readouterr().out
+
+
+def _synthetic_rows() -> pd.DataFrame:
+    """Chart input only (charts read rows, they run nothing): PyBullet rows over an irregular grid."""
+    rows = []
+    for thr, mass2, dt in itertools.product((0.0, 0.1, 0.5), (0.1, 1.0, 10.0), (1e-3, 1e-4)):
+        verdict = "match" if thr == 0.0 else ("early" if thr == 0.5 else "spurious")
+        rows.append({"point_id": f"{thr}-{mass2}-{dt}", "scene": "feigin-pair", "engine": "pybullet", "dt": dt,
+                     "mass_ratio": mass2, "status": "ok", "verdict": verdict, "cost_per_sim_s": 1e-2,
+                     "mass2": mass2, "pybullet.restitution_velocity_threshold": thr})
+    return pd.DataFrame(rows)
+
+
+def test_irregular_axis_gets_equal_cells_labelled_with_the_values():
+    rows = _synthetic_rows()
+    fig = stability_map_figure(rows, "pybullet.restitution_velocity_threshold", "mass_ratio")
+    (ax,) = fig.axes
+    # thresholds 0, 0.1, 0.5 (steps 0.1 and 0.4): equal cells, not a sliver for 0
+    assert list(ax.get_xticks()) == [0.0, 1.0, 2.0]
+    assert [t.get_text() for t in ax.get_xticklabels()] == ["0", "0.1", "0.5"]
+    # mass ratio 0.1 .. 10 spans two decades: a log axis at the values
+    assert ax.get_yscale() == "log" and list(ax.get_yticks()) == [0.1, 1.0, 10.0]
+    texts = {(round(t.get_position()[0], 9), round(t.get_position()[1], 9)): t.get_text() for t in ax.texts}
+    assert texts[(0.0, 1.0)] == VERDICT_ABBREV["match"] and texts[(2.0, 10.0)] == VERDICT_ABBREV["early"]
+    # the map folds dt; mass2 is what the mass ratio is made of, not a second folded parameter
+    assert "worst over dt (2)" in ax.get_title() and "mass2" not in ax.get_title()
+
+
+def test_long_titles_wrap_inside_a_one_panel_map():
+    fig = stability_map_figure(_synthetic_rows(), "pybullet.restitution_velocity_threshold", "mass_ratio")
+    title = fig._suptitle.get_text()
+    assert "\n" in title and title.replace("\n", " ") == (
+        "feigin-pair: verdict over pybullet.restitution_velocity_threshold and mass_ratio")
