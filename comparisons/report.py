@@ -242,13 +242,25 @@ def scene_figures(report: Report) -> list[Figure]:
 
 
 def _stability_pairs(rows: pd.DataFrame, engine: str, params: Sequence[str], limit: int = 4) -> list[tuple[str, str]]:
-    """(x, y) parameter pairs worth a stability map for ``engine``: dt first, then the others."""
+    """(x, y) parameter pairs worth a stability map for ``engine``.
+
+    The maps of the sweeps issue first: dt x restitution, dt x mass ratio, each of the
+    engine's settings x restitution; then dt x any other varying parameter. The masses are
+    drawn as their ratio when it varies.
+    """
     sub = rows[rows["engine"] == engine]
     varying = [p for p in params if p in sub and sub[p].dropna().nunique() > 1]
+    if "mass_ratio" in varying:
+        varying = [p for p in varying if p not in ("mass1", "mass2")]
     if len(varying) < 2:
         return []
     x = "dt" if "dt" in varying else varying[0]
-    return [(x, y) for y in varying if y != x][:limit]
+    settings = [p for p in varying if p.startswith(engine + ".")]
+    pairs = [(x, y) for y in ("restitution", "mass_ratio") if y in varying and y != x]
+    if "restitution" in varying:
+        pairs += [(s, "restitution") for s in settings]
+    pairs += [(x, y) for y in varying if y != x and (x, y) not in pairs and (y, "restitution") not in pairs]
+    return pairs[:limit]
 
 
 def sweep_figures(section: SweepSection) -> tuple[list[Figure], list[str]]:
@@ -263,23 +275,39 @@ def sweep_figures(section: SweepSection) -> tuple[list[Figure], list[str]]:
         return [], [f"sweep charts unavailable: {exc}"]
     rows = section.rows
     figures, notes = [], []
+    params = sweep_charts.parameter_columns(rows)
+    engines = sorted(rows["engine"].astype(str).unique())
+    # each chart shows the slice a user starts from: parameters it does not draw are held at
+    # their defaults where the sweep ran them (the caption says which), else folded worst-case
+    scene_params = [c for c in params if c.split(".")[0] not in engines]
+    slices = [sweep_charts.at_defaults(rows, e, ["dt"], scene_params) for e in engines]
+    held = {k: v for _, h in slices for k, v in h.items()}
     try:
         figures.append(Figure("work-precision", "work-precision: worst error against wall-clock cost per engine, "
-                              "one point per timestep", _render(sweep_charts.work_precision_figure(rows))))
+                              "one point per timestep" + _held(held),
+                              _render(sweep_charts.work_precision_figure(pd.concat([s for s, _ in slices])))))
     except sweep_charts.ChartError as exc:
         notes.append(f"work-precision chart: {exc}")
-    params = sweep_charts.parameter_columns(rows)
-    for engine in sorted(rows["engine"].astype(str).unique()):
+    for engine in engines:
         pairs = _stability_pairs(rows, engine, params)
         if not pairs:
             notes.append(f"stability map ({engine}): needs two swept parameters; this sweep varies fewer for {engine}")
         for x, y in pairs:
+            sub, held = sweep_charts.at_defaults(rows, engine, (x, y))
             try:
-                figures.append(Figure(f"stability-{engine}-{x}-{y}", f"stability map, {engine}: verdict over {x} and {y}",
-                                      _render(sweep_charts.stability_map_figure(rows, x, y, engine))))
+                figures.append(Figure(f"stability-{engine}-{x}-{y}", f"stability map, {engine}: verdict over {x} and {y}"
+                                      + _held(held), _render(sweep_charts.stability_map_figure(sub, x, y, engine))))
             except sweep_charts.ChartError as exc:
                 notes.append(f"stability map ({engine}, {x} x {y}): {exc}")
     return figures, notes
+
+
+def _held(held: dict[str, Any]) -> str:
+    """Caption tail naming the parameters a chart holds at their defaults."""
+    if not held:
+        return ""
+    return "; held at the defaults: " + ", ".join(f"{k} = {v:g}" if isinstance(v, float) else f"{k} = {v}"
+                                                  for k, v in held.items())
 
 
 # -- HTML --------------------------------------------------------------------------------

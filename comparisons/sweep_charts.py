@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 import textwrap
-from typing import Iterable, Sequence
+from typing import Any, Iterable, Sequence
 
 import matplotlib
 
@@ -121,6 +121,83 @@ def folded_parameters(frame: pd.DataFrame, shown: Sequence[str], candidates: Ite
     if {"mass1", "mass2"} & set(varying):
         varying = [c for c in varying if c != "mass_ratio"]
     return varying
+
+
+def _flat(value: Any, prefix: str = "") -> dict[str, Any]:
+    """Nested tables and lists as dotted keys, the way sweeps name them (``gap.lower``, ``forces.0.omega``)."""
+    if isinstance(value, dict):
+        items = value.items()
+    elif isinstance(value, (list, tuple)):
+        items = ((str(i), v) for i, v in enumerate(value))
+    else:
+        return {prefix.rstrip("."): value}
+    out: dict[str, Any] = {}
+    for k, v in items:
+        out.update(_flat(v, f"{prefix}{k}."))
+    return out
+
+
+def default_values(rows: pd.DataFrame, engine: str) -> dict[str, Any]:
+    """The default of each parameter a sweep of ``engine`` may vary, as dotted keys.
+
+    The engine's settings (``mujoco.w0_dt`` = 0.03, ``pybullet.restitution_velocity_threshold``
+    = 0, ...) and, when the rows are of one built-in scene, that scene's fields
+    (``restitution``, ``mass2``, ``gap.lower``, ``initial.t`` ...) and its ``mass_ratio``.
+    """
+    from chatterbench.engines.registry import ENGINE_NAMES, make_settings, settings_dict
+    from chatterbench.reference.catalogue import CATALOGUE
+    from chatterbench.reference.scene import load_scene
+
+    from .rows import mass_ratio
+
+    out: dict[str, Any] = {}
+    if engine in ENGINE_NAMES:
+        out.update({f"{engine}.{k}": v for k, v in settings_dict(make_settings(engine)).items() if k != "dt"})
+    scenes = rows["scene"].astype(str).unique() if "scene" in rows else []
+    if len(scenes) == 1 and scenes[0] in CATALOGUE:
+        scene = load_scene(scenes[0], {})
+        fields = _flat(scene.to_dict())
+        fields["mass1"] = scene.mass1
+        out.update({k: v for k, v in fields.items() if k not in ("name", "description")})
+        out["mass_ratio"] = mass_ratio(scene)
+    return out
+
+
+def _equals(column: pd.Series, value: Any) -> pd.Series:
+    """Where ``column`` holds ``value`` (numbers to 1e-9 relative, infinities exactly)."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        num = pd.to_numeric(column, errors="coerce").astype(float)
+        if math.isinf(value):
+            return num == value
+        return (num - value).abs() <= 1e-9 * max(abs(value), 1e-300)
+    return column.astype(str) == str(value)
+
+
+def at_defaults(rows: pd.DataFrame, engine: str, shown: Sequence[str], candidates: Iterable[str] | None = None
+                ) -> tuple[pd.DataFrame, dict[str, Any]]:
+    """``engine``'s rows with the parameters not ``shown`` held at their defaults, where the sweep ran them.
+
+    A report cannot ask which slice a reader wants; the defaults are the settings a user
+    starts from. A parameter whose default the sweep did not run stays folded (worst case).
+
+    Parameters
+    ----------
+    shown : the parameters the chart draws (its axes, or the curves' settings).
+    candidates : the parameters that may be held; default every parameter column.
+
+    Returns
+    -------
+    (rows, held): the slice, and each held parameter with its value.
+    """
+    sub = rows[rows["engine"] == engine]
+    defaults = default_values(rows, engine)
+    held: dict[str, Any] = {}
+    for col in folded_parameters(sub, shown, parameter_columns(rows) if candidates is None else candidates):
+        if col in defaults:
+            keep = _equals(sub[col], defaults[col])
+            if keep.any():
+                sub, held[col] = sub[keep], defaults[col]
+    return sub, held
 
 
 def check_columns(rows: pd.DataFrame, names: Iterable[str], allowed: Sequence[str] | None = None, what: str = "column") -> None:

@@ -322,3 +322,35 @@ def test_long_titles_wrap_inside_a_one_panel_map():
     title = fig._suptitle.get_text()
     assert "\n" in title and title.replace("\n", " ") == (
         "feigin-pair: verdict over pybullet.restitution_velocity_threshold and mass_ratio")
+
+
+# -- the slice a report draws: parameters held at their defaults -----------------------------------
+
+def test_at_defaults_holds_what_a_map_does_not_draw_at_the_default(feigin_rows):
+    from chatterbench.comparisons.sweep_charts import at_defaults, default_values
+
+    d = default_values(feigin_rows, "mujoco")
+    assert d["mujoco.w0_dt"] == 0.03 and d["restitution"] == 0.5 and d["mass_ratio"] == 1.0
+    sub, held = at_defaults(feigin_rows, "mujoco", ("dt", "restitution"))
+    # w0_dt varies (0.03, 0.1) and is not drawn: held at MuJoCo's default
+    assert held == {"mujoco.w0_dt": 0.03}
+    assert (sub["engine"] == "mujoco").all() and (sub["mujoco.w0_dt"] == 0.03).all() and len(sub) == 15
+    sub, held = at_defaults(feigin_rows, "mujoco", ("dt", "mujoco.w0_dt"))
+    assert held == {"restitution": 0.5} and (sub["restitution"] == 0.5).all() and len(sub) == 10
+    # PyBullet varies none of its settings here: nothing to hold on a dt x restitution map
+    assert at_defaults(feigin_rows, "pybullet", ("dt", "restitution"))[1] == {}
+    # a default the sweep did not run stays folded
+    assert at_defaults(feigin_rows[feigin_rows["restitution"] != 0.5], "mujoco", ("dt", "mujoco.w0_dt"))[1] == {}
+
+
+def test_report_sweep_section_draws_the_issue_maps_at_the_defaults(feigin_rows):
+    from chatterbench.comparisons.report import SweepSection, sweep_figures
+
+    figures, notes = sweep_figures(SweepSection(source="feigin", rows=feigin_rows))
+    ids = [f.id for f in figures]
+    assert ids == ["work-precision", "stability-mujoco-dt-restitution", "stability-mujoco-mujoco.w0_dt-restitution",
+                   "stability-pybullet-dt-restitution"]
+    caption = {f.id: f.caption for f in figures}
+    assert caption["stability-mujoco-dt-restitution"].endswith("held at the defaults: mujoco.w0_dt = 0.03")
+    assert "held" not in caption["stability-pybullet-dt-restitution"]
+    assert all(f.png[:8] == b"\x89PNG\r\n\x1a\n" for f in figures) and not notes
