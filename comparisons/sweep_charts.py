@@ -77,7 +77,7 @@ VERDICT_MEANING = {
     "error": "engine raised",
     "timeout": "ran past the time limit",
     "crashed": "engine process died",
-    "none": "no episode in reference nor engine",
+    "none": "no sliding in the reference nor the engine: they agree",
 }
 # hollow markers of the failure classes on the work-precision chart
 FAIL_MARKERS = {"missed": "v", "spurious": "^", "endless": "D", "penetrated": "s",
