@@ -65,7 +65,7 @@ def _where(rows: pd.DataFrame, items: list[str]) -> pd.DataFrame:
     each engine at one setting.
     """
     from .cli import UsageError
-    from .sweep_charts import check_columns, parameter_columns
+    from .sweep_charts import check_columns, equals, parameter_columns
 
     for item in items:
         key, sep, text = item.partition("=")
@@ -76,10 +76,9 @@ def _where(rows: pd.DataFrame, items: list[str]) -> pd.DataFrame:
         col = rows[key]
         try:
             value = float(text)
-            num = pd.to_numeric(col, errors="coerce")
-            keep = (num - value).abs() <= 1e-9 * max(abs(value), 1e-300)
         except ValueError:
-            keep = col.astype(str) == text.strip()
+            value = text.strip()
+        keep = equals(col, value)
         if not keep.any():
             values = ", ".join(sorted({f"{v:g}" if isinstance(v, float) else str(v) for v in col.dropna().unique()}))
             raise UsageError(f"--where {item}: no row has {key} = {text} (values: {values})")

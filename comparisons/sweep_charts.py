@@ -163,7 +163,7 @@ def default_values(rows: pd.DataFrame, engine: str) -> dict[str, Any]:
     return out
 
 
-def _equals(column: pd.Series, value: Any) -> pd.Series:
+def equals(column: pd.Series, value: Any) -> pd.Series:
     """Where ``column`` holds ``value`` (numbers to 1e-9 relative, infinities exactly)."""
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         num = pd.to_numeric(column, errors="coerce").astype(float)
@@ -194,7 +194,7 @@ def at_defaults(rows: pd.DataFrame, engine: str, shown: Sequence[str], candidate
     held: dict[str, Any] = {}
     for col in folded_parameters(sub, shown, parameter_columns(rows) if candidates is None else candidates):
         if col in defaults:
-            keep = _equals(sub[col], defaults[col])
+            keep = equals(sub[col], defaults[col])
             if keep.any():
                 sub, held[col] = sub[keep], defaults[col]
     return sub, held
