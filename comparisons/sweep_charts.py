@@ -503,13 +503,14 @@ def _axis(values: Sequence) -> tuple[np.ndarray, np.ndarray, str]:
     vals = list(values)
     numeric = all(isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_)) for v in vals)
     v = np.asarray(vals, float) if numeric else np.empty(0)
-    if numeric and not (v.min() > 0 and v.max() / v.min() >= LOG_SPAN) and len(v) > 2:
+    log = numeric and v.min() > 0 and v.max() / v.min() >= LOG_SPAN
+    if numeric and not log and len(v) > 2:
         steps = np.diff(v)
         numeric = steps.max() <= IRREGULAR * steps.min()
     if not numeric:
         pos = np.arange(len(vals), dtype=float)
         return pos, np.arange(len(vals) + 1) - 0.5, "category"
-    scale = "log" if v.min() > 0 and v.max() / v.min() >= LOG_SPAN else "linear"
+    scale = "log" if log else "linear"
     u = np.log10(v) if scale == "log" else v
     if len(u) == 1:
         half = 0.5 if scale == "log" else (0.5 * abs(u[0]) or 0.5)
