@@ -5,7 +5,7 @@
     $ chatterbench chart rows.csv --kind work-precision --where restitution=0.5 --out charts/
 
 DATASET is a sweep output directory (its ``rows.parquet``), a ``.parquet`` or a ``.csv``
-file of rows (``rows.py`` documents the columns). Writes ``work_precision.png/.svg`` or
+file of rows (``pipeline/summary.py`` documents the columns). Writes ``work_precision.png/.svg`` or
 ``stability_X_Y[_ENGINE].png/.svg`` under ``--out`` (default: ``charts/`` beside the
 dataset), atomically, and prints a table of what it drew. Exit codes: 0 drawn, 2 bad input
 (missing file, unknown column or engine, no rows).
@@ -19,13 +19,14 @@ from pathlib import Path
 import pandas as pd
 
 KINDS = ("work-precision", "stability")
-ERROR_METRICS = ("exit_error_max", "stick_error_max", "stick_error_plate_max", "first_impact_error_max")
+ERROR_METRICS = ("exit_error_max", "stick_error_max", "stick_error_plate_max", "first_impact_error_max",
+                 "exit_error_rel_max", "stick_error_rel_max", "restitution_error_max")
 
 
 def load_rows(path: str | Path) -> pd.DataFrame:
     """The rows of a dataset: a sweep directory (``rows.parquet``), a ``.parquet`` or a ``.csv`` file."""
     from .cli import UsageError
-    from .rows import ROW_COLUMNS
+    from .pipeline.summary import ROW_COLUMNS
 
     path = Path(path)
     if path.is_dir():

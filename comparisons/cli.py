@@ -127,17 +127,47 @@ def _engine_list(text: str) -> tuple[str, ...]:
     return tuple(check_engine(n) for n in names)
 
 
+def _tolerance_help() -> str:
+    from .pipeline.tolerances import Tolerances
+
+    defaults = ", ".join(f"{k}={v:g}" for k, v in Tolerances().as_dict().items())
+    return ("a verdict tolerance KEY=VALUE, repeatable; stick, first_impact: fractions of the episode's chatter duration, "
+            "exit: of its sliding duration, restitution: relative, penetration: of the scene's length scale; "
+            f"defaults: {defaults}")
+
+
+TOLERANCE_HELP = _tolerance_help()
+COMPARE_SHOW = ["engine", "wall", "ref_t_stick", "t_stick", "stick_error_zeno", "stick_error_rel", "ref_t_exit", "t_exit",
+                "exit_error", "exit_error_steps", "restitution_error", "resolved_impacts", "ref_resolved_impacts",
+                "n_impacts", "verdict"]
+
+
+def add_tolerance_option(p: argparse.ArgumentParser) -> None:
+    """The ``--tolerance KEY=VALUE`` option of every command that judges."""
+    p.add_argument("--tolerance", action="append", metavar="KEY=VALUE", default=None, help=TOLERANCE_HELP)
+
+
+def parse_tolerances(items):
+    """``--tolerance`` items as Tolerances (defaults where not given); ToleranceError names a bad key or value."""
+    from .pipeline.tolerances import tolerances_from_items
+
+    return tolerances_from_items(items or [])
+
+
 def cmd_compare(args: argparse.Namespace) -> int:
-    from .compare import compare
     from .outputs import write_comparison
+    from .pipeline.compare import compare
 
     scene_over, engine_over = split_overrides(args.set or [])
     scene = load_scene(args.scene, scene_over)
-    result = compare(scene, engines=_engine_list(args.engines), dt=args.dt, overrides=engine_over)
-    show = ["engine", "wall", "ref_t_stick", "t_stick", "ref_t_exit", "t_exit", "stick_error_zeno", "exit_error",
-            "n_impacts", "ref_n_impacts", "verdict"]
-    print_table(result.table[show], title=f"{scene.name}: engine episodes against the reference (errors in s)")
-    print_table(result.summary(), title="summary:")
+    tol = parse_tolerances(args.tolerance)
+    result = compare(scene, engines=_engine_list(args.engines), dt=args.dt, overrides=engine_over, tol=tol)
+    print_table(result.table[COMPARE_SHOW],
+                title=f"{scene.name}: engine episodes against the reference (errors in s; _rel: fraction of the "
+                      f"episode's scale; _steps: in timesteps); {tol.describe()}")
+    print_table(result.summary()[["engine", "verdict", "n_episodes", "n_match", "stick_error_max", "stick_error_rel_max",
+                                  "exit_error_max", "exit_error_rel_max", "restitution_error_max", "penetration_max",
+                                  "cost_per_sim_s", "status"]], title="summary:")
     if args.out:
         paths = write_comparison(result, Path(args.out), figures=not args.no_figures)
         print(f"wrote {len(paths)} files under {args.out}")
@@ -188,9 +218,11 @@ def cmd_tune(args: argparse.Namespace) -> int:
     if engine_over:
         raise UsageError(f"--set {engine_over[0]}: tune searches the engine settings itself; set scene fields only")
     scene = load_scene(args.scene, scene_over)
-    result = tune(scene, _engine_list(args.engine)[0], args.tolerance, workers=args.workers)
-    show = ["stage", "settings", "verdict", "n_match", "n_episodes", "exit_error_max", "stick_error_max", "cost_per_sim_s"]
-    print_table(result.table[show], title=f"tune {args.engine} on {scene.name}, tolerance {args.tolerance:g} of the period:")
+    tol = parse_tolerances(args.tolerance)
+    result = tune(scene, _engine_list(args.engine)[0], tol, workers=args.workers)
+    show = ["stage", "settings", "verdict", "n_match", "n_episodes", "exit_error_rel_max", "stick_error_rel_max",
+            "restitution_error_max", "cost_per_sim_s"]
+    print_table(result.table[show], title=f"tune {args.engine} on {scene.name}; {tol.describe()}:")
     if result.best is None:
         b = result.best_reachable
         print("no setting meets the tolerance" + (f"; best reachable: {b['settings']} (worst exit error {b['exit_error_max']:.3g} s)" if b else ""))
@@ -291,6 +323,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--engines", default="mujoco,pybullet", help="comma-separated engines (default: mujoco,pybullet)")
     p.add_argument("--dt", type=_positive_float, default=None, help="engine timestep [s] (default: each engine's default)")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="scene field or engine setting override")
+    add_tolerance_option(p)
     p.add_argument("--out", metavar="DIR", help="write tables (CSV, Parquet), event logs, provenance and figures under DIR")
     p.add_argument("--no-figures", action="store_true", help="skip the figures under --out")
     p.set_defaults(func=cmd_compare)
@@ -310,7 +343,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("tune", help="find the cheapest engine settings whose episodes all match within a tolerance")
     p.add_argument("scene", help="built-in scene name or path to a scene TOML file")
     p.add_argument("--engine", required=True, help="mujoco or pybullet")
-    p.add_argument("--tolerance", type=_positive_float, required=True, help="allowed error as a fraction of the forcing period, e.g. 0.01")
+    p.add_argument("--tolerance", action="append", metavar="T|KEY=VALUE", required=True,
+                   help="the accuracy to reach: one number sets the sticking, exit and first-impact tolerances "
+                        "at once (e.g. 0.05); otherwise " + TOLERANCE_HELP)
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="scene field override")
     p.add_argument("--workers", type=_positive_int, default=None, help="parallel candidate runs (default: all cores)")
     p.add_argument("--out", metavar="DIR", help="write guide.md, candidates.csv and tradeoff.png under DIR")

@@ -2,8 +2,9 @@
 
     >>> log, episodes, summary = run_engine_events(scene, "mujoco", dt=1e-4, overrides=[], export_model=None)
 
-The event log is recovered from the trajectory by ``extract.py`` and has the reference's
-format, so the same episode table describes the engine's run.
+The event log is recovered from the trajectory by ``pipeline/extract.py`` with the same
+resolution ``compare`` uses (the tightest sticking tolerance of the scene's reference
+visits), and has the reference's format, so the same episode table describes the engine's run.
 """
 
 from __future__ import annotations
@@ -18,7 +19,9 @@ from chatterbench.reference.log import episodes, log_frame
 from chatterbench.reference.scene import Scene
 
 from .atomic import write_text
-from .extract import extract_events
+from .pipeline.extract import extract_events
+from .pipeline.solution import solve
+from .pipeline.tolerances import Tolerances
 
 
 def run_engine_events(
@@ -32,8 +35,9 @@ def run_engine_events(
 
             raise UsageError("--export-model: only MuJoCo models can be exported (use --engine mujoco)")
         write_text(Path(export_model), engine_module("mujoco").export_mjcf(scene, settings))
+    resolution = solve(scene).stick_tolerance(Tolerances().stick)
     traj = run_engine(engine, scene, settings)
-    log = extract_events(traj, scene) if len(traj.t) > 1 else log_frame([])
+    log = extract_events(traj, scene, resolution) if len(traj.t) > 1 else log_frame([])
     n_imp = int((log["kind"] == "impact").sum())
     summary = (f"{engine} dt={settings.dt:g} s: status {traj.status}{' (' + traj.message + ')' if traj.message else ''}, "
                f"{len(traj.t)} samples, {n_imp} impacts, {traj.wall_time:.3f} s stepping")

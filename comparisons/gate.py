@@ -18,7 +18,8 @@ Gate file format (TOML)::
     dt = 1e-4                                        # engine timestep [s]; default: the engine's default
     settings = { w0_dt = 0.03 }                      # engine settings by the engine's own names (no prefix)
     scene_overrides = { duration = 20.0, "initial.vy" = 0.0 }   # scene fields by dotted key
-    tolerances = { stick = 0.02, exit = 0.01 }       # verdict tolerances (verdict.Tolerances), fractions of T
+    tolerances = { stick = 0.05, exit = 0.02 }       # verdict tolerances (pipeline.tolerances.Tolerances):
+                                                     # fractions of each episode's chatter / sliding duration
     limits = [                                       # "METRIC OP VALUE", all must hold
         "verdict == match",
         "exit_error_max <= 2e-3",                    # [s]
@@ -29,22 +30,32 @@ Keys of a check: ``name``, ``scene`` (required), ``engine`` (required), ``dt``,
 ``settings``, ``scene_overrides``, ``tolerances``, ``limits`` (required, at least one).
 Nested tables in ``scene_overrides`` are dotted keys too (``initial = { vy = 0.0 }``).
 
-Metrics are the engine's summary row over the scene's episodes (``rows.summarize``):
+Metrics are the engine's summary row over the scene's episodes (``pipeline.summary``, the
+same names ``compare``, ``report``, ``tune`` and sweeps print):
 
-=========================  ======  ======================================================
-metric                     kind    operators
-=========================  ======  ======================================================
-verdict, status            text    ``==``, ``!=``, ``in`` (``verdict in [match, late]``)
-exit_error_max [s]         number  ``<=``, ``<``, ``>=``, ``>``, ``==``, ``!=``
-stick_error_max [s]        number  (against the Zeno point)
-stick_error_plate_max [s]  number  (against Feigin's plate entry)
-first_impact_error_max [s] number
-cost_per_sim_s             number  wall-clock s per simulated s (machine-dependent)
-n_match, n_episodes        number  integers
-=========================  ======  ======================================================
+==========================  ======  =====================================================
+metric                      kind    operators
+==========================  ======  =====================================================
+verdict, status             text    ``==``, ``!=``, ``in`` (``verdict in [match, late]``)
+exit_error_max [s]          number  ``<=``, ``<``, ``>=``, ``>``, ``==``, ``!=``
+stick_error_max [s]         number  (against the Zeno point)
+stick_error_plate_max [s]   number  (against Feigin's plate entry)
+first_impact_error_max [s]  number
+exit_error_rel_max          number  exit error / sliding duration (the exit tolerance's measure)
+stick_error_rel_max         number  sticking error / chatter duration (the stick tolerance's measure)
+restitution_error_max       number  |effective R / R - 1| of the worst resolved impact
+penetration_max [m]         number  deepest penetration of a wall
+cost_per_sim_s              number  wall-clock s per simulated s (machine-dependent)
+n_match, n_episodes         number  integers
+==========================  ======  =====================================================
 
-A number limit on a metric that was not measured (NaN: e.g. no episode exits) fails: nothing
-measured is not evidence that the limit holds.
+The verdicts (``pipeline/vocabulary.py``; ``docs/verdicts.md``) combine into the run's
+verdict by severity: the worst episode names it. A failure never passes by omission: when
+the run's verdict is a failure class (``crashed``, ``timeout``, ``error``, ``diverged``),
+a verdict or status limit holds only if it names that class explicitly (``verdict in
+[match, error]``), and a check without such a limit fails. A number limit on a metric that
+was not measured (NaN: e.g. no episode exits) fails: nothing measured is not evidence that
+the limit holds.
 
 Promises: a gate file is validated in full (keys, types, scenes, engine settings,
 tolerances, metrics, operators, values) before any engine runs, and every problem is
@@ -74,11 +85,12 @@ from chatterbench.reference.catalogue import CATALOGUE
 from chatterbench.reference.scene import Scene, SceneError, did_you_mean, load_scene
 
 from .atomic import write_text
-from .verdict import VERDICTS, Tolerances
+from .pipeline.summary import METRIC_COLUMNS
+from .pipeline.tolerances import Tolerances, make_tolerances
+from .pipeline.vocabulary import FAILURES, NAMES
 
-TEXT_METRICS = {"verdict": VERDICTS + ("none",), "status": ("ok", "diverged", "penetrated", "error", "timeout", "crashed")}
-NUMBER_METRICS = ("exit_error_max", "stick_error_max", "stick_error_plate_max", "first_impact_error_max",
-                  "cost_per_sim_s", "n_match", "n_episodes")
+TEXT_METRICS = {"verdict": NAMES, "status": ("ok", *FAILURES)}
+NUMBER_METRICS = (*METRIC_COLUMNS, "cost_per_sim_s", "n_match", "n_episodes")
 METRICS = tuple(TEXT_METRICS) + NUMBER_METRICS
 TEXT_OPS = ("==", "!=", "in")
 NUMBER_OPS = ("<=", "<", ">=", ">", "==", "!=")
@@ -110,12 +122,19 @@ class Limit:
     value: float | str | tuple[str, ...]  # number [metric's unit], text, or texts for ``in``
 
     def holds(self, measured: Any) -> bool:
-        """Whether ``measured`` satisfies the limit; a NaN number never does."""
+        """Whether ``measured`` satisfies the limit; a NaN number never does, nor a failure class the limit
+        does not name (``verdict != late`` does not pass an ``error`` run)."""
         if self.metric in NUMBER_METRICS:
             if measured is None or (isinstance(measured, float) and math.isnan(measured)):
                 return False
             return bool(_OPS[self.op](float(measured), float(self.value)))
+        if str(measured) in FAILURES and not self.names(str(measured)):
+            return False
         return bool(_OPS[self.op](str(measured), self.value))
+
+    def names(self, word: str) -> bool:
+        """Does this text limit name ``word`` explicitly?"""
+        return word in self.value if isinstance(self.value, tuple) else word == self.value
 
     def __str__(self) -> str:
         if isinstance(self.value, tuple):
@@ -144,7 +163,7 @@ class Check:
     def run_key(self) -> str:
         """Identity of the run this check needs (checks with equal keys share one run)."""
         return json.dumps({"scene": self.scene.to_dict(), "engine": self.engine, "dt": self.dt,
-                           "settings": dict(self.settings), "tol": self.tolerances.__dict__}, sort_keys=True, default=repr)
+                           "settings": dict(self.settings), "tol": self.tolerances.as_dict()}, sort_keys=True, default=repr)
 
 
 @dataclass(frozen=True)
@@ -175,6 +194,17 @@ class CheckResult:
     @property
     def passed(self) -> bool:
         return all(o.passed for o in self.outcomes)
+
+    @staticmethod
+    def outcomes_for(check: "Check", row: Mapping[str, Any]) -> tuple["LimitOutcome", ...]:
+        """Each limit's outcome on ``row``; a failed run whose class no text limit names adds a failing
+        ``verdict`` outcome (a failure never passes by omission)."""
+        outcomes = [LimitOutcome(lim, row.get(lim.metric), lim.holds(row.get(lim.metric))) for lim in check.limits]
+        verdict = str(row.get("verdict"))
+        if verdict in FAILURES and not any(lim.metric in TEXT_METRICS and lim.names(verdict) for lim in check.limits):
+            implicit = Limit("verdict", "!=", verdict)
+            outcomes.append(LimitOutcome(implicit, verdict, False))
+        return tuple(outcomes)
 
     def failure_message(self) -> str:
         """Readable account: measured against the limit, per limit, with the run's context."""
@@ -328,10 +358,13 @@ def make_check(
     name: str | None = None,
     base_dir: Path | None = None,
     source: str = "",
+    base_tolerances: Tolerances | None = None,
 ) -> Check:
     """Validate one check's parts (scene loads, settings build, tolerances hold) without running it.
 
-    Raises GateError listing every problem; ``source`` ("FILE, check N") prefixes each.
+    ``tolerances`` are applied over ``base_tolerances`` (default: ``Tolerances()``; the
+    command line's ``--tolerance``). Raises GateError listing every problem; ``source``
+    ("FILE, check N") prefixes each.
     """
     problems: list[str] = []
     pre = f"{source}: " if source else ""
@@ -368,17 +401,10 @@ def make_check(
     if isinstance(tolerances, Tolerances):
         tol = tolerances
     else:
-        tolerances = dict(tolerances or {})
-        allowed = list(Tolerances.__dataclass_fields__)
-        unknown = [k for k in tolerances if k not in allowed]
-        if unknown:
-            problems.append(f"{pre}tolerances.{unknown[0]}: unknown tolerance{did_you_mean(unknown[0], allowed)}; "
-                            f"allowed: {', '.join(allowed)}")
-        else:
-            try:
-                tol = Tolerances(**tolerances)
-            except SceneError as exc:
-                problems.append(f"{pre}tolerances: {exc}")
+        try:
+            tol = make_tolerances(tolerances, base=base_tolerances)
+        except SceneError as exc:  # ToleranceError: names the key and what is allowed
+            problems.append(f"{pre}{exc}")
     if not limits:
         problems.append(f"{pre}limits: at least one limit is needed, e.g. \"verdict == match\"")
     if problems:
@@ -388,8 +414,12 @@ def make_check(
                  tolerances=tol, limits=tuple(limits), source=source)
 
 
-def parse_gate(data: Mapping[str, Any], path: str = "<gate>", base_dir: Path | None = None) -> Gate:
-    """Validate gate data (the TOML layout of the module docstring); raises GateError with every problem."""
+def parse_gate(data: Mapping[str, Any], path: str = "<gate>", base_dir: Path | None = None,
+               base_tolerances: Tolerances | None = None) -> Gate:
+    """Validate gate data (the TOML layout of the module docstring); raises GateError with every problem.
+
+    ``base_tolerances`` (the command line's ``--tolerance``) are what a check's own
+    ``tolerances`` table, and the file's ``[defaults]``, are applied over."""
     problems: list[str] = []
     for key in data:
         if key not in TOP_KEYS:
@@ -453,7 +483,7 @@ def parse_gate(data: Mapping[str, Any], path: str = "<gate>", base_dir: Path | N
         try:
             check = make_check(entry["scene"], entry["engine"], limits, dt=entry.get("dt"), settings=entry.get("settings"),
                                scene_overrides=entry.get("scene_overrides"), tolerances=entry.get("tolerances"),
-                               name=entry.get("name"), base_dir=base_dir, source=label)
+                               name=entry.get("name"), base_dir=base_dir, source=label, base_tolerances=base_tolerances)
         except GateError as exc:
             problems.extend(str(exc).splitlines())
             continue
@@ -468,7 +498,7 @@ def parse_gate(data: Mapping[str, Any], path: str = "<gate>", base_dir: Path | N
     return Gate(path=path, checks=tuple(checks), description=description)
 
 
-def load_gate(path: str | Path) -> Gate:
+def load_gate(path: str | Path, base_tolerances: Tolerances | None = None) -> Gate:
     """Read and validate a gate file; raises GateError (unreadable, not TOML, or any invalid check)."""
     path = Path(path)
     try:
@@ -481,15 +511,15 @@ def load_gate(path: str | Path) -> Gate:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise GateError(f"gate file {str(path)!r}: not valid TOML ({exc})") from None
-    return parse_gate(data, str(path), path.parent)
+    return parse_gate(data, str(path), path.parent, base_tolerances)
 
 
 # -- running -----------------------------------------------------------------------------
 
 def run_check(check: Check, cache: dict[str, tuple[dict, str]] | None = None) -> CheckResult:
     """Run the check's comparison (or reuse an equal one from ``cache``) and test every limit."""
-    from .compare import compare
-    from .rows import summarize
+    from .pipeline.compare import compare
+    from .pipeline.summary import summarize
 
     key = check.run_key()
     start = time.perf_counter()
@@ -501,8 +531,7 @@ def run_check(check: Check, cache: dict[str, tuple[dict, str]] | None = None) ->
         row = summarize(c, check.engine, {})
         if cache is not None:
             cache[key] = (row, row["engine_version"])
-    outcomes = tuple(LimitOutcome(lim, row.get(lim.metric), lim.holds(row.get(lim.metric))) for lim in check.limits)
-    return CheckResult(check=check, row=row, outcomes=outcomes, wall_s=time.perf_counter() - start)
+    return CheckResult(check=check, row=row, outcomes=CheckResult.outcomes_for(check, row), wall_s=time.perf_counter() - start)
 
 
 def run_gate(gate: Gate, progress: Callable[[str], None] | None = None) -> GateResult:
@@ -541,9 +570,8 @@ def junit_xml(result: GateResult) -> str:
             failure = ET.SubElement(case, "failure", message=message, type="GateFailure")
             failure.text = r.failure_message()
         out = ET.SubElement(case, "system-out")
-        out.text = json.dumps({k: _json_value(r.row[k]) for k in ("scene", "engine", "dt", "status", "verdict", "n_episodes", "n_match",
-                                                    "exit_error_max", "stick_error_max", "stick_error_plate_max",
-                                                    "first_impact_error_max", "cost_per_sim_s", "engine_version")},
+        out.text = json.dumps({k: _json_value(r.row[k]) for k in ("scene", "engine", "dt", "status", "verdict", "n_episodes",
+                                                                 "n_match", *METRIC_COLUMNS, "cost_per_sim_s", "engine_version")},
                               default=str)
     ET.indent(suites)
     return '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(suites, encoding="unicode") + "\n"

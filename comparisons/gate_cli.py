@@ -3,7 +3,8 @@
     $ chatterbench gate gates/default.toml
     $ chatterbench gate gates/default.toml --junit out/gate.xml
 
-Validates the whole file first (format: ``gate.py`` docstring), runs every check, prints one
+Validates the whole file first (format: ``gate.py`` docstring; ``--tolerance KEY=VALUE``
+sets the tolerances every check's own ``tolerances`` table starts from), runs every check, prints one
 line per limit (measured value, limit, pass/FAIL) and writes JUnit XML where ``--junit``
 says (one testcase per check, a <failure> with the numbers). Exit codes: 0 every check
 passed, 1 a check failed, 2 bad input (the gate file, a scene, a setting).
@@ -16,10 +17,10 @@ import sys
 
 
 def cmd_gate(args: argparse.Namespace) -> int:
-    from .cli import print_table
+    from .cli import parse_tolerances, print_table
     from .gate import load_gate, run_gate, write_junit
 
-    gate = load_gate(args.gates)
+    gate = load_gate(args.gates, base_tolerances=parse_tolerances(args.tolerance))
     print(f"{gate.path}: {len(gate.checks)} checks" + (f" ({gate.description})" if gate.description else ""), file=sys.stderr)
     result = run_gate(gate, progress=lambda line: print(line, file=sys.stderr, flush=True))
     print_table(result.table(), title=f"{gate.path}: {len(result.results)} checks in {result.wall_s:.1f} s")
@@ -38,4 +39,7 @@ def register(sub) -> None:
     p = sub.add_parser("gate", help="run accuracy checks from a gate file; exit 1 if any fails (for CI)")
     p.add_argument("gates", metavar="GATES.toml", help="gate file (format: chatterbench.comparisons.gate docstring)")
     p.add_argument("--junit", metavar="PATH", help="write JUnit XML here (one testcase per check)")
+    from .cli import add_tolerance_option
+
+    add_tolerance_option(p)
     p.set_defaults(func=cmd_gate)

@@ -1,6 +1,6 @@
 """The engine-tuning guide: a recommendation a user can paste, with its evidence.
 
-    >>> result = tune(scene, "mujoco", tolerance=0.01)
+    >>> result = tune(scene, "mujoco", Tolerances(stick=0.05, exit=0.02))
     >>> text = guide_markdown(result)             # Markdown: snippet, errors, cost, failures nearby
     >>> fig = tradeoff_figure(result)             # cost vs error of every candidate, the choice marked
 
@@ -17,13 +17,15 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 from chatterbench.engines.registry import engine_module, make_settings  # noqa: E402
 
-VERDICT_COLORS = {"match": "#2ca02c", "early": "#ff7f0e", "late": "#bcbd22", "missed": "#9467bd", "spurious": "#8c564b",
-                  "endless": "#e377c2", "penetrated": "#d62728", "diverged": "black", "error": "gray", "refused": "lightgray"}
+from .pipeline.vocabulary import COLOURS, rank  # noqa: E402
+
+REFUSED_COLOUR = "#bdbdbd"  # a candidate whose settings the scene cannot run (not a verdict)
 
 
 def _settings_of(result, row):
@@ -42,22 +44,24 @@ def snippet(result, row: dict) -> str:
 
 
 def tradeoff_figure(result) -> Figure:
-    """Cost per simulated second against the worst exit error, every candidate, the choice marked."""
+    """Cost per simulated second against the timing score (worst timing error over its tolerance), every
+    candidate, the choice marked; candidates with no timing error measured sit on the top edge."""
     table = result.table
-    T = result.scene.time_scale
     fig, ax = plt.subplots(figsize=(8, 5), layout="constrained")
-    for verdict, grp in table.groupby("verdict"):
-        y = grp["exit_error_max"].fillna(T)  # no exit measured: drawn at one period
-        ax.scatter(grp["cost_per_sim_s"], y, s=28, color=VERDICT_COLORS.get(verdict, "gray"), label=verdict,
+    score = table["timing_score"]
+    top = float(np.nanmax(score)) * 2 if score.notna().any() else 10.0
+    for verdict, grp in sorted(table.groupby("verdict"), key=lambda g: rank(g[0])):
+        y = grp["timing_score"].fillna(top)
+        ax.scatter(grp["cost_per_sim_s"], y, s=28, color=COLOURS.get(verdict, REFUSED_COLOUR), label=verdict,
                    marker="o" if verdict == "match" else "x")
-    ax.axhline(result.tolerance * T, color="0.3", ls="--", lw=1, label=f"tolerance {result.tolerance:g} T")
+    ax.axhline(1.0, color="0.3", ls="--", lw=1, label="tolerance")
     if result.best is not None:
-        ax.scatter([result.best["cost_per_sim_s"]], [result.best["exit_error_max"]], s=220, facecolors="none",
+        ax.scatter([result.best["cost_per_sim_s"]], [result.best["timing_score"]], s=220, facecolors="none",
                    edgecolors="black", linewidths=2, label="recommended")
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("cost: wall-clock s per simulated s")
-    ax.set_ylabel("worst |exit error| [s]")
+    ax.set_ylabel("worst timing error / its tolerance")
     ax.set_title(f"tune {result.engine} on {result.scene.name}: every candidate")
     ax.legend(fontsize=8)
     return fig
@@ -69,19 +73,17 @@ def _fmt(v) -> str:
 
 def guide_markdown(result) -> str:
     """The guide as Markdown (see the module docstring)."""
-    T = result.scene.time_scale
     lines = [f"# Tuning {result.engine} for {result.scene.name}", ""]
-    lines.append(f"Tolerance: {result.tolerance:g} of the forcing period T = {T:.4g} s "
-                 f"({result.tolerance * T:.3g} s) on the sticking start, exit and first impact of every episode.")
+    lines.append(f"Tolerances: {result.tolerance.describe()}; every episode.")
     lines.append("")
     table = result.table
     if result.best is None:
         lines.append("**No candidate met the tolerance.**")
         if result.best_reachable is not None:
             b = result.best_reachable
-            lines.append(f"Best reachable (smallest worst error): `{b['settings']}` with worst exit error {_fmt(b['exit_error_max'])} s "
-                         f"and worst sticking error {_fmt(b['stick_error_max'])} s (verdict {b['verdict']}), "
-                         f"at {_fmt(b['cost_per_sim_s'])} s per simulated s.")
+            lines.append(f"Best reachable (smallest timing score): `{b['settings']}` with worst exit error {_fmt(b['exit_error_max'])} s "
+                         f"and worst sticking error {_fmt(b['stick_error_max'])} s, timing score {_fmt(b['timing_score'])} "
+                         f"(verdict {b['verdict']}), at {_fmt(b['cost_per_sim_s'])} s per simulated s.")
     else:
         b = result.best
         lines += [f"**Recommended:** `{b['settings']}`", "",
@@ -92,10 +94,12 @@ def guide_markdown(result) -> str:
         # nearby settings that fail: the cheaper candidates around the choice
         cheaper = table[(table["cost_per_sim_s"] < b["cost_per_sim_s"]) & (table["verdict"] != "match")]
         if len(cheaper):
-            lines += ["Cheaper settings that fail, and how:", "", "| settings | verdict | worst exit error [s] | cost |",
-                      "| --- | --- | --- | --- |"]
+            lines += ["Cheaper settings that fail, and how:", "",
+                      "| settings | verdict | stick error / chatter | exit error / sliding | restitution error | cost |",
+                      "| --- | --- | --- | --- | --- | --- |"]
             for r in cheaper.head(8).itertuples():
-                lines.append(f"| `{r.settings}` | {r.verdict} | {_fmt(r.exit_error_max)} | {_fmt(r.cost_per_sim_s)} |")
+                lines.append(f"| `{r.settings}` | {r.verdict} | {_fmt(r.stick_error_rel_max)} | {_fmt(r.exit_error_rel_max)} | "
+                             f"{_fmt(r.restitution_error_max)} | {_fmt(r.cost_per_sim_s)} |")
             lines.append("")
     lines += ["Every candidate tried:", "", "| stage | settings | verdict | matches | worst exit error [s] | worst stick error [s] | cost |",
               "| --- | --- | --- | --- | --- | --- | --- |"]
@@ -112,11 +116,9 @@ def guide_section_html(result) -> str:
 
     from .outputs import figure_bytes
 
-    T = result.scene.time_scale
     esc = html.escape
     parts = [f'<h2 id="tuning-{esc(result.engine)}-{esc(result.scene.name)}">Tuning {esc(result.engine)} for {esc(result.scene.name)}</h2>',
-             f"<p>Tolerance: {result.tolerance:g} of the forcing period T = {T:.4g} s ({result.tolerance * T:.3g} s) on the "
-             "sticking start, exit and first impact of every episode.</p>"]
+             f"<p>Tolerances: {esc(result.tolerance.describe())}; every episode.</p>"]
     if result.best is None:
         parts.append("<p><strong>No candidate met the tolerance.</strong></p>")
         if result.best_reachable is not None:

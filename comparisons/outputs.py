@@ -4,8 +4,12 @@
 
 Layout of DIR:
 
-- ``episodes.csv`` / ``episodes.parquet``: the comparison table (``compare.COLUMNS``);
-- ``reference_episodes.csv``: plate entry, Zeno point and exit of every reference episode;
+- ``episodes.csv`` / ``episodes.parquet``: the comparison table (``pipeline.compare.COLUMNS``);
+- ``impacts.csv``: every paired resolved impact, per engine (``pipeline.judge.IMPACT_PAIR_COLUMNS``):
+  times, incoming speeds, effective restitution and its error;
+- ``impacts_ENGINE.csv``: every impact the extraction found in the engine's samples
+  (``pipeline.extract.IMPACT_COLUMNS``), unresolved micro-bounces of stuck stretches included;
+- ``reference_episodes.csv``: plate entry, Zeno point, exit and scales of every reference episode;
 - ``events_reference_feigin.csv``, ``events_reference_exhaustive.csv``, ``events_ENGINE.csv``:
   event logs in the reference format;
 - ``provenance.json``: scene, engine versions and settings, tolerances, wall-clock cost of
@@ -44,12 +48,14 @@ def write_comparison(comparison, out: Path, figures: bool = True) -> list[Path]:
     paths = [
         write_frame(out / "episodes.csv", comparison.table),
         write_frame(out / "episodes.parquet", comparison.table),
+        write_frame(out / "impacts.csv", comparison.impacts),
         write_frame(out / "reference_episodes.csv", comparison.reference),
         write_frame(out / "events_reference_feigin.csv", comparison.feigin.log),
         write_frame(out / "events_reference_exhaustive.csv", comparison.exhaustive.log),
     ]
     for name, run in comparison.runs.items():
         paths.append(write_frame(out / f"events_{name}.csv", run.log))
+        paths.append(write_frame(out / f"impacts_{name}.csv", run.found.impacts))
     paths.append(write_text(out / "provenance.json", json.dumps(comparison.provenance, indent=2, default=_json_default)))
     if figures:
         from .charts import timeseries_figure

@@ -38,7 +38,7 @@ from chatterbench.reference.scene import Scene, SceneError, scene_from_dict  # n
 from chatterbench.reference.simulate import in_plate  # noqa: E402
 
 from .charts import ENGINE_COLORS  # noqa: E402
-from .extract import extract_episodes  # noqa: E402
+from .pipeline.extract import extract_episodes  # noqa: E402
 
 
 def strike_grid(scene: Scene, n_phase: int, n_speed: int, max_speed: float | None = None):

@@ -35,24 +35,33 @@ from chatterbench.reference.catalogue import CATALOGUE
 from chatterbench.reference.scene import load_scene
 
 from .atomic import write_text
-from .compare import Comparison, compare
-from .rows import summarize
-from .verdict import Tolerances
+from .pipeline.compare import Comparison, compare
+from .pipeline.summary import summarize
+from .pipeline.tolerances import Tolerances
+from .pipeline.vocabulary import COLOURS, MEANINGS, NAMES, text_colour
 
-SUMMARY_COLUMNS = ["scene", "engine", "verdict", "n_match", "n_episodes", "exit_error_max", "stick_error_max",
-                   "cost_per_sim_s", "status"]
-EPISODE_COLUMNS = ["engine", "wall", "ref_t_stick", "t_stick", "stick_error_zeno", "ref_t_exit", "t_exit", "exit_error",
-                   "n_impacts", "ref_n_impacts", "verdict"]
+SUMMARY_COLUMNS = ["scene", "engine", "verdict", "n_match", "n_episodes", "stick_error_max", "stick_error_rel_max",
+                   "exit_error_max", "exit_error_rel_max", "restitution_error_max", "penetration_max", "cost_per_sim_s",
+                   "status"]
+EPISODE_COLUMNS = ["engine", "wall", "ref_t_stick", "t_stick", "stick_error_zeno", "stick_error_rel", "ref_t_exit", "t_exit",
+                   "exit_error", "exit_error_rel", "exit_error_steps", "restitution_error", "resolved_impacts",
+                   "ref_resolved_impacts", "n_impacts", "verdict"]
 # headers shown for the columns above; errors are printed in ms, times in s
 HEADERS = {
     "scene": "scene", "engine": "engine", "verdict": "verdict", "n_match": "matched", "n_episodes": "episodes",
     "exit_error_max": "worst exit error [ms]", "stick_error_max": "worst sticking error [ms]",
+    "exit_error_rel_max": "worst exit error / sliding", "stick_error_rel_max": "worst sticking error / chatter",
+    "restitution_error_max": "worst restitution error", "penetration_max": "deepest penetration [mm]",
+    "stick_error_rel": "/ chatter", "exit_error_rel": "/ sliding", "exit_error_steps": "exit error [steps]",
+    "restitution_error": "restitution error", "resolved_impacts": "resolved", "ref_resolved_impacts": "ref. resolved",
     "cost_per_sim_s": "cost [s per sim. s]", "status": "run", "wall": "wall",
     "ref_t_stick": "ref. sticks [s]", "t_stick": "sticks [s]", "stick_error_zeno": "sticking error [ms]",
     "ref_t_exit": "ref. exits [s]", "t_exit": "exits [s]", "exit_error": "exit error [ms]",
     "n_impacts": "impacts", "ref_n_impacts": "ref. impacts",
 }
-MS_COLUMNS = {"exit_error_max", "stick_error_max", "stick_error_zeno", "exit_error"}
+MS_COLUMNS = {"exit_error_max", "stick_error_max", "stick_error_zeno", "exit_error", "penetration_max"}
+FRACTION_COLUMNS = {"stick_error_rel_max", "exit_error_rel_max", "restitution_error_max", "stick_error_rel", "exit_error_rel",
+                    "restitution_error", "exit_error_steps"}
 TIME_COLUMNS = {"ref_t_stick", "t_stick", "ref_t_exit", "t_exit"}
 
 Progress = Callable[[str], None]
@@ -63,7 +72,7 @@ class SweepSection:
     """A sweep dataset to chart in the report: its rows and where they came from."""
 
     source: str  # the dataset's path, as given
-    rows: pd.DataFrame  # rows.ROW_COLUMNS plus one column per swept parameter
+    rows: pd.DataFrame  # summary.ROW_COLUMNS plus one column per swept parameter
 
 
 @dataclass(frozen=True)
@@ -71,7 +80,7 @@ class Report:
     """What ``build_report`` ran: one comparison per scene and the summary over them."""
 
     comparisons: tuple[Comparison, ...]
-    summary: pd.DataFrame  # one row per (scene, engine): rows.summarize columns
+    summary: pd.DataFrame  # one row per (scene, engine): summary.summarize columns
     engines: tuple[str, ...]
     dt: float | None  # [s] the timestep asked for; None: each engine's default
     overrides: tuple[str, ...]  # the KEY=VALUE items applied to every scene and engine
@@ -141,6 +150,8 @@ def _cell(column: str, value: Any) -> str:
         return f"{value * 1e3:.3g}"
     if column in TIME_COLUMNS:
         return f"{value:.4f}"
+    if column in FRACTION_COLUMNS:
+        return f"{value:.2g}"
     if column == "cost_per_sim_s":
         return f"{value:.3g}"
     if isinstance(value, float) and value.is_integer() and column.startswith("n_"):
@@ -153,11 +164,8 @@ def _summary_frame(report: Report) -> pd.DataFrame:
 
 
 def _tolerance_line(c: Comparison) -> str:
-    T = c.scene.time_scale
-    tol = c.provenance.get("tolerances", {})
-    return (f"time scale T = {T:.4g} s; a match sticks within [plate entry - {tol.get('stick', 0) * T * 1e3:.3g} ms, "
-            f"Zeno point + {tol.get('stick', 0) * T * 1e3:.3g} ms] and exits within "
-            f"{tol.get('exit', 0) * T * 1e3:.3g} ms of the reference")
+    return (f"a match has {c.tolerances.describe()}, each against the episode's own chatter and sliding durations "
+            "(the reference's Zeno point - first impact, exit - Zeno point)")
 
 
 def _engine_rows(report: Report) -> list[dict[str, Any]]:
@@ -328,12 +336,7 @@ table.prov th { width: 13em; }
 
 
 def _verdict_style(verdict: str) -> str:
-    from .sweep_charts import VERDICT_COLORS
-
-    color = VERDICT_COLORS.get(verdict, "#ffffff")
-    r, g, b = (int(color[i:i + 2], 16) for i in (1, 3, 5)) if color.startswith("#") else (0, 0, 0)
-    text = "#000" if 0.299 * r + 0.587 * g + 0.114 * b > 140 else "#fff"
-    return f"background:{color};color:{text}"
+    return f"background:{COLOURS.get(verdict, '#ffffff')};color:{text_colour(verdict)}"
 
 
 def _html_table(frame: pd.DataFrame, columns: Sequence[str], link_scene: bool = False) -> str:
@@ -364,10 +367,8 @@ def _img(fig: Figure) -> str:
 
 
 def _verdict_legend() -> str:
-    from .sweep_charts import VERDICT_MEANING
-
-    items = "".join(f'<tr><td class="verdict" style="{_verdict_style(v)}">{v}</td><td class="text">{html.escape(m)}</td></tr>'
-                    for v, m in VERDICT_MEANING.items() if v != "none")
+    items = "".join(f'<tr><td class="verdict" style="{_verdict_style(v)}">{v}</td><td class="text">{html.escape(MEANINGS[v])}</td></tr>'
+                    for v in NAMES)
     return f"<details><summary>what the verdicts mean</summary><table><tbody>{items}</tbody></table></details>"
 
 

@@ -24,6 +24,8 @@ def _command_line(args: argparse.Namespace) -> str:
         words += ["--dt", f"{args.dt:g}"]
     for item in args.set or []:
         words += ["--set", item]
+    for item in args.tolerance or []:
+        words += ["--tolerance", item]
     if args.sweep:
         words += ["--sweep", args.sweep]
     return " ".join(shlex.quote(w) for w in words)
@@ -33,10 +35,11 @@ def cmd_report(args: argparse.Namespace) -> int:
     from chatterbench.reference.catalogue import CATALOGUE
 
     from .chart_cli import load_rows
-    from .cli import _engine_list, print_table, split_overrides
+    from .cli import _engine_list, parse_tolerances, print_table, split_overrides
     from .report import SUMMARY_COLUMNS, SweepSection, build_report, write_report
 
     scene_over, engine_over = split_overrides(args.set or [])
+    tol = parse_tolerances(args.tolerance)
     tuning = []
     for d in args.tune or ():  # tuning guides are read before any run, so a bad path costs nothing
         f = Path(d) / "guide_section.html"
@@ -49,7 +52,7 @@ def cmd_report(args: argparse.Namespace) -> int:
     sweep = SweepSection(str(args.sweep), load_rows(args.sweep)) if args.sweep else None  # bad input before any run
     report = build_report(
         scenes=args.scenes or tuple(CATALOGUE), engines=_engine_list(args.engines), dt=args.dt,
-        scene_overrides=scene_over, engine_overrides=engine_over, sweep=sweep,
+        scene_overrides=scene_over, engine_overrides=engine_over, tol=tol, sweep=sweep,
         command=_command_line(args),
     )
     print_table(report.summary[SUMMARY_COLUMNS], title=f"summary ({report.wall_time_s:.1f} s of runs; errors in s):")
@@ -74,6 +77,9 @@ def register(sub) -> None:
     p.add_argument("--dt", type=_positive_float, default=None, help="engine timestep [s] (default: each engine's default)")
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="scene field (applied to every scene, e.g. duration=1.6) or engine setting (mujoco.w0_dt=0.05)")
+    from .cli import add_tolerance_option
+
+    add_tolerance_option(p)
     p.add_argument("--sweep", metavar="DIR", help="a sweep dataset (directory with rows.parquet): add its work-precision "
                                                   "chart and stability maps")
     p.add_argument("--tune", action="append", metavar="DIR",

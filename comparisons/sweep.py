@@ -24,8 +24,8 @@ Spec file (TOML)::
     dt = 1e-3
     initial.t = 1.0
 
-    [tolerances]                       # verdict tolerances (verdict.Tolerances), optional
-    exit = 0.02
+    [tolerances]                       # verdict tolerances (pipeline.tolerances.Tolerances), optional
+    exit = 0.02                        # (--tolerance KEY=VALUE on the command line sets them too)
 
 Keys in ``[set]``, ``[grid]`` and ``[[points]]`` are the dotted keys of ``--set``: ``dt`` is
 the engine timestep [s] (every engine); ``mujoco.KEY`` / ``pybullet.KEY`` are that engine's
@@ -38,7 +38,7 @@ become floats). At least one of ``[grid]`` and ``[[points]]`` is required.
 The unit of work is a *run*: one engine at one point. A run's parameters are the point's
 keys minus the other engines' settings, so a pybullet run does not repeat for every value
 of ``mujoco.w0_dt`` (identical runs are run once). Each run yields one row of
-``rows.ROW_COLUMNS`` (one column per parameter, named by its dotted key).
+``pipeline.summary.ROW_COLUMNS`` (one column per parameter, named by its dotted key).
 
 Promises:
 
@@ -88,13 +88,13 @@ from chatterbench.reference.scene import SceneError, did_you_mean, load_scene
 
 from .atomic import write_frame, write_text
 from .isolate import die_with_parent, run_isolated
-from .rows import ROW_COLUMNS, failure_row, mass_ratio, point_id
+from .pipeline.summary import METRIC_COLUMNS, ROW_COLUMNS, failure_row, mass_ratio, point_id
+from .pipeline.tolerances import make_tolerances
 
 SPEC_KEYS = ("scene", "engines", "timeout", "description", "set", "grid", "points", "tolerances")
 DEFAULT_TIMEOUT = 120.0  # [s] per run
-FAILED = ("crashed", "timeout", "error")  # run statuses counted as failures by the progress bar
-_FLOAT_COLUMNS = ("dt", "mass_ratio", "exit_error_max", "stick_error_max", "stick_error_plate_max",
-                  "first_impact_error_max", "cost_per_sim_s", "reference_cost_per_sim_s", "wall_time_s")
+FAILED = ("crashed", "timeout", "error")  # run statuses counted as failures by the progress bar (a sweep's isolation)
+_FLOAT_COLUMNS = ("dt", "mass_ratio", *METRIC_COLUMNS, "cost_per_sim_s", "reference_cost_per_sim_s", "wall_time_s")
 _INT_COLUMNS = ("n_episodes", "n_match")
 _MESSAGE_CHARS = 4000  # a failure row keeps the end of a traceback, where the cause is
 
@@ -154,7 +154,7 @@ class Sweep:
     grid: Mapping[str, tuple] = field(default_factory=dict)  # [grid]: dotted key -> values
     points: tuple[Mapping[str, Any], ...] = ()  # [[points]]
     timeout: float = DEFAULT_TIMEOUT  # [s] per run, > 0
-    tolerances: Mapping[str, Any] = field(default_factory=dict)  # verdict.Tolerances fields
+    tolerances: Mapping[str, Any] = field(default_factory=dict)  # pipeline.tolerances.Tolerances fields
     description: str = ""
     source: str = ""  # the spec file, for messages ("" when built in Python)
 
@@ -296,16 +296,10 @@ def _validate(sweep: Sweep) -> None:
     set_("grid", grid)
     set_("points", tuple(points))
     tol = _flatten(sweep.tolerances)
-    from .verdict import Tolerances
-
-    names = [f.name for f in dataclasses.fields(Tolerances)]
-    for k in tol:
-        if k not in names:
-            raise sweep.fail(f"tolerances.{k}: unknown tolerance; allowed: {', '.join(names)}" + did_you_mean(k, names))
     try:
-        Tolerances(**tol)
-    except SceneError as exc:
-        raise sweep.fail(f"tolerances: {exc}") from None
+        make_tolerances(tol)
+    except SceneError as exc:  # ToleranceError: names the key and what is allowed
+        raise sweep.fail(str(exc)) from None
     set_("tolerances", tol)
     # every point's scene and settings, one key at a time first so the message names the key
     _resolve(sweep, fixed, "[set]")
@@ -419,7 +413,7 @@ def _warm_up(task: RunTask) -> None:
         todo = [key for key in (task.engine, ("scene", task.scene)) if key not in _WARM]
         if not todo:
             return
-        from .compare import compare
+        from .pipeline.compare import compare
 
         try:
             if task.engine in todo:
@@ -433,13 +427,12 @@ def _warm_up(task: RunTask) -> None:
 
 def _compute_row(task: RunTask) -> dict[str, Any]:
     """The row of one run (runs in the isolated child)."""
-    from .compare import compare
-    from .rows import summarize
-    from .verdict import Tolerances
+    from .pipeline.compare import compare
+    from .pipeline.summary import summarize
 
     scene = load_scene(task.scene, task.scene_overrides())
     result = compare(scene, engines=(task.engine,), dt=task.dt, overrides=task.engine_overrides(),
-                     tol=Tolerances(**dict(task.tolerances)))
+                     tol=make_tolerances(dict(task.tolerances)))
     return summarize(result, task.engine, dict(task.params))
 
 
@@ -475,9 +468,8 @@ def run_task(task: RunTask) -> RunResult:
 
 def _compute_batch_rows(tasks: Sequence[RunTask]) -> list[dict[str, Any]]:
     """The rows of runs of one engine, in one isolated child (MuJoCo: compatible runs in one rollout call)."""
-    from .compare import compare
-    from .rows import summarize
-    from .verdict import Tolerances
+    from .pipeline.compare import compare
+    from .pipeline.summary import summarize
 
     scenes = [load_scene(t.scene, t.scene_overrides()) for t in tasks]
     settings = [make_settings(t.engine, t.dt, t.engine_overrides()) for t in tasks]
@@ -485,7 +477,7 @@ def _compute_batch_rows(tasks: Sequence[RunTask]) -> list[dict[str, Any]]:
     rows = []
     for task, scene, traj in zip(tasks, scenes, trajectories):
         result = compare(scene, engines=(task.engine,), dt=task.dt, overrides=task.engine_overrides(),
-                         tol=Tolerances(**dict(task.tolerances)), trajectories={task.engine: traj})
+                         tol=make_tolerances(dict(task.tolerances)), trajectories={task.engine: traj})
         rows.append(summarize(result, task.engine, dict(task.params)))
     return rows
 

@@ -4,7 +4,7 @@
     >>> fig = work_precision_figure(rows)                        # error against cost, per engine
     >>> fig = stability_map_figure(rows, "dt", "restitution")    # verdict over two parameters
 
-Both charts read only a sweep dataset (``rows.py`` documents its columns); nothing is rerun.
+Both charts read only a sweep dataset (``pipeline/summary.py`` documents its columns); nothing is rerun.
 
 ``work_precision_figure``: worst |exit error| and worst |sticking start error| [s] against
 wall-clock cost per simulated second, log-log, one curve per engine (and per value of that
@@ -37,7 +37,7 @@ matplotlib.use("Agg")  # files only: no display is needed or wanted
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
-from matplotlib.colors import BoundaryNorm, ListedColormap, to_rgb  # noqa: E402
+from matplotlib.colors import BoundaryNorm, ListedColormap  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import Patch, Rectangle  # noqa: E402
@@ -46,43 +46,23 @@ from matplotlib.transforms import blended_transform_factory  # noqa: E402
 from chatterbench.reference.scene import SceneError, did_you_mean  # noqa: E402
 
 from .charts import ENGINE_COLORS  # noqa: E402
-from .rows import DERIVED_PARAMETERS, ROW_COLUMNS, VERDICT_SEVERITY  # noqa: E402
+from .pipeline.summary import DERIVED_PARAMETERS, ROW_COLUMNS  # noqa: E402
+from .pipeline.vocabulary import ABBREVIATIONS, COLOURS, MEANINGS, NAMES, combine, rank, text_colour  # noqa: E402
+from .pipeline.vocabulary import PASSING as PASSING_VERDICTS  # noqa: E402
 
-# every verdict a row can carry, best first; "none": neither the reference nor the engine
-# has an episode, nothing to judge
-VERDICT_ORDER = ("match", "early", "late", "missed", "spurious", "endless",
-                 "penetrated", "diverged", "error", "timeout", "crashed", "none")
-PASSING = ("match", "early", "late")  # the run reproduced the episodes; only their timing may be off
-VERDICT_COLORS = {
-    "match": "#2ca02c",
-    "early": "#ffd54f", "late": "#ff9800",  # ambers: right physics, timing outside tolerance
-    "missed": "#b39ddb", "spurious": "#7e57c2", "endless": "#4a148c",  # purples: wrong physics
-    "penetrated": "#ef9a9a", "diverged": "#e53935", "error": "#8e0000",  # reds: broken run
-    "timeout": "#424242", "crashed": "black",
-    "none": "#e0e0e0",
-}
-VERDICT_ABBREV = {
-    "match": "ok", "early": "E", "late": "L", "missed": "mis", "spurious": "spu", "endless": "end",
-    "penetrated": "pen", "diverged": "div", "error": "err", "timeout": "t/o", "crashed": "X", "none": "none",
-}
-VERDICT_MEANING = {
-    "match": "every episode within tolerance",
-    "early": "sticks or exits too early",
-    "late": "sticks or exits too late",
-    "missed": "no sticking where the reference slides",
-    "spurious": "sticks where the reference does not",
-    "endless": "chatters through the sliding, never sticks",
-    "penetrated": "went through a wall",
-    "diverged": "energy grew or state non-finite",
-    "error": "engine raised",
-    "timeout": "ran past the time limit",
-    "crashed": "engine process died",
-    "none": "no sliding in the reference nor the engine: they agree",
-}
+# verdict names, colours, abbreviations and meanings: the one vocabulary (pipeline/vocabulary.py)
+VERDICT_ORDER = NAMES  # best first, "none" first of all: nothing to judge
+PASSING = PASSING_VERDICTS  # the run reproduced the episodes; only their timing or impacts may be off
+VERDICT_COLORS = COLOURS
+VERDICT_ABBREV = ABBREVIATIONS
+VERDICT_MEANING = MEANINGS
 # hollow markers of the failure classes on the work-precision chart
 FAIL_MARKERS = {"missed": "v", "spurious": "^", "endless": "D", "penetrated": "s",
                 "diverged": "X", "error": "P", "timeout": "*", "crashed": "X"}
 METRIC_LABELS = {
+    "exit_error_rel_max": "exit time (fraction of the sliding duration)",
+    "stick_error_rel_max": "sticking start (fraction of the chatter duration)",
+    "restitution_error_max": "restitution of the resolved impacts (relative)",
     "exit_error_max": "exit time",
     "stick_error_max": "sticking start (vs the Zeno point)",
     "stick_error_plate_max": "sticking start (vs Feigin's plate entry)",
@@ -103,7 +83,7 @@ class ChartError(SceneError):
 # -- dataset helpers -----------------------------------------------------------------------
 
 def parameter_columns(rows: pd.DataFrame) -> list[str]:
-    """The parameters of a dataset: ``dt``, ``mass_ratio`` (when present) and every column not in ``rows.ROW_COLUMNS``."""
+    """The parameters of a dataset: ``dt``, ``mass_ratio`` (when present) and every column not in ``summary.ROW_COLUMNS``."""
     derived = [c for c in DERIVED_PARAMETERS if c == "dt" or c in rows.columns]
     return derived + [c for c in rows.columns if c not in ROW_COLUMNS]
 
@@ -148,7 +128,7 @@ def default_values(rows: pd.DataFrame, engine: str) -> dict[str, Any]:
     from chatterbench.reference.catalogue import CATALOGUE
     from chatterbench.reference.scene import load_scene
 
-    from .rows import mass_ratio
+    from .pipeline.summary import mass_ratio
 
     out: dict[str, Any] = {}
     if engine in ENGINE_NAMES:
@@ -209,15 +189,8 @@ def check_columns(rows: pd.DataFrame, names: Iterable[str], allowed: Sequence[st
                              f"available: {', '.join(allowed)}")
 
 
-def _rank(verdict: str) -> int:
-    """Severity rank, 0 = worst (``rows.VERDICT_SEVERITY``); ``none`` and unknowns rank after match."""
-    return VERDICT_SEVERITY.index(verdict) if verdict in VERDICT_SEVERITY else len(VERDICT_SEVERITY)
-
-
-def worst_verdict(verdicts: Iterable[str]) -> str:
-    """The worst of several verdicts (the order of ``rows.VERDICT_SEVERITY``); ``none`` if empty."""
-    vs = [str(v) for v in verdicts]
-    return min(vs, key=_rank) if vs else "none"
+_rank = rank  # severity rank, 0 = worst (vocabulary.SEVERITY)
+worst_verdict = combine  # the worst of several verdicts; "none" if empty
 
 
 def _engines(rows: pd.DataFrame, engine: str | None) -> list[str]:
@@ -350,7 +323,7 @@ def work_precision_figure(rows: pd.DataFrame, error: str = "exit_error_max", ref
 
     Parameters
     ----------
-    rows : sweep dataset (``rows.ROW_COLUMNS`` plus one column per parameter).
+    rows : sweep dataset (``summary.ROW_COLUMNS`` plus one column per parameter).
     error : str
         Metric of the first panel (``exit_error_max`` default); the second is
         ``stick_error_max`` (a single panel when ``error`` is that).
@@ -382,7 +355,7 @@ def work_precision_figure(rows: pd.DataFrame, error: str = "exit_error_max", ref
             ax.plot(g[COST], g[metric], color=st["color"], ls=st["ls"], lw=1.4, label=curve, zorder=2, gid=f"curve:{curve}")
             ok = g[passing.loc[g.index]]
             ax.plot(ok[COST], ok[metric], ls="none", marker=st["marker"], color=st["color"], ms=6, zorder=3)
-            for v, gv in ok[ok["verdict"] != "match"].groupby("verdict"):  # timing outside tolerance: amber rim
+            for v, gv in ok[ok["verdict"] != "match"].groupby("verdict"):  # timing or impacts outside tolerance: a rim
                 ax.plot(gv[COST], gv[metric], ls="none", marker=st["marker"], color=st["color"], mec=VERDICT_COLORS[v],
                         mew=2.2, ms=8, zorder=3)
             for v, gv in g[~passing.loc[g.index]].groupby("verdict"):
@@ -459,10 +432,10 @@ def work_precision_figure(rows: pd.DataFrame, error: str = "exit_error_max", ref
     for v in sorted(classes_seen, key=VERDICT_ORDER.index):
         handles.append(Line2D([], [], ls="none", marker=FAIL_MARKERS.get(v, "x"), mfc="white", mec="0.3", mew=1.5,
                               label=f"{v}: {VERDICT_MEANING.get(v, '')}"))
-    for v in ("early", "late"):
+    for v in (p for p in PASSING if p != "match"):  # rims: the run reproduced the episodes, not within tolerance
         if points["verdict"].eq(v).any():
             handles.append(Line2D([], [], ls="none", marker="o", color="0.5", mec=VERDICT_COLORS[v], mew=2.2, ms=8,
-                                  label=f"{v}: {VERDICT_MEANING[v]} (outside tolerance)"))
+                                  label=f"{v}: {VERDICT_MEANING[v]}"))
     handles.append(Line2D([], [], ls="none", label="labels: dt [s]; hollow: the run failed"))
     fig.legend(handles=handles, loc="outside lower center", ncol=3, fontsize=8, frameon=False)
     scene = ", ".join(sorted(rows["scene"].astype(str).unique())) if "scene" in rows else ""
@@ -529,11 +502,6 @@ def _set_axis(ax, which: str, values: Sequence, centres: np.ndarray, edges: np.n
     (ax.xaxis if which == "x" else ax.yaxis).set_minor_locator(matplotlib.ticker.NullLocator())
 
 
-def _text_color(color: str) -> str:
-    r, g, b = to_rgb(color)
-    return "black" if 0.299 * r + 0.587 * g + 0.114 * b > 0.55 else "white"
-
-
 def stability_map_figure(rows: pd.DataFrame, x: str, y: str, engine: str | None = None) -> Figure:
     """Verdict of each grid cell over the parameters ``x`` and ``y``, one panel per engine.
 
@@ -580,7 +548,7 @@ def stability_map_figure(rows: pd.DataFrame, x: str, y: str, engine: str | None 
                     v = grid.iat[i, j]
                     if isinstance(v, str):
                         ax.text(xv, yv, VERDICT_ABBREV.get(v, v), ha="center", va="center", fontsize=8,
-                                color=_text_color(VERDICT_COLORS.get(v, "white")))
+                                color=text_colour(v))
         ax.set_xlabel(x + (" [s]" if x == "dt" else ""))
         ax.set_ylabel(y + (" [s]" if y == "dt" else ""))
         sub = rows[rows["engine"] == eng].dropna(subset=[x, y])

@@ -38,6 +38,10 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     sweep = load_sweep(args.spec)
     if args.timeout is not None:
         sweep = dataclasses.replace(sweep, timeout=args.timeout)
+    if args.tolerance:
+        from .pipeline.tolerances import tolerance_values
+
+        sweep = dataclasses.replace(sweep, tolerances={**dict(sweep.tolerances), **tolerance_values(args.tolerance)})
     out = Path(args.out) if args.out else Path(f"sweep-{Path(args.spec).stem}")
     client = None
     if args.dask:
@@ -77,4 +81,7 @@ def register(sub) -> None:
     p.add_argument("--batch", type=_positive_int, default=None,
                    help="runs per isolated unit of work, MuJoCo's in one mujoco.rollout call (default: automatic; 1: each run alone)")
     p.add_argument("--timeout", type=_positive_float, default=None, help="wall-clock limit of one run [s] (default: the spec's)")
+    from .cli import add_tolerance_option
+
+    add_tolerance_option(p)
     p.set_defaults(func=cmd_sweep)

@@ -1,6 +1,6 @@
 """Engine tuning: the cheapest settings whose episodes all match the reference within a tolerance.
 
-    >>> result = tune(load_scene("feigin-pair"), "mujoco", tolerance=0.01)
+    >>> result = tune(load_scene("feigin-pair"), "mujoco", Tolerances(stick=0.05, exit=0.02))
     >>> result.best            # the recommended settings' row (None if nothing met the tolerance)
     >>> print(guide_markdown(result))
 
@@ -9,9 +9,11 @@ PyBullet: dt, restitution velocity threshold, solver iterations), then a refinem
 the front: the timestep of the cheapest matching candidates is bisected (geometrically)
 towards the next cheaper timestep until the step that fails is found to within a factor
 of ``refine_ratio``. Candidates run in parallel through a ``concurrent.futures`` executor
-(a local process pool by default). The reference runs once; every candidate is judged
-against it with ``Tolerances(stick=T, exit=T, first_impact=T)``, T the tolerance in units
-of the forcing period.
+(a local process pool by default). The reference is solved once; every candidate is
+judged against it by the one judge (``pipeline.compare.judge_run``) with the given
+``Tolerances`` (fractions of each episode's own scales), and condensed to the one summary
+row (``pipeline.summary.metrics``): the same column names as ``compare`` and sweeps, plus
+``timing_score``, the worst timing error as a multiple of its tolerance (<= 1 passes).
 """
 
 from __future__ import annotations
@@ -22,16 +24,15 @@ from concurrent.futures import Executor, ProcessPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any, Sequence
 
-import numpy as np
 import pandas as pd
 
 from chatterbench.engines.registry import check_engine, make_settings
-from chatterbench.reference.scene import Scene, SceneError, scene_from_dict
-from chatterbench.reference.simulate import simulate
+from chatterbench.reference.scene import Scene, SceneError
 
-from .compare import _energy_max, run_one
-from .rows import point_verdict
-from .verdict import Tolerances, judge, reference_episodes
+from .pipeline.compare import judge_run
+from .pipeline.solution import ReferenceSolution, solve
+from .pipeline.summary import metrics
+from .pipeline.tolerances import Tolerances
 
 # the coarse grid per engine: setting -> values (dt in seconds)
 SEARCH_SPACE: dict[str, dict[str, tuple]] = {
@@ -40,6 +41,7 @@ SEARCH_SPACE: dict[str, dict[str, tuple]] = {
                  "pybullet.num_solver_iterations": (10, 50)},
 }
 TUNE_COLUMNS = ["stage", "dt", "settings", "verdict", "n_episodes", "n_match", "exit_error_max", "stick_error_max",
+                "exit_error_rel_max", "stick_error_rel_max", "restitution_error_max", "penetration_max", "timing_score",
                 "cost_per_sim_s", "status"]
 
 
@@ -49,45 +51,41 @@ class TuneResult:
 
     scene: Scene
     engine: str
-    tolerance: float  # fraction of the forcing period
+    tolerance: Tolerances
     table: pd.DataFrame  # TUNE_COLUMNS plus one column per searched setting
     best: dict[str, Any] | None  # cheapest all-match candidate, None if none met the tolerance
-    best_reachable: dict[str, Any] | None  # candidate with the smallest exit error, whatever its verdict
+    best_reachable: dict[str, Any] | None  # candidate with the smallest timing score, whatever its verdict
     extra: dict[str, Any] = field(default_factory=dict)
 
 
-def _evaluate(scene_data: dict, engine: str, params: dict, ref: pd.DataFrame, e_max: float, v_max: float,
-              tol: Tolerances) -> dict[str, Any]:
+def timing_score(row: dict[str, Any], tol: Tolerances) -> float:
+    """The worst timing error as a multiple of its tolerance: max(stick / stick tol, exit / exit tol); NaN if none."""
+    parts = [row["stick_error_rel_max"] / tol.stick, row["exit_error_rel_max"] / tol.exit]
+    parts = [p for p in parts if not math.isnan(p)]
+    return max(parts) if parts else math.nan
+
+
+def _evaluate(ref: ReferenceSolution, engine: str, params: dict, tol: Tolerances) -> dict[str, Any]:
     """Run one candidate and judge it (runs in a worker process)."""
-    scene = scene_from_dict(scene_data)
     overrides = [f"{k}={v!r}" if isinstance(v, str) else f"{k}={v}" for k, v in params.items() if k != "dt"]
     settings = make_settings(engine, params["dt"], overrides)
-    run = run_one(scene, engine, settings, e_max, v_max, tol)
-    table = judge(scene, ref, run.episodes, run.log, run.t_diverged, run.t_penetrated, tol)
-    absmax = lambda s: float(s.abs().max()) if s.notna().any() else math.nan  # noqa: E731
-    return {
-        **params,
-        "settings": ", ".join(f"{k}={v}" for k, v in params.items()),
-        "verdict": point_verdict(table["verdict"]),
-        "n_episodes": len(table),
-        "n_match": int((table["verdict"] == "match").sum()),
-        "exit_error_max": absmax(table["exit_error"]),
-        "stick_error_max": absmax(table["stick_error_zeno"]),
-        "cost_per_sim_s": run.cost_per_sim_s,
-        "status": run.status,
-        "_run_settings": run.settings,
-    }
+    run, table, _ = judge_run(ref, engine, settings, tol)
+    row = {**params, "settings": ", ".join(f"{k}={v}" for k, v in params.items()), **metrics(table),
+           "cost_per_sim_s": run.cost_per_sim_s, "status": run.status, "_run_settings": run.settings}
+    row["timing_score"] = timing_score(row, tol)
+    return row
 
 
-def _run_batch(executor: Executor, scene: Scene, engine: str, batch: list[dict], ctx: tuple, stage: str) -> list[dict]:
-    futures = [executor.submit(_evaluate, scene.to_dict(), engine, p, *ctx) for p in batch]
+def _run_batch(executor: Executor, ref: ReferenceSolution, engine: str, batch: list[dict], tol: Tolerances,
+               stage: str) -> list[dict]:
+    futures = [executor.submit(_evaluate, ref, engine, p, tol) for p in batch]
     rows = []
     for fut, params in zip(futures, batch):
         try:
             row = fut.result()
         except SceneError as exc:  # e.g. w0 dt past the stability limit for this scene's zeta
             row = {**params, "settings": ", ".join(f"{k}={v}" for k, v in params.items()), "verdict": "refused",
-                   "n_episodes": 0, "n_match": 0, "exit_error_max": math.nan, "stick_error_max": math.nan,
+                   "n_episodes": 0, "n_match": 0, **{c: math.nan for c in TUNE_COLUMNS if c.endswith(("_max", "_score"))},
                    "cost_per_sim_s": math.nan, "status": f"refused: {exc}", "_run_settings": {}}
         row["stage"] = stage
         rows.append(row)
@@ -97,7 +95,7 @@ def _run_batch(executor: Executor, scene: Scene, engine: str, batch: list[dict],
 def tune(
     scene: Scene,
     engine: str,
-    tolerance: float,
+    tolerance: Tolerances | float,
     space: dict[str, Sequence] | None = None,
     executor: Executor | None = None,
     workers: int | None = None,
@@ -107,34 +105,28 @@ def tune(
 
     Parameters
     ----------
-    tolerance : float
-        Allowed error in sticking start, exit and first impact, as a fraction of the
-        forcing period (0.01 = 1% of the period), 0 < tolerance < 1.
+    tolerance : Tolerances or float
+        The verdict tolerances; a number sets the sticking, exit and first-impact
+        tolerances at once (fractions of each episode's chatter or sliding duration).
     space : dict, optional
         Setting -> candidate values (default ``SEARCH_SPACE[engine]``; must include ``dt``).
     refine_steps : int
         Bisections of the timestep between the cheapest match and the next cheaper step.
     """
     check_engine(engine)
-    if isinstance(tolerance, bool) or not isinstance(tolerance, (int, float)) or not 0 < tolerance < 1:
-        raise SceneError(f"tolerance = {tolerance!r}: must be a fraction of the forcing period in (0, 1)")
+    tol = tolerance if isinstance(tolerance, Tolerances) else Tolerances(stick=tolerance, exit=tolerance, first_impact=tolerance)
     space = dict(space or SEARCH_SPACE[engine])
     if "dt" not in space or not all(len(v) for v in space.values()):
         raise SceneError("tune search space: needs a non-empty 'dt' list and non-empty lists for every setting")
     for values in itertools.product(*space.values()):  # validate every candidate before running any
         p = dict(zip(space, values))
         make_settings(engine, p["dt"], [f"{k}={v!r}" if isinstance(v, str) else f"{k}={v}" for k, v in p.items() if k != "dt"])
-    tol = Tolerances(stick=tolerance, exit=tolerance, first_impact=tolerance)
-    feigin, exhaustive = simulate(scene, "feigin"), simulate(scene, "exhaustive")
-    ref = reference_episodes(feigin, exhaustive, scene)
-    e_max = _energy_max(scene, exhaustive)
-    v_max = float(np.abs(exhaustive.log["v_minus"]).max()) if len(exhaustive.log) else abs(scene.initial.vy)
-    ctx = (ref, e_max, v_max, tol)
+    ref = solve(scene)
     own = executor is None
     executor = executor or ProcessPoolExecutor(max_workers=workers)
     try:
         coarse = [dict(zip(space, values)) for values in itertools.product(*space.values())]
-        rows = _run_batch(executor, scene, engine, coarse, ctx, "coarse")
+        rows = _run_batch(executor, ref, engine, coarse, tol, "coarse")
         # refinement near the front: for each setting combination whose cheapest match is
         # not the largest dt, bisect dt (geometrically) towards the next larger dt
         dts = sorted(space["dt"])
@@ -159,7 +151,7 @@ def tune(
                 batch.append({"dt": float(f"{mid:.3g}"), **params})
             if not batch:
                 break
-            rows += _run_batch(executor, scene, engine, batch, ctx, "refine")
+            rows += _run_batch(executor, ref, engine, batch, tol, "refine")
     finally:
         if own:
             executor.shutdown()
@@ -168,9 +160,8 @@ def tune(
     table = table[[c for c in cols if c in table.columns]].sort_values("cost_per_sim_s", na_position="last").reset_index(drop=True)
     matches = table[table["verdict"] == "match"]
     best = matches.iloc[0].to_dict() if len(matches) else None
-    # best reachable: the smallest worst error over exit and sticking start, whatever the verdict
-    table["error_max"] = table[["exit_error_max", "stick_error_max"]].max(axis=1, skipna=True)
-    finite = table.dropna(subset=["error_max"])
-    reach = finite.sort_values(["error_max", "cost_per_sim_s"]).iloc[0].to_dict() if len(finite) else None
-    return TuneResult(scene=scene, engine=engine, tolerance=tolerance, table=table, best=best, best_reachable=reach,
+    # best reachable: the smallest timing score (worst timing error over its tolerance), whatever the verdict
+    finite = table.dropna(subset=["timing_score"])
+    reach = finite.sort_values(["timing_score", "cost_per_sim_s"]).iloc[0].to_dict() if len(finite) else None
+    return TuneResult(scene=scene, engine=engine, tolerance=tol, table=table, best=best, best_reachable=reach,
                       extra={"dts": dts})

@@ -173,6 +173,23 @@ CASES: list[tuple[str, str, list[str], str | None, tuple[str, ...]]] = [
     ("gate-dt", "zero timestep", ["gate", FILE],
      '[[check]]\nscene = "bouncing-ball"\nengine = "pybullet"\ndt = 0\nlimits = ["verdict == match"]\n', ("dt = 0", "> 0")),
     ("gate-empty", "no checks", ["gate", FILE], 'description = "nothing"\n', ("no checks",)),
+    ("gate-tolerance", "an unknown tolerance in a gate file", ["gate", FILE],
+     '[[check]]\nscene = "bouncing-ball"\nengine = "pybullet"\ntolerances = { stik = 0.1 }\nlimits = ["verdict == match"]\n',
+     ("stik", "did you mean 'stick'")),
+    ("gate-verdict", "a verdict that does not exist", ["gate", FILE],
+     '[[check]]\nscene = "bouncing-ball"\nengine = "pybullet"\nlimits = ["verdict in [match, bounce]"]\n',
+     ("bounce", "rebound")),
+    # verdict tolerances (--tolerance KEY=VALUE on every command that judges)
+    ("tol-key", "an unknown tolerance", ["compare", "bouncing-ball", "--tolerance", "stik=0.1"], None,
+     ("stik", "did you mean 'stick'")),
+    ("tol-range", "a tolerance above 1", ["compare", "bouncing-ball", "--tolerance", "exit=2"], None, ("exit = 2", "(0, 1]")),
+    ("tol-word", "a tolerance that is a word", ["report", "--tolerance", "stick=small"], None, ("stick", "number")),
+    ("tol-count", "a negative impact count", ["gate", "gates/default.toml", "--tolerance", "impact_count=-1"], None,
+     ("impact_count = -1", "integer")),
+    ("tol-sweep", "an out-of-range tolerance in a sweep spec", ["sweep", FILE],
+     'scene = "bouncing-ball"\n[grid]\ndt = [1e-3]\n[tolerances]\nrestitution = 0\n', ("restitution = 0", "(0, 1]")),
+    ("tol-tune", "a tune tolerance that is no number", ["tune", "bouncing-ball", "--engine", "pybullet", "--tolerance", "tight"],
+     None, ("--tolerance", "KEY=VALUE")),
     # chart (chatterbench chart ...) on a dataset that is not there
     ("chart-missing", "no sweep dataset", ["chart", "nowhere", "--kind", "work-precision"], None, ("nowhere",)),
     # malformed input

@@ -26,10 +26,12 @@ def test_default_gate_passes(tmp_path, capsys):
 
 
 def test_chatter_gate_fixture(chatter_gate):
-    # the README's example: MuJoCo's defaults slide and let go on time on Feigin's pair
-    # (exit within 0.93 ms of the reference, every one of the 13 episodes a match)
-    result = chatter_gate.check("feigin-pair", engine="mujoco", dt=1e-4, exit_error_max=2e-3, verdict="match")
-    assert result.row["n_match"] == 13
+    # the README's example: MuJoCo's defaults stick and let go on time on Feigin's pair (every
+    # sticking start within 5% of its chatter, every exit within 2 steps of the reference), while
+    # their slow bounces lose more than R says: timing right, impacts off (rebound)
+    result = chatter_gate.check("feigin-pair", engine="mujoco", dt=1e-4, verdict=["match", "rebound"],
+                                stick_error_rel_max=0.05, exit_error_max=2e-4)
+    assert result.row["n_episodes"] == 13 and result.row["verdict"] == "rebound"
 
 
 def test_plugin_is_registered_through_its_entry_point(pytestconfig):

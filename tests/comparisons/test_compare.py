@@ -8,7 +8,7 @@ import pandas as pd
 import pytest
 
 from chatterbench.comparisons.cli import main
-from chatterbench.comparisons.compare import COLUMNS, compare
+from chatterbench.comparisons.pipeline.compare import COLUMNS, compare
 from chatterbench.reference import load_scene
 
 
@@ -26,16 +26,28 @@ def test_feigin_pair_both_engines_slide_on_both_walls_every_half_period(feigin_b
         # one sliding episode per half period, alternating walls, as the reference has
         assert len(sub) == len(feigin_both.reference) == 13
         assert list(sub["wall"]) == ["lower", "upper"] * 6 + ["lower"]
-        assert (sub["verdict"] == "match").all(), sub[["wall", "verdict"]]
+        # both stick within the tolerance (5% of each visit's chatter) ...
+        assert (sub["stick_error_rel"].abs() <= 0.05).all(), sub[["wall", "stick_error_rel"]]
         exits = sub.dropna(subset=["t_exit"])
-        # exits at pi (lower) and 0 (upper) mod 2 pi: within a few steps for PyBullet's hard
-        # contact, within 2 dt + 1/w0 for MuJoCo's soft contact, which must unload first
-        run = feigin_both.runs[engine]
-        bound = 5 * 1e-4 if engine == "pybullet" else 2 * 1e-4 + 1.0 / run.settings["w0"]
+        # ... and let go at pi (lower) and 0 (upper) mod 2 pi, where the contact force falls to
+        # zero: MuJoCo's force falls linearly and is interpolated to within 2 steps; PyBullet
+        # rests with one impulse every third step, so its last one is up to 3 steps early
+        steps = 2 if engine == "mujoco" else 3
         phase = np.where(exits["wall"] == "lower", math.pi, 0.0)
         off = np.mod(exits["t_exit"] - phase + T / 2, T) - T / 2
-        assert np.abs(off).max() <= bound
-        assert np.abs(exits["exit_error"]).max() <= bound
+        assert np.abs(off).max() <= steps * 1e-4
+        assert np.abs(exits["exit_error_steps"]).max() <= steps
+    # PyBullet applies R at every impact: its resolved impacts follow R, every episode matches
+    assert (table.loc[table["engine"] == "pybullet", "verdict"] == "match").all()
+    # MuJoCo's soft contact lasts ~10 ms (w0 = 300 rad/s): longer than the flights of the last
+    # resolved bounces, so the pressing force eats into their rebound and they come back 10-13%
+    # below R, beyond their measurement uncertainty: timing right, impacts wrong
+    mj = table[table["engine"] == "mujoco"]
+    assert (mj["verdict"] == "rebound").all()
+    assert (mj["restitution_error"] < -0.05).all()
+    pairs = feigin_both.impacts[feigin_both.impacts["engine"] == "mujoco"]
+    fast = pairs[pairs["v_minus"] > 0.1]  # its fast impacts do follow R, as calibrated
+    assert len(fast) >= 20 and (fast["restitution_error"].abs() < 0.02).all()  # measured <= 1.03%
 
 
 def test_pybullet_velocity_threshold_sticks_the_ball_early():
@@ -86,7 +98,8 @@ def test_compare_cli_writes_tables_logs_provenance_and_figures(tmp_path, capsys)
     assert code == 0
     printed = capsys.readouterr().out
     assert "verdict" in printed and "summary" in printed
-    for name in ("episodes.csv", "episodes.parquet", "reference_episodes.csv", "events_reference_feigin.csv",
+    for name in ("episodes.csv", "episodes.parquet", "impacts.csv", "impacts_mujoco.csv", "reference_episodes.csv",
+                 "events_reference_feigin.csv",
                  "events_reference_exhaustive.csv", "events_mujoco.csv", "provenance.json", "timeseries.png", "timeseries.svg"):
         assert (out / name).stat().st_size > 0, name
     table = pd.read_parquet(out / "episodes.parquet")

@@ -10,9 +10,10 @@ import pytest
 from matplotlib.colors import to_rgba
 
 from chatterbench.comparisons.cli import main
-from chatterbench.comparisons.compare import compare
+from chatterbench.comparisons.pipeline.compare import compare
 from chatterbench.comparisons.outputs import figure_bytes
-from chatterbench.comparisons.rows import ROW_COLUMNS, point_verdict, summarize
+from chatterbench.comparisons.pipeline.summary import ROW_COLUMNS, summarize
+from chatterbench.comparisons.pipeline.vocabulary import combine as point_verdict
 from chatterbench.comparisons.sweep_charts import (
     PASSING, VERDICT_ABBREV, VERDICT_COLORS, ChartError, pareto_front, stability_map_figure, verdict_grid,
     work_precision_figure, work_precision_points,

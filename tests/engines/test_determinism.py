@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from chatterbench.comparisons.extract import extract_events
+from chatterbench.comparisons.pipeline.extract import extract_events
 from chatterbench.engines.registry import make_settings, run_engine
 from chatterbench.reference import load_scene, simulate
 

@@ -1,16 +1,20 @@
-"""The reference as a sampled trajectory: a ``Result`` on an engine's time grid, with contact flags and forces.
+"""The exact reference as a sampled trajectory on an engine's time grid, with contact flags and forces.
 
-    >>> result = simulate(scene, chatter="exhaustive")
-    >>> traj = reference_trajectory(scene, result, dt=1e-4)
-    >>> extract_episodes(traj, scene)        # the same pipeline an engine's trajectory goes through
+    >>> from chatterbench.comparisons import compare, reference_trajectory
+    >>> traj = reference_trajectory(load_scene("bouncing-ball"), dt=1e-3)
+    >>> compare(scene, engines=("mujoco",), trajectories={"mujoco": traj}).table["verdict"]   # a known answer: match
+
+The sampled reference goes through the same extraction and judge as an engine's
+trajectory, so it is the known answer every judge test starts from.
 
 Samples are at t0 + k dt, k = 0..n, with t0 + n dt <= t_end. Each one is the closed-form
 flow (``reference/linear.py``) from the last logged event at or before it, exactly as
 ``reference.dense.sample_states`` computes it (1e6 samples in about a second).
 
-``contact[wall]`` is true where the masses move in kinematic constraint on that wall, or
-y lies on the wall to ``ON_WALL_RTOL`` (relative to the size of the motion); impacts of the
-exact reference take no time, so they fall between samples and raise no flag.
+``contact[wall]`` is true where the masses move in kinematic constraint on that wall (the
+wall's force is on); impacts of the exact reference take no time, so they fall between
+samples and raise no flag, and just after an exit the bodies are free although y leaves
+the wall only as (t - t_exit)^3.
 ``normal_force[wall]`` is the constraint force while stuck, m_eff |y''_free| with
 m_eff = m1 m2 / (m1 + m2) (m2 when m1 = inf): Feigin (1.4), the force that cancels the
 free relative acceleration; 0 otherwise.
@@ -25,11 +29,10 @@ import numpy as np
 from chatterbench.engines.trajectory import Trajectory
 from chatterbench.reference.dense import sample_states
 from chatterbench.reference.scene import Scene, SceneError
-from chatterbench.reference.simulate import Result
+from chatterbench.reference.simulate import Result, simulate
 
 from .extract import free_relative_acceleration
 
-ON_WALL_RTOL = 1e-12  # [-] |y - wall| below this times the motion's size counts as on the wall
 
 
 def sample_grid(scene: Scene, dt: float) -> np.ndarray:
@@ -40,13 +43,17 @@ def sample_grid(scene: Scene, dt: float) -> np.ndarray:
     return scene.initial.t + dt * np.arange(n + 1)
 
 
-def reference_trajectory(scene: Scene, result: Result, dt: float) -> Trajectory:
-    """Sample a reference ``result`` every ``dt`` [s] as a ``Trajectory`` (engine ``"reference"``).
+def reference_trajectory(scene: Scene, dt: float, result: Result | None = None) -> Trajectory:
+    """The exact reference sampled every ``dt`` [s] as a ``Trajectory`` (engine ``"reference"``).
 
-    Arrays have shape (n + 1,) on ``sample_grid(scene, dt)``; when the reference stopped
-    early (``result.status != "ok"``) the grid ends at its last event and the status and
-    message are passed on.
+    ``result`` is a reference run of ``scene`` to sample (default: ``simulate(scene,
+    "exhaustive")``, every impact up to each Zeno point). Arrays have shape (n + 1,) on
+    ``sample_grid(scene, dt)``; when the reference stopped early (``result.status != "ok"``)
+    the grid ends at its last event and the status and message are passed on.
     """
+    if result is None:
+        sample_grid(scene, dt)  # a bad dt is refused before the reference runs
+        result = simulate(scene, "exhaustive")
     times = sample_grid(scene, dt)
     if result.status != "ok" and len(result.log):
         times = times[times <= float(result.log["t"].iloc[-1])]
@@ -54,17 +61,16 @@ def reference_trajectory(scene: Scene, result: Result, dt: float) -> Trajectory:
     x1, v1, y, vy = state.T
     walls = scene.gap.walls
     wall_y = {w: scene.gap.position(w) for w in walls}
-    size = max([abs(v) for v in wall_y.values()] + [float(np.ptp(y)) if len(y) else 0.0, math.ulp(1.0)])
     acc = free_relative_acceleration(scene, times, x1, v1, y, vy)
     m_eff = scene.mass2 if scene.body1_infinite else scene.mass1 * scene.mass2 / (scene.mass1 + scene.mass2)
     contact, force = {}, {}
     for w in walls:
         stuck_here = stuck_y == wall_y[w]
-        contact[w] = stuck_here | (np.abs(y - wall_y[w]) <= ON_WALL_RTOL * size)
+        contact[w] = stuck_here
         force[w] = np.where(stuck_here, m_eff * np.abs(acc), 0.0)
     return Trajectory(
         engine="reference", t=times, x1=x1, x2=x1 + y, v1=v1, v2=v1 + vy,
         contact=contact, normal_force=force, wall_time=result.wall_time,
-        settings={"dt": dt, "chatter": result.options.chatter, "contact_time": 0.0},
+        settings={"dt": dt, "chatter": result.options.chatter},
         status=result.status, message=result.message,
     )

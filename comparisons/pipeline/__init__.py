@@ -1,0 +1,6 @@
+"""The judging pipeline: reference solution, extraction from samples, per-impact judging, verdicts, summary.
+
+scene -> ``solution`` (Feigin's model, both modes, scales) | engine trajectory ->
+``extract`` (impacts, sticking, exits) -> ``judge`` (pairs, errors, verdicts from
+``vocabulary`` with ``tolerances``) -> ``compare`` (all engines) -> ``summary`` (one row each).
+"""

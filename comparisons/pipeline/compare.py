@@ -1,0 +1,197 @@
+"""One call, one table: run the reference and the engines on a scene and judge every episode.
+
+    >>> from chatterbench.comparisons import compare
+    >>> result = compare(load_scene("feigin-pair"), engines=("mujoco", "pybullet"), dt=1e-4)
+    >>> result.table[["engine", "wall", "verdict", "stick_error_zeno", "exit_error", "restitution_error"]]
+    >>> result.summary()                      # one row per engine, the columns of ``summary.ROW_COLUMNS``
+
+The table has one row per (engine, reference or engine episode) with the columns of
+``judge.TABLE_COLUMNS`` plus ``engine``, ``dt`` [s], ``status`` (the engine run's status)
+and ``cost_per_sim_s`` (wall-clock seconds of engine stepping per simulated second);
+``impacts`` has every paired resolved impact (``judge.IMPACT_PAIR_COLUMNS`` plus
+``engine``). A failing engine never raises: its run is classified (``error``,
+``diverged``) and its rows say so; the other engines' results are kept.
+"""
+
+from __future__ import annotations
+
+import math
+import platform
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+import pandas as pd
+
+from chatterbench.engines.registry import check_engine, engine_version, make_settings, run_engine, settings_dict
+from chatterbench.engines.trajectory import Trajectory
+from chatterbench.reference.scene import Scene
+from chatterbench.reference.simulate import Result
+
+from .extract import Extraction, ExtractionOptions, extract
+from .judge import IMPACT_PAIR_COLUMNS, TABLE_COLUMNS, judge
+from .solution import ReferenceSolution, solve
+from .tolerances import Tolerances
+
+COLUMNS = ["engine", "dt"] + TABLE_COLUMNS + ["status", "cost_per_sim_s"]
+
+
+@dataclass(frozen=True)
+class EngineRun:
+    """One engine's run on the scene: trajectory, what the extraction found, settings and cost."""
+
+    engine: str
+    settings: dict[str, Any]
+    trajectory: Trajectory
+    found: Extraction
+    wall_time: float  # [s] spent stepping
+    version: str
+    t_diverged: float  # [s], NaN if none
+    t_penetrated: float  # [s], NaN if none
+
+    @property
+    def status(self) -> str:
+        return self.trajectory.status
+
+    @property
+    def log(self) -> pd.DataFrame:
+        """The recovered event log (``reference/log.py`` format)."""
+        return self.found.log
+
+    @property
+    def episodes(self) -> pd.DataFrame:
+        """The recovered episodes (``reference/log.py`` format)."""
+        return self.found.episodes
+
+    @property
+    def cost_per_sim_s(self) -> float:
+        """Wall-clock seconds per simulated second."""
+        sim = float(self.trajectory.t[-1] - self.trajectory.t[0]) if len(self.trajectory.t) > 1 else 0.0
+        return self.wall_time / sim if sim > 0 else math.nan
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """Everything ``compare`` produced; ``table`` is the headline."""
+
+    scene: Scene
+    table: pd.DataFrame
+    solution: ReferenceSolution
+    tolerances: Tolerances
+    impacts: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=["engine", *IMPACT_PAIR_COLUMNS]))
+    runs: dict[str, EngineRun] = field(default_factory=dict)
+    provenance: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def reference(self) -> pd.DataFrame:
+        """The reference's episodes with their scales (``solution.EPISODE_COLUMNS``)."""
+        return self.solution.episodes
+
+    @property
+    def feigin(self) -> Result:
+        return self.solution.feigin
+
+    @property
+    def exhaustive(self) -> Result:
+        return self.solution.exhaustive
+
+    def summary(self) -> pd.DataFrame:
+        """One row per engine (``summary.ROW_COLUMNS`` without the sweep's point id)."""
+        from .summary import SUMMARY_COLUMNS, summarize
+
+        return pd.DataFrame([summarize(self, name, {}) for name in self.runs], columns=SUMMARY_COLUMNS)
+
+
+def failed_trajectory(name: str, scene: Scene, settings: Any, exc: BaseException) -> Trajectory:
+    """The trajectory of a run that raised before any sample: status ``error`` with the exception's text."""
+    empty = np.empty(0)
+    return Trajectory(
+        engine=name, t=empty, x1=empty, x2=empty, v1=empty, v2=empty,
+        contact={w: np.empty(0, bool) for w in scene.gap.walls},
+        normal_force={w: empty for w in scene.gap.walls},
+        wall_time=0.0, settings=settings_dict(settings), status="error", message=f"{type(exc).__name__}: {exc}",
+    )
+
+
+def judge_run(ref: ReferenceSolution, name: str, settings: Any, tol: Tolerances, trajectory: Trajectory | None = None,
+              options: ExtractionOptions | None = None) -> tuple[EngineRun, pd.DataFrame, pd.DataFrame]:
+    """Run one engine (or take its ``trajectory``, already run), extract and judge it.
+
+    Returns the run, its judged table (``judge.TABLE_COLUMNS``) and its paired impacts.
+    Exceptions of the engine become an ``error`` run.
+    """
+    scene = ref.scene
+    try:
+        traj = trajectory if trajectory is not None else run_engine(name, scene, settings)
+    except Exception as exc:  # an engine fault must not lose the other results
+        traj = failed_trajectory(name, scene, settings, exc)
+    found = extract(traj, scene, ref.stick_tolerance(tol.stick), options)
+    judged = judge(ref, found, traj, tol)
+    run = EngineRun(
+        engine=name, settings=dict(traj.settings) or settings_dict(settings), trajectory=traj, found=found,
+        wall_time=traj.wall_time, version=engine_version(name), t_diverged=judged.t_diverged,
+        t_penetrated=judged.t_penetrated,
+    )
+    return run, judged.table, judged.impacts
+
+
+def compare(
+    scene: Scene,
+    engines: Sequence[str] = ("mujoco", "pybullet"),
+    dt: float | None = None,
+    overrides: Sequence[str] = (),
+    tol: Tolerances | None = None,
+    trajectories: Mapping[str, Trajectory] | None = None,
+    solution: ReferenceSolution | None = None,
+    options: ExtractionOptions | None = None,
+) -> Comparison:
+    """Run the reference (both chatter modes) and each engine on ``scene``; judge every episode.
+
+    Parameters
+    ----------
+    engines : sequence of {"mujoco", "pybullet"}
+    dt : float, optional
+        Engine timestep [s]; default: each engine's default settings.
+    overrides : sequence of str
+        ``mujoco.KEY=VALUE`` / ``pybullet.KEY=VALUE`` engine settings.
+    tol : Tolerances, optional
+    trajectories : mapping engine name -> Trajectory, optional
+        Runs already made (a sweep's MuJoCo batch, or any trajectory to judge: the exact
+        reference from ``reference_trajectory`` is the known answer); those engines are
+        judged on them instead of being run.
+    solution : ReferenceSolution, optional
+        ``solve(scene)`` already computed (tune and sweeps judge many runs against one).
+    options : ExtractionOptions, optional
+        The extraction's internal thresholds (their robustness is tested, not tuned).
+    """
+    tol = tol or Tolerances()
+    settings = {name: make_settings(check_engine(name), dt, overrides) for name in engines}  # validate all first
+    ref = solution if solution is not None else solve(scene)
+    runs, tables, impact_tables = {}, [], []
+    for name in engines:
+        run, table, impacts = judge_run(ref, name, settings[name], tol, (trajectories or {}).get(name), options)
+        runs[name] = run
+        step = run.trajectory.dt if len(run.trajectory.t) > 1 else getattr(settings[name], "dt", math.nan)
+        table.insert(0, "dt", step)
+        table.insert(0, "engine", name)
+        table["status"] = run.status
+        table["cost_per_sim_s"] = run.cost_per_sim_s
+        tables.append(table)
+        impact_tables.append(impacts.assign(engine=name)[["engine", *IMPACT_PAIR_COLUMNS]])
+    table = pd.concat(tables, ignore_index=True) if tables else pd.DataFrame(columns=COLUMNS)
+    impacts = pd.concat(impact_tables, ignore_index=True) if impact_tables else pd.DataFrame(columns=["engine", *IMPACT_PAIR_COLUMNS])
+    provenance = {
+        "scene": scene.name,
+        "scene_data": scene.to_dict(),
+        "engines": {name: {"version": run.version, "settings": run.settings, "status": run.status,
+                           "message": run.trajectory.message, "wall_time_s": run.wall_time} for name, run in runs.items()},
+        # the reference's own cost is Feigin's model (the exhaustive chase is a cross-check)
+        "reference": {"chatter_modes": ["feigin", "exhaustive"], "wall_time_s": ref.wall_time,
+                      "cost_per_sim_s": ref.cost_per_sim_s},
+        "tolerances": tol.as_dict(),
+        "machine": f"{platform.machine()} {platform.processor() or ''} {platform.system()} python {platform.python_version()}".strip(),
+        "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+    }
+    return Comparison(scene=scene, table=table[COLUMNS], solution=ref, tolerances=tol, impacts=impacts, runs=runs,
+                      provenance=provenance)

@@ -1,0 +1,372 @@
+"""Recover impacts, sticking and exits from any sampled trajectory, by one rule for every engine.
+
+    >>> traj = reference_trajectory(load_scene("bouncing-ball"), dt=1e-3)     # or an engine's
+    >>> found = extract(traj, scene, stick_tolerance=0.045)
+    >>> found.episodes[["wall", "t_stick", "t_exit"]], found.impacts[["t", "v_minus", "v_plus"]]
+
+The log speaks the vocabulary of ``reference/log.py`` (``impact``, ``stick``, ``exit``;
+never ``plate_entry``: an engine cannot know Feigin's plate), so ``episodes(log)`` is
+derived exactly as the reference's episodes are. Only the samples and the scene are used:
+the wall positions, R, and y'' of the free motion (Feigin (1.2)); never an engine's
+declared contact time or stiffness, never a count of samples as the thing that decides.
+
+Per wall, with n = +1 (lower) or -1 (upper): the distance d = n (y - y_wall) [m], the
+velocity u = n y' and the free acceleration a = n y''_free; a < 0 presses into the wall.
+
+1. **Contact** at a sample: the trajectory's contact flag (the wall's force is on), or
+   d <= 0 where a trajectory carries no flag. A contact is a run of contact samples.
+2. **Impacts**: the onset of each contact, and every step between two free samples whose
+   velocity jump J = u[k+1] - u[k] - (a[k] + a[k+1]) dt / 2 exceeds
+   max(``jump_atol``, ``jump_factor`` |a| dt) with the wall within one step's travel (an
+   impact between two samples, as the exact reference has them). Each impact has its
+   incoming and rebound speeds (``v_minus``, ``v_plus``; for a soft contact, at contact
+   entry and exit), its release (the contact force's zero, interpolated linearly from the
+   last two force samples, else the middle of the step after the last contact sample; the
+   impact time itself for an impact between samples) and the highest point of the flight
+   after it, ``apex`` [m], the largest sampled d until the next impact on the wall.
+3. **Sticking is where bounces stop mattering.** A bounce matters when the chatter it can
+   still make is long against the sticking tolerance: with Feigin's geometric ladder, a
+   rebound whose flight lasts f is followed by f / (1 - R) of chatter, so bounces whose
+   flights are shorter than f_min = max(``band`` x stick tolerance x (1 - R),
+   ``floor_steps`` dt) do not matter (the second term: a flight of a few steps is below
+   what the sampling resolves; a rigid engine resting on a wall makes such micro-bounces).
+   An impact is *slow* when the free motion presses (a < 0 at release) and its flight stays
+   within the band h = |a| f_min^2 / 8 (the apex of a flight of f_min). The engine is stuck
+   from a slow impact as long as every following flight stays within the band (which
+   never shrinks below the onset's: near an exit |a| -> 0 but the bodies have not moved
+   apart), until the release of the first contact whose flight leaves it (the bodies
+   separate). A single contact that starts pressing (a < 0) and is released where the
+   free motion no longer presses (a >= 0), slower than a flight of f_min (v+ <= |a| f_min
+   / 2 with the onset's a), is a stick too: perfectly inelastic, or a soft contact that
+   never rebounds. So is a contact the data start in. What the end of the data cuts short (a
+   flight, a contact) continues a stuck stretch but starts one only where the bodies are
+   already at rest in a contact (|y'| <= |a| f_min / 2).
+4. **Times.** The sticking start is the onset impact plus the chatter its rebound would
+   still make in Feigin's model, 2 v+ / ((1 - R) |a|) (0 for a single contact): exact for a
+   trajectory that follows R, and off by at most f_min / (1 - R) for one that does not.
+   The exit is the release of the last contact of the stuck stretch.
+
+Estimator errors (exact samples, step dt; an engine adds its own): impact time
+O(|a'| dt^3 / |u|) (the smallest root of the free parabola from the last free sample;
+the onset sample's time, error <= dt, when the parabola does not reach the wall); speeds
+O(|a'| dt^2); exit O(dt^2) where the force decays linearly, else <= dt; sticking start
+O(f_min^2 |a'| / |a|) from the ladder's changing |a|.
+
+Promises: the log is sorted by time (at one time: exit, impact, stick); every stick is
+followed by an exit unless the data end stuck; impacts inside a stuck stretch (the
+unresolved micro-bounces) are in ``impacts`` (``stuck`` true) but not in the log.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from chatterbench.engines.trajectory import Trajectory
+from chatterbench.reference.forces import evaluate_forces, relative_acceleration
+from chatterbench.reference.log import episodes, log_frame
+from chatterbench.reference.scene import Scene
+
+from .tolerances import check_number
+
+STICK_RULE = "contact"  # the ``rule`` of an extracted stick
+_KIND_ORDER = {"exit": 0, "impact": 1, "stick": 2}  # at one time: leave, strike, then stick
+IMPACT_COLUMNS = ["t", "wall", "v_minus", "v_plus", "t_release", "flight", "apex", "pressing", "slow", "stuck", "onset",
+                  "exits", "x1", "v1"]
+
+
+@dataclass(frozen=True)
+class ExtractionOptions:
+    """Internal thresholds of the extraction (their roles in the module docstring)."""
+
+    band: float = 0.1  # [-] bounces with less chatter left than this fraction of the stick tolerance do not matter
+    floor_steps: float = 4.0  # [steps] nor do flights shorter than this many timesteps
+    jump_factor: float = 2.0  # [-] a free step hides an impact if its velocity jump exceeds this times |y''| dt
+    jump_atol: float = 1e-9  # [m/s] ... and this absolute floor (for |y''| = 0)
+
+    def __post_init__(self) -> None:
+        check_number("extraction band", self.band, lo=0.0, hi=1e3, lo_open=True)
+        check_number("extraction floor_steps", self.floor_steps, lo=0.0, hi=1e6, lo_open=True)
+        check_number("extraction jump_factor", self.jump_factor, lo=0.0, hi=1e6)
+        check_number("extraction jump_atol", self.jump_atol, lo=0.0, hi=1e6)
+
+
+@dataclass(frozen=True)
+class Extraction:
+    """What the samples say: every impact (``IMPACT_COLUMNS``), the event log and the episodes.
+
+    ``impacts``: t [s], wall, v_minus and v_plus (y' before and after [m/s]), t_release [s],
+    flight (release to the next impact, on the same wall [s]; NaN when the next is on the
+    other wall, there is none, or the release is an exit), apex [m], pressing (-n y''_free
+    at the release [m/s^2], > 0 into the wall), slow, stuck (a micro-bounce inside a stuck
+    stretch), onset (the impact a stuck stretch starts with), exits (its release ends a stuck
+    stretch), x1 [m], v1 [m/s] after it.
+    """
+
+    impacts: pd.DataFrame  # one row per impact, all walls, by time
+    log: pd.DataFrame  # LOG_COLUMNS of reference/log.py
+    episodes: pd.DataFrame  # EPISODE_COLUMNS of reference/log.py
+    flight_min: float  # [s] f_min of the module docstring
+
+
+def free_relative_acceleration(scene: Scene, t, x1, v1, y, vy) -> np.ndarray:
+    """y'' of the free motion [m/s^2] at every sample, Feigin (1.2); arrays of shape (n,).
+
+    ``reference.forces.relative_acceleration`` vectorised, also for a prescribed body 1
+    (whose ``Prescribed.acceleration`` takes scalars only).
+    """
+    t = np.asarray(t, dtype=float)
+    if scene.body1_infinite and scene.prescribed is not None:
+        _, f2, f12 = evaluate_forces(scene, t, x1, v1, y, vy)
+        p = scene.prescribed
+        x1dd = -p.amplitude * p.omega**2 * np.sin(p.omega * t + p.phase)
+        return np.broadcast_to((f2 - f12) / scene.mass2 - x1dd, t.shape).astype(float)
+    return np.broadcast_to(np.asarray(relative_acceleration(scene, t, x1, v1, y, vy), dtype=float), t.shape).astype(float)
+
+
+def _first_root(d, u, a, h):
+    """Smallest s in [0, h] with d + u s + a s^2 / 2 = 0, elementwise; NaN where none.
+
+    Uses the cancellation-free pair of quadratic roots (q = -(u + sign(u) sqrt(disc)) / 2,
+    roots q / (a/2) and d / q) so that tiny d keeps full relative precision.
+    """
+    d, u, a, h = (np.asarray(v, dtype=float) for v in np.broadcast_arrays(d, u, a, h))
+    half = 0.5 * a
+    disc = u * u - 4.0 * half * d
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sq = np.sqrt(np.where(disc >= 0.0, disc, np.nan))
+        q = -0.5 * (u + np.where(u >= 0.0, sq, -sq))
+        r1 = np.where(half != 0.0, q / half, np.nan)
+        r2 = np.where(q != 0.0, d / q, np.where(d == 0.0, 0.0, np.nan))
+    out = np.full(d.shape, np.nan)
+    for r in (r1, r2):
+        ok = (r >= 0.0) & (r <= h) & ~(out <= r)
+        out = np.where(ok, r, out)
+    return np.where(d <= 0.0, 0.0, out)  # already on or past the wall
+
+
+def contact_runs(contact: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Runs of contact samples: run i covers starts[i] .. stops[i] - 1; stops[i] is the first
+    free sample after it, or n when the data end in contact. Arrays of int, shape (m,)."""
+    edges = np.diff(np.concatenate(([0], np.asarray(contact, dtype=np.int8), [0])))
+    return np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+
+
+def _release_times(t: np.ndarray, force: np.ndarray | None, starts: np.ndarray, stops: np.ndarray) -> np.ndarray:
+    """When each contact run's force fell to zero [s] (NaN for a run the data end in)."""
+    n = len(t)
+    out = np.full(len(starts), np.nan)
+    done = stops < n
+    last = stops[done] - 1
+    t_last, t_next = t[last], t[stops[done]]
+    rel = t_last + 0.5 * (t_next - t_last)
+    if force is not None:
+        prev = np.maximum(last - 1, 0)
+        f1, f0 = force[last], force[prev]
+        ok = (last - 1 >= starts[done]) & (f1 > 0) & (f0 > f1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            zero = t_last + f1 / (f0 - f1) * (t_last - t[prev])
+        rel = np.where(ok, np.clip(zero, t_last, t_next), rel)
+    out[done] = rel
+    return out
+
+
+def _wall_impacts(traj: Trajectory, scene: Scene, wall: str, acc: np.ndarray, options: ExtractionOptions) -> dict:
+    """Every impact on one wall, by time: arrays of the per-impact quantities (normal coordinates)."""
+    t, n_s = traj.t, len(traj.t)
+    nrm = 1.0 if wall == "lower" else -1.0
+    d = nrm * (traj.y - scene.gap.position(wall))
+    u = nrm * traj.vy
+    a = nrm * acc
+    flag = traj.contact.get(wall) if traj.contact else None
+    contact = np.asarray(flag, dtype=bool) if flag is not None and len(flag) == n_s else d <= 0.0
+    force = traj.normal_force.get(wall) if traj.normal_force else None
+    force = np.asarray(force, dtype=float) if force is not None and len(force) == n_s else None
+    starts, stops = contact_runs(contact)
+
+    # (i) contact onsets: the last free sample before, carried forwards to the wall
+    k = np.maximum(starts - 1, 0)
+    s_in = _first_root(d[k], u[k], a[k], t[starts] - t[k])
+    t_in = np.where(np.isnan(s_in), t[starts], t[k] + np.nan_to_num(s_in))
+    v_in = u[k] + a[k] * (t_in - t[k])
+    at_start = starts == 0
+    t_in, v_in = np.where(at_start, t[0], t_in), np.where(at_start, u[0], v_in)
+    released = stops < n_s
+    e = np.minimum(stops, n_s - 1)  # the first free sample after, carried back to where it left the wall
+    s_out = np.nan_to_num(_first_root(d[e], -u[e], a[e], t[e] - t[np.maximum(e - 1, 0)]))
+    v_out = np.where(released, u[e] - a[e] * s_out, np.nan)
+    onset = {"t": t_in, "v_minus": v_in, "v_plus": v_out, "t_release": _release_times(t, force, starts, stops),
+             "first": starts, "begin": np.where(released, stops, n_s), "contact": np.ones(len(starts), bool)}
+
+    # (ii) impacts between two free samples: a velocity jump the free motion cannot make
+    ks = np.empty(0, dtype=np.int64)
+    if n_s > 1:
+        dt = np.diff(t)
+        free_step = ~contact[:-1] & ~contact[1:]
+        jump = u[1:] - u[:-1] - 0.5 * (a[:-1] + a[1:]) * dt
+        a_max = np.maximum(np.abs(a[:-1]), np.abs(a[1:]))
+        threshold = np.maximum(options.jump_atol, options.jump_factor * a_max * dt)
+        reach = np.maximum(np.abs(u[:-1]), np.abs(u[1:])) * dt + a_max * dt * dt
+        near = np.minimum(d[:-1], d[1:]) <= reach
+        ks = np.flatnonzero(free_step & (jump > threshold) & near)
+    h = t[ks + 1] - t[ks] if len(ks) else np.empty(0)
+    s_fwd = _first_root(d[ks], u[ks], a[ks], h)
+    s_bwd = _first_root(d[ks + 1], -u[ks + 1], a[ks + 1], h)
+    t_j = np.where(~np.isnan(s_fwd), t[ks] + s_fwd, np.where(~np.isnan(s_bwd), t[ks + 1] - s_bwd, t[ks + 1]))
+    between = {"t": t_j, "v_minus": u[ks] + a[ks] * (t_j - t[ks]), "v_plus": u[ks + 1] - a[ks + 1] * (t[ks + 1] - t_j),
+               "t_release": t_j, "first": ks + 1, "begin": ks + 1, "contact": np.zeros(len(ks), bool)}
+
+    imp = {key: np.concatenate((onset[key], between[key])) for key in onset}
+    order = np.argsort(imp["first"], kind="stable")
+    imp = {key: v[order] for key, v in imp.items()}
+    m = len(order)
+    begin = imp["begin"]
+    # the flight after each impact: from its first free sample up to the next impact's first sample
+    nxt = np.append(imp["first"][1:], n_s)
+    apex = np.full(m, -np.inf)
+    has = begin < nxt
+    if has.any():
+        idx = begin[has]
+        apex[has] = _segment_max(d, idx, nxt[has])
+    a_rel = a[np.minimum(begin, n_s - 1)]
+    flight = np.append(imp["t"][1:], np.nan) - imp["t_release"]  # to the next impact on this wall
+    imp.update(apex=apex, a_release=a_rel, flight=flight, a_onset=a[np.maximum(imp["first"] - 1, 0)],
+               d=d, a=a, u=u, next_first=nxt)
+    return imp
+
+
+def _segment_max(values: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """max(values[lo[i]:hi[i]]) for non-empty segments in increasing, non-overlapping order.
+
+    One ``reduceat`` over the interleaved bounds (lo0, hi0, lo1, hi1, ...): the even
+    entries are the segments, the odd ones the gaps between them (a sentinel closes the last).
+    """
+    padded = np.append(values, -np.inf)
+    return np.maximum.reduceat(padded, np.column_stack((lo, hi)).ravel())[::2]
+
+
+def _stuck_stretches(imp: dict, band: np.ndarray, held: np.ndarray, f_min: float) -> list[tuple[int, int, bool]]:
+    """(onset, last, released) of every stuck stretch (module docstring, rule 3): impact indices,
+    and whether the bodies separate after ``last`` (False: the data end inside the band).
+
+    A stretch starts at a slow impact (pressing, flight within its band) and takes the
+    following impacts while each flight stays within the stretch's band, which never
+    shrinks below the onset's (near an exit |a| -> 0, but the bodies have not moved apart).
+    """
+    out, m, i = [], len(band), 0
+    apex, a_on = imp["apex"], imp["a_onset"]
+    n_s = len(imp["d"])
+    while i < m:
+        # a flight cut short by the end of the data cannot start a stretch (a bounce may be under
+        # way), nor can a contact the data end in unless the bodies are at rest in it (too slow
+        # to fly, as for a single contact below) or it is the initial rest
+        judged = imp["next_first"][i] < n_s
+        resting = a_on[i] < 0.0 and abs(imp["u"][n_s - 1]) <= -a_on[i] * f_min / 2.0
+        if (band[i] > 0 and apex[i] <= band[i] and judged) or (held[i] and (imp["first"][i] == 0 or resting)):
+            j, h = i, band[i]
+            while j < m and (held[j] or apex[j] <= max(h, band[j])):
+                h = max(h, band[j])
+                j += 1
+            out.append((i, min(j, m - 1), j < m and not held[j]))
+            i = j + 1
+            continue
+        # one contact that starts pressing and lets go where the pressing has ended, too slowly
+        # to fly: perfectly inelastic, or a soft contact that never rebounds
+        if imp["contact"][i] and a_on[i] < 0.0 and imp["a_release"][i] >= 0.0 and np.isfinite(imp["v_plus"][i]) and \
+                imp["v_plus"][i] <= -a_on[i] * f_min / 2.0:
+            out.append((i, i, True))
+        i += 1
+    return out
+
+
+def extract(traj: Trajectory, scene: Scene, stick_tolerance: float = math.nan,
+            options: ExtractionOptions | None = None) -> Extraction:
+    """Impacts, event log and episodes of a sampled trajectory (module docstring).
+
+    Parameters
+    ----------
+    traj : Trajectory
+        Engine or reference samples; arrays of shape (n,), times increasing.
+    scene : Scene
+        The scene it ran: wall positions, R, the free relative acceleration.
+    stick_tolerance : float
+        [s] the tightest sticking tolerance of the scene's visits (``ReferenceSolution.
+        stick_tolerance``); NaN: only the sampling floor decides which bounces matter.
+    options : ExtractionOptions, optional
+    """
+    options = options or ExtractionOptions()
+    t = np.asarray(traj.t, dtype=float)
+    if t.ndim != 1 or any(np.shape(getattr(traj, f)) != t.shape for f in ("x1", "x2", "v1", "v2")):
+        raise ValueError("trajectory arrays t, x1, x2, v1, v2 must all have the same shape (n,)")
+    if len(t) > 1 and not (np.diff(t) > 0).all():
+        raise ValueError("trajectory times must increase strictly")
+    if len(t) < 2:
+        return Extraction(pd.DataFrame(columns=IMPACT_COLUMNS), log_frame([]), episodes(log_frame([])), math.nan)
+    dt = float(np.median(np.diff(t)))
+    R = scene.restitution
+    f_min = options.floor_steps * dt
+    if math.isfinite(stick_tolerance) and stick_tolerance > 0:
+        f_min = max(f_min, options.band * stick_tolerance * (1.0 - R))
+    acc = free_relative_acceleration(scene, t, traj.x1, traj.v1, traj.y, traj.vy)
+    x1, v1 = np.asarray(traj.x1, float), np.asarray(traj.v1, float)
+    rows, impact_rows = [], []
+    for wall in scene.gap.walls:
+        imp = _wall_impacts(traj, scene, wall, acc, options)
+        nrm = 1.0 if wall == "lower" else -1.0
+        pressing = imp["a_release"] < 0.0
+        band = np.where(pressing, -imp["a_release"], 0.0) * f_min**2 / 8.0
+        held = imp["begin"] >= len(t)  # the data end in this contact
+        slow = (pressing & (imp["apex"] <= band)) | held
+        stretches = _stuck_stretches(imp, band, held, f_min)
+        stuck = np.zeros(len(slow), bool)
+        onset = np.zeros(len(slow), bool)
+        exits = np.zeros(len(slow), bool)
+        for i, j, released in stretches:
+            stuck[i:j + 1] = True
+            onset[i] = True
+            exits[j] = released
+        after = np.minimum(imp["begin"], len(t) - 1)
+        for i in range(len(slow)):
+            impact_rows.append((float(imp["t"][i]), wall, nrm * float(imp["v_minus"][i]), nrm * float(imp["v_plus"][i]),
+                                float(imp["t_release"][i]), float(imp["flight"][i]), float(imp["apex"][i]),
+                                float(-imp["a_release"][i]), bool(slow[i]), bool(stuck[i] and not onset[i]), bool(onset[i]),
+                                bool(exits[i]),
+                                float(x1[after[i]]), float(v1[after[i]])))
+            if not stuck[i] or onset[i]:
+                rows.append((float(imp["t"][i]), "impact", wall, nrm * float(imp["v_minus"][i]), nrm * float(imp["v_plus"][i]),
+                             float(x1[after[i]]), float(v1[after[i]]), ""))
+        for i, j, released in stretches:
+            t_on = float(imp["t"][i])
+            end = float(imp["t_release"][j]) if released else float(t[-1])
+            rest = 0.0
+            if j > i and pressing[i] and np.isfinite(imp["v_plus"][i]) and imp["v_plus"][i] > 0 and R < 1:
+                rest = 2.0 * float(imp["v_plus"][i]) / ((1.0 - R) * float(-imp["a_release"][i]))
+            t_stick = min(t_on + rest, max(end, t_on))
+            k = int(min(imp["first"][i], len(t) - 1))
+            rows.append((t_stick, "stick", wall, float(traj.vy[k]), float(traj.vy[k]),
+                         float(x1[k]), float(v1[k]), STICK_RULE))
+            if released:
+                kk = int(min(imp["begin"][j], len(t) - 1))
+                rows.append((end, "exit", wall, float(traj.vy[kk]), float(traj.vy[kk]), float(x1[kk]), float(v1[kk]), ""))
+    rows.sort(key=lambda r: (r[0], _KIND_ORDER[r[1]]))
+    log = log_frame(rows)
+    impacts = pd.DataFrame(impact_rows, columns=IMPACT_COLUMNS).sort_values("t", kind="stable").reset_index(drop=True)
+    # a flight that ends on the other wall, or that an exit starts, is no bounce's flight
+    crossing = impacts["wall"].ne(impacts["wall"].shift(-1)) & impacts.index.to_series().lt(len(impacts) - 1)
+    impacts.loc[crossing | impacts["exits"], "flight"] = np.nan
+    return Extraction(impacts=impacts, log=log, episodes=episodes(log), flight_min=f_min)
+
+
+def extract_events(traj: Trajectory, scene: Scene, stick_tolerance: float = math.nan,
+                   options: ExtractionOptions | None = None) -> pd.DataFrame:
+    """The event log of a sampled trajectory (``LOG_COLUMNS``; see ``extract``)."""
+    return extract(traj, scene, stick_tolerance, options).log
+
+
+def extract_episodes(traj: Trajectory, scene: Scene, stick_tolerance: float = math.nan,
+                     options: ExtractionOptions | None = None) -> pd.DataFrame:
+    """Episodes (``EPISODE_COLUMNS`` of ``reference/log.py``) of a sampled trajectory (see ``extract``)."""
+    return extract(traj, scene, stick_tolerance, options).episodes

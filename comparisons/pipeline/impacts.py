@@ -1,0 +1,102 @@
+"""The impacts themselves: pair the resolvable impacts of a visit and measure each engine impact's restitution.
+
+    >>> pairs = pair_impacts(ref_visit, engine_visit, dt=1e-4, resolved_steps=10, restitution=0.5)
+    >>> pairs.table[["k", "ref_t", "t", "restitution", "restitution_error"]], pairs.worst_error
+
+A time-stepper at step dt cannot resolve an impact whose flight is a few steps long, so
+only the *resolved* impacts are judged: those whose flight after the impact (to the next
+impact on the same wall; for a soft contact, from the contact's release) lasts at least
+``resolved_steps`` x dt. Feigin's ladder is geometric, so the resolved impacts are the
+first ones of each visit, on both sides. The k-th resolved impact of the engine's visit is
+paired with the k-th of the reference's, in time order.
+
+Effective restitution of an engine impact: e = -v+ / v- (the rebound over the incoming
+relative speed; for a soft contact, at contact exit over contact entry). Its error is
+relative to the scene's R: e / R - 1 (for R = 0, e itself). Samples a step apart cannot
+place the impact within the step, so the measured e of a time-stepper is uncertain by the
+velocity the free acceleration changes in one step, before and after the impact:
+u = (1 + R) |y''| dt / (R |v-|) relative (``restitution_uncertainty``). An engine impact
+departs from R when |e / R - 1| > tolerance + u; ``excess`` = |e / R - 1| - u. The visit's
+``worst_error`` is the signed error of the pair with the largest excess (negative: the
+engine loses more than R says).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+PAIR_COLUMNS = ["k", "ref_t", "t", "ref_v_minus", "v_minus", "ref_restitution", "restitution", "restitution_error",
+                "restitution_uncertainty", "excess"]
+
+
+@dataclass(frozen=True)
+class ImpactPairs:
+    """The resolved impacts of one visit, paired (``PAIR_COLUMNS``), and what they add up to."""
+
+    table: pd.DataFrame  # one row per pair: k, times [s], incoming speeds [m/s] (> 0), restitutions [-], error [-]
+    resolved: int  # resolved engine impacts of the visit
+    ref_resolved: int  # resolved reference impacts of the visit
+    worst_error: float  # signed relative restitution error of the pair with the largest excess (NaN: no pair)
+    worst_excess: float  # |error| - uncertainty of that pair [-] (NaN: no pair)
+
+
+def reference_flights(impacts: pd.DataFrame, t_end: float) -> np.ndarray:
+    """Flight after each reference impact of a visit [s]: to the next one, the last to ``t_end`` (its Zeno point)."""
+    t = impacts["t"].to_numpy(dtype=float)
+    return np.diff(np.append(t, t_end)) if len(t) else np.empty(0)
+
+
+def restitution_error(e: np.ndarray, restitution: float) -> np.ndarray:
+    """e / R - 1, or e itself for R = 0 (module docstring)."""
+    return e / restitution - 1.0 if restitution > 0 else np.asarray(e, dtype=float)
+
+
+def pair_impacts(ref_impacts: pd.DataFrame, ref_flights: np.ndarray, eng_impacts: pd.DataFrame, dt: float,
+                 resolved_steps: float, restitution: float) -> ImpactPairs:
+    """Pair the resolved impacts of one visit (module docstring).
+
+    Parameters
+    ----------
+    ref_impacts : DataFrame
+        The reference's impacts of the visit (log rows: ``t``, ``v_minus``, ``v_plus``), by time.
+    ref_flights : ndarray, shape (len(ref_impacts),)
+        Flight after each of them [s] (``reference_flights``).
+    eng_impacts : DataFrame
+        The engine's impacts of the visit (``extract.IMPACT_COLUMNS``: ``t``, ``v_minus``,
+        ``v_plus``, ``flight``, ``pressing``), by time.
+    dt : float
+        The engine's timestep [s].
+    """
+    need = resolved_steps * dt
+    ref = ref_impacts[np.asarray(ref_flights) >= need]
+    flights = eng_impacts["flight"].to_numpy(dtype=float) if len(eng_impacts) else np.empty(0)
+    eng = eng_impacts[np.nan_to_num(flights, nan=-1.0) >= need]
+    n = min(len(ref), len(eng))
+    rows = []
+    if n:
+        r, e = ref.iloc[:n], eng.iloc[:n]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            e_ref = -r["v_plus"].to_numpy(float) / r["v_minus"].to_numpy(float)
+            e_eng = -e["v_plus"].to_numpy(float) / e["v_minus"].to_numpy(float)
+        err = restitution_error(e_eng, restitution)
+        v_in = np.abs(e["v_minus"].to_numpy(float))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            unc = (1.0 + restitution) * np.abs(e["pressing"].to_numpy(float)) * dt / (max(restitution, 1e-300) * v_in)
+        unc = np.where(np.isfinite(unc), unc, np.inf)
+        rows = {"k": np.arange(n), "ref_t": r["t"].to_numpy(float), "t": e["t"].to_numpy(float),
+                "ref_v_minus": np.abs(r["v_minus"].to_numpy(float)), "v_minus": v_in,
+                "ref_restitution": e_ref, "restitution": e_eng, "restitution_error": err,
+                "restitution_uncertainty": unc, "excess": np.abs(err) - unc}
+    table = pd.DataFrame(rows, columns=PAIR_COLUMNS)
+    excess = table["excess"].to_numpy(float)
+    ok = np.isfinite(excess)
+    if ok.any():
+        k = int(np.flatnonzero(ok)[np.argmax(excess[ok])])
+        worst, worst_excess = float(table["restitution_error"].iloc[k]), float(excess[k])
+    else:
+        worst, worst_excess = math.nan, math.nan
+    return ImpactPairs(table=table, resolved=len(eng), ref_resolved=len(ref), worst_error=worst, worst_excess=worst_excess)

@@ -1,0 +1,302 @@
+"""Pair an engine's episodes with the reference's and give each a verdict from the physics of that visit.
+
+    >>> ref = solve(scene)
+    >>> found = extract(traj, scene, ref.stick_tolerance(tol.stick))
+    >>> judged = judge(ref, found, traj, tol)
+    >>> judged.table[["wall", "verdict", "stick_error_zeno", "stick_error_rel", "exit_error_steps"]]
+
+Pairing: an engine episode belongs to the reference episode on the same wall whose visit
+(first impact to exit) overlaps its own the most; each is used once. Errors are engine
+minus reference: in seconds, as a fraction of the visit's scale (``_rel``; ``tolerances.py``)
+and in timesteps (``_steps``):
+
+- ``stick_error_zeno``: sticking start against the Zeno point (the true start; judged);
+  ``stick_error_plate`` against Feigin's plate entry (the idealised model; reported);
+- ``exit_error``: separation; ``first_impact_error``: the visit's first impact;
+- ``restitution_error``: the relative error of the visit's worst resolved impact, the one
+  that exceeds its measurement uncertainty the most (``impacts.py``), with
+  ``resolved_impacts`` and ``ref_resolved_impacts``;
+- ``penetration_max`` [m]: the deepest penetration of any wall from the end of the
+  previous reference visit to this one's exit.
+
+Verdicts (``vocabulary.py``), the first that applies:
+
+1. the run's failure: ``diverged`` from the time the state went non-finite or the energy
+   passed (1 + ``energy_gain``) x the reference's largest; ``error``, ``timeout``,
+   ``crashed`` for episodes the run did not finish;
+2. ``penetrated``: ``penetration_max`` > ``penetration`` x the scene's length scale;
+3. the reference sticks, the engine does not: ``endless`` (``endless_impacts`` or more
+   engine impacts inside the reference's sliding) or ``missed``;
+4. the engine sticks, the reference does not: ``spurious``;
+5. ``early`` / ``late``: |stick_error_rel| > ``stick``, |first_impact_error_rel| >
+   ``first_impact``, |exit_error_rel| > ``exit``, or one of the two stays stuck to the end
+   of the run and the other does not (the sign says which);
+6. ``rebound``: timing within tolerance, but a resolved impact's |e / R - 1| exceeds
+   ``restitution`` + its measurement uncertainty, or the resolved impact counts differ by
+   more than ``impact_count``;
+7. ``match``.
+
+A failure never agrees: when the run failed (status, divergence, penetration) and no
+episode row says so, a run row (wall "") carries the failure verdict.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+import pandas as pd
+
+from chatterbench.engines.trajectory import Trajectory
+
+from .extract import Extraction
+from .impacts import PAIR_COLUMNS, pair_impacts, reference_flights
+from .solution import ReferenceSolution, overlaps, reduced_mass
+from .tolerances import Tolerances
+from .vocabulary import FAILURES, combine, rank
+
+ERROR_COLUMNS = ["first_impact_error", "stick_error_plate", "stick_error_zeno", "exit_error",
+                 "first_impact_error_rel", "stick_error_rel", "exit_error_rel", "stick_error_steps", "exit_error_steps"]
+TABLE_COLUMNS = [
+    "wall", "ref_t_first_impact", "ref_t_plate_entry", "ref_t_stick", "ref_t_exit", "t_first_impact", "t_stick", "t_exit",
+    "n_impacts", "ref_n_impacts", "resolved_impacts", "ref_resolved_impacts",
+    "chatter_duration", "sliding_duration", "ref_v_first_impact",
+    *ERROR_COLUMNS, "restitution_error", "penetration_max", "verdict",
+]
+IMPACT_PAIR_COLUMNS = ["episode", "wall", *PAIR_COLUMNS]
+
+
+@dataclass(frozen=True)
+class RunFacts:
+    """What the verdict rules need to know of the run besides its episodes."""
+
+    status: str = "ok"  # the trajectory's status: "ok" or a failure class
+    t_end: float = math.inf  # [s] the last sample's time
+    t_diverged: float = math.nan  # [s] first non-finite state or energy past its bound; NaN if never
+    t_penetrated: float = math.nan  # [s] first time past the penetration allowance; NaN if never
+    penetration_allowance: float = math.inf  # [m]
+    inside_impacts: Callable[[str, float, float], int] = lambda wall, t0, t1: 0  # engine impacts on wall in [t0, t1]
+
+
+@dataclass(frozen=True)
+class Judgement:
+    """The judged episodes (``TABLE_COLUMNS``), their paired impacts, and the run's failure times."""
+
+    table: pd.DataFrame
+    impacts: pd.DataFrame  # IMPACT_PAIR_COLUMNS: ``episode`` is the row of ``table``
+    t_diverged: float  # [s] NaN if the run never diverged
+    t_penetrated: float  # [s] first time past the allowance, NaN if never
+    penetration_allowance: float  # [m]
+
+
+def relative_energy(scene, traj: Trajectory) -> np.ndarray:
+    """Kinetic energy of the relative motion, m_red vy^2 / 2 [J], per sample (the divergence alarm's measure)."""
+    return 0.5 * reduced_mass(scene) * traj.vy**2
+
+
+def penetration(scene, y: np.ndarray) -> np.ndarray:
+    """How far past a wall each sample is [m] (0 inside the gap)."""
+    gap = scene.gap
+    with np.errstate(invalid="ignore"):
+        out = np.maximum(gap.lower - y, 0.0)
+        if gap.upper is not None:
+            out = np.maximum(out, y - gap.upper)
+    return out
+
+
+def time_diverged(ref: ReferenceSolution, traj: Trajectory, tol: Tolerances) -> float:
+    """First time the state is non-finite or the energy passes its bound [s]; the end of a ``diverged`` run; NaN."""
+    t = traj.t
+    times = []
+    if traj.status == "diverged":
+        times.append(float(t[-1]) if len(t) else 0.0)
+    bad = ~(np.isfinite(traj.y) & np.isfinite(traj.vy))
+    if bad.any():
+        times.append(float(t[np.argmax(bad)]))
+    with np.errstate(invalid="ignore", over="ignore"):
+        grown = relative_energy(ref.scene, traj) > ref.energy_max * (1.0 + tol.energy_gain) + 1e-12
+    if grown.any():
+        times.append(float(t[np.argmax(grown)]))
+    return min(times) if times else math.nan
+
+
+def _pairs(ref_eps: pd.DataFrame, eng_eps: pd.DataFrame) -> dict[int, int]:
+    """Reference row -> engine row: same wall, largest overlap of the visits, each used once."""
+    cands = []
+    for i, r in enumerate(ref_eps.itertuples()):
+        for j, e in enumerate(eng_eps.itertuples()):
+            if e.wall != r.wall:
+                continue
+            e0 = e.t_first_impact if not math.isnan(e.t_first_impact) else e.t_stick
+            o = overlaps(r.t_first_impact, r.t_exit, e0, e.t_exit)
+            if o >= 0:
+                cands.append((-o, abs(e.t_stick - r.t_stick), i, j))
+    out, used = {}, set()
+    for _, _, i, j in sorted(cands):
+        if i not in out and j not in used:
+            out[i] = j
+            used.add(j)
+    return out
+
+
+def _visit(impacts: pd.DataFrame, wall: str, t0: float, t1: float) -> pd.DataFrame:
+    """Every engine impact on ``wall`` in [t0, t1] (NaN t1: to the end), stuck micro-bounces included:
+    which of them are resolved is the flight's business (``impacts.pair_impacts``), not the stick's."""
+    t1 = math.inf if math.isnan(t1) else t1
+    return impacts[(impacts["wall"] == wall) & (impacts["t"] >= t0) & (impacts["t"] <= t1)]
+
+
+def _count(impacts: pd.DataFrame, wall: str, t0: float, t1: float) -> int:
+    """Engine impacts on ``wall`` in [t0, t1] that are not unresolved micro-bounces of a stuck stretch."""
+    t1 = math.inf if math.isnan(t1) else t1
+    return int(((impacts["wall"] == wall) & (impacts["t"] >= t0) & (impacts["t"] <= t1) & ~impacts["stuck"]).sum())
+
+
+def judge(ref: ReferenceSolution, found: Extraction, traj: Trajectory, tol: Tolerances | None = None) -> Judgement:
+    """Judge one engine run (module docstring): one row per reference episode and per unpaired engine episode."""
+    tol = tol or Tolerances()
+    scene = ref.scene
+    t = np.asarray(traj.t, dtype=float)
+    dt = float(np.median(np.diff(t))) if len(t) > 1 else math.nan
+    t_end = float(t[-1]) if len(t) else -math.inf
+    ref_eps, eng_eps, imps = ref.episodes, found.episodes, found.impacts
+    paired = _pairs(ref_eps, eng_eps)
+    pen = penetration(scene, np.asarray(traj.y, float)) if len(t) else np.empty(0)
+    allowance = tol.penetration * ref.length_scale
+
+    rows, pair_tables, windows = [], [], []
+    prev_end = scene.initial.t
+    for i, r in enumerate(ref_eps.itertuples()):
+        row = {"wall": r.wall, "ref_t_first_impact": r.t_first_impact, "ref_t_plate_entry": r.t_plate_entry,
+               "ref_t_stick": r.t_stick, "ref_t_exit": r.t_exit, "ref_n_impacts": int(r.n_impacts),
+               "chatter_duration": r.chatter_duration, "sliding_duration": r.sliding_duration,
+               "ref_v_first_impact": r.v_first_impact, "stick_scale": r.stick_scale,
+               "t_first_impact": math.nan, "t_stick": math.nan, "t_exit": math.nan}
+        j = paired.get(i)
+        if j is not None:
+            e = eng_eps.iloc[j]
+            row.update(t_first_impact=e["t_first_impact"], t_stick=e["t_stick"], t_exit=e["t_exit"],
+                       n_impacts=int(e["n_impacts"]))
+            visit = _visit(imps, r.wall, e["t_first_impact"], e["t_exit"])
+        else:
+            row["n_impacts"] = _count(imps, r.wall, r.t_first_impact, r.t_exit)
+            visit = _visit(imps, r.wall, r.t_first_impact, r.t_exit)
+        ref_visit = ref.visit_impacts(r)
+        pairs = pair_impacts(ref_visit, reference_flights(ref_visit, r.t_stick), visit, dt, tol.resolved_steps,
+                             scene.restitution)
+        row.update(resolved_impacts=pairs.resolved, ref_resolved_impacts=pairs.ref_resolved,
+                   restitution_error=pairs.worst_error, restitution_excess=pairs.worst_excess)
+        pair_tables.append((len(rows), r.wall, pairs.table))
+        rows.append(row)
+        windows.append((prev_end, r.t_exit))
+        prev_end = r.t_stick if math.isnan(r.t_exit) else r.t_exit
+    used = set(paired.values())
+    for j, e in enumerate(eng_eps.itertuples()):
+        if j in used:
+            continue
+        rows.append({"wall": e.wall, "ref_t_first_impact": math.nan, "ref_t_plate_entry": math.nan, "ref_t_stick": math.nan,
+                     "ref_t_exit": math.nan, "ref_n_impacts": 0, "chatter_duration": math.nan, "sliding_duration": math.nan,
+                     "ref_v_first_impact": math.nan, "stick_scale": math.nan, "t_first_impact": e.t_first_impact,
+                     "t_stick": e.t_stick, "t_exit": e.t_exit, "n_impacts": int(e.n_impacts), "resolved_impacts": 0,
+                     "ref_resolved_impacts": 0, "restitution_error": math.nan, "restitution_excess": math.nan})
+        windows.append((e.t_first_impact if not math.isnan(e.t_first_impact) else e.t_stick, e.t_exit))
+    table = pd.DataFrame(rows)
+    if table.empty:
+        table = pd.DataFrame(columns=[*TABLE_COLUMNS, "stick_scale", "restitution_excess"])
+    table["penetration_max"] = [_window_max(t, pen, w0, w1) for w0, w1 in windows]
+    errors(table, dt)
+
+    beyond = pen > allowance
+    facts = RunFacts(status=traj.status, t_end=t_end, t_diverged=time_diverged(ref, traj, tol),
+                     t_penetrated=float(t[np.argmax(beyond)]) if beyond.any() else math.nan,
+                     penetration_allowance=allowance, inside_impacts=lambda w, t0, t1: _count(imps, w, t0, t1))
+    table = assign_verdicts(table, tol, facts, float(pen.max()) if len(pen) else math.nan)
+    start = table["ref_t_stick"].fillna(table["t_stick"]).fillna(math.inf)
+    order = np.argsort(start.to_numpy(dtype=float), kind="stable")
+    table = table.iloc[order].reset_index(drop=True)
+    renumber = {int(old): new for new, old in enumerate(order)}
+    frames = [p.assign(episode=renumber[k], wall=w) for k, w, p in pair_tables if len(p)]
+    impacts = pd.concat(frames, ignore_index=True)[IMPACT_PAIR_COLUMNS] if frames else pd.DataFrame(columns=IMPACT_PAIR_COLUMNS)
+    for c in ("n_impacts", "ref_n_impacts", "resolved_impacts", "ref_resolved_impacts"):
+        table[c] = table[c].fillna(0).astype(int)
+    return Judgement(table=table[TABLE_COLUMNS], impacts=impacts, t_diverged=facts.t_diverged,
+                     t_penetrated=facts.t_penetrated, penetration_allowance=allowance)
+
+
+def assign_verdicts(table: pd.DataFrame, tol: Tolerances, run: RunFacts, penetration_max: float = math.nan) -> pd.DataFrame:
+    """``table`` (``TABLE_COLUMNS`` but ``verdict``, plus ``restitution_excess``) with each row's verdict
+    (``verdict``), and a run row when the run failed and no row says so (module docstring)."""
+    table = table.copy()
+    table["verdict"] = [verdict(r, tol, run) for r in table.itertuples()] if len(table) else pd.Series(dtype=object)
+    failure = run_failure(run)
+    if failure and rank(failure) < rank(combine(table["verdict"])):
+        row = {c: math.nan for c in TABLE_COLUMNS}
+        row.update(wall="", n_impacts=0, ref_n_impacts=0, resolved_impacts=0, ref_resolved_impacts=0,
+                   penetration_max=penetration_max, verdict=failure)
+        table = pd.concat([table, pd.DataFrame([row])], ignore_index=True) if len(table) else pd.DataFrame([row])
+    return table
+
+
+def _window_max(t: np.ndarray, values: np.ndarray, t0: float, t1: float) -> float:
+    t1 = math.inf if math.isnan(t1) else t1
+    sel = (t >= t0) & (t <= t1)
+    return float(values[sel].max()) if sel.any() else math.nan
+
+
+def errors(table: pd.DataFrame, dt: float) -> None:
+    """Errors in seconds, relative to their scales and in timesteps (in place)."""
+    table["first_impact_error"] = table["t_first_impact"] - table["ref_t_first_impact"]
+    table["stick_error_plate"] = table["t_stick"] - table["ref_t_plate_entry"]
+    table["stick_error_zeno"] = table["t_stick"] - table["ref_t_stick"]
+    table["exit_error"] = table["t_exit"] - table["ref_t_exit"]
+    scale = table["stick_scale"].where(table["stick_scale"] > 0)
+    table["first_impact_error_rel"] = table["first_impact_error"] / scale
+    table["stick_error_rel"] = table["stick_error_zeno"] / scale
+    table["exit_error_rel"] = table["exit_error"] / table["sliding_duration"].where(table["sliding_duration"] > 0)
+    table["stick_error_steps"] = table["stick_error_zeno"] / dt
+    table["exit_error_steps"] = table["exit_error"] / dt
+
+
+def run_failure(run: RunFacts) -> str:
+    """The run's own failure verdict ("" when it did not fail): its status, else diverged, else penetrated."""
+    if run.status in FAILURES:
+        return run.status
+    if not math.isnan(run.t_diverged):
+        return "diverged"
+    return "penetrated" if not math.isnan(run.t_penetrated) else ""
+
+
+def _beyond(value: float, limit: float) -> bool:
+    """|value| > limit; a NaN value (nothing to compare) is not beyond."""
+    return not math.isnan(value) and abs(value) > limit
+
+
+def verdict(r, tol: Tolerances, run: RunFacts) -> str:
+    """The verdict of one judged row (a ``TABLE_COLUMNS`` namedtuple with ``restitution_excess``): module docstring."""
+    has_ref = not math.isnan(r.ref_t_stick)
+    has_eng = not math.isnan(r.t_stick)
+    stop = r.ref_t_exit if has_ref else r.t_exit
+    stop = math.inf if math.isnan(stop) else stop
+    if not math.isnan(run.t_diverged) and run.t_diverged <= stop:
+        return "diverged"
+    if run.status in FAILURES and stop > run.t_end:
+        return run.status
+    if not math.isnan(r.penetration_max) and r.penetration_max > run.penetration_allowance:
+        return "penetrated"
+    if has_ref and not has_eng:
+        inside = run.inside_impacts(r.wall, r.ref_t_stick, r.ref_t_exit)
+        return "endless" if inside >= tol.endless_impacts else "missed"
+    if has_eng and not has_ref:
+        return "spurious"
+    for err, limit in ((r.stick_error_rel, tol.stick), (r.first_impact_error_rel, tol.first_impact)):
+        if _beyond(err, limit):
+            return "early" if err < 0 else "late"
+    if math.isnan(r.ref_t_exit) != math.isnan(r.t_exit):
+        return "late" if math.isnan(r.t_exit) else "early"  # one of them is still stuck at the end of the run
+    if _beyond(r.exit_error_rel, tol.exit):
+        return "early" if r.exit_error_rel < 0 else "late"
+    if (not math.isnan(r.restitution_excess) and r.restitution_excess > tol.restitution) or abs(r.resolved_impacts - r.ref_resolved_impacts) > tol.impact_count:
+        return "rebound"
+    return "match"

@@ -1,0 +1,124 @@
+"""One row per (run, engine): a comparison condensed to numbers and a verdict, with one set of column names.
+
+    >>> result = compare(scene, engines=("mujoco",), dt=1e-4)
+    >>> row = summarize(result, "mujoco", params={"dt": 1e-4, "restitution": 0.5})
+
+The same row is ``compare``'s summary, a sweep's dataset row, the gate's metrics and the
+report's summary table. Columns (a sweep dataset's schema; charts and reports read these names):
+
+=========================  ===========================================================================
+point_id                   stable id of the grid point (hash of scene + params), str
+scene                      scene name
+engine                     ``mujoco`` or ``pybullet``
+<param>                    one column per swept parameter, named by its dotted key (sweeps only)
+dt                         engine timestep [s]
+mass_ratio                 mu = mass2 / mass1 (0 when mass1 is infinite: a fixed body)
+status                     engine run status: ``ok``, ``diverged``, ``error``, ``timeout``, ``crashed``
+verdict                    the episodes' verdicts combined (``vocabulary.combine``: the most severe);
+                           ``none`` when neither the reference nor the engine has an episode
+n_episodes, n_match        episodes judged, and how many matched
+exit_error_max             max |exit error| [s]
+stick_error_max            max |sticking start - Zeno point| [s]
+stick_error_plate_max      max |sticking start - Feigin's plate entry| [s]
+first_impact_error_max     max |first impact error| [s]
+exit_error_rel_max         max |exit error| / sliding duration [-] (the exit tolerance's measure)
+stick_error_rel_max        max |sticking start error| / chatter duration [-] (the stick tolerance's)
+restitution_error_max      max |effective R / R - 1| over the resolved impacts [-]
+penetration_max            deepest penetration of a wall [m]
+cost_per_sim_s             wall-clock seconds of engine stepping per simulated second
+reference_cost_per_sim_s   wall-clock seconds of the reference (Feigin's model) per simulated second
+wall_time_s                wall-clock seconds of engine stepping
+engine_version             the engine package's version
+message                    failure message, "" when ok
+=========================  ===========================================================================
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from typing import Any, Mapping
+
+from .vocabulary import combine
+
+METRIC_COLUMNS = [
+    "exit_error_max", "stick_error_max", "stick_error_plate_max", "first_impact_error_max",
+    "exit_error_rel_max", "stick_error_rel_max", "restitution_error_max", "penetration_max",
+]
+ROW_COLUMNS = [
+    "point_id", "scene", "engine", "dt", "mass_ratio", "status", "verdict", "n_episodes", "n_match",
+    *METRIC_COLUMNS, "cost_per_sim_s", "reference_cost_per_sim_s", "wall_time_s", "engine_version", "message",
+]
+SUMMARY_COLUMNS = [c for c in ROW_COLUMNS if c != "point_id"]
+# columns a sweep does not set but charts may use as an axis, like a swept parameter
+DERIVED_PARAMETERS = ("dt", "mass_ratio")
+# the table column each worst-case metric is taken from
+_SOURCES = {
+    "exit_error_max": "exit_error", "stick_error_max": "stick_error_zeno", "stick_error_plate_max": "stick_error_plate",
+    "first_impact_error_max": "first_impact_error", "exit_error_rel_max": "exit_error_rel",
+    "stick_error_rel_max": "stick_error_rel", "restitution_error_max": "restitution_error",
+    "penetration_max": "penetration_max",
+}
+
+
+def point_id(scene: str, engine: str, params: Mapping[str, Any]) -> str:
+    """Stable 16-hex-digit id of a grid point (same inputs, same id, on any machine)."""
+    blob = json.dumps({"scene": scene, "engine": engine, "params": dict(sorted(params.items()))}, sort_keys=True, default=repr)
+    return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+
+def mass_ratio(scene) -> float:
+    """mu = m2 / m1 (Feigin's mass ratio); 0 when body 1 is infinitely heavy (fixed)."""
+    return 0.0 if math.isinf(scene.mass1) else float(scene.mass2 / scene.mass1)
+
+
+def _absmax(series) -> float:
+    vals = series.abs().dropna()
+    return float(vals.max()) if len(vals) else math.nan
+
+
+def metrics(table) -> dict[str, Any]:
+    """Verdict, counts and worst errors of one engine's judged episodes (``judge.TABLE_COLUMNS``)."""
+    return {
+        "verdict": combine(table["verdict"]),
+        "n_episodes": int((table["wall"] != "").sum()),
+        "n_match": int((table["verdict"] == "match").sum()),
+        **{name: _absmax(table[source]) for name, source in _SOURCES.items()},
+    }
+
+
+def summarize(comparison, engine: str, params: Mapping[str, Any]) -> dict[str, Any]:
+    """The row of ``engine`` in a ``compare.Comparison`` (columns in the module docstring)."""
+    run = comparison.runs[engine]
+    sub = comparison.table[comparison.table["engine"] == engine]
+    return {
+        "point_id": point_id(comparison.scene.name, engine, params),
+        "scene": comparison.scene.name,
+        "engine": engine,
+        **dict(params),
+        "dt": float(run.settings.get("dt", math.nan)),
+        "mass_ratio": mass_ratio(comparison.scene),
+        "status": run.status,
+        **metrics(sub),
+        "cost_per_sim_s": run.cost_per_sim_s,
+        "reference_cost_per_sim_s": comparison.solution.cost_per_sim_s,
+        "wall_time_s": run.wall_time,
+        "engine_version": run.version,
+        "message": run.trajectory.message,
+    }
+
+
+def failure_row(scene: str, engine: str, params: Mapping[str, Any], status: str, message: str, version: str = "",
+                mu: float = math.nan) -> dict[str, Any]:
+    """The row of a point whose run crashed, hung or raised before any result (verdict = status).
+
+    ``mu`` is the point's mass ratio (``mass_ratio``), NaN when unknown.
+    """
+    return {
+        "point_id": point_id(scene, engine, params), "scene": scene, "engine": engine, **dict(params),
+        "dt": float(params.get("dt", math.nan)), "mass_ratio": mu, "status": status, "verdict": status,
+        "n_episodes": 0, "n_match": 0, **{m: math.nan for m in METRIC_COLUMNS},
+        "cost_per_sim_s": math.nan, "reference_cost_per_sim_s": math.nan,
+        "wall_time_s": math.nan, "engine_version": version, "message": message,
+    }

@@ -1,0 +1,148 @@
+"""What the judge accepts: tolerances as fractions of each reference episode's own physical scales.
+
+    >>> from chatterbench.comparisons.pipeline.tolerances import Tolerances, tolerances_from_items
+    >>> tolerances_from_items(["stick=0.1", "exit=0.01"]).stick
+    0.1
+    >>> Tolerances().describe()
+    'stick within 5% of the chatter, exit within 2% of the sliding, first impact within 5% of the chatter, restitution within 5%, resolved impacts within 1, penetration under 10% of the length scale'
+
+Scales come from the physics of each reference visit to a wall, never from the run
+(its duration, the forcing period, the engine's settings):
+
+- chatter duration: Zeno point - first impact of the visit [s]; the sticking start and the
+  first impact are judged against it (a visit that starts in contact has no chatter: its
+  sliding duration stands in);
+- sliding duration: exit - Zeno point [s]; the exit is judged against it (no exit, no check);
+- first impact speed: |y'| at the visit's first impact [m/s] (reported as a scale);
+- length scale: the gap width, or for a one-sided gap the reference's largest distance from
+  its wall [m]; penetration is judged against it, the same for every engine.
+
+The resolved impacts of a visit (those whose flight lasts at least ``resolved_steps``
+timesteps: ``pipeline.impacts``) must follow R to ``restitution`` (relative) and agree in
+number to ``impact_count``. ``energy_gain`` bounds the relative kinetic energy (a
+blow-up alarm, relative to the reference's largest), ``endless_impacts`` the impacts an
+engine may make inside a reference sliding stretch before it counts as chattering through.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any, Iterable, Mapping
+
+from chatterbench.reference.scene import SceneError, did_you_mean, split_assignment
+
+
+class ToleranceError(SceneError):
+    """A tolerance that is unknown or out of range; the message names it and what is allowed."""
+
+
+_FRACTIONS = ("stick", "exit", "first_impact", "restitution", "penetration")
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    """Verdict tolerances; fractions of the episode's scales unless noted (module docstring)."""
+
+    stick: float = 0.05  # |sticking start - Zeno point| <= stick x chatter duration, in (0, 1]
+    exit: float = 0.02  # |exit error| <= exit x sliding duration, in (0, 1]
+    first_impact: float = 0.05  # |first impact error| <= first_impact x chatter duration, in (0, 1]
+    restitution: float = 0.05  # |effective R / R - 1| of every resolved impact, in (0, 1]
+    impact_count: int = 1  # |resolved impacts - the reference's| allowed, integer >= 0
+    penetration: float = 0.1  # largest penetration <= penetration x length scale, in (0, 1]
+    resolved_steps: float = 10.0  # a flight this many timesteps long or longer is resolved, > 1
+    energy_gain: float = 1.0  # kinetic energy above (1 + energy_gain) x the reference's largest: diverged, > 0
+    endless_impacts: int = 10  # engine impacts inside a reference sliding stretch that make it endless, >= 1
+
+    def __post_init__(self) -> None:
+        for name in _FRACTIONS:
+            check_number(f"tolerance {name}", getattr(self, name), lo=0.0, hi=1.0, lo_open=True)
+        check_number("tolerance resolved_steps", self.resolved_steps, lo=1.0, lo_open=True, hi=1e6)
+        check_number("tolerance energy_gain", self.energy_gain, lo=0.0, lo_open=True, hi=1e6)
+        check_integer("tolerance impact_count", self.impact_count, lo=0)
+        check_integer("tolerance endless_impacts", self.endless_impacts, lo=1)
+        for name in ("stick", "exit", "first_impact", "restitution", "penetration", "resolved_steps", "energy_gain"):
+            object.__setattr__(self, name, float(getattr(self, name)))
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain data (provenance, sweep rows, gate run keys)."""
+        return dataclasses.asdict(self)
+
+    def describe(self) -> str:
+        """One line for reports and guides."""
+        pct = lambda v: f"{100 * v:g}%"  # noqa: E731
+        return (f"stick within {pct(self.stick)} of the chatter, exit within {pct(self.exit)} of the sliding, "
+                f"first impact within {pct(self.first_impact)} of the chatter, restitution within {pct(self.restitution)}, "
+                f"resolved impacts within {self.impact_count}, penetration under {pct(self.penetration)} of the length scale")
+
+
+TOLERANCE_KEYS = tuple(f.name for f in dataclasses.fields(Tolerances))
+TIMING_KEYS = ("stick", "exit", "first_impact")  # what a single ``--tolerance T`` sets (tune)
+
+
+def check_number(where: str, value: Any, lo: float = -math.inf, hi: float = math.inf,
+                 lo_open: bool = False, hi_open: bool = False) -> float:
+    """``value`` as a float if it is a finite real number in the range, else ToleranceError naming ``where``."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ToleranceError(f"{where} = {value!r}: must be a number")
+    try:
+        v = float(value)
+    except OverflowError:
+        raise ToleranceError(f"{where} = {value!r}: too large; must be {_range(lo, hi, lo_open, hi_open)}") from None
+    low_bad = v <= lo if lo_open else v < lo
+    high_bad = v >= hi if hi_open else v > hi
+    if not math.isfinite(v) or low_bad or high_bad:
+        raise ToleranceError(f"{where} = {value!r}: must be {_range(lo, hi, lo_open, hi_open)}")
+    return v
+
+
+def check_integer(where: str, value: Any, lo: int = 0, hi: int = 10**9) -> int:
+    """``value`` if it is an integer in [lo, hi], else ToleranceError naming ``where``."""
+    if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
+        raise ToleranceError(f"{where} = {value!r}: must be an integer in [{lo}, {hi}]")
+    return value
+
+
+def _range(lo: float, hi: float, lo_open: bool, hi_open: bool) -> str:
+    if math.isinf(lo) and math.isinf(hi):
+        return "a finite number"
+    if math.isinf(hi):
+        return f"a finite number {'>' if lo_open else '>='} {lo:g}"
+    return f"in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
+
+
+def make_tolerances(values: Mapping[str, Any] | None = None, base: Tolerances | None = None, where: str = "tolerances") -> Tolerances:
+    """``base`` (default ``Tolerances()``) with ``values`` replaced; unknown keys refused with a suggestion."""
+    values = dict(values or {})
+    for key in values:
+        if key not in TOLERANCE_KEYS:
+            name = f"{where} {key}" if where.startswith("--") else f"{where}.{key}"
+            raise ToleranceError(f"{name}: unknown tolerance{did_you_mean(str(key), TOLERANCE_KEYS)}; "
+                                 f"allowed: {', '.join(TOLERANCE_KEYS)}")
+    return dataclasses.replace(base or Tolerances(), **values)
+
+
+def tolerance_values(items: Iterable[str]) -> dict[str, Any]:
+    """The values ``--tolerance`` items give, by key (validated: unknown keys and bad values are refused);
+    a bare number stands for the timing tolerances (stick, exit, first_impact) at once."""
+    values: dict[str, Any] = {}
+    for item in items:
+        text = str(item).strip()
+        if "=" not in text:
+            try:
+                number = float(text)
+            except ValueError:
+                raise ToleranceError(f"--tolerance {text!r}: expected KEY=VALUE with KEY one of {', '.join(TOLERANCE_KEYS)}, "
+                                     "or one number for stick, exit and first_impact together") from None
+            values.update({k: number for k in TIMING_KEYS})
+            continue
+        key, value = split_assignment(text)
+        values[key] = value
+    make_tolerances(values, where="--tolerance")
+    return values
+
+
+def tolerances_from_items(items: Iterable[str], base: Tolerances | None = None) -> Tolerances:
+    """Tolerances from ``--tolerance`` items (``tolerance_values``) over ``base`` (default ``Tolerances()``)."""
+    return make_tolerances(tolerance_values(items), base, where="--tolerance")

@@ -1,0 +1,125 @@
+"""The verdicts: every name the judge can give, in one place, with its severity, meaning, colour and abbreviation.
+
+    >>> from chatterbench.comparisons.pipeline.vocabulary import combine, VERDICTS
+    >>> combine(["match", "late", "rebound"])
+    'late'
+    >>> VERDICTS["rebound"].meaning
+    'timing within tolerance, but the resolved impacts do not follow R'
+
+Every consumer (compare's summary, sweep rows, the report, the gate, stability maps, the
+tuning guide, the README and the docs) takes names, order, colours and meanings from here,
+and combines the verdicts of several episodes into one with ``combine``: the most severe
+verdict present wins (``SEVERITY``, worst first); ``none`` is what nothing judged gives.
+
+Groups: ``agree`` (the engine does what the reference does), ``timing`` (the right
+episodes, at the wrong times), ``impacts`` (the right timing, the wrong impact law),
+``physics`` (episodes missing, extra or never ending), ``broken`` (the run left the
+physics: through a wall, energy out of bounds), ``failure`` (the run itself failed:
+raised, hung, died or blew up). A failure never agrees: a run whose status is not ``ok``
+always carries its failure verdict (``FAILURES``), even where the reference has nothing to judge.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Iterable
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """One verdict: its name, what it means, and how it is drawn."""
+
+    name: str
+    group: str  # agree | timing | impacts | physics | broken | failure
+    meaning: str  # one line, for legends and tables
+    colour: str  # hex RGB, for tables and maps
+    abbrev: str  # a few characters, for map cells
+
+
+# Worst first: the order ``combine`` uses. Failures of the run first (nothing it says can be
+# trusted), then a run that left the physics, then wrong episodes, wrong timing, wrong impacts.
+_ALL = (
+    Verdict("crashed", "failure", "the engine process died (segfault, abort)", "#000000", "X"),
+    Verdict("timeout", "failure", "the engine ran past its time limit", "#424242", "t/o"),
+    Verdict("error", "failure", "the engine raised an error", "#8e0000", "err"),
+    Verdict("diverged", "failure", "the state went non-finite or the energy grew past its bound", "#e53935", "div"),
+    Verdict("penetrated", "broken", "went through a wall, past the scene's penetration allowance", "#ef9a9a", "pen"),
+    Verdict("endless", "physics", "chatters through the reference's sliding and never sticks", "#4a148c", "end"),
+    Verdict("missed", "physics", "no sticking where the reference slides", "#b39ddb", "mis"),
+    Verdict("spurious", "physics", "sticks where the reference does not", "#7e57c2", "spu"),
+    Verdict("late", "timing", "sticks, exits or first strikes too late", "#ff9800", "L"),
+    Verdict("early", "timing", "sticks, exits or first strikes too early", "#ffd54f", "E"),
+    Verdict("rebound", "impacts", "timing within tolerance, but the resolved impacts do not follow R", "#4fc3f7", "R"),
+    Verdict("match", "agree", "sticking, exit and resolved impacts within tolerance", "#2ca02c", "ok"),
+    Verdict("none", "agree", "no sliding in the reference nor in the engine: they agree", "#e0e0e0", "none"),
+)
+
+VERDICTS: dict[str, Verdict] = {v.name: v for v in _ALL}
+SEVERITY: tuple[str, ...] = tuple(v.name for v in _ALL)  # worst first
+NAMES: tuple[str, ...] = tuple(reversed(SEVERITY))  # best first, for legends
+FAILURES: tuple[str, ...] = tuple(v.name for v in _ALL if v.group == "failure")  # run statuses that are verdicts
+PASSING: tuple[str, ...] = tuple(v.name for v in _ALL if v.group in ("agree", "timing", "impacts") and v.name != "none")
+COLOURS: dict[str, str] = {v.name: v.colour for v in _ALL}
+ABBREVIATIONS: dict[str, str] = {v.name: v.abbrev for v in _ALL}
+MEANINGS: dict[str, str] = {v.name: v.meaning for v in _ALL}
+
+
+def rank(verdict: str) -> int:
+    """Severity rank, 0 = worst; an unknown name ranks after every known one."""
+    return SEVERITY.index(verdict) if verdict in VERDICTS else len(SEVERITY)
+
+
+def combine(verdicts: Iterable[str]) -> str:
+    """One verdict for several episodes: the most severe present; ``none`` when there are none."""
+    present = [str(v) for v in verdicts]
+    if not present:
+        return "none"
+    return min(present, key=rank)
+
+
+def check_verdict(name: str) -> str:
+    """Return ``name`` if it is a verdict, else raise ValueError naming the allowed ones."""
+    if name not in VERDICTS:
+        raise ValueError(f"unknown verdict {name!r}; allowed: {', '.join(NAMES)}")
+    return name
+
+
+def markdown_table() -> str:
+    """The vocabulary as a Markdown table (README, docs/verdicts.md), best first."""
+    lines = ["| verdict | group | meaning |", "| --- | --- | --- |"]
+    lines += [f"| `{VERDICTS[n].name}` | {VERDICTS[n].group} | {VERDICTS[n].meaning} |" for n in NAMES]
+    return "\n".join(lines)
+
+
+def text_colour(verdict: str) -> str:
+    """Black or white, whichever reads on the verdict's colour (tables, map cells)."""
+    colour = COLOURS.get(verdict, "#ffffff")
+    r, g, b = (int(colour[i:i + 2], 16) for i in (1, 3, 5))
+    return "#000000" if 0.299 * r + 0.587 * g + 0.114 * b > 140 else "#ffffff"
+
+
+def document() -> str:
+    """docs/verdicts.md: the verdicts, how they combine, and the table (``python -m`` this module writes it)."""
+    order = " > ".join(f"`{n}`" for n in SEVERITY)
+    return "\n".join([
+        "# Verdicts",
+        "",
+        "Generated from `comparisons/pipeline/vocabulary.py` (`python -m chatterbench.comparisons.pipeline.vocabulary"
+        " > docs/verdicts.md`); the README, the report's legend, the gate and the stability maps use the same names,"
+        " meanings and colours.",
+        "",
+        "Each episode (a visit to a wall that ends in sticking, in the reference or in the engine) gets one verdict;"
+        " several combine into one by severity, the worst present naming the run:",
+        "",
+        order + ".",
+        "",
+        "A run whose status is not `ok` always carries its failure verdict, also where the reference has nothing to"
+        " judge (`none` is what agreement on nothing gives, never what a failed run gets).",
+        "",
+        markdown_table(),
+        "",
+    ])
+
+
+if __name__ == "__main__":  # pragma: no cover - the docs generator
+    print(document(), end="")
