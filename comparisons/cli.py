@@ -18,6 +18,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from chatterbench.reference.errors import InputError
 from chatterbench.reference.catalogue import CATALOGUE, describe
 from chatterbench.reference.scene import SceneError, load_scene, split_assignment
 from chatterbench.reference.simulate import CHATTER_MODES, simulate
@@ -371,7 +372,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         return args.func(args)
-    except (SceneError, UsageError) as exc:  # SettingsError is a SceneError
+    except (InputError, UsageError) as exc:  # every refusal of user input
         text = str(exc) if getattr(exc, "multiline", False) else one_line(str(exc))
         print(f"chatterbench: error: {text}", file=sys.stderr)
         return 2

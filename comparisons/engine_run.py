@@ -14,7 +14,7 @@ from typing import Sequence
 
 import pandas as pd
 
-from chatterbench.engines.registry import engine_module, make_settings, run_engine
+from chatterbench.engines.registry import adapter, make_settings, run_engine
 from chatterbench.reference.log import episodes, log_frame
 from chatterbench.reference.scene import Scene
 
@@ -34,7 +34,7 @@ def run_engine_events(
             from .cli import UsageError
 
             raise UsageError("--export-model: only MuJoCo models can be exported (use --engine mujoco)")
-        write_text(Path(export_model), engine_module("mujoco").export_mjcf(scene, settings))
+        write_text(Path(export_model), adapter("mujoco").snippet(scene, settings))
     resolution = solve(scene).stick_tolerance(Tolerances().stick)
     traj = run_engine(engine, scene, settings)
     log = extract_events(traj, scene, resolution) if len(traj.t) > 1 else log_frame([])

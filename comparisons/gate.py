@@ -81,6 +81,7 @@ from xml.etree import ElementTree as ET
 import pandas as pd
 
 from chatterbench.engines.registry import ENGINE_NAMES, make_settings
+from chatterbench.reference.errors import InputError
 from chatterbench.reference.catalogue import CATALOGUE
 from chatterbench.reference.scene import Scene, SceneError, did_you_mean, load_scene
 
@@ -107,7 +108,7 @@ _OPS: dict[str, Callable[[Any, Any], bool]] = {
 _LIMIT_RE = re.compile(r"^\s*([A-Za-z_][\w.]*)\s*(<=|>=|==|!=|<|>|\bin\b)\s*(.+?)\s*$")
 
 
-class GateError(SceneError):
+class GateError(InputError):
     """A gate file or a check that cannot run as written; the message lists every problem (exit code 2)."""
 
     multiline = True  # one problem per line, by design (keys are quoted with repr, so a line is a problem)
@@ -375,14 +376,14 @@ def make_check(
         if overrides:
             try:
                 scene_obj = load_scene(scene.to_dict(), overrides)
-            except SceneError as exc:
+            except InputError as exc:
                 problems.append(f"{pre}scene_overrides: {exc}")
     elif not isinstance(scene, str) or not scene:
         problems.append(f"{pre}scene = {scene!r}: must be a built-in scene name ({', '.join(CATALOGUE)}) or a scene TOML path")
     else:
         try:
             scene_obj = load_scene(_scene_source(scene, base_dir), overrides)
-        except SceneError as exc:
+        except InputError as exc:
             problems.append(f"{pre}{'scene_overrides' if overrides and scene in CATALOGUE else 'scene'}: {exc}")
     if not isinstance(engine, str) or engine not in ENGINE_NAMES:
         problems.append(f"{pre}engine = {engine!r}: must be one of {', '.join(ENGINE_NAMES)}"
@@ -395,7 +396,7 @@ def make_check(
     elif engine in ENGINE_NAMES and (dt is None or (_is_number(dt) and dt > 0)):
         try:
             make_settings(engine, dt, {f"{engine}.{k}": v for k, v in settings.items()})
-        except SceneError as exc:  # SettingsError: names the key and what is allowed
+        except InputError as exc:  # SettingsError: names the key and what is allowed
             problems.append(f"{pre}settings: {str(exc).removeprefix('--set ')}")
     tol = None
     if isinstance(tolerances, Tolerances):
@@ -403,7 +404,7 @@ def make_check(
     else:
         try:
             tol = make_tolerances(tolerances, base=base_tolerances)
-        except SceneError as exc:  # ToleranceError: names the key and what is allowed
+        except InputError as exc:  # ToleranceError: names the key and what is allowed
             problems.append(f"{pre}{exc}")
     if not limits:
         problems.append(f"{pre}limits: at least one limit is needed, e.g. \"verdict == match\"")

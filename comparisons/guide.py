@@ -21,7 +21,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
-from chatterbench.engines.registry import engine_module, make_settings  # noqa: E402
+from chatterbench.engines.registry import adapter, make_settings  # noqa: E402
 
 from .pipeline.vocabulary import COLOURS, rank  # noqa: E402
 
@@ -36,11 +36,7 @@ def _settings_of(result, row):
 
 def snippet(result, row: dict) -> str:
     """Paste-able settings for the candidate ``row``: MJCF (MuJoCo) or Python (PyBullet)."""
-    settings = _settings_of(result, row)
-    module = engine_module(result.engine)
-    if result.engine == "mujoco":
-        return module.export_mjcf(result.scene, settings)
-    return module.settings_snippet(settings, result.scene.restitution)
+    return adapter(result.engine).snippet(result.scene, _settings_of(result, row))
 
 
 def tradeoff_figure(result) -> Figure:

@@ -83,6 +83,7 @@ from typing import Any, Iterable, Mapping, Sequence
 import pandas as pd
 
 from chatterbench.engines.registry import ENGINE_NAMES, can_batch, engine_version, make_settings, run_engine_batch
+from chatterbench.reference.errors import InputError
 from chatterbench.reference.catalogue import CATALOGUE
 from chatterbench.reference.scene import SceneError, did_you_mean, load_scene
 
@@ -99,7 +100,7 @@ _INT_COLUMNS = ("n_episodes", "n_match")
 _MESSAGE_CHARS = 4000  # a failure row keeps the end of a traceback, where the cause is
 
 
-class SpecError(SceneError):
+class SpecError(InputError):
     """A sweep spec is malformed or names something not allowed; the message says where."""
 
 
@@ -298,7 +299,7 @@ def _validate(sweep: Sweep) -> None:
     tol = _flatten(sweep.tolerances)
     try:
         make_tolerances(tol)
-    except SceneError as exc:  # ToleranceError: names the key and what is allowed
+    except InputError as exc:  # ToleranceError: names the key and what is allowed
         raise sweep.fail(str(exc)) from None
     set_("tolerances", tol)
     # every point's scene and settings, one key at a time first so the message names the key
@@ -320,7 +321,7 @@ def _resolve(sweep: Sweep, params: Mapping[str, Any], where: str) -> dict[str, f
         load_scene(sweep.scene, scene_over)
         return {e: make_settings(e, params.get("dt"), {k: v for k, v in params.items() if _key_role(k) == e}).dt
                 for e in sweep.engines}
-    except SceneError as exc:  # SettingsError too
+    except InputError as exc:  # SettingsError too
         raise sweep.fail(f"{where}: {exc}") from None
 
 
@@ -615,7 +616,7 @@ def _prepare_out(sweep: Sweep, out: Path, resume: bool) -> None:
     if has_rows and resume and spec_path.exists():
         try:
             previous = load_sweep(spec_path)
-        except SceneError as exc:
+        except InputError as exc:
             raise SpecError(f"{spec_path}: the sweep written there cannot be read back ({exc}); choose another --out") from None
         if previous.identity() != sweep.identity():
             diff = [k for k in sweep.identity() if sweep.identity()[k] != previous.identity()[k]]

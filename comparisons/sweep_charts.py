@@ -43,6 +43,7 @@ from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import Patch, Rectangle  # noqa: E402
 from matplotlib.transforms import blended_transform_factory  # noqa: E402
 
+from chatterbench.reference.errors import InputError
 from chatterbench.reference.scene import SceneError, did_you_mean  # noqa: E402
 
 from .charts import ENGINE_COLORS  # noqa: E402
@@ -76,7 +77,7 @@ IRREGULAR = 2.0  # stability map: a linear axis whose steps differ by more than 
 ANNOTATE_MAX_CELLS = 150  # stability map: write the verdict in the cells up to this many per panel
 
 
-class ChartError(SceneError):
+class ChartError(InputError):
     """Chart input that cannot be drawn (unknown column or engine, no rows); exit code 2 in the CLI."""
 
 

@@ -27,6 +27,7 @@ from typing import Any, Sequence
 import pandas as pd
 
 from chatterbench.engines.registry import check_engine, make_settings
+from chatterbench.reference.errors import InputError
 from chatterbench.reference.scene import Scene, SceneError
 
 from .pipeline.compare import judge_run
@@ -83,7 +84,7 @@ def _run_batch(executor: Executor, ref: ReferenceSolution, engine: str, batch: l
     for fut, params in zip(futures, batch):
         try:
             row = fut.result()
-        except SceneError as exc:  # e.g. w0 dt past the stability limit for this scene's zeta
+        except InputError as exc:  # e.g. w0 dt past the stability limit for this scene's zeta
             row = {**params, "settings": ", ".join(f"{k}={v}" for k, v in params.items()), "verdict": "refused",
                    "n_episodes": 0, "n_match": 0, **{c: math.nan for c in TUNE_COLUMNS if c.endswith(("_max", "_score"))},
                    "cost_per_sim_s": math.nan, "status": f"refused: {exc}", "_run_settings": {}}

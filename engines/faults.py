@@ -1,31 +1,90 @@
 """Test-only fault injection: make an engine run crash, hang or raise on purpose.
 
-    >>> settings = make_settings("mujoco", overrides=["mujoco.fault=segfault"])
+    >>> import os
+    >>> os.environ["CHATTERBENCH_FAULT"] = "raise:mujoco:restitution=0.3"
+    >>> planned_fault("mujoco", load_scene("bouncing-ball", ["restitution=0.3"]))
+    'raise'
+    >>> planned_fault("mujoco", load_scene("bouncing-ball")), planned_fault("pybullet", load_scene("bouncing-ball", ["restitution=0.3"]))
+    ('', '')
+    >>> del os.environ["CHATTERBENCH_FAULT"]
 
-Set through the engine settings' ``fault`` field (``""`` by default, which does nothing).
-The tests use it to prove that a sweep survives a point that kills its process
-(``segfault``), never returns (``hang``) or raises (``raise``), and that the point is
-classified while every other point is kept.
+Read only from the environment variable ``CHATTERBENCH_FAULT`` (never from the engine
+settings or the command line, so no user can set it by mistake; processes started by a
+sweep's pool inherit it). Its value is rules separated by ``;``, each
+``FAULT[:ENGINE[:KEY=VALUE]]``: FAULT one of ``segfault`` (SIGSEGV in the process running
+the engine), ``hang`` (sleeps forever), ``raise`` (``InjectedFault``); ENGINE an engine name
+or ``*``; KEY=VALUE a scene field by its dotted key (``restitution=0.3``,
+``initial.vy=0.1``) that the run's scene must have (numbers compared to 1e-12 relative).
+The first rule that matches a run is injected before the engine starts
+(``registry.run_engine``, ``run_engine_batch``). The tests use it to prove that compare,
+report, gate and sweeps survive a run that dies, never returns or raises, and classify it
+while keeping every other result.
 """
 
 from __future__ import annotations
 
 import ctypes
+import math
+import os
 import time
+from typing import Any, Mapping
 
-FAULTS = ("", "segfault", "hang", "raise")
+from chatterbench.reference.scene import Scene
+
+ENV = "CHATTERBENCH_FAULT"
+FAULTS = ("segfault", "hang", "raise")
 
 
 class InjectedFault(RuntimeError):
-    """The exception raised by ``fault = "raise"``."""
+    """The exception raised by the ``raise`` fault."""
+
+
+def _flatten(data: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for k, v in data.items():
+        if isinstance(v, Mapping):
+            out.update(_flatten(v, f"{prefix}{k}."))
+        else:
+            out[f"{prefix}{k}"] = v
+    return out
+
+
+def _same(have: Any, want: str) -> bool:
+    try:
+        return math.isclose(float(have), float(want), rel_tol=1e-12, abs_tol=0.0)
+    except (TypeError, ValueError):
+        return str(have) == want
+
+
+def planned_fault(engine: str, scene: Scene) -> str:
+    """The fault ``CHATTERBENCH_FAULT`` plans for this run, or ``""`` (module docstring)."""
+    text = os.environ.get(ENV, "")
+    fields = None
+    for rule in filter(None, (r.strip() for r in text.split(";"))):
+        fault, _, rest = rule.partition(":")
+        who, _, condition = rest.partition(":")
+        if fault not in FAULTS or (who not in ("", "*", engine)):
+            continue
+        if condition:
+            key, _, want = condition.partition("=")
+            fields = fields if fields is not None else _flatten(scene.to_dict())
+            if key.strip() not in fields or not _same(fields[key.strip()], want.strip()):
+                continue
+        return fault
+    return ""
 
 
 def inject(fault: str) -> None:
-    """Do what ``fault`` says: nothing, a segmentation fault, an endless sleep, or an exception."""
+    """Do what ``fault`` says: nothing (""), a segmentation fault, an endless sleep, or an exception."""
     if fault == "segfault":
         ctypes.string_at(0)  # reads address 0: SIGSEGV in this process
     elif fault == "hang":
         while True:
             time.sleep(3600)
     elif fault == "raise":
-        raise InjectedFault("fault injected by the settings (fault = 'raise')")
+        raise InjectedFault(f"fault injected by {ENV} (raise)")
+
+
+def inject_planned(engine: str, scene: Scene) -> None:
+    """Inject whatever ``CHATTERBENCH_FAULT`` plans for this run (usually nothing)."""
+    inject(planned_fault(engine, scene))

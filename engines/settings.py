@@ -12,12 +12,13 @@ from __future__ import annotations
 import dataclasses
 from typing import Any, Mapping, Sequence, TypeVar
 
-from chatterbench.reference.scene import SceneError, did_you_mean, split_assignment
+from chatterbench.reference.errors import InputError, did_you_mean
+from chatterbench.reference.scene import split_assignment
 
 T = TypeVar("T")
 
 
-class SettingsError(SceneError):
+class SettingsError(InputError):
     """An engine setting is unknown or out of range; the message names it."""
 
 

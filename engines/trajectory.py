@@ -1,24 +1,24 @@
-"""What an engine run returns: sampled states, per-wall contact, and the cost of stepping.
+"""What an engine run returns: sampled states, per-wall contact, the cost of stepping, the contact's own scales.
 
-    >>> traj = run_engine(scene, MujocoSettings(dt=1e-4))
-    >>> traj.y.shape, traj.contact["lower"].dtype, traj.wall_time
-    ((n,), dtype('bool'), 0.21)
+    >>> from chatterbench.engines.registry import make_settings, run_engine
+    >>> traj = run_engine("pybullet", load_scene("bouncing-ball"), make_settings("pybullet", dt=1e-3))
+    >>> traj.y.shape, traj.contact["lower"].dtype, traj.status
+    ((2001,), dtype('bool'), 'ok')
 
 Arrays all have shape ``(n,)``, one entry per sample; sample 0 is the initial state and
-sample k is the state after k engine steps (``t[k] = t0 + k dt``). Units: s, m, m/s, N.
-``normal_force[wall]`` is the magnitude of the wall's contact force on body 2 (>= 0).
-``status`` is ``"ok"`` or a failure class (``"diverged"``, ``"error"``, ``"timeout"``);
-a failed run keeps every sample it finished.
+sample k is the state after k engine steps (``t[k] = t0 + k dt``; ``base.sample_times``).
+Units: s, m, m/s, N. ``normal_force[wall]`` is the magnitude of the wall's contact force on
+body 2 (>= 0) and ``contact[wall]`` says where it is on. ``status`` is ``"ok"`` or a failure
+class (``"diverged"``, ``"error"``, ``"timeout"``); a failed run keeps every sample it finished.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
-
-from chatterbench.reference.scene import Scene
 
 
 @dataclass(frozen=True)
@@ -31,12 +31,14 @@ class Trajectory:
     x2: np.ndarray  # [m]
     v1: np.ndarray  # [m/s]
     v2: np.ndarray  # [m/s]
-    contact: dict[str, np.ndarray]  # wall -> bool, contact active at the sample
+    contact: dict[str, np.ndarray]  # wall -> bool, the wall's contact force is on at the sample
     normal_force: dict[str, np.ndarray]  # wall -> contact force magnitude [N]
     wall_time: float  # seconds of wall clock spent stepping the engine
-    settings: dict[str, Any] = field(default_factory=dict)  # the settings used, engine names
+    settings: dict[str, Any] = field(default_factory=dict)  # the settings used, by the engine's own names
     status: str = "ok"  # "ok" or a failure class
     message: str = ""  # what went wrong, when status != "ok"
+    contact_time: float = 0.0  # [s] duration of one bounce of the engine's contact law at these settings (0: rigid)
+    contact_frequency: float = math.inf  # [rad/s] natural frequency of a compliant contact (inf: rigid)
 
     @property
     def y(self) -> np.ndarray:
@@ -52,15 +54,3 @@ class Trajectory:
     def dt(self) -> float:
         """Sampling step [s] (the engine timestep)."""
         return float(self.t[1] - self.t[0]) if len(self.t) > 1 else float("nan")
-
-
-class Engine(Protocol):
-    """An engine adapter: builds its model from a scene and runs it."""
-
-    name: str
-
-    def build(self, scene: Scene, settings: Any) -> Any:
-        """Return the engine's model for ``scene`` (an MjModel, a PyBullet world, ...)."""
-
-    def run(self, scene: Scene, settings: Any) -> Trajectory:
-        """Simulate ``scene.duration`` seconds and return the sampled trajectory."""

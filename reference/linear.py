@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .forces import ForceModel, Terms
 from .scene import Scene
 
 X1, V1, Y, VY, ONE = 0, 1, 2, 3, 4  # indices into the augmented state
@@ -91,28 +92,21 @@ class LinearSystem:
             row[6 + 2 * j] = amplitude * math.sin(phase)
             return row
 
-        rows = {"body1": np.zeros(n), "body2": np.zeros(n), "coupling": np.zeros(n)}
-        for f in scene.forces:
-            row = np.zeros(n)
-            if f.kind == "constant":
-                row[ONE] = f.value
-            elif f.kind == "harmonic":
-                row = harmonic_row(f.amplitude, f.omega, f.phase)
-            elif f.kind == "spring":
-                if f.on == "coupling":  # F12 = k (y - rest)
-                    row[Y], row[ONE] = f.stiffness, -f.stiffness * f.rest
-                elif f.on == "body1":  # -k (x1 - rest)
-                    row[X1], row[ONE] = -f.stiffness, f.stiffness * f.rest
-                else:  # -k (x1 + y - rest)
-                    row[X1], row[Y], row[ONE] = -f.stiffness, -f.stiffness, f.stiffness * f.rest
-            else:  # damper
-                if f.on == "coupling":  # F12 = c vy
-                    row[VY] = f.damping
-                elif f.on == "body1":
-                    row[V1] = -f.damping
-                else:  # -c (v1 + vy)
-                    row[V1], row[VY] = -f.damping, -f.damping
-            rows[f.on] = rows[f.on] + row
+        def row(terms: Terms, position: tuple[int, ...], velocity: tuple[int, ...], sign: float) -> np.ndarray:
+            # sign (K (q - r) + C q') + T(t), q the sum of the ``position`` states: forces.py's model
+            out = np.zeros(n)
+            for i in position:
+                out[i] += sign * terms.stiffness
+            for i in velocity:
+                out[i] += sign * terms.damping
+            out[ONE] = -sign * terms.spring_force + terms.constant
+            for amplitude, omega, phase in terms.harmonics:
+                out = out + harmonic_row(amplitude, omega, phase)
+            return out
+
+        model = ForceModel.from_scene(scene)
+        rows = {"body1": row(model.body1, (X1,), (V1,), -1.0), "body2": row(model.body2, (X1, Y), (V1, VY), -1.0),
+                "coupling": row(model.coupling, (Y,), (VY,), 1.0)}
         f1, f2, f12 = rows["body1"], rows["body2"], rows["coupling"]
         m1, m2 = scene.mass1, scene.mass2
 

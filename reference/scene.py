@@ -33,7 +33,6 @@ Promises: a ``Scene`` is frozen and validated on construction; every refusal is 
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import math
 import tomllib
 from dataclasses import dataclass, field
@@ -42,41 +41,26 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from .errors import InputError, check_number, did_you_mean
+
 BODIES = ("body1", "body2", "coupling")
 FORCE_KINDS = ("constant", "harmonic", "spring", "damper")
 
 
-class SceneError(ValueError):
+class SceneError(InputError):
     """A scene field has a value that is not allowed; the message names the field."""
 
 
-def did_you_mean(name: str, allowed: Sequence[str]) -> str:
-    """Return ``" (did you mean 'x'?)"`` for the nearest allowed name, or ``""``."""
-    close = difflib.get_close_matches(name, list(allowed), n=1)
-    return f" (did you mean {close[0]!r}?)" if close else ""
-
-
 def _finite(where: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise SceneError(f"{where} = {value!r}: must be a number")
-    value = float(value)
-    if not math.isfinite(value):
-        raise SceneError(f"{where} = {value!r}: must be a finite number")
-    return value
+    return check_number(where, value, error=SceneError)
 
 
 def _positive(where: str, value: Any) -> float:
-    value = _finite(where, value)
-    if value <= 0.0:
-        raise SceneError(f"{where} = {value!r}: must be > 0")
-    return value
+    return check_number(where, value, lo=0.0, lo_open=True, error=SceneError)
 
 
 def _non_negative(where: str, value: Any) -> float:
-    value = _finite(where, value)
-    if value < 0.0:
-        raise SceneError(f"{where} = {value!r}: must be >= 0")
-    return value
+    return check_number(where, value, lo=0.0, error=SceneError)
 
 
 @dataclass(frozen=True)

@@ -27,7 +27,9 @@ EXITED, RUN_END, BOUNDS_FAILED, STALLED = 0, 1, 2, 3
 
 @numba.njit(cache=True)
 def walk(flat, order, n, accel_row, s, t, t_end, wall_y, normal, step, omegas, bounds, deflate, max_steps):
-    """Returns (code, t, Y*, Y): EXITED (s, t at the exit), RUN_END (at t_end), BOUNDS_FAILED,
+    """Returns (code, t, Y*, Y): EXITED (s, t at the exit), RUN_END (at t_end; an exit within the
+    roots' precision, 1e-14 relative, of t_end is the end of the run, so that both chatter modes
+    agree on a tie), BOUNDS_FAILED,
     or STALLED (after ``max_steps`` steps, or when a step no longer advances t or leaves the
     state finite: absurd scene values such as a force of 1e100 N; s, t where it stopped).
 
@@ -62,6 +64,8 @@ def walk(flat, order, n, accel_row, s, t, t_end, wall_y, normal, step, omegas, b
             zero = zero and lam[k] == 0.0
         # (3.1) is zero to rounding all along the step: no force pulls away, the contact stays
         r = math.nan if zero else first_root_kernel(lam, hl, skip, 1e-14)
+        if r == r and t + r >= t_end - 1e-14 * max(1.0, abs(t_end)):
+            r = math.nan  # an exit at the run's end, to the roots' precision: the run ends stuck
         span = hl if r != r else r
         if bounds and span > 0.0:
             for k in range(1, m):

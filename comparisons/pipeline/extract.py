@@ -70,7 +70,9 @@ from chatterbench.reference.forces import evaluate_forces, relative_acceleration
 from chatterbench.reference.log import episodes, log_frame
 from chatterbench.reference.scene import Scene
 
-from .tolerances import check_number
+from chatterbench.reference.errors import check_number
+
+from .tolerances import ToleranceError
 
 STICK_RULE = "contact"  # the ``rule`` of an extracted stick
 _KIND_ORDER = {"exit": 0, "impact": 1, "stick": 2}  # at one time: leave, strike, then stick
@@ -88,10 +90,10 @@ class ExtractionOptions:
     jump_atol: float = 1e-9  # [m/s] ... and this absolute floor (for |y''| = 0)
 
     def __post_init__(self) -> None:
-        check_number("extraction band", self.band, lo=0.0, hi=1e3, lo_open=True)
-        check_number("extraction floor_steps", self.floor_steps, lo=0.0, hi=1e6, lo_open=True)
-        check_number("extraction jump_factor", self.jump_factor, lo=0.0, hi=1e6)
-        check_number("extraction jump_atol", self.jump_atol, lo=0.0, hi=1e6)
+        check_number("extraction band", self.band, lo=0.0, hi=1e3, lo_open=True, error=ToleranceError)
+        check_number("extraction floor_steps", self.floor_steps, lo=0.0, hi=1e6, lo_open=True, error=ToleranceError)
+        check_number("extraction jump_factor", self.jump_factor, lo=0.0, hi=1e6, error=ToleranceError)
+        check_number("extraction jump_atol", self.jump_atol, lo=0.0, hi=1e6, error=ToleranceError)
 
 
 @dataclass(frozen=True)

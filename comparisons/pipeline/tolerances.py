@@ -27,14 +27,14 @@ engine may make inside a reference sliding stretch before it counts as chatterin
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass
 from typing import Any, Iterable, Mapping
 
-from chatterbench.reference.scene import SceneError, did_you_mean, split_assignment
+from chatterbench.reference.errors import InputError, check_integer, check_number, did_you_mean
+from chatterbench.reference.scene import split_assignment
 
 
-class ToleranceError(SceneError):
+class ToleranceError(InputError):
     """A tolerance that is unknown or out of range; the message names it and what is allowed."""
 
 
@@ -56,12 +56,13 @@ class Tolerances:
     endless_impacts: int = 10  # engine impacts inside a reference sliding stretch that make it endless, >= 1
 
     def __post_init__(self) -> None:
+        err = ToleranceError
         for name in _FRACTIONS:
-            check_number(f"tolerance {name}", getattr(self, name), lo=0.0, hi=1.0, lo_open=True)
-        check_number("tolerance resolved_steps", self.resolved_steps, lo=1.0, lo_open=True, hi=1e6)
-        check_number("tolerance energy_gain", self.energy_gain, lo=0.0, lo_open=True, hi=1e6)
-        check_integer("tolerance impact_count", self.impact_count, lo=0)
-        check_integer("tolerance endless_impacts", self.endless_impacts, lo=1)
+            check_number(f"tolerance {name}", getattr(self, name), lo=0.0, hi=1.0, lo_open=True, error=err)
+        check_number("tolerance resolved_steps", self.resolved_steps, lo=1.0, lo_open=True, hi=1e6, error=err)
+        check_number("tolerance energy_gain", self.energy_gain, lo=0.0, lo_open=True, hi=1e6, error=err)
+        check_integer("tolerance impact_count", self.impact_count, lo=0, hi=10**9, error=err)
+        check_integer("tolerance endless_impacts", self.endless_impacts, lo=1, hi=10**9, error=err)
         for name in ("stick", "exit", "first_impact", "restitution", "penetration", "resolved_steps", "energy_gain"):
             object.__setattr__(self, name, float(getattr(self, name)))
 
@@ -79,37 +80,6 @@ class Tolerances:
 
 TOLERANCE_KEYS = tuple(f.name for f in dataclasses.fields(Tolerances))
 TIMING_KEYS = ("stick", "exit", "first_impact")  # what a single ``--tolerance T`` sets (tune)
-
-
-def check_number(where: str, value: Any, lo: float = -math.inf, hi: float = math.inf,
-                 lo_open: bool = False, hi_open: bool = False) -> float:
-    """``value`` as a float if it is a finite real number in the range, else ToleranceError naming ``where``."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ToleranceError(f"{where} = {value!r}: must be a number")
-    try:
-        v = float(value)
-    except OverflowError:
-        raise ToleranceError(f"{where} = {value!r}: too large; must be {_range(lo, hi, lo_open, hi_open)}") from None
-    low_bad = v <= lo if lo_open else v < lo
-    high_bad = v >= hi if hi_open else v > hi
-    if not math.isfinite(v) or low_bad or high_bad:
-        raise ToleranceError(f"{where} = {value!r}: must be {_range(lo, hi, lo_open, hi_open)}")
-    return v
-
-
-def check_integer(where: str, value: Any, lo: int = 0, hi: int = 10**9) -> int:
-    """``value`` if it is an integer in [lo, hi], else ToleranceError naming ``where``."""
-    if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
-        raise ToleranceError(f"{where} = {value!r}: must be an integer in [{lo}, {hi}]")
-    return value
-
-
-def _range(lo: float, hi: float, lo_open: bool, hi_open: bool) -> str:
-    if math.isinf(lo) and math.isinf(hi):
-        return "a finite number"
-    if math.isinf(hi):
-        return f"a finite number {'>' if lo_open else '>='} {lo:g}"
-    return f"in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
 
 
 def make_tolerances(values: Mapping[str, Any] | None = None, base: Tolerances | None = None, where: str = "tolerances") -> Tolerances:

@@ -82,8 +82,9 @@ def test_another_bounded_trajectory_is_not_called_diverged():
     assert "spurious" in set(c.table["verdict"])
 
 
-def test_an_engine_fault_is_classified_and_the_other_engine_kept():
-    c = compare(load_scene("bouncing-ball"), engines=("mujoco", "pybullet"), dt=1e-4, overrides=["mujoco.fault=raise"])
+def test_an_engine_fault_is_classified_and_the_other_engine_kept(monkeypatch):
+    monkeypatch.setenv("CHATTERBENCH_FAULT", "raise:mujoco")  # the test-only fault hook, engines/faults.py
+    c = compare(load_scene("bouncing-ball"), engines=("mujoco", "pybullet"), dt=1e-4)
     assert c.runs["mujoco"].status == "error" and "InjectedFault" in c.runs["mujoco"].trajectory.message
     assert set(c.table.loc[c.table["engine"] == "mujoco", "verdict"]) == {"error"}
     # the other engine's run is complete and judged as usual

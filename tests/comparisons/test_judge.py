@@ -74,22 +74,22 @@ def test_nothing_depends_on_the_runs_duration():
         assert rows[0][col] == pytest.approx(rows[1][col], rel=1e-12, abs=1e-15), col
 
 
-def test_a_failed_run_never_agrees_and_fails_a_gate():
+def test_a_failed_run_never_agrees_and_fails_a_gate(monkeypatch):
     # 0.3 s of the ball: it has not reached the floor, the reference has no episode to judge
     scene = load_scene("bouncing-ball", ["duration=0.3"])
     ok = compare(scene, engines=("pybullet",), dt=1e-3)
     assert ok.summary()["verdict"].tolist() == ["none"]
-    failed = compare(scene, engines=("pybullet",), dt=1e-3, overrides=["pybullet.fault=raise"])
+    monkeypatch.setenv("CHATTERBENCH_FAULT", "raise:pybullet")  # the test-only fault hook, engines/faults.py
+    failed = compare(scene, engines=("pybullet",), dt=1e-3)
     assert failed.runs["pybullet"].status == "error"
     assert failed.table["verdict"].tolist() == ["error"] and failed.summary()["verdict"].tolist() == ["error"]
     # a gate that accepts "no sliding" does not accept a run that failed to say anything ...
-    check = make_check(scene, "pybullet", limits_from_keywords(verdict=["match", "none"]), dt=1e-3,
-                       settings={"fault": "raise"})
+    check = make_check(scene, "pybullet", limits_from_keywords(verdict=["match", "none"]), dt=1e-3)
     assert not run_check(check).passed
     # ... nor does a gate without any verdict limit; only naming the failure accepts it
-    check = make_check(scene, "pybullet", limits_from_keywords(n_episodes=0), dt=1e-3, settings={"fault": "raise"})
+    check = make_check(scene, "pybullet", limits_from_keywords(n_episodes=0), dt=1e-3)
     assert not run_check(check).passed
-    check = make_check(scene, "pybullet", limits_from_keywords(verdict=["none", "error"]), dt=1e-3, settings={"fault": "raise"})
+    check = make_check(scene, "pybullet", limits_from_keywords(verdict=["none", "error"]), dt=1e-3)
     assert run_check(check).passed
 
 

@@ -105,8 +105,15 @@ def test_units_and_mujoco_batches_give_the_rows_of_single_runs(tmp_path):
     pd.testing.assert_frame_equal(_rows(batched), _rows(single))
 
 
+# the test-only fault hook (engines/faults.py): MuJoCo runs at these restitutions segfault,
+# hang or raise; the pool's processes inherit the variable
+FAULTS = "segfault:mujoco:restitution=0.31;hang:mujoco:restitution=0.32;raise:mujoco:restitution=0.33"
+FAULT_OF = {0.3: "", 0.31: "segfault", 0.32: "hang", 0.33: "raise"}
+
+
 @pytest.mark.parametrize("batch", [1, 4])
-def test_crashing_and_hanging_points_are_classified_and_the_rest_kept(tmp_path, batch):
+def test_crashing_and_hanging_points_are_classified_and_the_rest_kept(tmp_path, batch, monkeypatch):
+    monkeypatch.setenv("CHATTERBENCH_FAULT", FAULTS)
     spec = _spec(tmp_path, """
 scene = "bouncing-ball"
 engines = ["mujoco", "pybullet"]
@@ -117,23 +124,23 @@ duration = 0.6
 dt = 1e-3
 
 [grid]
-mujoco.fault = ["", "segfault", "hang", "raise"]
-restitution = [0.3, 0.6]
+restitution = [0.3, 0.31, 0.32, 0.33]
+mass2 = [1.0, 2.0]
 """)
     start = time.monotonic()
     # batch = 4: two MuJoCo batches, each with a fault; each is rerun one run at a time
     rows = run_sweep(load_sweep(spec), tmp_path / "out", workers=2, progress=False, batch=batch)
     assert time.monotonic() - start < 40
-    # 4 faults x 2 restitutions for MuJoCo; PyBullet ignores mujoco.fault: one run per restitution
-    assert len(rows) == 10 and not rows.duplicated(KEY).any()
-    mj = rows[rows["engine"] == "mujoco"].set_index(["mujoco.fault", "restitution"])
-    for r in (0.3, 0.6):
-        assert mj.loc[("", r), "status"] == "ok"
-        assert mj.loc[("segfault", r), ["status", "verdict"]].tolist() == ["crashed", "crashed"]
-        assert "SIGSEGV" in mj.loc[("segfault", r), "message"]
-        assert mj.loc[("hang", r), ["status", "verdict"]].tolist() == ["timeout", "timeout"]
-        assert mj.loc[("raise", r), "status"] == "error"
-        assert "InjectedFault" in mj.loc[("raise", r), "message"]
+    # 4 restitutions x 2 masses for each engine; the faults hit MuJoCo only
+    assert len(rows) == 16 and not rows.duplicated(KEY).any()
+    mj = rows[rows["engine"] == "mujoco"].set_index(["restitution", "mass2"])
+    for m in (1.0, 2.0):
+        assert mj.loc[(0.3, m), "status"] == "ok"
+        assert mj.loc[(0.31, m), ["status", "verdict"]].tolist() == ["crashed", "crashed"]
+        assert "SIGSEGV" in mj.loc[(0.31, m), "message"]
+        assert mj.loc[(0.32, m), ["status", "verdict"]].tolist() == ["timeout", "timeout"]
+        assert mj.loc[(0.33, m), "status"] == "error"
+        assert "InjectedFault" in mj.loc[(0.33, m), "message"]
     assert (rows.loc[rows["engine"] == "pybullet", "status"] == "ok").all()
     assert (rows["dt"] == 1e-3).all()
     # a failed run's row still says where it sits on a map: mu = m2 / m1 = 0 for the ball on a fixed floor

@@ -8,7 +8,8 @@ from chatterbench.comparisons.pipeline.compare import compare
 from chatterbench.comparisons.guide import guide_html, guide_markdown, tradeoff_figure
 from chatterbench.comparisons.tune import tune
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
-from chatterbench.reference import SceneError, load_scene
+from chatterbench.reference import load_scene
+from chatterbench.reference.errors import InputError
 
 
 def test_tune_mujoco_feigin_pair_reruns_as_match():
@@ -46,5 +47,5 @@ def test_tune_says_when_nothing_meets_the_tolerance():
 
 
 def test_tune_refuses_bad_tolerance():
-    with pytest.raises(SceneError, match="tolerance"):
+    with pytest.raises(InputError, match="tolerance"):
         tune(load_scene("bouncing-ball"), "mujoco", tolerance=1.5)

@@ -6,6 +6,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from chatterbench.engines.base import sample_times
 from chatterbench.engines import mujoco_engine as me
 from chatterbench.engines.mujoco_engine import MujocoEngine, MujocoSettings, benchmark, export_mjcf, run
 from chatterbench.engines.restitution import contact_duration, damping_ratio_from_restitution
@@ -167,7 +168,7 @@ def test_feigin_pair_end_to_end_penetration_bound():
     settings = MujocoSettings()
     traj = run(scene, settings)
     assert traj.status == "ok", traj.message
-    assert len(traj.t) == round(scene.duration / settings.dt) + 1
+    np.testing.assert_array_equal(traj.t, sample_times(scene, settings.dt))  # the one step-count rule
     assert traj.contact["lower"].any() and traj.contact["upper"].any()
     # a force-only spring-damper hit at speed v penetrates at most v / w0 (x = (v / wd) e^(-zeta w0 t)
     # sin(wd t) <= v / w0); the first contact step can start up to v dt deeper (a factor 1 + w0 dt);
@@ -234,7 +235,7 @@ def test_export_and_engine_protocol():
 def test_benchmark_reports_both_loops():
     # the 80%-of-raw speed goal is checked by `chatterbench bench engines`, not by a timed
     # assertion here; this checks the benchmark measures both loops on the same model
-    result = benchmark(load_scene("feigin-pair"), MujocoSettings(), n_steps=2000, repeats=1)
+    result = benchmark(load_scene("feigin-pair"), MujocoSettings(), steps=2000, repeats=1)
     assert result["adapter_steps_per_s"] > 0 and result["raw_steps_per_s"] > 0
     assert result["ratio"] == pytest.approx(result["adapter_steps_per_s"] / result["raw_steps_per_s"])
 

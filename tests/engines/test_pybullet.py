@@ -7,14 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from chatterbench.engines.pybullet_engine import (
-    PybulletEngine,
-    PybulletSettings,
-    _force_plan,
-    benchmark,
-    run,
-    settings_snippet,
-)
+from chatterbench.engines.base import sample_times
+from chatterbench.engines.pybullet_engine import PybulletEngine, PybulletSettings, benchmark, run, settings_snippet
+from chatterbench.engines.pybullet_engine.run import _force_plan
 from chatterbench.engines.settings import SettingsError, settings_with_overrides
 from chatterbench.reference.catalogue import G
 from chatterbench.reference.forces import evaluate_forces
@@ -105,7 +100,7 @@ def test_feigin_pair_stays_in_its_gap():
     settings = PybulletSettings()
     traj = run(scene, settings)
     assert traj.status == "ok", traj.message
-    assert len(traj.t) == round(scene.duration / settings.dt) + 1
+    np.testing.assert_array_equal(traj.t, sample_times(scene, settings.dt))  # the one step-count rule
     # Penetration: a contact is found only once the sphere has crossed the wall, so the
     # depth is at most one step of approach, |vy| dt (plus dt^2 |y''| <= 1e-8 m).
     # Measured: 4.3e-5 m beyond each wall.
@@ -147,7 +142,7 @@ def test_settings_snippet_is_python():
 
 
 def test_benchmark_reports_both_loops():
-    result = benchmark(load_scene("feigin-pair"), PybulletSettings(), n_steps=2000, repeat=1)
+    result = benchmark(load_scene("feigin-pair"), PybulletSettings(), steps=2000, repeat=1)
     assert result["adapter_steps_per_s"] > 0 and result["raw_steps_per_s"] > 0
     assert result["ratio"] == pytest.approx(result["adapter_steps_per_s"] / result["raw_steps_per_s"])
 

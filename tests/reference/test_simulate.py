@@ -297,3 +297,17 @@ def test_bit_identical_reruns():
     a = simulate(load_scene("impact-damper"), "exhaustive").log
     b = simulate(load_scene("impact-damper"), "exhaustive").log
     assert a.equals(b)
+
+
+def test_an_exit_on_the_runs_last_instant_is_the_end_of_the_run_in_both_modes():
+    # Found by the property test test_modes_agree_on_exits: y'' = -2.25 sin(1.5 t) turns at
+    # t = 2 pi, which is also where this run ends; Feigin's mode logged an exit at t_end and
+    # the exhaustive mode did not. Within the roots' precision of t_end it is the end of the run.
+    scene = load_scene({"name": "tie", "mass1": 1.0, "mass2": 1.0, "restitution": 0.3125,
+                        "gap": {"lower": -0.25, "upper": 0.25},
+                        "forces": [{"kind": "harmonic", "on": "body1", "amplitude": 2.25, "omega": 1.5, "phase": 0.0}],
+                        "initial": {"t": 0.0, "x1": 0.0, "v1": 0.0, "y": -0.25, "vy": 0.0},
+                        "duration": 6.283185307179586})
+    exits = [simulate(scene, mode).log.query("kind == 'exit'")["t"].tolist() for mode in ("feigin", "exhaustive")]
+    assert exits[0] == pytest.approx(exits[1], abs=1e-9)
+    assert len(exits[0]) == 2 and max(exits[0]) < scene.t_end - 1.0

@@ -1,0 +1,63 @@
+"""PyBullet adapter: runs a ``Scene`` as two prismatic multibodies that collide with Newton restitution R.
+
+    >>> from chatterbench.engines.pybullet_engine import PybulletEngine, PybulletSettings
+    >>> traj = PybulletEngine().run(load_scene("bouncing-ball"), PybulletSettings(dt=1e-4))
+    >>> round(float(traj.t[traj.contact["lower"].argmax()]), 4)      # first impact: sqrt(2/g) = 0.4515 s
+    0.4516
+
+The model is the smallest PyBullet world that is Feigin's system (1967, section 1): body 1
+and body 2 each slide on one prismatic joint along world x, body 2 is a sphere and body 1
+carries one wall box per gap limit (``world.py``). Modules: ``bullet`` (PyBullet, imported
+once, quietly), ``settings`` (``PybulletSettings``, the paste-able calls), ``world`` (the
+model), ``run`` (the stepping loop, contacts, classification, benchmark).
+
+Promises:
+
+- With the default ``PybulletSettings`` a single impact gives Newton's law (1.3):
+  the relative speed is scaled by -R (within 0.01, see the tests) and m1 v1 + m2 v2 is kept.
+  The five PyBullet defaults that break this are overridden (see ``PybulletSettings``).
+- Each run opens its own ``p.DIRECT`` connection in a context manager and closes it, so runs
+  can follow one another (or run in different threads' processes) in one interpreter.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from chatterbench.reference.scene import Scene
+
+from ..base import EngineAdapter
+from ..trajectory import Trajectory
+from .bullet import p
+from .run import benchmark, run
+from .settings import PybulletSettings, settings_snippet
+from .world import PybulletWorld, build, connect
+
+__all__ = ["PybulletEngine", "PybulletSettings", "PybulletWorld", "benchmark", "build", "connect", "run",
+           "settings_snippet"]
+
+
+class PybulletEngine(EngineAdapter):
+    """PyBullet behind the engine contract (``base.EngineAdapter``)."""
+
+    name = "pybullet"
+    package = "pybullet"
+    settings_type = PybulletSettings
+
+    def build(self, scene: Scene, settings: PybulletSettings | None = None) -> PybulletWorld:
+        """Build ``scene`` in a fresh DIRECT client that stays open; close it with ``p.disconnect``."""
+        settings = settings or PybulletSettings()
+        return build(scene, settings, p.connect(p.DIRECT))
+
+    def run(self, scene: Scene, settings: PybulletSettings | None = None) -> Trajectory:
+        """Simulate ``scene`` (``run.run``)."""
+        return run(scene, settings)
+
+    def snippet(self, scene: Scene, settings: PybulletSettings | None = None) -> str:
+        """The PyBullet calls these settings make, for the user's own bodies (``settings.settings_snippet``)."""
+        return settings_snippet(settings or PybulletSettings(), scene.restitution)
+
+    def benchmark(self, scene: Scene, settings: PybulletSettings | None = None, n_steps: int = 20000,
+                  repeats: int = 3) -> dict[str, Any]:
+        """Adapter against the bare stepping loop, steps per second (``run.benchmark``)."""
+        return benchmark(scene, settings, n_steps, repeats)

@@ -1,0 +1,297 @@
+"""Running PyBullet: one ``p.DIRECT`` client per run, forces applied every step, contacts read where they act.
+
+    >>> from chatterbench.engines.pybullet_engine.run import run
+    >>> traj = run(load_scene("bouncing-ball"), PybulletSettings(dt=1e-3))
+    >>> traj.status, round(float(traj.t[np.argmax(traj.contact["lower"])]), 3)      # first impact: sqrt(2/g)
+    ('ok', 0.452)
+
+Sample k is the state after k ``stepSimulation`` calls; the contact flag and normal force
+at sample k belong to the step that ended there: ``contact[wall][k]`` is True when that wall
+pushed body 2 in that step (PyBullet normal force > 0), the force being PyBullet's
+``appliedImpulse / dt`` summed over the wall's contact points. Every scene force is applied
+as an external force each step, from the state the step starts with (the scene's force
+model as an affine map, ``reference.forces.ForceModel.body_forces``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from chatterbench.reference.errors import check_integer
+from chatterbench.reference.forces import ForceModel
+from chatterbench.reference.scene import Scene
+
+from ..base import failed_trajectory, n_steps
+from ..trajectory import Trajectory
+from .bullet import p
+from .settings import PybulletSettings
+from .world import PybulletWorld, build, connect
+
+NAME = "pybullet"
+
+# A step's velocity change of body 2 beyond what its forces give, above which the step is taken
+# to have had a contact impulse and the contact points are read: relative to |v2| [1], plus an
+# absolute floor [m/s]. Rounding in Bullet's v += F dt / m is about 1e-16 relative; an impulse
+# below these moves v2 by less than 1e-12 |v2| + 1e-15 m/s and is reported as no contact.
+IMPULSE_RELATIVE_TOLERANCE = 1e-12
+IMPULSE_ABSOLUTE_TOLERANCE = 1e-15  # [m/s]
+
+
+@dataclass(frozen=True)
+class _ForcePlan:
+    """Scene forces as (time part per step) + (matrix @ state): exact, since every term is affine.
+
+    ``time1[k]``, ``time2[k]`` [N] are the forces on body 1 and body 2 at the start of step k
+    with the state set to zero; ``gain`` (2 x 4) maps the state (x1, v1, x2, v2) to the rest.
+    """
+
+    time1: np.ndarray  # shape (n,), [N]
+    time2: np.ndarray  # shape (n,), [N]
+    gain: np.ndarray  # shape (2, 4), [N/m, N s/m]
+    on1: bool  # body 1 ever feels a force
+    on2: bool  # body 2 ever feels a force
+    state_dependent: bool  # gain is not zero
+
+
+def _force_plan(scene: Scene, t: np.ndarray) -> _ForcePlan:
+    """The scene's force model as the affine map the loop applies (``ForceModel.body_forces``)."""
+    time1, time2, gain = ForceModel.from_scene(scene).body_forces(t)
+    time1 = np.broadcast_to(time1, t.shape).astype(float)
+    time2 = np.broadcast_to(time2, t.shape).astype(float)
+    if scene.body1_infinite:
+        time1[:] = 0.0  # an infinite body 1 is moved by its prescription, not by forces
+        gain[0, :] = 0.0
+    return _ForcePlan(
+        time1=time1,
+        time2=time2,
+        gain=gain,
+        on1=bool(np.any(time1 != 0.0) or np.any(gain[0] != 0.0)),
+        on2=bool(np.any(time2 != 0.0) or np.any(gain[1] != 0.0)),
+        state_dependent=bool(np.any(gain != 0.0)),
+    )
+
+
+def _simulate(scene: Scene, settings: PybulletSettings, world: PybulletWorld, n: int) -> dict[str, Any]:
+    """Step ``world`` n times; return raw per-step records and the stepping wall time.
+
+    The loop is the cost the benchmark measures, so it keeps Python work per step small:
+    forces come from a plan precomputed from the scene's force model (time part as a list, state
+    part as eight gains), states go into preallocated lists, the finiteness check runs every
+    1024 steps, and contact points are read only for steps that start near a wall and change
+    body 2's momentum by more than the forces do (so the wall pushed).
+    """
+    cid = world.client
+    dt = settings.dt
+    t = scene.initial.t + dt * np.arange(n + 1)
+    plan = _force_plan(scene, t)
+    init = scene.initial
+    x1, v1 = float(init.x1), float(init.v1)
+    x2, v2 = x1 + init.y, v1 + init.vy
+    x1s, v1s, x2s, v2s = [x1] * (n + 1), [v1] * (n + 1), [x2] * (n + 1), [v2] * (n + 1)
+    contacts: list[tuple[int, tuple]] = []  # (sample, getContactPoints result), only near walls
+
+    b1, b2, l1 = world.body1, world.body2, world.link1
+    lower = scene.gap.lower
+    upper = scene.gap.upper if scene.gap.upper is not None else math.inf
+    # A contact enters the solver only if the step starts with the bodies within
+    # contact_processing_threshold of a wall (collision detection runs on the positions the
+    # step starts from); 1e-9 m more covers rounding in the sphere-box distance. Outside that band
+    # getContactPoints would return nothing the solver used, so it is skipped.
+    band = settings.contact_processing_threshold + 1e-9
+    # Near a wall a step may still have no contact impulse (a chattering body spends about
+    # half its steps just apart). Bullet updates v2 += f2 dt / m2 plus the contact impulse, so a
+    # velocity off that prediction by more than rounding marks the steps worth a query.
+    kick = dt / scene.mass2
+    rel_tol = IMPULSE_RELATIVE_TOLERANCE
+    prescribed = scene.prescribed if scene.body1_infinite else None
+    if prescribed is not None:
+        px, pv = prescribed.position(t).tolist(), prescribed.velocity(t).tolist()
+    time1, time2 = plan.time1.tolist(), plan.time2.tolist()
+    g10, g11, g12, g13, g20, g21, g22, g23 = (float(v) for v in plan.gain.ravel())
+    on1, on2, dep = plan.on1, plan.on2, plan.state_dependent
+    moving1 = l1 >= 0
+
+    step = p.stepSimulation
+    joint = p.getJointState
+    push = p.applyExternalForce
+    points = p.getContactPoints
+    reset = p.resetJointState
+    frame = p.LINK_FRAME
+    origin = (0.0, 0.0, 0.0)
+    isfinite = math.isfinite
+    status, message = "ok", ""
+    last = n
+    k = 0
+    start = time.perf_counter()
+    try:
+        for k in range(n):
+            if prescribed is not None:
+                x1 = px[k]
+                v1 = pv[k]
+                reset(b1, 0, x1, v1, physicsClientId=cid)
+            if on1:
+                f = time1[k]
+                if dep:
+                    f += g10 * x1 + g11 * v1 + g12 * x2 + g13 * v2
+                push(b1, l1, (f, 0.0, 0.0), origin, frame, physicsClientId=cid)
+            f2 = 0.0
+            if on2:
+                f2 = time2[k]
+                if dep:
+                    f2 += g20 * x1 + g21 * v1 + g22 * x2 + g23 * v2
+                push(b2, 0, (f2, 0.0, 0.0), origin, frame, physicsClientId=cid)
+            y = x2 - x1
+            near = y - lower <= band or upper - y <= band
+            if near:
+                w2 = v2 + f2 * kick
+            step(physicsClientId=cid)
+            if moving1:
+                x1, v1, _, _ = joint(b1, 0, physicsClientId=cid)
+                x1s[k + 1] = x1
+                v1s[k + 1] = v1
+            x2, v2, _, _ = joint(b2, 0, physicsClientId=cid)
+            x2s[k + 1] = x2
+            v2s[k + 1] = v2
+            if near and abs(v2 - w2) > rel_tol * abs(w2) + IMPULSE_ABSOLUTE_TOLERANCE:
+                contacts.append((k + 1, points(b1, b2, physicsClientId=cid)))
+            if not k & 1023 and not isfinite(x1 + v1 + x2 + v2):
+                last = k + 1
+                break
+    except p.error as exc:
+        status, message = "error", f"pybullet: {exc}"
+        last = k
+    wall_time = time.perf_counter() - start
+    return {
+        "t": t, "x1": np.array(x1s), "v1": np.array(v1s), "x2": np.array(x2s), "v2": np.array(v2s),
+        "contacts": contacts, "last": last, "status": status, "message": message, "wall_time": wall_time,
+    }
+
+
+def _trajectory(scene: Scene, settings: PybulletSettings, world: PybulletWorld, raw: dict[str, Any]) -> Trajectory:
+    last = raw["last"]
+    cols = {k: raw[k][: last + 1] for k in ("t", "x1", "v1", "x2", "v2")}
+    status, message = raw["status"], raw["message"]
+    finite = np.isfinite(cols["x1"]) & np.isfinite(cols["v1"]) & np.isfinite(cols["x2"]) & np.isfinite(cols["v2"])
+    if not finite.all():
+        bad = int(np.argmin(finite))
+        cols = {k: v[:bad] for k, v in cols.items()}
+        status, message = "diverged", f"non-finite state at sample {bad} (t = {raw['t'][bad]:.6g} s)"
+    n = len(cols["t"])
+    contact = {w: np.zeros(n, dtype=bool) for w in world.walls}
+    force = {w: np.zeros(n) for w in world.walls}
+    # Body 1 is bodyA: contactNormalOnB points from body 2 towards body 1. The lower wall lies
+    # on body 2's -x side, the upper wall on its +x side, so the normal's x sign names the wall.
+    for k, pts in raw["contacts"]:
+        if k >= n:
+            break
+        for pt in pts or ():
+            wall = "lower" if pt[7][0] < 0.0 else "upper"
+            if wall not in contact:
+                continue
+            if pt[9] > 0.0:  # the wall pushed during the step
+                contact[wall][k] = True
+                force[wall][k] += pt[9]
+    return Trajectory(
+        engine=NAME,
+        t=cols["t"], x1=cols["x1"], x2=cols["x2"], v1=cols["v1"], v2=cols["v2"],
+        contact=contact, normal_force=force, wall_time=raw["wall_time"],
+        settings=dataclasses.asdict(settings), status=status, message=message,
+    )
+
+
+def run(scene: Scene, settings: PybulletSettings | None = None) -> Trajectory:
+    """Simulate ``scene.duration`` seconds from ``scene.initial``; see the module docstring.
+
+    Returns
+    -------
+    Trajectory
+        ``status`` "ok"; "diverged" with the finite samples when the state blew up; "error"
+        with PyBullet's message (and no steps) when the engine refused the model.
+    """
+    settings = settings or PybulletSettings()
+    n = n_steps(scene.duration, settings.dt)
+    try:
+        with connect() as cid:
+            world = build(scene, settings, cid)
+            raw = _simulate(scene, settings, world, n)
+            return _trajectory(scene, settings, world, raw)
+    except p.error as exc:
+        return failed_trajectory(NAME, scene, "error", f"pybullet: {exc}", dataclasses.asdict(settings))
+
+
+def _raw_loop(scene: Scene, settings: PybulletSettings, world: PybulletWorld, forces: tuple[list, list], n: int) -> float:
+    """Seconds for the bare engine loop: n x (stepSimulation + the two getJointState reads).
+
+    The bodies still have to be driven, or the engine steps a world at rest (much cheaper
+    than the real one); so the loop also applies ``forces`` (per-step lists, computed
+    beforehand) and the prescribed motion, the least any driver has to do.
+    """
+    cid, b1, b2, l1 = world.client, world.body1, world.body2, world.link1
+    step, joint, push, reset = p.stepSimulation, p.getJointState, p.applyExternalForce, p.resetJointState
+    frame, origin = p.LINK_FRAME, (0.0, 0.0, 0.0)
+    f1, f2 = forces
+    plan = _force_plan(scene, scene.initial.t + settings.dt * np.arange(n + 1))
+    on1, on2 = plan.on1, plan.on2
+    pr = scene.prescribed if scene.body1_infinite else None
+    if pr is not None:
+        tt = scene.initial.t + settings.dt * np.arange(n + 1)
+        px, pv = pr.position(tt).tolist(), pr.velocity(tt).tolist()
+    start = time.perf_counter()
+    for k in range(n):
+        if pr is not None:
+            reset(b1, 0, px[k], pv[k], physicsClientId=cid)
+        if on1:
+            push(b1, l1, (f1[k], 0.0, 0.0), origin, frame, physicsClientId=cid)
+        if on2:
+            push(b2, 0, (f2[k], 0.0, 0.0), origin, frame, physicsClientId=cid)
+        step(physicsClientId=cid)
+        if l1 >= 0:
+            joint(b1, l1, physicsClientId=cid)
+        joint(b2, 0, physicsClientId=cid)
+    return time.perf_counter() - start
+
+
+def benchmark(scene: Scene, settings: PybulletSettings | None = None, steps: int = 20000, repeat: int = 3) -> dict[str, float]:
+    """Steps per second of the adapter and of the bare engine loop, measured in one process.
+
+    Both loops step the same trajectory: the raw loop replays the forces the adapter applied
+    (recomputed from its recorded states, bit for bit), so the two differ only by the
+    adapter's own work (force evaluation, recording, contact queries). Each is run ``repeat``
+    times, interleaved, and the fastest run counts (as ``timeit`` does: slower runs measure
+    the machine's other load, not the code).
+
+    Returns
+    -------
+    dict
+        ``adapter_steps_per_s``, ``raw_steps_per_s``, ``ratio`` (adapter / raw), ``n_steps``.
+    """
+    settings = settings or PybulletSettings()
+    check_integer("steps", steps, lo=1)
+    check_integer("repeat", repeat, lo=1)
+    best_adapter = best_raw = math.inf
+    with connect() as cid:
+        for _ in range(repeat):
+            world = build(scene, settings, cid)
+            raw = _simulate(scene, settings, world, steps)
+            best_adapter = min(best_adapter, raw["wall_time"])
+            plan = _force_plan(scene, raw["t"])
+            states = np.stack([raw["x1"], raw["v1"], raw["x2"], raw["v2"]])
+            g = plan.gain
+            pr = scene.prescribed if scene.body1_infinite else None
+            if pr is not None:  # the adapter used the prescription, not the recorded x1, v1
+                states[0], states[1] = pr.position(raw["t"]), pr.velocity(raw["t"])
+            # Same operation order as the adapter loop, so the replayed forces are identical.
+            f1, f2 = (
+                plan.time1 + (g[i, 0] * states[0] + g[i, 1] * states[1] + g[i, 2] * states[2] + g[i, 3] * states[3])
+                for i in (0, 1)
+            )
+            world = build(scene, settings, cid)
+            best_raw = min(best_raw, _raw_loop(scene, settings, world, (f1.tolist(), f2.tolist()), steps))
+    adapter, bare = steps / best_adapter, steps / best_raw
+    return {"adapter_steps_per_s": adapter, "raw_steps_per_s": bare, "ratio": adapter / bare, "n_steps": float(steps)}

@@ -1,0 +1,128 @@
+"""The PyBullet world of a scene: two prismatic multibodies, the walls on body 1, a sphere for body 2.
+
+    >>> from chatterbench.engines.pybullet_engine.world import build, connect
+    >>> with connect() as client:
+    ...     world = build(load_scene("feigin-pair"), PybulletSettings(), client)
+    ...     world.walls, world.link1
+    (('lower', 'upper'), 0)
+
+Body 1 and body 2 each slide on one prismatic joint along world x (no gravity, no
+friction, no damping, default velocity motors off); body 1 carries one wall box per gap
+limit, placed so that they touch exactly when y = x2 - x1 reaches ``gap.lower`` (and
+``gap.upper``). Only body 1's walls and body 2 can collide. A fixed body 1 is the static
+base itself (exactly infinite mass); a prescribed one is a heavy slider moved every step.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+from dataclasses import dataclass
+from typing import Iterator
+
+from chatterbench.reference.scene import Scene
+
+from .bullet import p
+from .settings import PybulletSettings
+
+# Geometry of the model [m]. Not physics: the bodies are 1-D, these sizes only have to keep
+# the wall faces larger than body 2 so that it always meets a face. Body 2 is a sphere, not a
+# box: a sphere on a face is one contact point where a box face on a face is four, which makes
+# both the solver and getContactPoints cheaper (the benchmark's 80 % needs it) and gives the
+# same bounces (checked: identical trajectories for the single impact and the bouncing ball).
+BODY2_HALF = 0.05  # radius of body 2, its half extent along x
+WALL_HALF = 0.05  # half thickness of each wall along x
+WALL_SIDE = 0.2  # half extent of each wall across x
+
+
+@dataclass
+class PybulletWorld:
+    """A built PyBullet world for one scene (valid while its connection is open)."""
+
+    client: int  # physics client id
+    body1: int  # multibody id of body 1 (walls)
+    body2: int  # multibody id of body 2 (the sphere)
+    link1: int  # body 1's colliding link: 0 (prismatic) or -1 (fixed base)
+    walls: tuple[str, ...]  # wall names, as in scene.gap.walls
+
+
+@contextlib.contextmanager
+def connect() -> Iterator[int]:
+    """Open a private ``p.DIRECT`` physics client and close it on exit."""
+    client = p.connect(p.DIRECT)
+    if client < 0:
+        raise RuntimeError("pybullet: could not open a DIRECT connection")
+    try:
+        yield client
+    finally:
+        p.disconnect(physicsClientId=client)
+
+
+def build(scene: Scene, settings: PybulletSettings, client: int) -> PybulletWorld:
+    """Create the two bodies of ``scene`` in the open ``client`` and set them to ``scene.initial``."""
+    cid = client
+    p.resetSimulation(physicsClientId=cid)
+    p.setGravity(0.0, 0.0, 0.0, physicsClientId=cid)
+    p.setPhysicsEngineParameter(**settings.engine_parameters(), physicsClientId=cid)
+
+    # Wall boxes in body 1's frame: the lower wall's +x face sits at lower - BODY2_HALF, so it
+    # meets body 2's -x side (at x2 - BODY2_HALF) exactly when x2 - x1 = lower; likewise upper.
+    walls = scene.gap.walls
+    centres = [(scene.gap.lower - BODY2_HALF - WALL_HALF, 0.0, 0.0)]
+    if scene.gap.upper is not None:
+        centres.append((scene.gap.upper + BODY2_HALF + WALL_HALF, 0.0, 0.0))
+    wall_shape = p.createCollisionShapeArray(
+        shapeTypes=[p.GEOM_BOX] * len(centres),
+        halfExtents=[[WALL_HALF, WALL_SIDE, WALL_SIDE]] * len(centres),
+        collisionFramePositions=centres,
+        physicsClientId=cid,
+    )
+    ball_shape = p.createCollisionShape(p.GEOM_SPHERE, radius=BODY2_HALF, physicsClientId=cid)
+
+    def slider(shape: int, mass: float) -> int:
+        # A fixed, shapeless base at the origin and one link on a prismatic joint along x:
+        # the joint position is the body's x.
+        return p.createMultiBody(
+            baseMass=0.0,
+            baseCollisionShapeIndex=-1,
+            linkMasses=[mass],
+            linkCollisionShapeIndices=[shape],
+            linkVisualShapeIndices=[-1],
+            linkPositions=[[0.0, 0.0, 0.0]],
+            linkOrientations=[[0.0, 0.0, 0.0, 1.0]],
+            linkInertialFramePositions=[[0.0, 0.0, 0.0]],
+            linkInertialFrameOrientations=[[0.0, 0.0, 0.0, 1.0]],
+            linkParentIndices=[0],
+            linkJointTypes=[p.JOINT_PRISMATIC],
+            linkJointAxis=[[1.0, 0.0, 0.0]],
+            physicsClientId=cid,
+        )
+
+    init = scene.initial
+    if scene.body1_infinite and scene.prescribed is None:
+        # A fixed body 1 is the static (mass 0) base itself: exactly infinite mass.
+        body1 = p.createMultiBody(
+            baseMass=0.0,
+            baseCollisionShapeIndex=wall_shape,
+            basePosition=[init.x1, 0.0, 0.0],
+            physicsClientId=cid,
+        )
+        link1 = -1
+    else:
+        mass1 = scene.mass1 if math.isfinite(scene.mass1) else settings.mass1_inf
+        body1 = slider(wall_shape, mass1)
+        link1 = 0
+    body2 = slider(ball_shape, scene.mass2)
+
+    for body, link in ((body1, link1), (body2, 0)):
+        # Combined restitution is the product of the two bodies' values: body 2 carries R.
+        r = scene.restitution if body == body2 else 1.0
+        p.changeDynamics(body, link, **settings.dynamics(r), physicsClientId=cid)
+        if link == 0:
+            p.changeDynamics(body, link, **settings.joint_limits(), physicsClientId=cid)
+            p.setJointMotorControl2(body, 0, p.VELOCITY_CONTROL, targetVelocity=0.0, force=0.0, physicsClientId=cid)
+    # The two shapeless bases never touch anything; only the links (and a static body 1) collide.
+    if link1 == 0:
+        p.resetJointState(body1, 0, init.x1, init.v1, physicsClientId=cid)
+    p.resetJointState(body2, 0, init.x1 + init.y, init.v1 + init.vy, physicsClientId=cid)
+    return PybulletWorld(client=cid, body1=body1, body2=body2, link1=link1, walls=walls)

@@ -1,0 +1,91 @@
+"""The errors a user's input gets, and the checks that raise them: one root, one number check.
+
+    >>> from chatterbench.reference.errors import InputError, check_number
+    >>> check_number("mass2", 2, lo=0.0, lo_open=True)
+    2.0
+    >>> check_number("mass2", 0.0, lo=0.0, lo_open=True)
+    Traceback (most recent call last):
+    chatterbench.reference.errors.InputError: mass2 = 0.0: must be > 0
+
+``InputError`` (a ``ValueError``) is the root of every refusal of user input: a scene
+(``SceneError``), an engine setting (``engines.settings.SettingsError``), a tolerance, a
+sweep spec, a gate file, a chart option. Each message names the field, the value and what
+is allowed; the command line turns any of them into one line and exit code 2. The checks
+take the class to raise (``error=``), so each layer raises its own.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from typing import Any, Sequence
+
+
+class InputError(ValueError):
+    """A user's input is not allowed; the message names the field, the value and what is allowed."""
+
+
+def did_you_mean(name: str, allowed: Sequence[str]) -> str:
+    """Return ``" (did you mean 'x'?)"`` for the nearest allowed name, or ``""``."""
+    close = difflib.get_close_matches(str(name), [str(a) for a in allowed], n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def is_number(value: Any) -> bool:
+    """A real number that is not a bool (TOML and JSON give ``True`` where a number was meant)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def describe_range(lo: float | None, hi: float | None, lo_open: bool = False, hi_open: bool = False) -> str:
+    """``"> 0"``, ``"in [0, 1)"``: the allowed range as a message says it."""
+    if lo is not None and hi is not None:
+        return f"in {'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
+    if lo is not None:
+        return f"{'>' if lo_open else '>='} {lo:g}"
+    if hi is not None:
+        return f"{'<' if hi_open else '<='} {hi:g}"
+    return "a finite number"
+
+
+def check_number(where: str, value: Any, lo: float | None = None, hi: float | None = None, lo_open: bool = False,
+                 hi_open: bool = False, unit: str = "", error: type[InputError] = InputError) -> float:
+    """``value`` as a float if it is a finite real number in the range, else ``error`` naming ``where``.
+
+    ``unit`` (``" [s]"``) is appended to the allowed range in the message.
+    """
+    if not is_number(value):
+        raise error(f"{where} = {value!r}: must be a number")
+    try:
+        v = float(value)
+    except OverflowError:
+        raise error(f"{where} = {value!r}: too large; must be {describe_range(lo, hi, lo_open, hi_open)}{unit}") from None
+    if not math.isfinite(v):
+        raise error(f"{where} = {value!r}: must be a finite number")
+    low = lo is not None and (v <= lo if lo_open else v < lo)
+    high = hi is not None and (v >= hi if hi_open else v > hi)
+    if low or high:
+        raise error(f"{where} = {value!r}: must be {describe_range(lo, hi, lo_open, hi_open)}{unit}")
+    return v
+
+
+def check_integer(where: str, value: Any, lo: int | None = None, hi: int | None = None,
+                  error: type[InputError] = InputError) -> int:
+    """``value`` if it is an integer (not a bool) in [lo, hi], else ``error`` naming ``where``."""
+    if isinstance(value, bool) or not isinstance(value, int) or (lo is not None and value < lo) or (hi is not None and value > hi):
+        allowed = "an integer" + (f" {describe_range(lo, hi)}" if lo is not None or hi is not None else "")
+        raise error(f"{where} = {value!r}: must be {allowed}")
+    return value
+
+
+def check_bool(where: str, value: Any, error: type[InputError] = InputError) -> bool:
+    """``value`` if it is ``True`` or ``False``, else ``error`` naming ``where``."""
+    if not isinstance(value, bool):
+        raise error(f"{where} = {value!r}: must be true or false")
+    return value
+
+
+def check_choice(where: str, value: Any, allowed: Sequence[str], error: type[InputError] = InputError) -> str:
+    """``value`` if it is one of ``allowed``, else ``error`` with the list and the nearest name."""
+    if value not in allowed:
+        raise error(f"{where} = {value!r}: must be one of {', '.join(map(str, allowed))}" + did_you_mean(str(value), allowed))
+    return value
