@@ -3,7 +3,8 @@
     >>> from chatterbench.comparisons import compare, reference_trajectory
     >>> scene = load_scene("bouncing-ball")
     >>> known = reference_trajectory(scene, dt=1e-3)              # the exact answer, sampled
-    >>> compare(scene, engines=("pybullet",), trajectories={"pybullet": known}).table["verdict"]
+    >>> compare(scene, engines=("pybullet",), trajectories={"pybullet": known}).table["verdict"].tolist()
+    ['match']
 
 The public entry points are loaded on first use, so importing one submodule does not load
 the engines.

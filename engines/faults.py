@@ -27,9 +27,10 @@ import ctypes
 import math
 import os
 import time
-from typing import Any, Mapping
+from typing import Any
 
 from chatterbench.reference.scene import Scene
+from chatterbench.reference.tables import flatten
 
 ENV = "CHATTERBENCH_FAULT"
 FAULTS = ("segfault", "hang", "raise")
@@ -37,16 +38,6 @@ FAULTS = ("segfault", "hang", "raise")
 
 class InjectedFault(RuntimeError):
     """The exception raised by the ``raise`` fault."""
-
-
-def _flatten(data: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
-    out: dict[str, Any] = {}
-    for k, v in data.items():
-        if isinstance(v, Mapping):
-            out.update(_flatten(v, f"{prefix}{k}."))
-        else:
-            out[f"{prefix}{k}"] = v
-    return out
 
 
 def _same(have: Any, want: str) -> bool:
@@ -67,7 +58,7 @@ def planned_fault(engine: str, scene: Scene) -> str:
             continue
         if condition:
             key, _, want = condition.partition("=")
-            fields = fields if fields is not None else _flatten(scene.to_dict())
+            fields = fields if fields is not None else flatten(scene.to_dict(), lists=True)
             if key.strip() not in fields or not _same(fields[key.strip()], want.strip()):
                 continue
         return fault

@@ -1,7 +1,8 @@
 """Engine settings from dotted overrides: ``--set mujoco.w0_dt=0.05`` onto a frozen dataclass.
 
     >>> from chatterbench.engines.settings import settings_with_overrides
-    >>> settings_with_overrides(MujocoSettings(), ["mujoco.w0_dt=0.05"], prefix="mujoco")
+    >>> settings_with_overrides(MujocoSettings(), ["mujoco.w0_dt=0.05"], prefix="mujoco").w0_dt
+    0.05
 
 Unknown keys are refused with the nearest valid name; values are parsed as TOML and
 validated by the settings class itself.

@@ -1,7 +1,8 @@
 """Follow one strike's impact sequence to its end, compiled: does it slide or leave?
 
-    >>> fate = strike_fates(scene, "lower", t=np.array([2.0, 2.5]), v=np.array([-0.05, -0.05]))
-    >>> fate.slides, fate.t_stick, fate.n_impacts
+    >>> fate = strike_fates(load_scene("feigin-pair"), "lower", t=np.array([2.0, 2.5]), v=np.array([-0.05, -0.05]))
+    >>> fate.slides, fate.t_stick.round(4), fate.n_impacts
+    (array([ True,  True]), array([2.1121, 2.6831]), array([26, 26]))
 
 This is the exhaustive chatter model of ``simulate.py`` (every impact by (1.3), the
 accumulation point summed in closed form once dt* = 2 v+ / ((1 - R) |a|) drops below

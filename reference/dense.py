@@ -1,8 +1,10 @@
 """A dense trajectory sampled at any times from a scene and its event log.
 
-    >>> result = simulate(scene)
-    >>> traj = sample(scene, result.log, np.linspace(0.0, scene.t_end, 2001))
-    >>> traj[["t", "y", "vy"]].head()
+    >>> from chatterbench.reference import load_scene, simulate
+    >>> scene = load_scene("feigin-pair")
+    >>> traj = sample(scene, simulate(scene).log, np.linspace(0.0, scene.t_end, 2001))
+    >>> traj.shape, list(traj.columns)
+    ((2001, 7), ['t', 'x1', 'x2', 'v1', 'v2', 'y', 'vy'])
 
 The event log holds the state just after every event (x1, v1 in its columns, y on the
 named wall, vy = v_plus), and whether the masses move freely or in kinematic constraint

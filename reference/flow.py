@@ -1,8 +1,14 @@
 """Exact propagation of s' = A s by local Taylor expansion of the matrix exponential.
 
-    >>> flow = Flow(system.free, horizon=scene.time_scale)
-    >>> coeffs = flow.taylor(s0)          # (order + 1, n): s(t0 + h) = sum_k coeffs[k] h^k
-    >>> s1 = flow.advance(s0, 0.3)        # s(t0 + 0.3)
+    >>> from chatterbench.reference.linear import LinearSystem
+    >>> system = LinearSystem.from_scene(load_scene("feigin-pair"))
+    >>> flow = Flow(system.free, horizon=2 * np.pi)
+    >>> s0 = system.state(t=0.0, x1=0.0, v1=0.0, y=0.0, vy=0.0)
+    >>> flow.taylor(s0).shape             # (order + 1, n): s(t0 + h) = sum_k coeffs[k] h^k
+    (29, 7)
+    >>> s1 = flow.advance(s0, 0.3)        # s(t0 + 0.3): y = -(0.3 - sin 0.3)
+    >>> bool(abs(s1[2] + (0.3 - np.sin(0.3))) < 1e-14)
+    True
 
 expm(A h) = sum_k (A h)^k / k! is evaluated as a truncated series on steps no longer than
 ``step``, chosen so that rho * step <= 3/2 with rho an estimate of the growth rate of A

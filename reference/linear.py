@@ -1,8 +1,9 @@
 """The scene as a homogeneous linear system on an augmented state, for free and constrained motion.
 
-    >>> system = LinearSystem.from_scene(scene)
+    >>> system = LinearSystem.from_scene(load_scene("feigin-pair"))
     >>> s0 = system.state(t=0.0, x1=0.0, v1=0.0, y=0.0, vy=0.0)
     >>> system.free.shape, system.stuck.shape        # (n, n) matrices with s' = A s
+    ((7, 7), (7, 7))
 
 Every catalogue force is linear in (x1, v1, y, vy) or a constant/harmonic function of
 time, so augmenting the state with the forcing generators makes the motion homogeneous:

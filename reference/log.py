@@ -2,7 +2,9 @@
 
     >>> log = EventLog()
     >>> log.add(0.45, "impact", "lower", v_minus=-4.43, v_plus=2.21, x1=0.0, v1=0.0)
-    >>> episodes(log.frame())
+    >>> log.add(0.9, "stick", "lower", v_minus=0.0, v_plus=0.0, x1=0.0, v1=0.0, rule="zeno")
+    >>> episodes(log.frame())[["wall", "t_first_impact", "t_stick", "n_impacts"]].values.tolist()
+    [['lower', 0.45, 0.9, 1]]
 
 Event log columns (one row per event, in time order):
 

@@ -42,6 +42,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from .errors import InputError, check_number, did_you_mean
+from .tables import read_toml
 
 BODIES = ("body1", "body2", "coupling")
 FORCE_KINDS = ("constant", "harmonic", "spring", "damper")
@@ -460,12 +461,7 @@ def load_scene(source: str | Path | Mapping[str, Any], overrides: Sequence[str] 
                 f"scene {str(source)!r}: not a built-in scene ({', '.join(CATALOGUE)}) nor a TOML file"
                 + did_you_mean(str(source), list(CATALOGUE))
             )
-        try:
-            data = tomllib.loads(path.read_text())
-        except OSError as exc:
-            raise SceneError(f"scene file {str(path)!r}: cannot be read ({exc.strerror})") from None
-        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-            raise SceneError(f"scene file {str(path)!r}: not valid TOML ({exc})") from None
+        data = read_toml(path, f"scene file {str(path)!r}", SceneError)
         data.setdefault("name", path.stem)
     data = apply_overrides(data, overrides)
     return scene_from_dict(data)

@@ -1,6 +1,16 @@
 """Motion in kinematic constraint (1.4) until the exit, compiled: the sliding stretch's end.
 
-    >>> code, t_exit, jmin, jmax = walk(flat, order, n, accel_row, s, t, t_end, wall_y, normal, step, omegas, True, 0, 10**7)
+    >>> from chatterbench.reference.flow import Flow
+    >>> from chatterbench.reference.linear import LinearSystem
+    >>> scene = load_scene("feigin-pair")                      # stuck on the lower wall at t = 2
+    >>> system = LinearSystem.from_scene(scene)
+    >>> stuck = Flow(system.stuck, horizon=scene.time_scale / 4)
+    >>> flat = np.ascontiguousarray(stuck.powers.reshape(-1, system.size))
+    >>> s = system.state(t=2.0, x1=0.0, v1=0.0, y=-0.1, vy=0.0)
+    >>> code, t_exit, jmin, jmax = walk(flat, stuck.order, system.size, system.accel_row, s, 2.0, scene.t_end,
+    ...                                 -0.1, 1.0, stuck.step, np.asarray(system.omegas), False, 0, 10**7)
+    >>> code == EXITED, t_exit == np.pi                         # y'' = -sin t turns at pi
+    (True, True)
 
 Walks the constrained flow step by step from state ``s`` (updated in place) and finds the
 first time the free relative acceleration (3.1), lambda = accel_row . s, reaches zero and

@@ -27,7 +27,7 @@ from pathlib import Path
 
 import pytest
 
-from chatterbench.comparisons.cli import main
+from chatterbench.comparisons.cli.main import main
 
 FILE = "bad.toml"  # argv placeholder for the case's scene file
 

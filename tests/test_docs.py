@@ -26,7 +26,7 @@ def test_readme_tolerance_table_has_every_default():
 
 
 def test_gate_doc_points_at_the_vocabulary():
-    from chatterbench.comparisons import gate
+    from chatterbench.comparisons.ci import gate
 
     assert "docs/verdicts.md" in gate.__doc__
     assert gate.TEXT_METRICS["verdict"] == NAMES

@@ -6,15 +6,16 @@ from xml.etree import ElementTree as ET
 
 import pytest
 
-from chatterbench.comparisons.cli import main
+from chatterbench.comparisons.cli.main import main
 
 GATES = Path(__file__).resolve().parents[1] / "gates" / "default.toml"
-_REGISTERED = any(ep.value == "chatterbench.comparisons.pytest_plugin" for ep in entry_points(group="pytest11"))
+_REGISTERED = any(ep.value == "chatterbench.comparisons.ci.pytest_plugin" for ep in entry_points(group="pytest11"))
 if not _REGISTERED:
     # a source tree installed before the pytest11 entry point existed: load the plugin here
-    pytest_plugins = ["chatterbench.comparisons.pytest_plugin"]
+    pytest_plugins = ["chatterbench.comparisons.ci.pytest_plugin"]
 
 
+@pytest.mark.slow
 def test_default_gate_passes(tmp_path, capsys):
     junit = tmp_path / "gate.xml"
     code = main(["gate", str(GATES), "--junit", str(junit)])

@@ -37,15 +37,15 @@ from pathlib import Path
 import pytest
 from hypothesis import given, strategies as st
 
-from chatterbench.comparisons.cli import main
+from chatterbench.comparisons.cli.main import main
 from chatterbench.reference.catalogue import CATALOGUE
 from chatterbench.reference.scene import Scene, SceneError, load_scene
 
 REPO = Path(__file__).resolve().parents[1]
 SWEEP_EXAMPLES = sorted((REPO / "examples" / "sweeps").glob("*.toml"))
 
-from chatterbench.comparisons.gate import Gate, GateError, load_gate
-from chatterbench.comparisons.sweep import Sweep, SpecError, load_sweep
+from chatterbench.comparisons.ci.gate import Gate, GateError, load_gate
+from chatterbench.comparisons.studies.sweep import Sweep, SpecError, load_sweep
 GATE_FILES = sorted((REPO / "gates").glob("*.toml"))
 
 

@@ -1,9 +1,11 @@
 """One call, one table: run the reference and the engines on a scene and judge every episode.
 
     >>> from chatterbench.comparisons import compare
-    >>> result = compare(load_scene("feigin-pair"), engines=("mujoco", "pybullet"), dt=1e-4)
-    >>> result.table[["engine", "wall", "verdict", "stick_error_zeno", "exit_error", "restitution_error"]]
-    >>> result.summary()                      # one row per engine, the columns of ``summary.ROW_COLUMNS``
+    >>> result = compare(load_scene("bouncing-ball"), engines=("mujoco", "pybullet"), dt=1e-4)
+    >>> result.table[["engine", "wall", "verdict"]].values.tolist()
+    [['mujoco', 'lower', 'rebound'], ['pybullet', 'lower', 'match']]
+    >>> result.summary()[["engine", "verdict", "n_match"]].values.tolist()   # the columns of ``summary.ROW_COLUMNS``
+    [['mujoco', 'rebound', 0], ['pybullet', 'match', 1]]
 
 The table has one row per (engine, reference or engine episode) with the columns of
 ``judge.TABLE_COLUMNS`` plus ``engine``, ``dt`` [s], ``status`` (the engine run's status)
@@ -21,9 +23,9 @@ from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from typing import Any, Mapping, Sequence
 
-import numpy as np
 import pandas as pd
 
+from chatterbench.engines.base import failed_trajectory
 from chatterbench.engines.registry import check_engine, engine_version, make_settings, run_engine, settings_dict
 from chatterbench.engines.trajectory import Trajectory
 from chatterbench.reference.scene import Scene
@@ -103,17 +105,6 @@ class Comparison:
         return pd.DataFrame([summarize(self, name, {}) for name in self.runs], columns=SUMMARY_COLUMNS)
 
 
-def failed_trajectory(name: str, scene: Scene, settings: Any, exc: BaseException) -> Trajectory:
-    """The trajectory of a run that raised before any sample: status ``error`` with the exception's text."""
-    empty = np.empty(0)
-    return Trajectory(
-        engine=name, t=empty, x1=empty, x2=empty, v1=empty, v2=empty,
-        contact={w: np.empty(0, bool) for w in scene.gap.walls},
-        normal_force={w: empty for w in scene.gap.walls},
-        wall_time=0.0, settings=settings_dict(settings), status="error", message=f"{type(exc).__name__}: {exc}",
-    )
-
-
 def judge_run(ref: ReferenceSolution, name: str, settings: Any, tol: Tolerances, trajectory: Trajectory | None = None,
               options: ExtractionOptions | None = None) -> tuple[EngineRun, pd.DataFrame, pd.DataFrame]:
     """Run one engine (or take its ``trajectory``, already run), extract and judge it.
@@ -125,7 +116,7 @@ def judge_run(ref: ReferenceSolution, name: str, settings: Any, tol: Tolerances,
     try:
         traj = trajectory if trajectory is not None else run_engine(name, scene, settings)
     except Exception as exc:  # an engine fault must not lose the other results
-        traj = failed_trajectory(name, scene, settings, exc)
+        traj = failed_trajectory(name, scene, "error", f"{type(exc).__name__}: {exc}", settings_dict(settings))
     found = extract(traj, scene, ref.stick_tolerance(tol.stick), options)
     judged = judge(ref, found, traj, tol)
     run = EngineRun(

@@ -1,8 +1,12 @@
 """Recover impacts, sticking and exits from any sampled trajectory, by one rule for every engine.
 
-    >>> traj = reference_trajectory(load_scene("bouncing-ball"), dt=1e-3)     # or an engine's
-    >>> found = extract(traj, scene, stick_tolerance=0.045)
-    >>> found.episodes[["wall", "t_stick", "t_exit"]], found.impacts[["t", "v_minus", "v_plus"]]
+    >>> from chatterbench.comparisons import reference_trajectory
+    >>> scene = load_scene("bouncing-ball")
+    >>> found = extract(reference_trajectory(scene, dt=1e-3), scene, stick_tolerance=0.045)   # or an engine's
+    >>> found.episodes[["wall", "t_stick"]].round(4).values.tolist()       # the Zeno point: 1.3546 s
+    [['lower', 1.3546]]
+    >>> found.impacts[["t", "v_minus", "v_plus"]].iloc[0].round(4).tolist()  # sqrt(2/g), -sqrt(2 g), R sqrt(2 g)
+    [0.4515, -4.4294, 2.2147]
 
 The log speaks the vocabulary of ``reference/log.py`` (``impact``, ``stick``, ``exit``;
 never ``plate_entry``: an engine cannot know Feigin's plate), so ``episodes(log)`` is

@@ -1,7 +1,16 @@
 """The impacts themselves: pair the resolvable impacts of a visit and measure each engine impact's restitution.
 
-    >>> pairs = pair_impacts(ref_visit, engine_visit, dt=1e-4, resolved_steps=10, restitution=0.5)
-    >>> pairs.table[["k", "ref_t", "t", "restitution", "restitution_error"]], pairs.worst_error
+    >>> from chatterbench.comparisons import reference_trajectory
+    >>> from chatterbench.comparisons.pipeline.extract import extract
+    >>> from chatterbench.comparisons.pipeline.solution import solve
+    >>> ref = solve(load_scene("bouncing-ball"))
+    >>> found = extract(reference_trajectory(ref.scene, 1e-3, ref.exhaustive), ref.scene)   # the known answer
+    >>> visit = ref.episodes.iloc[0]
+    >>> ref_visit = ref.visit_impacts(visit)
+    >>> pairs = pair_impacts(ref_visit, reference_flights(ref_visit, visit.t_stick), found.impacts, dt=1e-3,
+    ...                      resolved_steps=10, restitution=0.5)
+    >>> pairs.resolved, pairs.ref_resolved, abs(pairs.worst_error) < 1e-6
+    (6, 6, True)
 
 A time-stepper at step dt cannot resolve an impact whose flight is a few steps long, so
 only the *resolved* impacts are judged: those whose flight after the impact (to the next

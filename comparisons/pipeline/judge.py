@@ -1,9 +1,14 @@
 """Pair an engine's episodes with the reference's and give each a verdict from the physics of that visit.
 
-    >>> ref = solve(scene)
-    >>> found = extract(traj, scene, ref.stick_tolerance(tol.stick))
-    >>> judged = judge(ref, found, traj, tol)
-    >>> judged.table[["wall", "verdict", "stick_error_zeno", "stick_error_rel", "exit_error_steps"]]
+    >>> from chatterbench.comparisons import reference_trajectory
+    >>> from chatterbench.comparisons.pipeline.extract import extract
+    >>> from chatterbench.comparisons.pipeline.solution import solve
+    >>> tol = Tolerances()
+    >>> ref = solve(load_scene("bouncing-ball"))
+    >>> traj = reference_trajectory(ref.scene, 1e-3, ref.exhaustive)        # or an engine's
+    >>> judged = judge(ref, extract(traj, ref.scene, ref.stick_tolerance(tol.stick)), traj, tol)
+    >>> judged.table[["wall", "verdict", "resolved_impacts", "ref_resolved_impacts"]].values.tolist()
+    [['lower', 'match', 6, 6]]
 
 Pairing: an engine episode belongs to the reference episode on the same wall whose visit
 (first impact to exit) overlaps its own the most; each is used once. Errors are engine

@@ -1,8 +1,12 @@
 """The exact reference as a sampled trajectory on an engine's time grid, with contact flags and forces.
 
     >>> from chatterbench.comparisons import compare, reference_trajectory
-    >>> traj = reference_trajectory(load_scene("bouncing-ball"), dt=1e-3)
-    >>> compare(scene, engines=("mujoco",), trajectories={"mujoco": traj}).table["verdict"]   # a known answer: match
+    >>> scene = load_scene("bouncing-ball")
+    >>> traj = reference_trajectory(scene, dt=1e-3)
+    >>> traj.t.shape, bool(traj.contact["lower"][-1])       # stuck on the floor at the end
+    ((2001,), True)
+    >>> compare(scene, engines=("mujoco",), trajectories={"mujoco": traj}).table["verdict"].tolist()  # a known answer
+    ['match']
 
 The sampled reference goes through the same extraction and judge as an engine's
 trajectory, so it is the known answer every judge test starts from.
@@ -22,11 +26,12 @@ free relative acceleration; 0 otherwise.
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 
+from chatterbench.engines.base import sample_times
 from chatterbench.engines.trajectory import Trajectory
+from chatterbench.reference.errors import check_number
 from chatterbench.reference.dense import sample_states
 from chatterbench.reference.scene import Scene, SceneError
 from chatterbench.reference.simulate import Result, simulate
@@ -34,13 +39,9 @@ from chatterbench.reference.simulate import Result, simulate
 from .extract import free_relative_acceleration
 
 
-
 def sample_grid(scene: Scene, dt: float) -> np.ndarray:
-    """Sample times t0 + k dt [s], k = 0..n with t0 + n dt <= t_end (to rounding), shape (n + 1,)."""
-    if isinstance(dt, bool) or not isinstance(dt, (int, float)) or not (math.isfinite(dt) and dt > 0):
-        raise SceneError(f"dt = {dt!r}: must be a finite number > 0 [s]")
-    n = int(math.floor(scene.duration / dt * (1.0 + 1e-12)))
-    return scene.initial.t + dt * np.arange(n + 1)
+    """The engines' sample times (``engines.base.sample_times``: the one step-count rule) [s], shape (n + 1,)."""
+    return sample_times(scene, check_number("dt", dt, lo=0.0, lo_open=True, unit=" [s]", error=SceneError))
 
 
 def reference_trajectory(scene: Scene, dt: float, result: Result | None = None) -> Trajectory:

@@ -1,7 +1,10 @@
 """One row per (run, engine): a comparison condensed to numbers and a verdict, with one set of column names.
 
-    >>> result = compare(scene, engines=("mujoco",), dt=1e-4)
-    >>> row = summarize(result, "mujoco", params={"dt": 1e-4, "restitution": 0.5})
+    >>> from chatterbench.comparisons import compare
+    >>> result = compare(load_scene("bouncing-ball"), engines=("pybullet",), dt=1e-3)
+    >>> row = summarize(result, "pybullet", params={"dt": 1e-3})
+    >>> row["point_id"], row["verdict"], row["n_episodes"]
+    ('bcf533bb0b267c67', 'match', 1)
 
 The same row is ``compare``'s summary, a sweep's dataset row, the gate's metrics and the
 report's summary table. Columns (a sweep dataset's schema; charts and reports read these names):

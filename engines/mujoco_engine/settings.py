@@ -4,7 +4,7 @@
     >>> MujocoSettings(dt=1e-4, w0_dt=0.03).w0                 # contact natural frequency [rad/s]
     300.0
     >>> round(stability_limit("euler", 0.2553), 3)             # largest stable w0 dt for R = 0.5
-    1.553
+    1.554
 
 Every field is checked when the settings are made (``SettingsError`` naming the field, the
 value and the allowed range), so an engine never starts with a user mistake.

@@ -3,7 +3,7 @@
     >>> from chatterbench.engines.pybullet_engine.run import run
     >>> traj = run(load_scene("bouncing-ball"), PybulletSettings(dt=1e-3))
     >>> traj.status, round(float(traj.t[np.argmax(traj.contact["lower"])]), 3)      # first impact: sqrt(2/g)
-    ('ok', 0.452)
+    ('ok', 0.453)
 
 Sample k is the state after k ``stepSimulation`` calls; the contact flag and normal force
 at sample k belong to the step that ended there: ``contact[wall][k]`` is True when that wall

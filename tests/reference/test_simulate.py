@@ -150,7 +150,6 @@ def test_plate_strikes_slide_feigin(tau):
 
 @pytest.mark.parametrize("tau", PHASES)
 def test_plate_strikes_slide_exhaustive(tau):
-    R = 0.5
     for frac in SPEED_FRACTIONS:
         v = frac * FIVE_24 * math.sin(tau) ** 2
         result = simulate(_strike_scene(tau, v), "exhaustive")

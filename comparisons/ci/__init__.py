@@ -1,0 +1,7 @@
+"""Accuracy gates in a user's CI: gate files (``gate``), running them (``checks``), JUnit XML (``junit``),
+and the ``chatter_gate`` pytest fixture (``pytest_plugin``).
+
+    >>> from chatterbench.comparisons.ci.gate import load_gate
+    >>> [c.name for c in load_gate("gates/default.toml").checks][:2]
+    ['bouncing-ball/pybullet', 'feigin-pair/pybullet']
+"""

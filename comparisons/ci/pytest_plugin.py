@@ -1,0 +1,71 @@
+"""pytest plugin: the ``chatter_gate`` fixture, an accuracy gate written as a test.
+
+    def test_mujoco_slides_on_time(chatter_gate):
+        chatter_gate.check("feigin-pair", engine="mujoco", dt=1e-4, verdict=["match", "rebound"],
+                           stick_error_rel_max=0.05, exit_error_max=2e-4)
+
+Registered through the ``pytest11`` entry point ``chatterbench``, so installing chatterbench
+is enough (disable with ``-p no:chatterbench``). ``check`` takes the keys of a gate file's
+check (``gate.py``: ``scene``, ``engine``, ``dt``, ``settings``, ``scene_overrides``,
+``tolerances``, ``name``) and its limits as keywords: a bare value means the metric's
+usual bound (errors and cost ``<=``, ``n_match >=``, ``verdict ==``; ``gate.DEFAULT_OPS``),
+a list of verdicts means ``in``, and ``(op, value)`` names the operator. A failing limit
+fails the test with one line per limit, measured against the limit; a check that cannot
+run as written (unknown metric, scene key, setting) fails it with the gate file's message.
+
+Promises: nothing heavy is imported until a test asks for the fixture; runs are shared
+within the session between checks that ask for the same run.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Mapping
+
+import pytest
+
+
+class ChatterGate:
+    """What the ``chatter_gate`` fixture gives a test: ``check(...)``."""
+
+    def __init__(self, cache: dict) -> None:
+        self._cache = cache
+
+    def check(
+        self,
+        scene: Any,
+        engine: str,
+        dt: float | None = None,
+        settings: Mapping[str, Any] | None = None,
+        scene_overrides: Mapping[str, Any] | None = None,
+        tolerances: Mapping[str, Any] | None = None,
+        name: str | None = None,
+        **limits: Any,
+    ):
+        """Run ``scene`` on ``engine`` and fail the test unless every limit holds.
+
+        Returns the ``checks.CheckResult`` (its ``row`` has every metric) when all hold.
+        """
+        from .checks import run_check
+        from .gate import GateError, limits_from_keywords, make_check
+
+        try:
+            check = make_check(scene, engine, limits_from_keywords(**limits), dt=dt, settings=settings,
+                               scene_overrides=scene_overrides, tolerances=tolerances, name=name)
+        except GateError as exc:
+            pytest.fail(f"chatter_gate.check: {exc}", pytrace=False)
+        result = run_check(check, self._cache)
+        if not result.passed:
+            pytest.fail(result.failure_message(), pytrace=False)
+        return result
+
+
+@pytest.fixture(scope="session")
+def _chatter_gate_runs() -> dict:
+    """Runs shared by every ``chatter_gate`` check of the session (keyed by ``Check.run_key``)."""
+    return {}
+
+
+@pytest.fixture
+def chatter_gate(_chatter_gate_runs: dict) -> ChatterGate:
+    """Accuracy checks against the reference: ``chatter_gate.check(scene, engine=..., dt=..., METRIC=LIMIT, ...)``."""
+    return ChatterGate(_chatter_gate_runs)

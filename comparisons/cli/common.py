@@ -1,0 +1,139 @@
+"""What every subcommand shares: the refusal format, tables, and the options named the same everywhere.
+
+    >>> parser = Parser(prog="chatterbench demo", formatter_class=HelpFormatter)
+    >>> add_engines(parser); add_dt(parser); add_set(parser); add_tolerance(parser); add_out(parser)
+    >>> args = parser.parse_args(["--engines", "pybullet", "--tolerance", "stick=0.1"])
+    >>> engine_list(args.engines), parse_tolerances(args.tolerance).stick
+    (('pybullet',), 0.1)
+
+Option names are the same for the same thing in every subcommand: ``--engines``, ``--dt``,
+``--set``, ``--tolerance``, ``--out``. Every option's help says its default
+(``HelpFormatter``). A command-line mistake is a ``UsageError`` (exit 2), printed as one line
+``chatterbench: error: ...``; library refusals (``InputError``) print the same way.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+import pandas as pd
+
+from chatterbench.comparisons.pipeline.tolerances import Tolerances, tolerances_from_items
+from chatterbench.engines.registry import ENGINE_NAMES, check_engine
+from chatterbench.reference.errors import InputError
+from chatterbench.reference.scene import split_assignment
+
+
+class UsageError(InputError):
+    """A command-line mistake (exit code 2): an option that does not fit the others."""
+
+
+class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Every option's help ends with its default (``(default: ...)``), as argparse's own does."""
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with the CLI's refusal format: one stderr line ``chatterbench: error: ...``, exit 2.
+
+    (argparse's own prints the usage first; the usage is one ``--help`` away.)
+    """
+
+    def error(self, message: str):  # type: ignore[override]
+        sub = self.prog.split(" ", 1)[1] if " " in self.prog else ""
+        print(f"chatterbench: error: {sub + ': ' if sub else ''}{one_line(message)} (see {self.prog} --help)",
+              file=sys.stderr)
+        sys.exit(2)
+
+
+def one_line(message: str) -> str:
+    """A message on one line: newlines (from a key or value the user typed) shown as \\n."""
+    return message.replace("\r", "\\r").replace("\n", "\\n")
+
+
+def print_table(frame: pd.DataFrame, title: str | None = None, file=None) -> None:
+    """Print a DataFrame as a compact fixed-width table."""
+    file = file or sys.stdout
+    if title:
+        print(title, file=file)
+    if frame.empty:
+        print("  (none)", file=file)
+        return
+    print(frame.to_string(index=False, float_format=lambda v: f"{v:.9g}"), file=file)
+
+
+def split_overrides(items: list[str] | None) -> tuple[list[str], list[str]]:
+    """Split ``--set`` items into (scene overrides, engine overrides ``mujoco.*``/``pybullet.*``)."""
+    scene, engine = [], []
+    for item in items or []:
+        key, _ = split_assignment(item)
+        (engine if key.split(".")[0] in ENGINE_NAMES else scene).append(item)
+    return scene, engine
+
+
+def engine_list(text: str) -> tuple[str, ...]:
+    """``"mujoco,pybullet"`` -> the engine names, each checked (did-you-mean for a typo)."""
+    names = tuple(n.strip() for n in text.split(",") if n.strip())
+    if not names:
+        raise UsageError(f"--engines: give at least one of {', '.join(ENGINE_NAMES)} (comma-separated)")
+    return tuple(check_engine(n) for n in names)
+
+
+def parse_tolerances(items: list[str] | None) -> Tolerances:
+    """``--tolerance`` items as Tolerances (defaults where not given); a bad key or value is refused by name."""
+    return tolerances_from_items(items or [])
+
+
+def positive_float(text: str) -> float:
+    """argparse type: a finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not value > 0 or value != value or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number > 0")
+    return value
+
+
+def positive_int(text: str) -> int:
+    """argparse type: an integer > 0."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"{text!r}: must be an integer > 0")
+    return value
+
+
+# -- the options every judging subcommand names the same way ---------------------------------
+
+def add_scene(p: argparse.ArgumentParser) -> None:
+    p.add_argument("scene", help="built-in scene name (chatterbench scenes) or path to a scene TOML file")
+
+
+def add_engines(p: argparse.ArgumentParser, default: str = ",".join(ENGINE_NAMES), what: str = "engines to run") -> None:
+    p.add_argument("--engines", default=default, metavar="E[,E...]", help=f"comma-separated {what}")
+
+
+def add_dt(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--dt", type=positive_float, default=None,
+                   help="engine timestep [s]; None: each engine's own default (1e-4)")
+
+
+def add_set(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--set", action="append", metavar="KEY=VALUE", default=None,
+                   help="override a scene field (restitution=0.8, initial.vy=0.04) or an engine setting "
+                        "(mujoco.w0_dt=0.05); repeatable")
+
+
+def add_tolerance(p: argparse.ArgumentParser) -> None:
+    defaults = ", ".join(f"{k}={v:g}" for k, v in Tolerances().as_dict().items())
+    p.add_argument("--tolerance", action="append", metavar="KEY=VALUE", default=None,
+                   help="a verdict tolerance, repeatable; stick, first_impact: fractions of each episode's chatter "
+                        "duration, exit: of its sliding duration, restitution: relative, penetration: of the "
+                        f"scene's length scale; None: the defaults, {defaults}")
+
+
+def add_out(p: argparse.ArgumentParser, default: str | None = None, what: str = "write the files under DIR") -> None:
+    p.add_argument("--out", metavar="DIR", default=default, help=what)

@@ -1,0 +1,56 @@
+"""``chatterbench compare``: the reference and the engines on one scene, episode by episode, with verdicts.
+
+    $ chatterbench compare feigin-pair --engines mujoco,pybullet --dt 1e-4 --out out/fp
+    $ chatterbench compare bouncing-ball --tolerance stick=0.02
+
+Prints the episode table and the summary (the columns ``report``, ``tune``, ``sweep`` and
+``gate`` use: ``pipeline/summary.py``); ``--out`` writes the files of
+``outputs/comparison_files.py``.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from chatterbench.comparisons.outputs.comparison_files import write_comparison
+from chatterbench.comparisons.pipeline.compare import compare
+from chatterbench.reference.scene import load_scene
+
+from .common import add_dt, add_engines, add_out, add_scene, add_set, add_tolerance, engine_list, parse_tolerances, \
+    print_table, split_overrides
+
+EPISODE_SHOW = ["engine", "wall", "ref_t_stick", "t_stick", "stick_error_zeno", "stick_error_rel", "ref_t_exit", "t_exit",
+                "exit_error", "exit_error_steps", "restitution_error", "resolved_impacts", "ref_resolved_impacts",
+                "n_impacts", "verdict"]
+SUMMARY_SHOW = ["engine", "verdict", "n_episodes", "n_match", "stick_error_max", "stick_error_rel_max", "exit_error_max",
+                "exit_error_rel_max", "restitution_error_max", "penetration_max", "cost_per_sim_s", "status"]
+
+
+def cmd_compare(args: argparse.Namespace) -> int:
+    scene_over, engine_over = split_overrides(args.set)
+    scene = load_scene(args.scene, scene_over)
+    tol = parse_tolerances(args.tolerance)
+    result = compare(scene, engines=engine_list(args.engines), dt=args.dt, overrides=engine_over, tol=tol)
+    print_table(result.table[EPISODE_SHOW],
+                title=f"{scene.name}: engine episodes against the reference (errors in s; _rel: fraction of the "
+                      f"episode's scale; _steps: in timesteps); {tol.describe()}")
+    print_table(result.summary()[SUMMARY_SHOW], title="summary:")
+    if args.out:
+        paths = write_comparison(result, Path(args.out), figures=not args.no_figures)
+        print(f"wrote {len(paths)} files under {args.out}")
+    return 0
+
+
+def register(sub, formatter) -> None:
+    """Add ``compare`` to the ``chatterbench`` subparsers."""
+    p = sub.add_parser("compare", help="run the reference and the engines on a scene; judge every episode",
+                       formatter_class=formatter)
+    add_scene(p)
+    add_engines(p)
+    add_dt(p)
+    add_set(p)
+    add_tolerance(p)
+    add_out(p, what="write tables (CSV, Parquet), event logs, impacts, provenance and figures under DIR")
+    p.add_argument("--no-figures", action="store_true", help="skip the figures under --out")
+    p.set_defaults(func=cmd_compare)

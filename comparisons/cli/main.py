@@ -1,0 +1,55 @@
+"""The ``chatterbench`` command: one entry point, one module per subcommand (``cli/*.py``), all over ``common``.
+
+    >>> main(["scenes"])  # doctest: +ELLIPSIS
+            scene   R ...
+    0
+
+Every subcommand prints a short table and writes files only where asked (``--out``,
+``--events``, ``--junit``). Exit codes: 0 ok, 1 a check failed (gate, tune), 2 bad input:
+one line naming the field, the value and what is allowed, never a traceback. Figures are
+rendered with matplotlib's non-interactive backend, chosen here and nowhere else.
+"""
+
+from __future__ import annotations
+
+import sys
+
+from chatterbench.reference.errors import InputError
+
+from . import bench, chart, compare, gate, platemap, report, run, scenes, sweep, tune
+from .common import HelpFormatter, Parser, UsageError, one_line
+
+# in the order ``chatterbench --help`` lists them
+SUBCOMMANDS = (scenes, run, compare, report, gate, platemap, tune, sweep, chart, bench)
+
+
+def build_parser() -> Parser:
+    """The argument parser with every subcommand registered."""
+    parser = Parser(prog="chatterbench", formatter_class=HelpFormatter,
+                    description="Cross-validate MuJoCo and PyBullet impact chatter against Feigin's sliding model.")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=Parser)
+    for module in SUBCOMMANDS:
+        module.register(sub, HelpFormatter)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``chatterbench`` console script; returns the exit code."""
+    import matplotlib
+
+    matplotlib.use("Agg")  # the command line draws to files; a library user keeps their own backend
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except (InputError, UsageError) as exc:  # every refusal of user input
+        text = str(exc) if getattr(exc, "multiline", False) else one_line(str(exc))
+        print(f"chatterbench: error: {text}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("chatterbench: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,82 @@
+"""The ``chatterbench report`` subcommand: every scene on every engine, one HTML page and its Markdown twin.
+
+    $ chatterbench report                                   # all built-in scenes, both engines
+    $ chatterbench report feigin-pair bouncing-ball --dt 5e-5 --out report-dt5e-5
+    $ chatterbench report --sweep out/fp --set duration=20  # add a sweep's charts
+
+Writes ``index.html`` (self-contained: figures embedded, no network) and ``report.md`` under
+``--out`` (default ``report``), prints the summary table, and reports progress on stderr,
+one line per scene and engine. Exit codes: 0 written (a report is not a check: verdicts
+other than ``match`` do not fail it; use ``chatterbench gate`` for that), 2 bad input.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import shlex
+from pathlib import Path
+
+from chatterbench.comparisons.outputs.report import SUMMARY_COLUMNS, SweepSection, build_report
+from chatterbench.comparisons.outputs.report_page import write_report
+from chatterbench.comparisons.studies.sweep.dataset import load_rows
+from chatterbench.reference.catalogue import CATALOGUE
+
+from .common import (UsageError, add_dt, add_engines, add_out, add_set, add_tolerance, engine_list, parse_tolerances,
+                     print_table, split_overrides)
+
+
+def _command_line(args: argparse.Namespace) -> str:
+    """The command, rebuilt from the parsed options (for the report's provenance)."""
+    words = ["chatterbench", "report", *args.scenes, "--out", args.out, "--engines", args.engines]
+    if args.dt is not None:
+        words += ["--dt", f"{args.dt:g}"]
+    for item in args.set or []:
+        words += ["--set", item]
+    for item in args.tolerance or []:
+        words += ["--tolerance", item]
+    if args.sweep:
+        words += ["--sweep", args.sweep]
+    return " ".join(shlex.quote(w) for w in words)
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    scene_over, engine_over = split_overrides(args.set)
+    tol = parse_tolerances(args.tolerance)
+    tuning = []
+    for d in args.tune or ():  # tuning guides are read before any run, so a bad path costs nothing
+        f = Path(d) / "guide_section.html"
+        if not f.is_file():
+            raise UsageError(f"--tune {d}: no guide_section.html there (write one with `chatterbench tune ... --out {d}`)")
+        tuning.append(f.read_text(encoding="utf-8"))
+    tuning = tuple(tuning)
+    sweep = SweepSection(str(args.sweep), load_rows(args.sweep)) if args.sweep else None  # bad input before any run
+    report = build_report(
+        scenes=args.scenes or tuple(CATALOGUE), engines=engine_list(args.engines), dt=args.dt,
+        scene_overrides=scene_over, engine_overrides=engine_over, tol=tol, sweep=sweep,
+        command=_command_line(args),
+    )
+    print_table(report.summary[SUMMARY_COLUMNS], title=f"summary ({report.wall_time_s:.1f} s of runs; errors in s):")
+    if tuning:
+        report = dataclasses.replace(report, tuning=tuning)
+    paths = write_report(report, Path(args.out))
+    print(f"wrote {paths[0]} and {paths[1]}")
+    return 0
+
+
+def register(sub, formatter) -> None:
+    """Add ``report`` to the ``chatterbench`` subparsers."""
+    p = sub.add_parser("report", help="every scene on every engine: one self-contained HTML report and a Markdown twin",
+                       formatter_class=formatter)
+    p.add_argument("scenes", nargs="*", metavar="SCENE",
+                   help="built-in scene names or scene TOML files; none: every built-in scene")
+    add_engines(p)
+    add_dt(p)
+    add_set(p)
+    add_tolerance(p)
+    add_out(p, default="report", what="output directory")
+    p.add_argument("--sweep", metavar="DIR", default=None,
+                   help="a sweep dataset (directory with rows.parquet): add its work-precision chart and stability maps")
+    p.add_argument("--tune", action="append", metavar="DIR", default=None,
+                   help="include the tuning guide that `chatterbench tune ... --out DIR` wrote (repeatable)")
+    p.set_defaults(func=cmd_report)

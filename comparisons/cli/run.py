@@ -1,0 +1,98 @@
+"""``chatterbench run``: one scene in the reference or in one engine; its episodes and event log.
+
+    $ chatterbench run feigin-pair --set restitution=0.8 --chatter exhaustive --events log.csv
+    $ chatterbench run bouncing-ball --engines mujoco --dt 1e-4 --export-model ball.xml
+
+An engine's event log is recovered from its trajectory by ``pipeline/extract.py`` with the
+resolution ``compare`` uses (the tightest sticking tolerance of the scene's reference
+visits), in the reference's format, so the same episode table describes either run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Sequence
+
+import pandas as pd
+
+from chatterbench.comparisons.outputs.atomic import write_frame, write_text
+from chatterbench.comparisons.pipeline.extract import extract_events
+from chatterbench.comparisons.pipeline.solution import solve
+from chatterbench.comparisons.pipeline.tolerances import Tolerances
+from chatterbench.engines.registry import adapter, make_settings, run_engine
+from chatterbench.reference.errors import check_choice
+from chatterbench.reference.log import episodes, log_frame
+from chatterbench.reference.scene import Scene, load_scene
+from chatterbench.reference.simulate import CHATTER_MODES, simulate
+
+from .common import UsageError, add_dt, add_out, add_set, one_line, print_table, split_overrides
+
+SIMULATORS = ("reference", "mujoco", "pybullet")
+
+
+def run_engine_events(scene: Scene, engine: str, dt: float | None, overrides: Sequence[str],
+                      export_model: str | None) -> tuple[pd.DataFrame, pd.DataFrame, str]:
+    """Run ``scene`` in ``engine``; returns (event log, episodes, one-line summary)."""
+    settings = make_settings(engine, dt, overrides)
+    if export_model:
+        if engine != "mujoco":
+            raise UsageError("--export-model: only MuJoCo models can be exported (use --engines mujoco)")
+        write_text(Path(export_model), adapter("mujoco").snippet(scene, settings))
+    resolution = solve(scene).stick_tolerance(Tolerances().stick)
+    traj = run_engine(engine, scene, settings)
+    log = extract_events(traj, scene, resolution) if len(traj.t) > 1 else log_frame([])
+    n_imp = int((log["kind"] == "impact").sum())
+    summary = (f"{engine} dt={settings.dt:g} s: status {traj.status}{' (' + traj.message + ')' if traj.message else ''}, "
+               f"{len(traj.t)} samples, {n_imp} impacts, {traj.wall_time:.3f} s stepping")
+    if export_model:
+        summary += f"; MJCF written to {export_model}"
+    return log, episodes(log), summary
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    scene_over, engine_over = split_overrides(args.set)
+    scene = load_scene(args.scene, scene_over)
+    engine = args.engines
+    if engine not in SIMULATORS:
+        check_choice("--engines", engine, SIMULATORS, error=UsageError)
+    result = None
+    if engine == "reference":
+        if engine_over:
+            raise UsageError(f"--set {engine_over[0]}: engine settings need --engines mujoco|pybullet")
+        result = simulate(scene, args.chatter)
+        log, eps = result.log, result.episodes
+        summary = f"reference ({args.chatter} mode): {len(log)} events, {result.n_impacts} impacts, {result.wall_time * 1e3:.2f} ms"
+    else:
+        log, eps, summary = run_engine_events(scene, engine, args.dt, engine_over, args.export_model)
+    print(f"{scene.name}: {summary}")
+    print_table(eps, title="episodes:")
+    if args.events:
+        write_frame(Path(args.events), log)
+        print(f"event log: {args.events}")
+    if args.out:
+        out = Path(args.out)
+        write_frame(out / "events.csv", log)
+        write_frame(out / "episodes.csv", eps)
+        print(f"wrote {out / 'events.csv'}, {out / 'episodes.csv'}")
+    if result is not None and result.status != "ok":  # the partial log is printed and written above
+        print(f"chatterbench: error: the reference run stopped ({result.status}): {one_line(result.message)}", file=sys.stderr)
+        return 2
+    return 0
+
+
+def register(sub, formatter) -> None:
+    """Add ``run`` to the ``chatterbench`` subparsers."""
+    p = sub.add_parser("run", help="run one scene in the reference or an engine; print its episodes", formatter_class=formatter)
+    p.add_argument("scene", help="built-in scene name or path to a scene TOML file")
+    p.add_argument("--engines", "--engine", default="reference", metavar="SIMULATOR",
+                   help=f"the engines to run the scene: one of {', '.join(SIMULATORS)} (Feigin's model)")
+    add_dt(p)
+    add_set(p)
+    p.add_argument("--chatter", choices=CHATTER_MODES, default="feigin",
+                   help="reference chatter model: feigin (plate entry -> inelastic impact) or exhaustive (every impact)")
+    p.add_argument("--events", metavar="PATH", default=None, help="write the event log (CSV) here")
+    p.add_argument("--export-model", metavar="PATH", default=None, help="MuJoCo: write the generated MJCF here")
+    add_out(p, what="write events.csv and episodes.csv under DIR")
+    p.set_defaults(func=cmd_run)

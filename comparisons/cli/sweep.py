@@ -1,0 +1,75 @@
+"""The ``chatterbench sweep`` subcommand: run a sweep spec, locally or on a Dask cluster.
+
+    $ chatterbench sweep examples/sweeps/bouncing-ball-dt.toml --out out/bb --workers 4
+    $ chatterbench sweep spec.toml --out out/bb --resume            # after an interruption
+    $ chatterbench sweep spec.toml --out out/bb --dask tcp://scheduler:8786
+
+Prints verdict counts per engine and writes only under ``--out`` (default
+``./sweep-SPEC_STEM``): ``sweep.toml``, ``rows/`` and ``rows.parquet`` (see ``sweep.py``).
+Exit codes: 0 the sweep finished (failed runs are rows, not errors), 2 bad input (the spec,
+the options, an unreachable scheduler, an --out holding another sweep), 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+from pathlib import Path
+
+import pandas as pd
+
+from chatterbench.comparisons.pipeline.tolerances import tolerance_values
+from chatterbench.comparisons.studies.sweep import FAILED, load_sweep, run_sweep
+
+from .common import UsageError, add_out, add_tolerance, positive_float, positive_int, print_table
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    sweep = load_sweep(args.spec)
+    if args.timeout is not None:
+        sweep = dataclasses.replace(sweep, timeout=args.timeout)
+    if args.tolerance:
+        sweep = dataclasses.replace(sweep, tolerances={**dict(sweep.tolerances), **tolerance_values(args.tolerance)})
+    out = Path(args.out) if args.out else Path(f"sweep-{Path(args.spec).stem}")
+    client = None
+    if args.dask:
+        try:
+            from distributed import Client
+
+            client = Client(args.dask, timeout=10)
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise UsageError(f"--dask {args.dask}: cannot reach the Dask scheduler ({exc})") from None
+    try:
+        rows = run_sweep(sweep, out, executor=client, resume=args.resume, workers=args.workers, batch=args.batch)
+    finally:
+        if client is not None:
+            client.close()
+    counts = rows.groupby(["engine", "verdict"]).size().unstack(fill_value=0).reset_index() if len(rows) else pd.DataFrame()
+    print_table(counts, title=f"{sweep.scene_name}: {len(rows)} runs, verdicts per engine:")
+    failed = rows[rows["status"].isin(FAILED)] if len(rows) else rows
+    if len(failed):
+        print_table(failed[["point_id", "engine", "status", "message"]].assign(message=failed["message"].str.split("\n").str[0]),
+                    title="failed runs:")
+    stats = rows.attrs.get("sweep", {})
+    if stats.get("runs"):
+        print(f"ran {stats['runs']} runs in {stats['wall_s']:.1f} s on {stats['workers']} workers "
+              f"(runs' own time {stats['run_s_sum']:.1f} s)")
+    print(f"wrote {out / 'rows.parquet'} ({len(rows)} rows), {out / 'sweep.toml'}")
+    return 0
+
+
+def register(sub, formatter) -> None:
+    """Add ``sweep`` to the ``chatterbench`` subparsers."""
+    p = sub.add_parser("sweep", help="run a grid of scene fields and engine settings; one row per engine and point",
+                       formatter_class=formatter)
+    p.add_argument("spec", metavar="SPEC.toml", help="sweep spec (format: chatterbench.comparisons.sweep docstring)")
+    add_out(p, what="output directory; None: ./sweep-SPEC_STEM")
+    p.add_argument("--resume", action="store_true", help="finish the sweep already under --out; skip its finished runs")
+    p.add_argument("--workers", type=positive_int, default=None, help="local worker processes; None: all cores")
+    p.add_argument("--dask", metavar="ADDRESS", default=None,
+                   help="run on this Dask scheduler (tcp://host:8786) instead of local processes")
+    p.add_argument("--batch", type=positive_int, default=None,
+                   help="runs per isolated unit of work, MuJoCo's in one mujoco.rollout call; None: automatic, 1: each run alone")
+    p.add_argument("--timeout", type=positive_float, default=None, help="wall-clock limit of one run [s]; None: the spec's")
+    add_tolerance(p)
+    p.set_defaults(func=cmd_sweep)

@@ -1,0 +1,9 @@
+"""What people read: files written atomically, figures, the comparison report and the tuning guide.
+
+``atomic`` (files: temporary then rename), ``figures`` (a Figure to PNG / SVG bytes), ``style``
+(engine colours), ``timeseries`` (y(t) of a comparison), ``comparison_files`` (everything
+``compare --out`` writes), ``sweep_data`` / ``work_precision`` / ``stability_map`` (a sweep's
+charts), ``plate_map_figure``, ``report`` / ``report_page`` (the report and its HTML and
+Markdown), ``guide`` (the tuning guide). Charts are built as ``matplotlib.figure.Figure``
+without pyplot: importing them leaves the user's backend alone.
+"""

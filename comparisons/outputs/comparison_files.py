@@ -1,0 +1,59 @@
+"""Files written for a comparison under ``--out DIR`` (all atomic).
+
+    >>> from chatterbench.comparisons import compare
+    >>> paths = write_comparison(compare(load_scene("bouncing-ball"), engines=("pybullet",), dt=1e-3), tmp / "cmp")
+    >>> sorted(p.name for p in paths)[:3]
+    ['episodes.csv', 'episodes.parquet', 'events_pybullet.csv']
+
+Layout of DIR:
+
+- ``episodes.csv`` / ``episodes.parquet``: the comparison table (``pipeline.compare.COLUMNS``);
+- ``impacts.csv``: every paired resolved impact, per engine (``pipeline.judge.IMPACT_PAIR_COLUMNS``):
+  times, incoming speeds, effective restitution and its error;
+- ``impacts_ENGINE.csv``: every impact the extraction found in the engine's samples
+  (``pipeline.extract.IMPACT_COLUMNS``), unresolved micro-bounces of stuck stretches included;
+- ``reference_episodes.csv``: plate entry, Zeno point, exit and scales of every reference episode;
+- ``events_reference_feigin.csv``, ``events_reference_exhaustive.csv``, ``events_ENGINE.csv``:
+  event logs in the reference format;
+- ``provenance.json``: scene, engine versions and settings, tolerances, wall-clock cost of
+  each run, machine and date;
+- ``timeseries.png`` / ``timeseries.svg``: the time-series chart.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from .atomic import write_bytes, write_frame, write_text
+from .figures import figure_bytes
+from .timeseries import timeseries_figure
+
+
+def _json_default(obj):
+    try:
+        return float(obj)
+    except (TypeError, ValueError):
+        return str(obj)
+
+
+def write_comparison(comparison, out: Path, figures: bool = True) -> list[Path]:
+    """Write every file of a comparison under ``out``; returns the paths written."""
+    out = Path(out)
+    paths = [
+        write_frame(out / "episodes.csv", comparison.table),
+        write_frame(out / "episodes.parquet", comparison.table),
+        write_frame(out / "impacts.csv", comparison.impacts),
+        write_frame(out / "reference_episodes.csv", comparison.reference),
+        write_frame(out / "events_reference_feigin.csv", comparison.feigin.log),
+        write_frame(out / "events_reference_exhaustive.csv", comparison.exhaustive.log),
+    ]
+    for name, run in comparison.runs.items():
+        paths.append(write_frame(out / f"events_{name}.csv", run.log))
+        paths.append(write_frame(out / f"impacts_{name}.csv", run.found.impacts))
+    paths.append(write_text(out / "provenance.json", json.dumps(comparison.provenance, indent=2, default=_json_default)))
+    if figures:
+        fig = timeseries_figure(comparison)
+        paths.append(write_bytes(out / "timeseries.png", figure_bytes(fig, "png")))
+        paths.append(write_bytes(out / "timeseries.svg", figure_bytes(fig, "svg")))
+    return paths

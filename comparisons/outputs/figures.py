@@ -1,0 +1,26 @@
+"""Figures to bytes: every chart is a matplotlib ``Figure`` built without pyplot, rendered here for files.
+
+    >>> from matplotlib.figure import Figure
+    >>> fig = Figure(figsize=(2, 1))
+    >>> figure_bytes(fig, "png")[:8] == b"\\x89PNG\\r\\n\\x1a\\n"
+    True
+
+The chart modules never import pyplot nor choose a backend: they build ``Figure`` objects,
+which render without one, so a notebook user keeps theirs. The command line chooses
+the non-interactive backend once, at start-up (``cli.main``).
+"""
+
+from __future__ import annotations
+
+import io
+
+from matplotlib.figure import Figure
+
+DPI = 120  # PNG resolution: readable at report width
+
+
+def figure_bytes(fig: Figure, fmt: str) -> bytes:
+    """Render a matplotlib Figure to bytes (``png`` at ``DPI``, or ``svg``)."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format=fmt, dpi=DPI)
+    return buf.getvalue()

@@ -1,0 +1,156 @@
+"""The report as files: one self-contained HTML page (figures inline, no script, no network) and its Markdown twin.
+
+    >>> report = build_report(["bouncing-ball"], engines=("pybullet",), dt=1e-3, progress=None)
+    >>> [p.name for p in write_report(report, tmp / "report")]
+    ['index.html', 'report.md']
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+from pathlib import Path
+from typing import Sequence
+
+import pandas as pd
+
+from chatterbench.comparisons.pipeline.vocabulary import COLOURS, MEANINGS, NAMES, text_colour
+
+from .atomic import write_text
+from .report import (EPISODE_COLUMNS, HEADERS, SUMMARY_COLUMNS, Figure, Report, cell, engine_rows, plural,
+                     provenance_items, summary_frame, tolerance_line, build_report, scene_figures, sweep_figures)
+
+__all__ = ["build_report", "report_html", "report_markdown", "write_report"]
+
+
+# -- HTML --------------------------------------------------------------------------------
+
+_CSS = """
+body { font-family: system-ui, -apple-system, "Segoe UI", sans-serif; margin: 2em auto; max-width: 1300px;
+       padding: 0 1em; color: #222; line-height: 1.4; }
+h1 { margin-bottom: 0.2em; } h2 { margin-top: 2em; border-bottom: 1px solid #ccc; }
+table { border-collapse: collapse; margin: 0.8em 0; font-size: 0.9em; }
+th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: right; }
+th { background: #f3f3f3; } td.text, th.text { text-align: left; }
+td.verdict { font-weight: 600; text-align: center; }
+figure { margin: 1em 0; } figure img { max-width: 100%; height: auto; border: 1px solid #eee; }
+figcaption { font-size: 0.85em; color: #555; }
+.note { color: #555; font-size: 0.9em; } code { background: #f6f6f6; padding: 0 0.2em; }
+table.prov th { width: 13em; }
+"""
+
+
+def _verdict_style(verdict: str) -> str:
+    return f"background:{COLOURS.get(verdict, '#ffffff')};color:{text_colour(verdict)}"
+
+
+def _html_table(frame: pd.DataFrame, columns: Sequence[str], link_scene: bool = False) -> str:
+    text_cols = {"scene", "engine", "verdict", "status", "wall"}
+    head = "".join(f'<th class="{"text" if c in text_cols else "num"}">{html.escape(HEADERS.get(c, c))}</th>' for c in columns)
+    body = []
+    for _, row in frame.iterrows():
+        cells = []
+        for c in columns:
+            value = html.escape(cell(c, row[c]))
+            if c == "verdict":
+                cells.append(f'<td class="verdict" style="{_verdict_style(str(row[c]))}">{value}</td>')
+            elif c == "scene" and link_scene:
+                cells.append(f'<td class="text"><a href="#scene-{value}">{value}</a></td>')
+            else:
+                cells.append(f'<td class="{"text" if c in text_cols else "num"}">{value}</td>')
+        body.append("<tr>" + "".join(cells) + "</tr>")
+    if not body:
+        body.append(f'<tr><td class="text" colspan="{len(columns)}">no episodes: neither the reference nor the engines '
+                    "stick within the run</td></tr>")
+    return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>"
+
+
+def _img(fig: Figure) -> str:
+    data = base64.b64encode(fig.png).decode("ascii")
+    return (f'<figure id="{html.escape(fig.id)}"><img src="data:image/png;base64,{data}" alt="{html.escape(fig.caption)}">'
+            f"<figcaption>{html.escape(fig.caption)}</figcaption></figure>")
+
+
+def _verdict_legend() -> str:
+    items = "".join(f'<tr><td class="verdict" style="{_verdict_style(v)}">{v}</td><td class="text">{html.escape(MEANINGS[v])}</td></tr>'
+                    for v in NAMES)
+    return f"<details><summary>what the verdicts mean</summary><table><tbody>{items}</tbody></table></details>"
+
+
+def report_html(report: Report) -> str:
+    """The report as one self-contained HTML document (figures embedded as base64 PNG)."""
+    figures = {f.id: f for f in scene_figures(report)}
+    parts = [
+        "<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
+        "<title>chatterbench report</title>", f"<style>{_CSS}</style></head><body>",
+        "<h1>chatterbench report</h1>",
+        f'<p class="note">{plural(len(report.comparisons), "scene")} on {", ".join(report.engines)} against the exact '
+        f"event-driven reference (Feigin 1967), {html.escape(report.created)}. Errors are engine minus reference; "
+        "worst = largest magnitude over the scene's episodes.</p>",
+        '<h2 id="summary">Summary</h2>',
+        _html_table(summary_frame(report), SUMMARY_COLUMNS, link_scene=True),
+        _verdict_legend(),
+    ]
+    for c in report.comparisons:
+        name = c.scene.name
+        parts.append(f'<h2 id="scene-{html.escape(name)}">{html.escape(name)}</h2>')
+        if c.scene.description:
+            parts.append(f"<p>{html.escape(c.scene.description)}</p>")
+        parts.append(f'<p class="note">R = {c.scene.restitution:g}, walls: {", ".join(c.scene.gap.walls)}, '
+                     f"duration {c.scene.duration:.4g} s; {html.escape(tolerance_line(c))}.</p>")
+        parts.append(_img(figures[f"timeseries-{name}"]))
+        parts.append(_html_table(c.table, EPISODE_COLUMNS))
+        failed = {n: r.trajectory.message for n, r in c.runs.items() if r.trajectory.message}
+        for n, msg in failed.items():
+            parts.append(f'<p class="note">{html.escape(n)}: {html.escape(msg.splitlines()[0])}</p>')
+    if report.sweep is not None:
+        figs, notes = sweep_figures(report.sweep)
+        parts.append('<h2 id="sweep">Sweep</h2>')
+        parts.append(f'<p class="note">dataset {html.escape(report.sweep.source)}: {len(report.sweep.rows)} rows '
+                     f'({", ".join(sorted(report.sweep.rows["engine"].astype(str).unique()))}).</p>')
+        parts.extend(_img(f) for f in figs)
+        parts.extend(f'<p class="note">{html.escape(n)}</p>' for n in notes)
+    parts.extend(report.tuning)  # tuning guides, as `chatterbench tune` wrote them
+    parts.append('<h2 id="provenance">What produced this report</h2><table class="prov"><tbody>')
+    for key, value in provenance_items(report):
+        shown = f"<code>{html.escape(value)}</code>" if key == "command" else html.escape(value)
+        parts.append(f'<tr><th class="text">{html.escape(key)}</th><td class="text">{shown}</td></tr>')
+    parts.append("</tbody></table>")
+    parts.append(_html_table(pd.DataFrame(engine_rows(report)), ["engine", "version", "settings"]).replace(
+        'class="num"', 'class="text"'))
+    parts.append("</body></html>")
+    return "\n".join(parts)
+
+
+# -- Markdown ----------------------------------------------------------------------------
+
+def _md_table(frame: pd.DataFrame, columns: Sequence[str]) -> str:
+    lines = ["| " + " | ".join(HEADERS.get(c, c) for c in columns) + " |",
+             "| " + " | ".join("---" if c in ("scene", "engine", "wall", "verdict", "status") else "---:" for c in columns) + " |"]
+    for _, row in frame.iterrows():
+        lines.append("| " + " | ".join(cell(c, row[c]).replace("|", "\\|") for c in columns) + " |")
+    if len(frame) == 0:
+        lines.append("| " + " | ".join(["-"] * len(columns)) + " |")
+    return "\n".join(lines)
+
+
+def report_markdown(report: Report) -> str:
+    """The report's tables in Markdown (GitHub flavour), for issues and pull requests."""
+    out = ["# chatterbench report", "",
+           f"{plural(len(report.comparisons), 'scene')} on {', '.join(report.engines)} against the exact reference. "
+           "Errors are engine minus reference, worst = largest magnitude over the scene's episodes.", "",
+           "## Summary", "", _md_table(summary_frame(report), SUMMARY_COLUMNS), ""]
+    for c in report.comparisons:
+        out += [f"## {c.scene.name}", "", f"{tolerance_line(c)}.", "", _md_table(c.table, EPISODE_COLUMNS), ""]
+    out += ["## What produced this report", ""]
+    for key, value in provenance_items(report):
+        out.append(f"- {key}: `{value}`" if key == "command" else f"- {key}: {value}")
+    for row in engine_rows(report):
+        out.append(f"- {row['engine']} {row['version']}: {row['settings']}")
+    return "\n".join(out) + "\n"
+
+
+def write_report(report: Report, out: Path) -> list[Path]:
+    """Write ``index.html`` and ``report.md`` under ``out`` (atomically); returns the paths."""
+    out = Path(out)
+    return [write_text(out / "index.html", report_html(report)), write_text(out / "report.md", report_markdown(report))]

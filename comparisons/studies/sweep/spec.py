@@ -1,0 +1,360 @@
+"""A sweep spec: one scene, some engines, a grid of scene fields and engine settings, validated in full.
+
+    >>> sweep = load_sweep("examples/sweeps/bouncing-ball-dt.toml")
+    >>> sweep.scene_name, len(sweep_runs(sweep))
+    ('bouncing-ball', 18)
+
+Spec file (TOML)::
+
+    scene = "feigin-pair"              # built-in scene, or a scene TOML path (relative to this file)
+    engines = ["mujoco", "pybullet"]   # default: both
+    timeout = 120                      # [s] wall-clock limit of one run (one engine at one point)
+    description = "free text"          # optional
+
+    [set]                              # fixed for every point
+    duration = 18.85
+
+    [grid]                             # cartesian product of these lists (last key varies fastest)
+    dt = [1e-4, 3e-4]
+    restitution = [0.3, 0.5, 0.8]
+    mujoco.w0_dt = [0.03, 0.1]
+    pybullet.restitution_velocity_threshold = [0.0, 0.2]
+
+    [[points]]                         # explicit points, run after the grid's (each merged over [set])
+    dt = 1e-3
+    initial.t = 1.0
+
+    [tolerances]                       # verdict tolerances (pipeline.tolerances.Tolerances), optional
+    exit = 0.02                        # (--tolerance KEY=VALUE on the command line sets them too)
+
+Keys in ``[set]``, ``[grid]`` and ``[[points]]`` are the dotted keys of ``--set``: ``dt`` is
+the engine timestep [s] (every engine); ``mujoco.KEY`` / ``pybullet.KEY`` are that engine's
+settings and apply to that engine only; every other key is a scene override
+(``restitution``, ``mass2``, ``gap.upper``, ``initial.t``, ``forces.0.amplitude``). A key is
+either fixed (``[set]``) or varied (``[grid]``/``[[points]]``), never both. Grid values are
+non-empty arrays of one kind (numbers, strings or booleans; integers mixed with floats
+become floats). At least one of ``[grid]`` and ``[[points]]`` is required.
+
+The unit of work is a *run*: one engine at one point. A run's parameters are the point's
+keys minus the other engines' settings, so a pybullet run does not repeat for every value
+of ``mujoco.w0_dt`` (identical runs are run once). Each run yields one row of
+``pipeline.summary.ROW_COLUMNS`` (one column per parameter, named by its dotted key).
+
+Promises:
+
+- The whole spec is checked before any engine starts: unknown or misplaced keys, wrong
+  types, empty grids and every point's scene and settings; a refusal is one ``SpecError``
+  (a ``SceneError``) naming the file, the key, the value and what is allowed.
+- Every run goes through ``isolate.run_isolated`` inside the function submitted to the
+  executor, so under a local process pool and under Dask alike a run that segfaults is a
+  ``crashed`` row, one past the timeout a ``timeout`` row, one that raises an ``error``
+  row, and the sweep goes on.
+- Runs go to workers in units of a few runs of one engine, each unit in one isolated child
+  (``work_units``); MuJoCo runs of a unit share dt and duration, and those whose models are
+  compatible go through one ``mujoco.rollout`` call (a list of models: restitution,
+  masses, gap, initial state, forcing, w0 dt, solver options may all differ). The rows
+  are the same as run one by one, bit for bit; a unit that does not come back whole is
+  rerun one run at a time, so a faulty run is still classified alone.
+- Rows reach ``OUT/rows/part-*.parquet`` as runs finish, each part written atomically. A
+  sweep killed at any moment and resumed (``resume=True``) ends with exactly the rows of an
+  uninterrupted one: finished rows are never re-run, unfinished runs are run once.
+
+Layout of OUT: ``sweep.toml`` (the resolved spec, written first), ``rows/`` (the Parquet
+dataset, one part per batch of finished runs), ``rows.parquet`` (all rows in run order,
+written at the end).
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Iterable, Mapping
+
+from chatterbench.comparisons.pipeline.summary import point_id
+from chatterbench.comparisons.pipeline.tolerances import make_tolerances
+from chatterbench.engines.registry import ENGINE_NAMES, make_settings
+from chatterbench.reference.catalogue import CATALOGUE
+from chatterbench.reference.errors import InputError, did_you_mean
+from chatterbench.reference.scene import load_scene
+from chatterbench.reference.tables import flatten, read_toml
+
+SPEC_KEYS = ("scene", "engines", "timeout", "description", "set", "grid", "points", "tolerances")
+DEFAULT_TIMEOUT = 120.0  # [s] per run
+FAILED = ("crashed", "timeout", "error")  # run statuses counted as failures by the progress bar (a sweep's isolation)
+class SpecError(InputError):
+    """A sweep spec is malformed or names something not allowed; the message says where."""
+
+
+def _kind(value: Any) -> str | None:
+    if isinstance(value, bool):
+        return "boolean"
+    if isinstance(value, (int, float)):
+        return "number"
+    if isinstance(value, str):
+        return "string"
+    return None
+
+
+def _key_role(key: str) -> str:
+    """``dt``, an engine name (engine setting) or ``scene`` (scene override)."""
+    if key == "dt":
+        return "dt"
+    head = key.split(".")[0]
+    return head if head in ENGINE_NAMES else "scene"
+
+
+@dataclass(frozen=True)
+class RunTask:
+    """One engine at one point: everything a worker needs, as plain picklable data."""
+
+    index: int  # position in the sweep's run order
+    point_id: str  # rows.point_id(scene name, engine, params)
+    scene: str  # built-in scene name or absolute path of a scene TOML file
+    scene_name: str
+    engine: str
+    params: tuple[tuple[str, Any], ...]  # the row's parameter columns, in spec order
+    dt: float  # [s] the engine timestep the run uses
+    timeout: float  # [s]
+    tolerances: tuple[tuple[str, Any], ...] = ()
+
+    def scene_overrides(self) -> dict[str, Any]:
+        return {k: v for k, v in self.params if _key_role(k) == "scene"}
+
+    def engine_overrides(self) -> dict[str, Any]:
+        return {k: v for k, v in self.params if _key_role(k) == self.engine}
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """A validated sweep (see the module docstring for the meaning of each part)."""
+
+    scene: str  # built-in scene name or path of a scene TOML file
+    engines: tuple[str, ...] = ENGINE_NAMES
+    fixed: Mapping[str, Any] = field(default_factory=dict)  # [set]: dotted key -> value
+    grid: Mapping[str, tuple] = field(default_factory=dict)  # [grid]: dotted key -> values
+    points: tuple[Mapping[str, Any], ...] = ()  # [[points]]
+    timeout: float = DEFAULT_TIMEOUT  # [s] per run, > 0
+    tolerances: Mapping[str, Any] = field(default_factory=dict)  # pipeline.tolerances.Tolerances fields
+    description: str = ""
+    source: str = ""  # the spec file, for messages ("" when built in Python)
+
+    def __post_init__(self) -> None:
+        _validate(self)
+
+    def fail(self, message: str) -> SpecError:
+        """A SpecError naming this sweep's file."""
+        where = f"sweep spec {self.source!r}" if self.source else "sweep"
+        return SpecError(f"{where}: {message}")
+
+    @property
+    def scene_name(self) -> str:
+        return load_scene(self.scene, {}).name
+
+    def to_toml(self) -> str:
+        """The resolved spec as TOML (``load_sweep`` reads it back to an equal Sweep)."""
+        lines = [f"scene = {_toml(self.scene)}", f"engines = {_toml(list(self.engines))}",
+                 f"timeout = {_toml(self.timeout)}"]
+        if self.description:
+            lines.append(f"description = {_toml(self.description)}")
+        for name, table in (("set", self.fixed), ("grid", {k: list(v) for k, v in self.grid.items()}),
+                            ("tolerances", self.tolerances)):
+            if table:
+                lines += ["", f"[{name}]"] + [f"{_toml(k)} = {_toml(v)}" for k, v in table.items()]
+        for p in self.points:
+            lines += ["", "[[points]]"] + [f"{_toml(k)} = {_toml(v)}" for k, v in p.items()]
+        return "\n".join(lines) + "\n"
+
+    def identity(self) -> dict[str, Any]:
+        """What decides the rows (everything but timeout, description and source)."""
+        return {"scene": self.scene, "engines": list(self.engines), "set": dict(self.fixed),
+                "grid": {k: list(v) for k, v in self.grid.items()}, "points": [dict(p) for p in self.points],
+                "tolerances": dict(self.tolerances)}
+
+
+def _toml(value: Any) -> str:
+    """A TOML literal for a scalar, a string key or an array of scalars."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        if math.isnan(value):
+            return "nan"
+        if math.isinf(value):
+            return "inf" if value > 0 else "-inf"
+        return repr(value)
+    if isinstance(value, str):
+        return json.dumps(value)  # JSON's escapes are TOML basic-string escapes
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml(v) for v in value) + "]"
+    raise TypeError(f"no TOML form for {value!r}")
+
+
+def _scalar(sweep: Sweep, where: str, value: Any) -> Any:
+    if _kind(value) is None:
+        raise sweep.fail(f"{where} = {value!r}: must be a number, a string or a boolean")
+    return value
+
+
+def _values(sweep: Sweep, key: str, values: Any) -> tuple:
+    where = f"grid.{key}"
+    if not isinstance(values, (list, tuple)):
+        raise sweep.fail(f"{where} = {values!r}: must be an array of values, e.g. {key} = [{_toml(values) if _kind(values) else '0.5'}]")
+    if not values:
+        raise sweep.fail(f"{where} = []: empty grid; give at least one value")
+    kinds = {_kind(_scalar(sweep, f"{where}[{i}]", v)) for i, v in enumerate(values)}
+    if len(kinds) > 1:
+        raise sweep.fail(f"{where} = {list(values)!r}: mixes {', '.join(sorted(kinds))}; give values of one kind")
+    if kinds == {"number"} and any(isinstance(v, float) for v in values):
+        values = [float(v) for v in values]  # one column type, and one point id per value
+    return tuple(values)
+
+
+def _check_key(sweep: Sweep, where: str, key: str) -> None:
+    role = _key_role(key)
+    if role in ENGINE_NAMES and role not in sweep.engines:
+        raise sweep.fail(f"{where}: {key!r} is a {role} setting but {role} is not in engines = {list(sweep.engines)!r}")
+
+
+def _validate(sweep: Sweep) -> None:
+    """Normalize the fields in place (frozen: through object.__setattr__) and check every point."""
+    set_ = lambda name, value: object.__setattr__(sweep, name, value)  # noqa: E731
+    if not isinstance(sweep.scene, str) or not sweep.scene:
+        raise sweep.fail(f"scene = {sweep.scene!r}: must be a built-in scene ({', '.join(CATALOGUE)}) or a scene TOML path")
+    if sweep.scene not in CATALOGUE and Path(sweep.scene).exists():  # a file: the same one from any directory
+        set_("scene", str(Path(sweep.scene).resolve()))
+    engines = sweep.engines
+    if isinstance(engines, str) or not isinstance(engines, (list, tuple)) or not engines:
+        raise sweep.fail(f"engines = {engines!r}: must be a non-empty array of {', '.join(repr(e) for e in ENGINE_NAMES)}")
+    for e in engines:
+        if e not in ENGINE_NAMES:
+            raise sweep.fail(f"engines: {e!r} is not an engine; allowed: {', '.join(ENGINE_NAMES)}" + did_you_mean(str(e), ENGINE_NAMES))
+    if len(set(engines)) != len(engines):
+        raise sweep.fail(f"engines = {list(engines)!r}: lists an engine twice")
+    set_("engines", tuple(engines))
+    t = sweep.timeout
+    if isinstance(t, bool) or not isinstance(t, (int, float)) or not (t > 0 and math.isfinite(t)):
+        raise sweep.fail(f"timeout = {t!r}: must be a finite number of seconds > 0")
+    set_("timeout", float(t))
+    if not isinstance(sweep.description, str):
+        raise sweep.fail(f"description = {sweep.description!r}: must be a string")
+    for name in ("fixed", "grid", "tolerances"):
+        if not isinstance(getattr(sweep, name), Mapping):
+            raise sweep.fail(f"{'set' if name == 'fixed' else name} = {getattr(sweep, name)!r}: must be a table")
+    fixed = {k: _scalar(sweep, f"set.{k}", v) for k, v in flatten(sweep.fixed).items()}
+    grid = {k: _values(sweep, k, v) for k, v in flatten(sweep.grid).items()}
+    if isinstance(sweep.points, Mapping) or not isinstance(sweep.points, (list, tuple)):
+        raise sweep.fail(f"points = {sweep.points!r}: must be an array of tables ([[points]])")
+    points = []
+    for i, p in enumerate(sweep.points):
+        if not isinstance(p, Mapping):
+            raise sweep.fail(f"points[{i}] = {p!r}: must be a table of KEY = value")
+        flat = {k: _scalar(sweep, f"points[{i}].{k}", v) for k, v in flatten(p).items()}
+        if not flat:
+            raise sweep.fail(f"points[{i}]: empty; give at least one KEY = value")
+        points.append(flat)
+    if not grid and not points:
+        raise sweep.fail("no points: give a [grid] of KEY = [values] or [[points]] tables")
+    for where, keys in [("set", fixed), ("grid", grid)] + [(f"points[{i}]", p) for i, p in enumerate(points)]:
+        for k in keys:
+            _check_key(sweep, f"{where}.{k}", k)
+            if where != "set" and k in fixed:
+                raise sweep.fail(f"{where}.{k}: also in [set]; a key is either fixed or varied")
+    set_("fixed", fixed)
+    set_("grid", grid)
+    set_("points", tuple(points))
+    tol = flatten(sweep.tolerances)
+    try:
+        make_tolerances(tol)
+    except InputError as exc:  # ToleranceError: names the key and what is allowed
+        raise sweep.fail(str(exc)) from None
+    set_("tolerances", tol)
+    # every point's scene and settings, one key at a time first so the message names the key
+    _resolve(sweep, fixed, "[set]")
+    for k, values in grid.items():
+        for v in values:
+            _resolve(sweep, {**fixed, k: v}, f"grid.{k} = {_toml(v)}")
+    for i, p in enumerate(points):
+        _resolve(sweep, {**fixed, **p}, f"points[{i}]")
+    if len(grid) > 1:
+        for p in _grid_product(grid):
+            _resolve(sweep, {**fixed, **p}, "grid point " + ", ".join(f"{k} = {_toml(v)}" for k, v in p.items()))
+
+
+def _resolve(sweep: Sweep, params: Mapping[str, Any], where: str) -> dict[str, float]:
+    """Build the point's scene and each engine's settings; returns each engine's dt [s]."""
+    scene_over = {k: v for k, v in params.items() if _key_role(k) == "scene"}
+    try:
+        load_scene(sweep.scene, scene_over)
+        return {e: make_settings(e, params.get("dt"), {k: v for k, v in params.items() if _key_role(k) == e}).dt
+                for e in sweep.engines}
+    except InputError as exc:  # SettingsError too
+        raise sweep.fail(f"{where}: {exc}") from None
+
+
+def _grid_product(grid: Mapping[str, tuple]) -> Iterable[dict[str, Any]]:
+    keys = list(grid)
+    for combo in itertools.product(*(grid[k] for k in keys)):
+        yield dict(zip(keys, combo))
+
+
+def load_sweep(path: str | Path) -> Sweep:
+    """Read and fully validate a sweep spec file (format in the module docstring).
+
+    A scene given as a path is resolved relative to the spec file. Raises ``SpecError``.
+    """
+    path = Path(path)
+    where = f"sweep spec {str(path)!r}"
+    data = read_toml(path, where, SpecError)
+    for k in data:
+        if k not in SPEC_KEYS:
+            raise SpecError(f"{where}: {k}: unknown key; allowed: {', '.join(SPEC_KEYS)}" + did_you_mean(k, SPEC_KEYS))
+    if "scene" not in data:
+        raise SpecError(f"{where}: scene: missing; give a built-in scene ({', '.join(CATALOGUE)}) or a scene TOML path")
+    scene = data["scene"]
+    if isinstance(scene, str) and scene not in CATALOGUE:
+        scene_path = Path(scene)
+        if not scene_path.is_absolute():
+            scene_path = path.parent / scene_path
+        if scene_path.exists() or scene_path.suffix == ".toml":
+            scene = str(scene_path.resolve())
+    points = data.get("points", ())
+    return Sweep(
+        scene=scene, engines=data.get("engines", ENGINE_NAMES), fixed=data.get("set", {}), grid=data.get("grid", {}),
+        points=points if not isinstance(points, list) else tuple(points), timeout=data.get("timeout", DEFAULT_TIMEOUT),
+        tolerances=data.get("tolerances", {}), description=data.get("description", ""), source=str(path),
+    )
+
+
+def sweep_points(sweep: Sweep) -> list[dict[str, Any]]:
+    """Every point as ``{dotted key: value}`` ([set] merged in): grid product, then [[points]]; no repeats."""
+    seen, out = set(), []
+    for p in itertools.chain(_grid_product(sweep.grid) if sweep.grid else (), sweep.points):
+        full = {**sweep.fixed, **p}
+        key = json.dumps(full, sort_keys=True)
+        if key not in seen:
+            seen.add(key)
+            out.append(full)
+    return out
+
+
+def sweep_runs(sweep: Sweep) -> list[RunTask]:
+    """Every (point, engine) run in order, identical runs once (see the module docstring)."""
+    name = sweep.scene_name
+    runs: list[RunTask] = []
+    seen: set[str] = set()
+    for point in sweep_points(sweep):
+        dts = _resolve(sweep, point, "point")
+        for engine in sweep.engines:
+            params = {k: v for k, v in point.items() if _key_role(k) in ("dt", "scene", engine)}
+            pid = point_id(name, engine, params)
+            if pid in seen:
+                continue
+            seen.add(pid)
+            runs.append(RunTask(index=len(runs), point_id=pid, scene=sweep.scene, scene_name=name, engine=engine,
+                                params=tuple(params.items()), dt=dts[engine], timeout=sweep.timeout,
+                                tolerances=tuple(sweep.tolerances.items())))
+    return runs

@@ -1,0 +1,155 @@
+"""One run of a sweep, inside a worker: the run isolated in a child process, its row, or its failure row.
+
+    >>> from chatterbench.comparisons.studies.sweep.spec import load_sweep, sweep_runs
+    >>> result = run_task(sweep_runs(load_sweep("examples/sweeps/bouncing-ball-dt.toml"))[0])
+    >>> result.row["status"], result.row["engine"]
+    ('ok', 'mujoco')
+
+Every run goes through ``isolate.run_isolated`` inside the function submitted to the
+executor, so under a local process pool and under Dask alike a run that segfaults is a
+``crashed`` row, one past the timeout a ``timeout`` row, one that raises an ``error`` row.
+Runs go in units of a few runs of one engine (``work_units``); MuJoCo's compatible runs of
+a unit share one ``mujoco.rollout`` call, with the rows of runs made one by one, bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+from chatterbench.comparisons.pipeline.compare import compare
+from chatterbench.comparisons.pipeline.summary import failure_row, mass_ratio, summarize
+from chatterbench.comparisons.pipeline.tolerances import make_tolerances
+from chatterbench.comparisons.studies.isolate import run_isolated
+from chatterbench.engines.registry import can_batch, engine_version, make_settings, run_engine_batch
+from chatterbench.reference.scene import load_scene
+
+from .spec import RunTask
+
+_MESSAGE_CHARS = 4000  # a failure row keeps the end of a traceback, where the cause is
+
+_WARM: set = set()  # engine names and ("scene", scene) keys already warmed in this process
+_WARM_LOCK = threading.Lock()
+
+
+def _warm_up(task: RunTask) -> None:
+    """Once per worker process: load the task's engine and the reference's kernels for its scene.
+
+    Every run is a fork of the worker, so what is loaded here is loaded for all of them;
+    without it each run would pay the imports and numba's cache loading (~0.6 s). The
+    reference is run once on the task's own scene too: numba loads a compiled kernel the
+    first time a scene's code path calls it (~10 ms for feigin-pair after a ball warm-up),
+    and a forked run would otherwise pay that again every time.
+    """
+    with _WARM_LOCK:
+        todo = [key for key in (task.engine, ("scene", task.scene)) if key not in _WARM]
+        if not todo:
+            return
+        try:
+            if task.engine in todo:
+                compare(load_scene("bouncing-ball", {"duration": 0.6}), engines=(task.engine,), dt=1e-3)
+            if ("scene", task.scene) in todo:
+                compare(load_scene(task.scene, task.scene_overrides()), engines=())
+        except Exception:  # a warm-up failure is only slower runs; the runs report real errors
+            pass
+        _WARM.update(todo)
+
+
+def _compute_row(task: RunTask) -> dict[str, Any]:
+    """The row of one run (runs in the isolated child)."""
+    scene = load_scene(task.scene, task.scene_overrides())
+    result = compare(scene, engines=(task.engine,), dt=task.dt, overrides=task.engine_overrides(),
+                     tol=make_tolerances(dict(task.tolerances)))
+    return summarize(result, task.engine, dict(task.params))
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """A worker's answer: the row and what the run cost."""
+
+    index: int
+    row: dict[str, Any]
+    run_time: float  # [s] wall-clock of the isolated run, fork to result
+
+
+def run_task(task: RunTask) -> RunResult:
+    """The function submitted to the executor: one isolated run -> its row (never raises for the run)."""
+    _warm_up(task)
+    outcome = run_isolated(_compute_row, task, timeout=task.timeout)
+    if outcome.status == "ok":
+        row = outcome.value
+    else:
+        message = outcome.message if len(outcome.message) <= _MESSAGE_CHARS else "..." + outcome.message[-_MESSAGE_CHARS:]
+        try:
+            version = engine_version(task.engine)
+        except Exception:
+            version = ""
+        try:  # the spec was validated: the scene loads; the guard keeps a failure row whatever happens
+            mu = mass_ratio(load_scene(task.scene, task.scene_overrides()))
+        except Exception:
+            mu = math.nan
+        row = failure_row(task.scene_name, task.engine, dict(task.params), outcome.status, message, version, mu)
+        row["dt"] = task.dt
+    return RunResult(index=task.index, row=row, run_time=outcome.wall_time)
+
+
+def _compute_batch_rows(tasks: Sequence[RunTask]) -> list[dict[str, Any]]:
+    """The rows of runs of one engine, in one isolated child (MuJoCo: compatible runs in one rollout call)."""
+    scenes = [load_scene(t.scene, t.scene_overrides()) for t in tasks]
+    settings = [make_settings(t.engine, t.dt, t.engine_overrides()) for t in tasks]
+    trajectories = run_engine_batch(tasks[0].engine, list(zip(scenes, settings)))
+    rows = []
+    for task, scene, traj in zip(tasks, scenes, trajectories):
+        result = compare(scene, engines=(task.engine,), dt=task.dt, overrides=task.engine_overrides(),
+                         tol=make_tolerances(dict(task.tolerances)), trajectories={task.engine: traj})
+        rows.append(summarize(result, task.engine, dict(task.params)))
+    return rows
+
+
+def run_batch_task(tasks: Sequence[RunTask]) -> list[RunResult]:
+    """The function submitted for a unit of work (``work_units``): one isolated call for all -> their rows.
+
+    The batch's limit is the sum of its runs' limits. If the batch does not come back whole
+    (a run crashed, hung or raised, or a run's settings refuse the batch), every run of it
+    is run again alone through ``run_task``, so the faulty run is classified by itself and
+    the others get their rows. Each row's ``run_time`` is its share of the batch's time.
+    """
+    if len(tasks) == 1:
+        return [run_task(tasks[0])]
+    _warm_up(tasks[0])
+    outcome = run_isolated(_compute_batch_rows, list(tasks), timeout=sum(t.timeout for t in tasks))
+    if outcome.status != "ok":
+        return [run_task(t) for t in tasks]
+    share = outcome.wall_time / len(tasks)
+    return [RunResult(index=t.index, row=row, run_time=share) for t, row in zip(tasks, outcome.value)]
+
+
+MAX_BATCH = 8  # runs per unit of work by default: long enough to amortize, short enough to balance
+
+
+def work_units(runs: Sequence[RunTask], batch: int | None, slots: int) -> list[tuple[RunTask, ...]]:
+    """Group ``runs`` into units of work (one isolated child each), ordered by their first run.
+
+    A unit holds runs of one engine; for an engine that batches (MuJoCo) also of one ``dt``
+    and duration, and the worker rolls out together the ones whose compiled models are
+    compatible. Other engines' runs in a unit run one after another in the same child,
+    which saves a fork per run. Sizes: ``batch`` runs per unit, or by default guided
+    self-scheduling, ``remaining // (4 slots)`` clipped to [1, MAX_BATCH], so units
+    shrink towards the end of each group and no slot waits long for the last one.
+    ``batch = 1``: every run alone.
+    """
+    groups: dict[tuple, list[RunTask]] = {}
+    for r in runs:
+        key = (r.engine, r.dt, dict(r.params).get("duration")) if can_batch(r.engine) else (r.engine,)
+        groups.setdefault(key, []).append(r)
+    first_of: dict[int, tuple[RunTask, ...]] = {}
+    for g in groups.values():
+        i = 0
+        while i < len(g):
+            size = batch if batch is not None else max(1, min(MAX_BATCH, (len(g) - i) // (4 * max(1, slots))))
+            chunk = tuple(g[i:i + size])
+            first_of[chunk[0].index] = chunk
+            i += size
+    return [first_of[r.index] for r in runs if r.index in first_of]

@@ -1,0 +1,73 @@
+"""One command line: the same option names for the same things, a default in every help, one set of column names."""
+
+from __future__ import annotations
+
+import argparse
+
+import pytest
+
+from chatterbench.comparisons.cli import compare as compare_cli
+from chatterbench.comparisons.cli import tune as tune_cli
+from chatterbench.comparisons.cli.main import SUBCOMMANDS, build_parser, main
+from chatterbench.comparisons.outputs.report import SUMMARY_COLUMNS as REPORT_COLUMNS
+from chatterbench.comparisons.pipeline.summary import ROW_COLUMNS
+from chatterbench.comparisons.studies.tune import TUNE_COLUMNS
+
+# what each shared option means, and the subcommands that take it
+SHARED = {"--engines": "engines", "--dt": "timestep", "--set": "override", "--tolerance": "tolerance", "--out": "write"}
+
+
+def _subparsers() -> dict[str, argparse.ArgumentParser]:
+    parser = build_parser()
+    action = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return dict(action.choices)
+
+
+def test_every_subcommand_is_registered():
+    assert set(_subparsers()) == {"scenes", "run", "compare", "report", "gate", "platemap", "tune", "sweep", "chart", "bench"}
+    assert len(SUBCOMMANDS) == 10
+
+
+@pytest.mark.parametrize("name", sorted(_subparsers()))
+def test_every_option_says_its_default(name):
+    sub = _subparsers()[name]
+    formatter = sub.formatter_class(prog=sub.prog)
+    for action in sub._actions:
+        if not action.option_strings or action.dest == "help":
+            continue
+        text = formatter._get_help_string(action) or ""
+        assert action.help and ("default" in text or action.required), f"{name} {action.option_strings}: {text!r}"
+
+
+@pytest.mark.parametrize("option, meaning", SHARED.items())
+def test_shared_options_have_one_name_and_one_meaning(option, meaning):
+    takers = {n: p for n, p in _subparsers().items() if option in p._option_string_actions}
+    assert len(takers) >= 3, takers.keys()  # used in several subcommands ...
+    for name, p in takers.items():  # ... and meaning the same thing in each
+        action = p._option_string_actions[option]
+        assert meaning in (action.help or "") or (option == "--out" and action.metavar == "DIR"), (name, option)
+
+
+def test_no_subcommand_spells_the_engines_option_another_way():
+    for name, p in _subparsers().items():
+        singular = p._option_string_actions.get("--engine")
+        if singular is not None:  # an alias of --engines, never its own option
+            assert "--engines" in singular.option_strings, name
+
+
+def test_compare_report_tune_and_sweep_print_the_same_column_names():
+    summary = set(ROW_COLUMNS)
+    assert set(compare_cli.SUMMARY_SHOW) - {"engine"} <= summary
+    assert set(REPORT_COLUMNS) <= summary
+    own = {"stage", "settings", "timing_score"}  # tune's own: the candidate and its score
+    assert set(TUNE_COLUMNS) - own <= summary
+    assert set(tune_cli.SHOW) - own <= summary
+    # the episode table names its errors as the judge does
+    from chatterbench.comparisons.pipeline.compare import COLUMNS
+
+    assert set(compare_cli.EPISODE_SHOW) <= set(COLUMNS)
+
+
+def test_tune_takes_one_engine(capsys):
+    assert main(["tune", "bouncing-ball", "--engines", "mujoco,pybullet", "--tolerance", "0.05"]) == 2
+    assert "one engine" in capsys.readouterr().err

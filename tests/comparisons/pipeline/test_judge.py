@@ -1,0 +1,202 @@
+"""The judge against the real engines and the exact reference: known answers both ways.
+
+The exact reference, sampled like an engine, must be a match everywhere; an engine given the
+wrong restitution must be caught; nothing may depend on the run's length or on the
+extraction's internal thresholds beyond the cases named (with their physical reason) below.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+
+import pytest
+
+from chatterbench.comparisons import Tolerances, compare, reference_trajectory
+from chatterbench.comparisons.ci.checks import run_check
+from chatterbench.comparisons.ci.gate import limits_from_keywords, make_check
+from chatterbench.comparisons.pipeline.extract import ExtractionOptions
+from chatterbench.comparisons.pipeline.judge import ERROR_COLUMNS
+from chatterbench.comparisons.pipeline.solution import solve
+from chatterbench.comparisons.pipeline.vocabulary import combine
+from chatterbench.engines.registry import make_settings, run_engine
+from chatterbench.reference.catalogue import CATALOGUE
+from chatterbench.reference.scene import load_scene
+
+SCENES = tuple(CATALOGUE)
+DTS = (1e-3, 3e-4, 1e-4)
+
+
+@functools.cache
+def _solution(name: str):
+    return solve(load_scene(name))
+
+
+@pytest.mark.parametrize("name", SCENES)
+@pytest.mark.parametrize("dt", DTS)
+def test_the_exact_reference_sampled_like_an_engine_matches_everywhere(name, dt):
+    ref = _solution(name)
+    known = reference_trajectory(ref.scene, dt, ref.exhaustive)
+    c = compare(ref.scene, engines=("mujoco", "pybullet"), trajectories={"mujoco": known, "pybullet": known},
+                solution=ref)
+    assert len(c.table) == 2 * len(ref.episodes) > 0
+    assert (c.table["verdict"] == "match").all(), c.table[["engine", "wall", "verdict", *ERROR_COLUMNS]]
+    # and it is judged the same whichever engine it is labelled as: nothing engine-specific is read
+    a, b = (c.table[c.table["engine"] == e].drop(columns="engine").reset_index(drop=True) for e in ("mujoco", "pybullet"))
+    assert a.drop(columns="cost_per_sim_s").equals(b.drop(columns="cost_per_sim_s"))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", SCENES)
+@pytest.mark.parametrize("factor", [0.9, 1.1])
+def test_pybullet_with_the_wrong_restitution_is_caught(name, factor):
+    # PyBullet applies R exactly at every impact; run with R x 0.9 or x 1.1 and judged against
+    # the scene's R, its resolved impacts are 10% off and its chatter ends early or late
+    ref = _solution(name)
+    wrong = dataclasses.replace(ref.scene, restitution=ref.scene.restitution * factor)
+    traj = run_engine("pybullet", wrong, make_settings("pybullet", 1e-4))
+    c = compare(ref.scene, engines=("pybullet",), trajectories={"pybullet": traj}, solution=ref)
+    assert not (c.table["verdict"] == "match").all(), c.table[["wall", "verdict"]]
+    judged = c.table.dropna(subset=["restitution_error"])
+    assert len(judged) and ((judged["restitution_error"] - (factor - 1)).abs() < 0.02).all()
+
+
+def test_nothing_depends_on_the_runs_duration():
+    # the tolerances come from each visit (chatter 0.903 s), not from the run (2 s or 3 s)
+    rows = []
+    for duration in (2.0, 3.0):
+        c = compare(load_scene("bouncing-ball", [f"duration={duration}"]), engines=("mujoco",), dt=1e-4)
+        assert len(c.table) == 1
+        rows.append(c.table.iloc[0])
+    for col in ("verdict", "resolved_impacts", "ref_resolved_impacts"):
+        assert rows[0][col] == rows[1][col], col
+    # the same engine samples give the same numbers; the reference's Zeno point may differ in
+    # its last bit between the two runs (its chase is a sum over ~30 impacts)
+    for col in ("t_stick", "stick_error_zeno", "stick_error_rel", "restitution_error", "penetration_max"):
+        assert rows[0][col] == pytest.approx(rows[1][col], rel=1e-12, abs=1e-15), col
+
+
+def test_a_failed_run_never_agrees_and_fails_a_gate(monkeypatch):
+    # 0.3 s of the ball: it has not reached the floor, the reference has no episode to judge
+    scene = load_scene("bouncing-ball", ["duration=0.3"])
+    ok = compare(scene, engines=("pybullet",), dt=1e-3)
+    assert ok.summary()["verdict"].tolist() == ["none"]
+    monkeypatch.setenv("CHATTERBENCH_FAULT", "raise:pybullet")  # the test-only fault hook, engines/faults.py
+    failed = compare(scene, engines=("pybullet",), dt=1e-3)
+    assert failed.runs["pybullet"].status == "error"
+    assert failed.table["verdict"].tolist() == ["error"] and failed.summary()["verdict"].tolist() == ["error"]
+    # a gate that accepts "no sliding" does not accept a run that failed to say anything ...
+    check = make_check(scene, "pybullet", limits_from_keywords(verdict=["match", "none"]), dt=1e-3)
+    assert not run_check(check).passed
+    # ... nor does a gate without any verdict limit; only naming the failure accepts it
+    check = make_check(scene, "pybullet", limits_from_keywords(n_episodes=0), dt=1e-3)
+    assert not run_check(check).passed
+    check = make_check(scene, "pybullet", limits_from_keywords(verdict=["none", "error"]), dt=1e-3)
+    assert run_check(check).passed
+
+
+def test_a_missed_episode_still_counts_the_engines_impacts():
+    # MuJoCo at its defaults on the impact damper: the soft contact bounces through the first
+    # visits without sticking; the impacts it made there are counted all the same
+    c = compare(load_scene("impact-damper"), engines=("mujoco",), dt=1e-4)
+    missed = c.table[c.table["verdict"] == "missed"]
+    assert len(missed) >= 2
+    assert (missed["n_impacts"] >= 3).all()
+
+
+def test_penetration_is_judged_against_the_scene_not_the_engine():
+    # at dt = 1e-3 MuJoCo's default contact is w0 = 30 rad/s: a 1.2 m/s strike sinks about
+    # v / w0 = 35 mm into the 40 mm cavity; the allowance is 10% of the gap for every engine
+    c = compare(load_scene("impact-damper"), engines=("mujoco", "pybullet"), dt=1e-3)
+    mj, pb = (c.table[c.table["engine"] == e] for e in ("mujoco", "pybullet"))
+    assert c.runs["mujoco"].t_penetrated == c.runs["mujoco"].t_penetrated  # measured, not NaN
+    assert "penetrated" in set(mj["verdict"]) and mj["penetration_max"].max() > 0.004
+    assert "penetrated" not in set(pb["verdict"]) and pb["penetration_max"].max() < 0.004
+
+
+def test_the_summary_combines_by_severity():
+    c = compare(load_scene("impact-damper"), engines=("mujoco",), dt=1e-4)
+    assert c.summary()["verdict"].iloc[0] == combine(c.table["verdict"])
+
+
+# -- robustness: every internal threshold of the extraction x 10 and / 10 ------------------
+
+# Where a verdict flips, and why (measured on this code; the closing note of the judge issue
+# lists the same cases):
+#   floor/10  the sampling floor (4 steps -> 0.4) falls below a rigid engine's resting hops
+#             (one impulse every third step, flights of ~2 steps): they count as bounces again
+#   soft      a soft or coarse engine sticks gradually, one shrinking bounce after another with
+#             a long contact between, so its sticking start moves with the band that says
+#             "stuck" (x 10 in band is x 100 in height): where it is within about one tolerance
+#             of the limit, the verdict follows the band
+#   floor x10 a 40-step floor is 40 ms at dt = 1e-3, longer than the impact damper's last
+#             flights that matter (its chatter lasts 0.1 s)
+#   resolved  resolved_steps x 10 leaves only MuJoCo's fast impacts to judge, which follow R
+#   end       MuJoCo at dt = 1e-3 (w0 = 30 rad/s) sticks 0.86 s late: in the run's last visit it
+#             is still bouncing when the data end (missed); a wider band ends its bouncing in
+#             time (late). Both fail.
+ALLOWED_FLIPS = {
+    ("feigin-pair", "pybullet", 1e-3, "floor_steps/10"): "floor/10",
+    ("impact-damper", "pybullet", 1e-3, "floor_steps/10"): "floor/10",
+    ("impact-damper", "pybullet", 3e-4, "floor_steps/10"): "floor/10",
+    ("impact-damper", "pybullet", 1e-4, "floor_steps/10"): "floor/10",
+    ("spring-pair", "pybullet", 1e-3, "floor_steps/10"): "floor/10",
+    ("spring-pair", "pybullet", 3e-4, "floor_steps/10"): "floor/10",
+    ("feigin-pair", "mujoco", 1e-3, "floor_steps/10"): "floor/10",
+    ("impact-damper", "mujoco", 1e-4, "floor_steps/10"): "floor/10",
+    ("bouncing-ball", "mujoco", 1e-4, "band/10"): "soft",
+    ("feigin-pair", "mujoco", 1e-4, "band/10"): "soft",
+    ("impact-damper", "mujoco", 1e-4, "band x10"): "soft",
+    ("impact-damper", "mujoco", 1e-4, "floor_steps x10"): "soft",
+    ("spring-pair", "mujoco", 3e-4, "floor_steps x10"): "soft",
+    ("spring-pair", "mujoco", 1e-4, "band x10"): "soft",
+    ("spring-pair", "mujoco", 1e-4, "floor_steps x10"): "soft",
+    ("impact-damper", "pybullet", 3e-4, "band x10"): "soft",
+    ("impact-damper", "pybullet", 3e-4, "floor_steps x10"): "soft",
+    ("impact-damper", "pybullet", 1e-3, "floor_steps x10"): "floor x10",
+    ("impact-damper", "mujoco", 1e-3, "floor_steps x10"): "floor x10",
+    ("impact-damper", "reference", 1e-3, "floor_steps x10"): "floor x10",
+    ("bouncing-ball", "mujoco", 1e-4, "resolved_steps x10"): "resolved",
+    ("feigin-pair", "mujoco", 1e-3, "band x10"): "end",
+    ("feigin-pair", "mujoco", 1e-3, "floor_steps x10"): "end",
+}
+
+
+def _variants():
+    base = ExtractionOptions()
+    for f in dataclasses.fields(ExtractionOptions):
+        for k, label in ((10.0, "x10"), (0.1, "/10")):
+            yield f"{f.name}{' ' if label == 'x10' else ''}{label}", dataclasses.replace(base, **{f.name: getattr(base, f.name) * k}), Tolerances()
+    for k, label in ((10.0, " x10"), (0.1, "/10")):
+        steps = Tolerances().resolved_steps * k
+        if steps > 1:
+            yield f"resolved_steps{label}", base, Tolerances(resolved_steps=steps)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", SCENES)
+def test_verdicts_do_not_follow_the_extractions_internal_thresholds(name):
+    ref = _solution(name)
+    flips = []
+    for dt in DTS:
+        runs = {"reference": reference_trajectory(ref.scene, dt, ref.exhaustive)}
+        for engine in ("mujoco", "pybullet"):
+            runs[engine] = run_engine(engine, ref.scene, make_settings(engine, dt))
+        for label_engine, traj in runs.items():
+            base = compare(ref.scene, engines=("mujoco",), trajectories={"mujoco": traj}, solution=ref)
+            for label, options, tol in _variants():
+                varied = compare(ref.scene, engines=("mujoco",), trajectories={"mujoco": traj}, solution=ref,
+                                 options=options, tol=tol)
+                if varied.table["verdict"].tolist() != base.table["verdict"].tolist():
+                    flips.append((name, label_engine, dt, label))
+    unexpected = [f for f in flips if f not in ALLOWED_FLIPS]
+    assert not unexpected, unexpected
+
+
+def test_a_run_that_ends_in_the_middle_of_a_bounce_is_not_a_stick():
+    # 0.455 s of the ball: MuJoCo's soft contact is in the middle of the first bounce (it began
+    # at 0.4515 s and lasts ~10 ms) when the data end. Found while building the judge: a
+    # contact the data end in was taken for sticking, a spurious episode at the end of the run.
+    c = compare(load_scene("bouncing-ball", ["duration=0.455"]), engines=("mujoco",), dt=1e-4)
+    assert c.runs["mujoco"].trajectory.contact["lower"][-1]  # the data do end in contact
+    assert c.table.empty and c.summary()["verdict"].tolist() == ["none"]
