@@ -1,7 +1,16 @@
 """A sweep's dataset: one row per run (``pipeline.summary.ROW_COLUMNS`` + parameters), in Parquet parts.
 
-    >>> rows = read_rows("out/sweep-ball")            # every finished part, one row per run
-    >>> rows = load_rows("out/sweep-ball")            # a finished sweep: rows.parquet (or a .parquet / .csv file)
+    >>> rows = read_rows(tmp)                          # every finished part under tmp/rows/, one row per run
+    >>> rows.empty                                     # (no part written yet)
+    True
+    >>> pd.DataFrame({"engine": ["mujoco"], "dt": [1e-4], "verdict": ["late"],
+    ...               "cost_per_sim_s": [0.02]}).to_csv(tmp / "rows.csv", index=False)
+    >>> load_rows(tmp / "rows.csv").verdict.tolist()   # a finished sweep dir (rows.parquet), .parquet or .csv
+    ['late']
+    >>> load_rows(tmp / "missing")
+    Traceback (most recent call last):
+    ...
+    chatterbench.comparisons.studies.sweep.dataset.DatasetError: .../missing: no such file or directory
 
 Rows reach ``OUT/rows/part-*.parquet`` as runs finish, each part written atomically; the
 finished sweep writes ``OUT/rows.parquet`` (all rows in run order). Columns have fixed
