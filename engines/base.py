@@ -71,6 +71,7 @@ class EngineAdapter(abc.ABC):
     package: str  # the distribution whose version is reported
     settings_type: type  # a frozen dataclass with a ``dt`` field [s]
     batches: bool = False  # does run_batch do better than one run after another?
+    bytes_per_step: float = 500.0  # [B] memory a run holds per step, samples and engine state (measured per engine)
 
     @abc.abstractmethod
     def build(self, scene: Scene, settings: Any) -> Any:

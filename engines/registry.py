@@ -19,8 +19,9 @@ from typing import Any, Sequence
 from chatterbench.reference.errors import did_you_mean
 from chatterbench.reference.scene import Scene
 
-from .base import EngineAdapter
+from .base import EngineAdapter, failed_trajectory
 from .faults import inject_planned
+from .isolate import run_isolated
 from .settings import SettingsError, settings_with_overrides
 from .trajectory import Trajectory
 
@@ -65,6 +66,20 @@ def run_engine(name: str, scene: Scene, settings: Any) -> Trajectory:
     (but for the test-only faults of ``faults.py``, injected first)."""
     inject_planned(name, scene)
     return adapter(name).run(scene, settings)
+
+
+def run_engine_isolated(name: str, scene: Scene, settings: Any, timeout: float) -> Trajectory:
+    """``run_engine`` in a forked child with a wall-clock limit ``timeout`` [s] (``isolate.run_isolated``).
+
+    The caller's process is never touched: an engine that dies (SIGSEGV, out of memory) comes
+    back as a trajectory with status ``crashed``, one that runs past ``timeout`` as ``timeout``,
+    one that raises as ``error``; the message says which, and other results are kept.
+    """
+    outcome = run_isolated(run_engine, name, scene, settings, timeout=timeout)
+    if outcome.status == "ok":
+        return outcome.value
+    message = outcome.message.strip().splitlines()[0] if outcome.message.strip() else outcome.status
+    return failed_trajectory(name, scene, outcome.status, message, settings_dict(settings), outcome.wall_time)
 
 
 def run_engine_batch(name: str, jobs: Sequence[tuple[Scene, Any]]) -> list[Trajectory]:

@@ -31,6 +31,16 @@ def did_you_mean(name: str, allowed: Sequence[str]) -> str:
     return f" (did you mean {close[0]!r}?)" if close else ""
 
 
+def shown(value: Any, limit: int = 40) -> str:
+    """``repr(value)`` for a message, shortened in the middle past ``limit`` characters.
+
+    >>> shown(10**60)
+    '1000000000000...00000000 (61 characters)'
+    """
+    text = repr(value)
+    return text if len(text) <= limit else f"{text[:13]}...{text[-8:]} ({len(text)} characters)"
+
+
 def is_number(value: Any) -> bool:
     """A real number that is not a bool (TOML and JSON give ``True`` where a number was meant)."""
     return isinstance(value, (int, float)) and not isinstance(value, bool)
@@ -54,17 +64,17 @@ def check_number(where: str, value: Any, lo: float | None = None, hi: float | No
     ``unit`` (``" [s]"``) is appended to the allowed range in the message.
     """
     if not is_number(value):
-        raise error(f"{where} = {value!r}: must be a number")
+        raise error(f"{where} = {shown(value)}: must be a number")
     try:
         v = float(value)
     except OverflowError:
-        raise error(f"{where} = {value!r}: too large; must be {describe_range(lo, hi, lo_open, hi_open)}{unit}") from None
+        raise error(f"{where} = {shown(value)}: too large; must be {describe_range(lo, hi, lo_open, hi_open)}{unit}") from None
     if not math.isfinite(v):
-        raise error(f"{where} = {value!r}: must be a finite number")
+        raise error(f"{where} = {shown(value)}: must be a finite number")
     low = lo is not None and (v <= lo if lo_open else v < lo)
     high = hi is not None and (v >= hi if hi_open else v > hi)
     if low or high:
-        raise error(f"{where} = {value!r}: must be {describe_range(lo, hi, lo_open, hi_open)}{unit}")
+        raise error(f"{where} = {shown(value)}: must be {describe_range(lo, hi, lo_open, hi_open)}{unit}")
     return v
 
 
@@ -73,19 +83,19 @@ def check_integer(where: str, value: Any, lo: int | None = None, hi: int | None 
     """``value`` if it is an integer (not a bool) in [lo, hi], else ``error`` naming ``where``."""
     if isinstance(value, bool) or not isinstance(value, int) or (lo is not None and value < lo) or (hi is not None and value > hi):
         allowed = "an integer" + (f" {describe_range(lo, hi)}" if lo is not None or hi is not None else "")
-        raise error(f"{where} = {value!r}: must be {allowed}")
+        raise error(f"{where} = {shown(value)}: must be {allowed}")
     return value
 
 
 def check_bool(where: str, value: Any, error: type[InputError] = InputError) -> bool:
     """``value`` if it is ``True`` or ``False``, else ``error`` naming ``where``."""
     if not isinstance(value, bool):
-        raise error(f"{where} = {value!r}: must be true or false")
+        raise error(f"{where} = {shown(value)}: must be true or false")
     return value
 
 
 def check_choice(where: str, value: Any, allowed: Sequence[str], error: type[InputError] = InputError) -> str:
     """``value`` if it is one of ``allowed``, else ``error`` with the list and the nearest name."""
     if value not in allowed:
-        raise error(f"{where} = {value!r}: must be one of {', '.join(map(str, allowed))}" + did_you_mean(str(value), allowed))
+        raise error(f"{where} = {shown(value)}: must be one of {', '.join(map(str, allowed))}" + did_you_mean(str(value), allowed))
     return value

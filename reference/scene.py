@@ -187,6 +187,11 @@ class Initial:
             _finite(f"initial.{name}", getattr(self, name))
 
 
+# a run's duration spans at least this many float spacings at its start and end times, so that
+# event times resolve to 1e-9 of the duration (initial.t up to about 4.5e6 x duration)
+TIME_RESOLUTION = 1e9
+
+
 @dataclass(frozen=True)
 class Scene:
     """A validated two-mass scene (see the module docstring for the model and signs)."""
@@ -214,6 +219,11 @@ class Scene:
             raise SceneError(f"restitution = {r!r}: must be in [0, 1)")
         object.__setattr__(self, "restitution", r)
         object.__setattr__(self, "duration", _positive("duration", self.duration))
+        t_end = self.initial.t + self.duration  # times are floats: the run's span must resolve at its start
+        if not self.duration >= TIME_RESOLUTION * math.ulp(max(abs(self.initial.t), abs(t_end))):
+            raise SceneError(f"initial.t = {self.initial.t!r}: too far from 0 for a run of duration {self.duration:g} s "
+                             f"(times near it are spaced {math.ulp(abs(self.initial.t)):.3g} s apart); keep |initial.t| "
+                             f"below {self.duration / TIME_RESOLUTION / 2.2e-16:.3g} s")
         object.__setattr__(self, "forces", tuple(self.forces))
         for f in self.forces:
             if not isinstance(f, Force):
@@ -385,15 +395,18 @@ def parse_value(text: str) -> Any:
     """Parse the right-hand side of ``--set key=value`` as a TOML value (bare words stay strings)."""
     text = text.strip()
     try:
-        return tomllib.loads(f"v = {text}")["v"]
-    except tomllib.TOMLDecodeError:
+        table = tomllib.loads(f"v = {text}")
+    except (tomllib.TOMLDecodeError, ValueError):  # ValueError: an integer past Python's 4300 digits
         return text
+    return table["v"] if len(table) == 1 else text
 
 
 def split_assignment(item: str) -> tuple[str, Any]:
     """Split ``"a.b=value"`` into ``("a.b", parsed value)``; raises SceneError when malformed."""
     if "=" not in item:
         raise SceneError(f"--set {item!r}: expected KEY=VALUE, e.g. restitution=0.8")
+    if any(c in item for c in "\n\r\v\f\x00"):
+        raise SceneError(f"--set {item!r}: one KEY=VALUE per --set, on one line (a line break or NUL is in it)")
     key, _, value = item.partition("=")
     key = key.strip()
     if not key:
@@ -422,7 +435,7 @@ def apply_overrides(data: Mapping[str, Any], overrides: Sequence[str] | Mapping[
             out[parts[0]] = value
         elif parts[0] == "forces":
             forces = out.get("forces", [])
-            if len(parts) != 3 or not parts[1].isdigit() or int(parts[1]) >= len(forces):
+            if len(parts) != 3 or not (parts[1].isascii() and parts[1].isdigit()) or int(parts[1]) >= len(forces):
                 raise SceneError(f"--set {key}: forces are addressed as forces.N.param with N in 0..{len(forces) - 1}")
             forces[int(parts[1])] = {**forces[int(parts[1])], parts[2]: value}
         elif parts[0] in _SECTION_KEYS and len(parts) == 2:

@@ -50,3 +50,5 @@ def read_toml(path: str | Path, what: str, error: type[InputError] = InputError)
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise error(f"{what}: not valid TOML ({exc})") from None
+    except ValueError as exc:  # an integer past Python's limit of 4300 digits
+        raise error(f"{what}: a number too long to read ({str(exc).splitlines()[0]})") from None

@@ -30,6 +30,9 @@ import pytest
 from chatterbench.comparisons.cli.main import main
 
 FILE = "bad.toml"  # argv placeholder for the case's scene file
+AFILE, ADIR = "afile", "adir"  # in every scratch directory: a file where a directory is wanted, and the reverse
+CSV = "bad.csv"  # argv placeholder for a case's dataset (chart, report --sweep)
+ROWS = "engine,dt,verdict,cost_per_sim_s,restitution\nmujoco,0.0001,match,0.02,0.5\npybullet,0.0001,late,0.2,0.5\n"
 
 GOOD_FILE = """\
 name = "pair"
@@ -198,31 +201,124 @@ CASES: list[tuple[str, str, list[str], str | None, tuple[str, ...]]] = [
     ("toml-empty", "empty file", ["run", FILE], "", ("mass1", "missing")),
     ("set-no-eq", "--set without '='", ["run", "feigin-pair", "--set", "restitution"], None, ("--set", "KEY=VALUE")),
     ("set-empty-key", "--set with an empty key", ["run", "feigin-pair", "--set", "=0.5"], None, ("--set", "empty key")),
+    ("set-newline", "two assignments in one --set (a line break)", ["run", "feigin-pair", "--set", "restitution=0.3\nmass2=3"],
+     None, ("--set", "one KEY=VALUE")),
+    ("set-superscript", "a force index that is not an ASCII digit", ["run", "feigin-pair", "--set", "forces.\u00b2.amplitude=1"],
+     None, ("forces.N.param",)),
+    # runaway inputs: estimated from the inputs and refused before anything runs (pipeline/budget.py)
+    ("dt=1e-7", "4e8 MuJoCo steps", ["run", "feigin-pair", "--engine", "mujoco", "--dt", "1e-7"], None,
+     ("dt = 1e-07", "4.02e+08 steps", "--max-steps")),
+    ("duration=1e5-engine", "1e9 MuJoCo steps", ["run", "feigin-pair", "--engine", "mujoco", "--set", "duration=1e5"], None,
+     ("duration = 1e+05", "--max-steps", "GiB")),
+    ("dt=1e-300", "a timestep that overflows the step count", ["run", "feigin-pair", "--engine", "mujoco", "--dt", "1e-300"],
+     None, ("dt = 1e-300", "steps")),
+    ("pybullet-dt=1e-12", "4e13 PyBullet steps", ["run", "feigin-pair", "--engine", "pybullet", "--dt", "1e-12"], None,
+     ("dt = 1e-12", "--max-memory")),
+    ("pybullet-duration=1e9", "1e13 PyBullet steps", ["run", "feigin-pair", "--engine", "pybullet", "--set", "duration=1e9"],
+     None, ("duration = 1e+09", "--max-steps")),
+    ("compare-duration=1e6", "a million-second comparison", ["compare", "feigin-pair", "--set", "duration=1e6"], None,
+     ("duration = 1e+06", "--max-steps")),
+    ("reference-duration=1e6", "a reference run of 1.6e5 forcing periods", ["run", "feigin-pair", "--set", "duration=1e6"],
+     None, ("the reference", "duration = 1e+06", "events", "--max-memory")),
+    ("platemap-huge", "a 1e10-strike plate map", ["platemap", "feigin-pair", "--phases", "100000", "--speeds", "100000"], None,
+     ("--phases 100000", "--speeds 100000", "GiB", "--max-memory")),
+    ("--max-memory 0.01", "a memory limit below a process's own size", ["run", "feigin-pair", "--max-memory", "0.01"], None,
+     ("--max-memory", ">=")),
+    # numbers that cannot be represented
+    ("initial.t=1e20", "a start time where the run's span cannot be told apart", ["run", "feigin-pair", "--set", "initial.t=1e20"],
+     None, ("initial.t = 1e+20", "keep |initial.t| below")),
+    ("initial.t=1e12-compare", "a start time where the engine's steps cannot be told apart",
+     ["compare", "feigin-pair", "--engines", "pybullet", "--set", "initial.t=1e12"], None, ("initial.t",)),
+    ("mass2-5000-digits", "a 5000-digit integer in --set", ["run", "feigin-pair", "--set", "mass2=" + "1" * 5000], None,
+     ("mass2", "characters)", "number")),
+    ("mass2-5000-digits-file", "a 5000-digit integer in a scene file", ["run", FILE],
+     _file(**{"mass2 = 1.0": "mass2 = " + "1" * 5000}), ("too long",)),
+    ("mass2-400-digits", "a 400-digit mass", ["run", "feigin-pair", "--set", "mass2=" + "1" * 400], None,
+     ("mass2", "too large", "characters)")),
+    ("mujoco-mass2=1e-300", "a mass MuJoCo's compiler refuses", ["run", "feigin-pair", "--engine", "mujoco", "--set", "mass2=1e-300"],
+     None, ("MuJoCo cannot build", "mass2 = 1e-300")),
+    # flags that would be ignored or contradict each other
+    ("run-dt-reference", "--dt on a reference run", ["run", "feigin-pair", "--dt", "1e-3"], None, ("--dt", "--engines")),
+    ("run-export-reference", "--export-model on a reference run", ["run", "feigin-pair", "--export-model", "m.xml"], None,
+     ("--export-model", "--engines")),
+    ("run-chatter-engine", "--chatter on an engine run", ["run", "feigin-pair", "--engine", "pybullet", "--chatter", "exhaustive"],
+     None, ("--chatter",)),
+    ("engines-repeated", "the same engine twice", ["compare", "feigin-pair", "--engines", "pybullet,pybullet"], None,
+     ("--engines", "more than once")),
+    ("tune-two-engines", "tune given two engines", ["tune", "feigin-pair", "--engine", "pybullet,mujoco"], None,
+     ("--engines", "one engine")),
+    ("platemap-dt-no-engine", "--dt on a plate map without engines", ["platemap", "feigin-pair", "--dt", "1e-3"], None,
+     ("--dt", "--engines")),
+    ("--timeout 1e300", "an engine time limit past a day", ["compare", "feigin-pair", "--timeout", "1e300"], None,
+     ("--timeout", "one day")),
+    # output destinations: checked before anything runs (cli/paths.py)
+    ("run --out afile", "--out names a file", ["run", "feigin-pair", "--out", AFILE], None, ("--out afile", "not a directory")),
+    ("compare --out afile", "--out names a file", ["compare", "bouncing-ball", "--engines", "pybullet", "--out", AFILE], None,
+     ("--out afile", "not a directory")),
+    ("platemap --out afile", "--out names a file", ["platemap", "feigin-pair", "--out", AFILE], None, ("--out afile",)),
+    ("report --out afile", "--out names a file (before: every simulation ran first)", ["report", "--out", AFILE], None,
+     ("--out afile", "not a directory")),
+    ("tune --out afile", "--out names a file", ["tune", "bouncing-ball", "--engine", "pybullet", "--out", AFILE], None,
+     ("--out afile",)),
+    ("sweep --out afile", "--out names a file", ["sweep", FILE, "--out", AFILE],
+     'scene = "bouncing-ball"\n[grid]\ndt = [1e-3]\n', ("--out afile",)),
+    ("chart --out afile", "--out names a file", ["chart", CSV, "--kind", "work-precision", "--out", AFILE], ROWS,
+     ("--out afile",)),
+    ("--out under a file", "--out inside a file", ["compare", "bouncing-ball", "--out", AFILE + "/sub"], None,
+     ("--out afile/sub", "is not a directory")),
+    ("--events adir", "--events names a directory", ["run", "feigin-pair", "--engine", "mujoco", "--events", ADIR], None,
+     ("--events adir", "is a directory")),
+    ("--export-model adir", "--export-model names a directory", ["run", "feigin-pair", "--engine", "mujoco",
+                                                                 "--export-model", ADIR], None, ("--export-model adir",)),
+    ("--junit adir", "--junit names a directory", ["gate", FILE, "--junit", ADIR],
+     '[[check]]\nscene = "bouncing-ball"\nengine = "pybullet"\nlimits = ["verdict == match"]\n', ("--junit adir",)),
+    # datasets (chart, report --sweep): only the judge's verdicts, numbers where numbers belong
+    ("dataset-verdict", "a verdict the judge does not have", ["chart", CSV, "--kind", "work-precision"],
+     ROWS.replace("late", "slipped"), ("column verdict", "'slipped'", "allowed")),
+    ("dataset-text-cost", "text in the cost column", ["chart", CSV, "--kind", "work-precision"],
+     ROWS.replace("0.2,", "slow,"), ("column cost_per_sim_s", "'slow'", "not a number")),
+    ("report-dataset-verdict", "report --sweep with an unknown verdict", ["report", "bouncing-ball", "--sweep", CSV],
+     ROWS.replace("late", "slipped"), ("column verdict",)),
+    ("gate-unclosed-list", "a verdict list without its closing bracket", ["gate", FILE],
+     '[[check]]\nscene = "bouncing-ball"\nengine = "pybullet"\nlimits = ["verdict in [match"]\n', ("bracketed list",)),
 ]
 
 
 @contextmanager
-def _scratch(content: str | None):
-    """A scratch working directory holding ``bad.toml`` (when there is content)."""
+def _scratch(content: str | None, name: str = FILE):
+    """A scratch working directory holding ``afile``, ``adir/`` and file ``name`` (when there is content)."""
     old = os.getcwd()
     with tempfile.TemporaryDirectory() as tmp:
+        Path(tmp, AFILE).write_text("a file\n")
+        Path(tmp, ADIR).mkdir()
         if content is not None:
-            Path(tmp, FILE).write_text(content)
+            Path(tmp, name).write_text(content)
         os.chdir(tmp)
         try:
-            yield
+            yield Path(tmp)
         finally:
             os.chdir(old)
 
 
+def _tree(root: Path) -> set[str]:
+    return {str(p.relative_to(root)) for p in root.rglob("*")}
+
+
 def run_cli(argv: list[str], content: str | None) -> tuple[int, str]:
-    """Run the CLI in-process in a scratch directory; returns (exit code, stderr)."""
+    """Run the CLI in-process in a scratch directory; returns (exit code, stderr).
+
+    A refusal writes nothing: the scratch directory must hold what it held before.
+    """
     out, err = io.StringIO(), io.StringIO()
-    with _scratch(content), redirect_stdout(out), redirect_stderr(err):
+    with _scratch(content, CSV if CSV in argv else FILE) as tmp, redirect_stdout(out), redirect_stderr(err):
+        before = _tree(tmp)
         try:
             code = main(list(argv))
         except SystemExit as exc:  # argparse's refusals
             code = exc.code
+        left = _tree(tmp) - before
+    if code == 2:
+        assert not left, f"{argv}: refused, but left {sorted(left)}"
     return code, err.getvalue()
 
 
@@ -313,7 +409,7 @@ def markdown() -> str:
         "scene (`GOOD_FILE` in the test module) with the lines shown added (+) or removed (-). Messages from",
         "argparse (`--dt`, `--chatter`, `--engine`) name the subcommand and point to its `--help`.",
         "",
-        "| case | what is wrong | command | `bad.toml` | message (exit code) |",
+        "| case | what is wrong | command | `bad.toml` or `bad.csv` | message (exit code) |",
         "|---|---|---|---|---|",
     ]
     for cid, what, argv, content, _ in CASES:

@@ -20,9 +20,11 @@ from typing import Any, Callable, Mapping
 
 import pandas as pd
 
+from chatterbench.comparisons.pipeline.budget import Budget, check_comparison
 from chatterbench.comparisons.pipeline.compare import compare
 from chatterbench.comparisons.pipeline.summary import summarize
 from chatterbench.comparisons.pipeline.vocabulary import FAILURES
+from chatterbench.engines.registry import make_settings
 
 from .gate import TEXT_METRICS, Check, Gate, Limit
 
@@ -106,28 +108,42 @@ def fmt_value(v: Any) -> str:
 
 
 
-def run_check(check: Check, cache: dict[str, tuple[dict, str]] | None = None) -> CheckResult:
-    """Run the check's comparison (or reuse an equal one from ``cache``) and test every limit."""
+def run_check(check: Check, cache: dict[str, tuple[dict, str]] | None = None,
+              timeout: float | None = None) -> CheckResult:
+    """Run the check's comparison (or reuse an equal one from ``cache``) and test every limit.
+
+    ``timeout`` [s]: the engine runs isolated in a child with this limit (``compare``).
+    """
     key = check.run_key()
     start = time.perf_counter()
     if cache is not None and key in cache:
         row, _ = cache[key]
     else:
         c = compare(check.scene, engines=(check.engine,), dt=check.dt,
-                    overrides={f"{check.engine}.{k}": v for k, v in check.settings.items()}, tol=check.tolerances)
+                    overrides={f"{check.engine}.{k}": v for k, v in check.settings.items()}, tol=check.tolerances,
+                    timeout=timeout)
         row = summarize(c, check.engine, {})
         if cache is not None:
             cache[key] = (row, row["engine_version"])
     return CheckResult(check=check, row=row, outcomes=CheckResult.outcomes_for(check, row), wall_s=time.perf_counter() - start)
 
 
-def run_gate(gate: Gate, progress: Callable[[str], None] | None = None) -> GateResult:
-    """Run every check of a validated gate, in order; checks needing the same run share it."""
+def run_gate(gate: Gate, progress: Callable[[str], None] | None = None, timeout: float | None = None,
+             budget: Budget | None = None) -> GateResult:
+    """Run every check of a validated gate, in order; checks needing the same run share it.
+
+    ``timeout`` [s]: each engine run is isolated in a child with this limit (``run_check``).
+    ``budget``: every check's runs are estimated against it before the first one starts.
+    """
+    if budget is not None:
+        for check in gate.checks:
+            settings = make_settings(check.engine, check.dt, {f"{check.engine}.{k}": v for k, v in check.settings.items()})
+            check_comparison(check.scene, {check.engine: settings}, budget)
     cache: dict[str, tuple[dict, str]] = {}
     results = []
     start = time.perf_counter()
     for i, check in enumerate(gate.checks, 1):
-        result = run_check(check, cache)
+        result = run_check(check, cache, timeout)
         results.append(result)
         if progress:
             progress(f"[{i}/{len(gate.checks)}] {check.name}: {'pass' if result.passed else 'FAIL'} ({result.wall_s:.1f} s)")

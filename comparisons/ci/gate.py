@@ -194,7 +194,12 @@ def make_limit(metric: str, op: str, value: Any, text: str | None = None) -> Lim
             raise GateError(f"{where}: operator {op!r} does not apply to the text metric {metric}; allowed: {', '.join(TEXT_OPS)}")
         allowed = TEXT_METRICS[metric]
         if isinstance(value, str):
-            words = [w.strip().strip("'\"") for w in value.strip().strip("[]").split(",")] if op == "in" else [value.strip().strip("'\"")]
+            listed = value.strip()
+            if op == "in" and not (listed.startswith("[") and listed.endswith("]")):
+                raise GateError(f"{where}: '{metric} in' takes a bracketed list, e.g. [{', '.join(allowed[:2])}]")
+            if op != "in" and any(c in listed for c in "[],"):
+                raise GateError(f"{where}: '{metric} {op}' takes one name; for several write '{metric} in [a, b]'")
+            words = [w.strip().strip("'\"") for w in listed[1:-1].split(",")] if op == "in" else [listed.strip("'\"")]
         elif isinstance(value, (list, tuple)) and op == "in":
             words = [str(w) for w in value]
         else:

@@ -15,11 +15,14 @@ Option names are the same for the same thing in every subcommand: ``--engines``,
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 import pandas as pd
 
+from chatterbench.comparisons.pipeline.budget import GIB, MAX_MEMORY, MAX_STEPS, Budget
 from chatterbench.comparisons.pipeline.tolerances import Tolerances, tolerances_from_items
+from chatterbench.comparisons.studies.sweep.spec import MAX_TIMEOUT
 from chatterbench.engines.registry import ENGINE_NAMES, check_engine
 from chatterbench.reference.errors import InputError
 from chatterbench.reference.scene import split_assignment
@@ -76,6 +79,9 @@ def engine_list(text: str) -> tuple[str, ...]:
     names = tuple(n.strip() for n in text.split(",") if n.strip())
     if not names:
         raise UsageError(f"--engines: give at least one of {', '.join(ENGINE_NAMES)} (comma-separated)")
+    repeated = sorted({n for n in names if names.count(n) > 1})
+    if repeated:
+        raise UsageError(f"--engines {text}: {', '.join(repeated)} given more than once (each engine runs once)")
     return tuple(check_engine(n) for n in names)
 
 
@@ -133,6 +139,65 @@ def add_tolerance(p: argparse.ArgumentParser) -> None:
                    help="a verdict tolerance, repeatable; stick, first_impact: fractions of each episode's chatter "
                         "duration, exit: of its sliding duration, restitution: relative, penetration: of the "
                         f"scene's length scale; None: the defaults, {defaults}")
+
+
+def gibibytes(text: str) -> float:
+    """argparse type: a memory size in GiB (a finite number > 0), returned in bytes."""
+    return positive_float(text) * GIB
+
+
+def add_budget(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--max-steps", type=positive_float, default=MAX_STEPS, metavar="N",
+                   help="refuse, before anything runs, an engine run estimated to take more steps (duration / dt)")
+    p.add_argument("--max-memory", type=gibibytes, default=f"{MAX_MEMORY / GIB:g}", metavar="GIB",
+                   help="refuse, before anything runs, work estimated to need more memory per process [GiB]")
+
+
+def budget_of(args: argparse.Namespace) -> Budget:
+    """The ``Budget`` of ``--max-steps`` and ``--max-memory``."""
+    return Budget(max_steps=args.max_steps, max_memory=args.max_memory)
+
+
+def _cores() -> int:
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+
+
+def worker_limit(max_memory: float = MAX_MEMORY) -> int:
+    """Worker processes this machine holds: one per core, and no more than its memory / ``max_memory`` [B]."""
+    memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    return max(1, min(_cores(), int(memory // max_memory)))
+
+
+def local_workers(requested: int | None, max_memory: float = MAX_MEMORY) -> int:
+    """``--workers`` of a local pool: ``requested`` (None: ``worker_limit``) if this machine holds that many, else a UsageError.
+
+    Past one worker per core, or past the memory of ``max_memory`` [B] a worker, workers only
+    fight for cores and memory.
+    """
+    limit = worker_limit(max_memory)
+    if requested is not None and requested > limit:
+        memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / GIB
+        raise UsageError(f"--workers {requested}: must be in [1, {limit}] on this machine ({_cores()} cores, "
+                         f"{memory:.0f} GiB of memory at {max_memory / GIB:g} GiB per worker)")
+    return requested or limit
+
+
+ENGINE_TIMEOUT = 600.0  # [s] the command line's limit on one engine run
+
+
+def timeout_seconds(text: str) -> float:
+    """argparse type: a wall-clock limit in seconds, 0 < t <= one day."""
+    value = positive_float(text)
+    if value > MAX_TIMEOUT:
+        raise argparse.ArgumentTypeError(f"{text!r}: must be at most {MAX_TIMEOUT:g} s (one day)")
+    return value
+
+
+def add_timeout(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--timeout", type=timeout_seconds, default=ENGINE_TIMEOUT, metavar="SECONDS",
+                   help="wall-clock limit of each engine run [s], in (0, 86400]; every engine runs isolated in a "
+                        "child process, so a crash or hang is that engine's crashed/timeout verdict and the other "
+                        "results are kept")
 
 
 def add_out(p: argparse.ArgumentParser, default: str | None = None, what: str = "write the files under DIR") -> None:

@@ -11,14 +11,15 @@ Prints the episode table and the summary (the columns ``report``, ``tune``, ``sw
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
-from chatterbench.comparisons.outputs.comparison_files import write_comparison
 from chatterbench.comparisons.pipeline.compare import compare
 from chatterbench.reference.scene import load_scene
 
-from .common import add_dt, add_engines, add_out, add_scene, add_set, add_tolerance, engine_list, parse_tolerances, \
-    print_table, split_overrides
+from .common import add_budget, add_dt, add_engines, add_out, add_scene, add_set, add_timeout, add_tolerance, \
+    budget_of, engine_list, parse_tolerances, print_table, split_overrides
+from .paths import check_dir
 
 EPISODE_SHOW = ["engine", "wall", "ref_t_stick", "t_stick", "stick_error_zeno", "stick_error_rel", "ref_t_exit", "t_exit",
                 "exit_error", "exit_error_steps", "restitution_error", "resolved_impacts", "ref_resolved_impacts",
@@ -28,15 +29,22 @@ SUMMARY_SHOW = ["engine", "verdict", "n_episodes", "n_match", "stick_error_max",
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
+    check_dir("--out", args.out)
     scene_over, engine_over = split_overrides(args.set)
     scene = load_scene(args.scene, scene_over)
     tol = parse_tolerances(args.tolerance)
-    result = compare(scene, engines=engine_list(args.engines), dt=args.dt, overrides=engine_over, tol=tol)
+    result = compare(scene, engines=engine_list(args.engines), dt=args.dt, overrides=engine_over, tol=tol,
+                     timeout=args.timeout, budget=budget_of(args))
     print_table(result.table[EPISODE_SHOW],
                 title=f"{scene.name}: engine episodes against the reference (errors in s; _rel: fraction of the "
                       f"episode's scale; _steps: in timesteps); {tol.describe()}")
     print_table(result.summary()[SUMMARY_SHOW], title="summary:")
+    for name, run in result.runs.items():  # a failed run says why
+        if run.status != "ok":
+            print(f"{name}: {run.status}: {run.trajectory.message}", file=sys.stderr)
     if args.out:
+        from chatterbench.comparisons.outputs.comparison_files import write_comparison  # draws: loads matplotlib (0.7 s), so only when asked
+
         paths = write_comparison(result, Path(args.out), figures=not args.no_figures)
         print(f"wrote {len(paths)} files under {args.out}")
     return 0
@@ -51,6 +59,8 @@ def register(sub, formatter) -> None:
     add_dt(p)
     add_set(p)
     add_tolerance(p)
+    add_timeout(p)
+    add_budget(p)
     add_out(p, what="write tables (CSV, Parquet), event logs, impacts, provenance and figures under DIR")
     p.add_argument("--no-figures", action="store_true", help="skip the figures under --out")
     p.set_defaults(func=cmd_compare)

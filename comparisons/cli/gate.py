@@ -19,13 +19,16 @@ from chatterbench.comparisons.ci.checks import run_gate
 from chatterbench.comparisons.ci.gate import load_gate
 from chatterbench.comparisons.ci.junit import write_junit
 
-from .common import add_tolerance, parse_tolerances, print_table
+from .common import add_budget, add_timeout, add_tolerance, budget_of, parse_tolerances, print_table
+from .paths import check_file
 
 
 def cmd_gate(args: argparse.Namespace) -> int:
+    check_file("--junit", args.junit)
     gate = load_gate(args.gates, base_tolerances=parse_tolerances(args.tolerance))
     print(f"{gate.path}: {len(gate.checks)} checks" + (f" ({gate.description})" if gate.description else ""), file=sys.stderr)
-    result = run_gate(gate, progress=lambda line: print(line, file=sys.stderr, flush=True))
+    result = run_gate(gate, progress=lambda line: print(line, file=sys.stderr, flush=True), timeout=args.timeout,
+                      budget=budget_of(args))
     print_table(result.table(), title=f"{gate.path}: {len(result.results)} checks in {result.wall_s:.1f} s")
     failed = [r for r in result.results if not r.passed]
     for r in failed:
@@ -44,4 +47,6 @@ def register(sub, formatter) -> None:
     p.add_argument("gates", metavar="GATES.toml", help="gate file (format: chatterbench.comparisons.ci.gate docstring)")
     p.add_argument("--junit", metavar="PATH", default=None, help="write JUnit XML here (one testcase per check)")
     add_tolerance(p)
+    add_timeout(p)
+    add_budget(p)
     p.set_defaults(func=cmd_gate)

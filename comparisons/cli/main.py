@@ -12,12 +12,14 @@ rendered with matplotlib's non-interactive backend, chosen here and nowhere else
 
 from __future__ import annotations
 
+import os
 import sys
 
 from chatterbench.reference.errors import InputError
 
 from . import bench, chart, compare, gate, platemap, report, run, scenes, sweep, tune
 from .common import HelpFormatter, Parser, UsageError, one_line
+from .paths import write_error
 
 # in the order ``chatterbench --help`` lists them
 SUBCOMMANDS = (scenes, run, compare, report, gate, platemap, tune, sweep, chart, bench)
@@ -35,9 +37,10 @@ def build_parser() -> Parser:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``chatterbench`` console script; returns the exit code."""
-    import matplotlib
-
-    matplotlib.use("Agg")  # the command line draws to files; a library user keeps their own backend
+    if "matplotlib" in sys.modules:  # the command line draws to files; a library user keeps their own backend
+        sys.modules["matplotlib"].use("Agg")
+    else:  # read when a command first draws: importing matplotlib now would slow every refusal
+        os.environ["MPLBACKEND"] = "Agg"
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
@@ -45,6 +48,12 @@ def main(argv: list[str] | None = None) -> int:
     except (InputError, UsageError) as exc:  # every refusal of user input
         text = str(exc) if getattr(exc, "multiline", False) else one_line(str(exc))
         print(f"chatterbench: error: {text}", file=sys.stderr)
+        return 2
+    except OSError as exc:  # writing failed after the checks (a full disk): one line, no temp file left
+        if isinstance(exc, BrokenPipeError):  # the reader left (``| head``): say nothing more
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+            return 1
+        print(f"chatterbench: error: {one_line(write_error(exc))}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("chatterbench: interrupted", file=sys.stderr)

@@ -12,19 +12,24 @@ from pathlib import Path
 import pandas as pd
 
 from chatterbench.comparisons.outputs.atomic import write_bytes, write_frame
-from chatterbench.comparisons.outputs.figures import figure_bytes
-from chatterbench.comparisons.outputs.plate_map_figure import plate_map_figure
+from chatterbench.comparisons.pipeline.budget import check_plate_map
 from chatterbench.comparisons.studies.plate_map import plate_map
 from chatterbench.reference.scene import load_scene
 
-from .common import add_dt, add_engines, add_out, add_scene, add_set, engine_list, positive_float, positive_int, \
-    print_table, split_overrides
+from .common import UsageError, add_budget, add_dt, add_engines, add_out, add_scene, add_set, budget_of, engine_list, \
+    positive_float, positive_int, print_table, split_overrides
+from .paths import check_dir
 
 
 def cmd_platemap(args: argparse.Namespace) -> int:
+    check_dir("--out", args.out)
     scene_over, engine_over = split_overrides(args.set)
     scene = load_scene(args.scene, scene_over)
     engines = engine_list(args.engines) if args.engines else ()
+    if not engines and (args.dt is not None or engine_over):
+        raise UsageError(f"{'--dt' if args.dt is not None else '--set ' + engine_over[0]}: applies to engine runs; "
+                         "add --engines mujoco or --engines pybullet")
+    check_plate_map(args.phases, args.speeds, budget_of(args))
     table = plate_map(scene, args.wall, args.phases, args.speeds, args.max_speed, engines, args.dt, engine_over)
     cols = ["reference", "feigin", *engines]
     summary = pd.DataFrame({
@@ -39,6 +44,9 @@ def cmd_platemap(args: argparse.Namespace) -> int:
     if args.out:
         out = Path(args.out)
         write_frame(out / "plate_map.csv", table)
+        from chatterbench.comparisons.outputs.figures import figure_bytes  # draws: loads matplotlib (0.7 s), so only when asked
+        from chatterbench.comparisons.outputs.plate_map_figure import plate_map_figure
+
         fig = plate_map_figure(table, scene, args.wall)
         write_bytes(out / "plate_map.png", figure_bytes(fig, "png"))
         write_bytes(out / "plate_map.svg", figure_bytes(fig, "svg"))
@@ -60,4 +68,5 @@ def register(sub, formatter) -> None:
     add_dt(p)
     add_set(p)
     add_out(p, what="write plate_map.csv and the figure (PNG, SVG) under DIR")
+    add_budget(p)
     p.set_defaults(func=cmd_platemap)

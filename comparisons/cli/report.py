@@ -17,13 +17,12 @@ import dataclasses
 import shlex
 from pathlib import Path
 
-from chatterbench.comparisons.outputs.report import SUMMARY_COLUMNS, SweepSection, build_report
-from chatterbench.comparisons.outputs.report_page import write_report
 from chatterbench.comparisons.studies.sweep.dataset import load_rows
 from chatterbench.reference.catalogue import CATALOGUE
 
-from .common import (UsageError, add_dt, add_engines, add_out, add_set, add_tolerance, engine_list, parse_tolerances,
-                     print_table, split_overrides)
+from .common import (ENGINE_TIMEOUT, UsageError, add_budget, add_dt, add_engines, add_out, add_set, add_timeout,
+                     add_tolerance, budget_of, engine_list, parse_tolerances, print_table, split_overrides)
+from .paths import check_dir
 
 
 def _command_line(args: argparse.Namespace) -> str:
@@ -37,10 +36,16 @@ def _command_line(args: argparse.Namespace) -> str:
         words += ["--tolerance", item]
     if args.sweep:
         words += ["--sweep", args.sweep]
+    if args.timeout != ENGINE_TIMEOUT:
+        words += ["--timeout", f"{args.timeout:g}"]
     return " ".join(shlex.quote(w) for w in words)
 
 
 def cmd_report(args: argparse.Namespace) -> int:
+    check_dir("--out", args.out)
+    from chatterbench.comparisons.outputs.report import SUMMARY_COLUMNS, SweepSection, build_report  # draws: loads matplotlib (0.7 s), so only when asked
+    from chatterbench.comparisons.outputs.report_page import write_report
+
     scene_over, engine_over = split_overrides(args.set)
     tol = parse_tolerances(args.tolerance)
     tuning = []
@@ -54,7 +59,7 @@ def cmd_report(args: argparse.Namespace) -> int:
     report = build_report(
         scenes=args.scenes or tuple(CATALOGUE), engines=engine_list(args.engines), dt=args.dt,
         scene_overrides=scene_over, engine_overrides=engine_over, tol=tol, sweep=sweep,
-        command=_command_line(args),
+        command=_command_line(args), timeout=args.timeout, budget=budget_of(args),
     )
     print_table(report.summary[SUMMARY_COLUMNS], title=f"summary ({report.wall_time_s:.1f} s of runs; errors in s):")
     if tuning:
@@ -74,6 +79,8 @@ def register(sub, formatter) -> None:
     add_dt(p)
     add_set(p)
     add_tolerance(p)
+    add_timeout(p)
+    add_budget(p)
     add_out(p, default="report", what="output directory")
     p.add_argument("--sweep", metavar="DIR", default=None,
                    help="a sweep dataset (directory with rows.parquet): add its work-precision chart and stability maps")

@@ -18,6 +18,7 @@ from typing import Sequence
 import pandas as pd
 
 from chatterbench.comparisons.outputs.atomic import write_frame, write_text
+from chatterbench.comparisons.pipeline.budget import Budget, check_engine_run, check_reference
 from chatterbench.comparisons.pipeline.extract import extract_events
 from chatterbench.comparisons.pipeline.solution import solve
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
@@ -27,15 +28,18 @@ from chatterbench.reference.log import episodes, log_frame
 from chatterbench.reference.scene import Scene, load_scene
 from chatterbench.reference.simulate import CHATTER_MODES, simulate
 
-from .common import UsageError, add_dt, add_out, add_set, one_line, print_table, split_overrides
+from .common import UsageError, add_budget, add_dt, add_out, add_set, budget_of, one_line, print_table, split_overrides
+from .paths import check_dir, check_file
 
 SIMULATORS = ("reference", "mujoco", "pybullet")
 
 
 def run_engine_events(scene: Scene, engine: str, dt: float | None, overrides: Sequence[str],
-                      export_model: str | None) -> tuple[pd.DataFrame, pd.DataFrame, str]:
-    """Run ``scene`` in ``engine``; returns (event log, episodes, one-line summary)."""
+                      export_model: str | None, budget: Budget) -> tuple[pd.DataFrame, pd.DataFrame, str]:
+    """Run ``scene`` in ``engine`` (refused first when over ``budget``); returns (event log, episodes, one-line summary)."""
     settings = make_settings(engine, dt, overrides)
+    check_engine_run(scene, engine, settings.dt, budget)
+    check_reference(scene, budget)  # its sticking resolution is the reference's
     if export_model:
         if engine != "mujoco":
             raise UsageError("--export-model: only MuJoCo models can be exported (use --engines mujoco)")
@@ -52,6 +56,9 @@ def run_engine_events(scene: Scene, engine: str, dt: float | None, overrides: Se
 
 
 def cmd_run(args: argparse.Namespace) -> int:
+    check_dir("--out", args.out)
+    check_file("--events", args.events)
+    check_file("--export-model", args.export_model)
     scene_over, engine_over = split_overrides(args.set)
     scene = load_scene(args.scene, scene_over)
     engine = args.engines
@@ -59,13 +66,18 @@ def cmd_run(args: argparse.Namespace) -> int:
         check_choice("--engines", engine, SIMULATORS, error=UsageError)
     result = None
     if engine == "reference":
-        if engine_over:
-            raise UsageError(f"--set {engine_over[0]}: engine settings need --engines mujoco|pybullet")
-        result = simulate(scene, args.chatter)
+        for given, option in ((engine_over, f"--set {engine_over[0] if engine_over else ''}"),
+                              (args.dt is not None, "--dt"), (args.export_model, "--export-model")):
+            if given:
+                raise UsageError(f"{option}: applies to an engine run; add --engines mujoco or --engines pybullet")
+        check_reference(scene, budget_of(args))
+        result = simulate(scene, args.chatter or "feigin")
         log, eps = result.log, result.episodes
-        summary = f"reference ({args.chatter} mode): {len(log)} events, {result.n_impacts} impacts, {result.wall_time * 1e3:.2f} ms"
+        summary = f"reference ({result.options.chatter} mode): {len(log)} events, {result.n_impacts} impacts, {result.wall_time * 1e3:.2f} ms"
     else:
-        log, eps, summary = run_engine_events(scene, engine, args.dt, engine_over, args.export_model)
+        if args.chatter is not None:
+            raise UsageError(f"--chatter {args.chatter}: chooses the reference's chatter model; an engine run has none")
+        log, eps, summary = run_engine_events(scene, engine, args.dt, engine_over, args.export_model, budget_of(args))
     print(f"{scene.name}: {summary}")
     print_table(eps, title="episodes:")
     if args.events:
@@ -90,9 +102,11 @@ def register(sub, formatter) -> None:
                    help=f"the engines to run the scene: one of {', '.join(SIMULATORS)} (Feigin's model)")
     add_dt(p)
     add_set(p)
-    p.add_argument("--chatter", choices=CHATTER_MODES, default="feigin",
-                   help="reference chatter model: feigin (plate entry -> inelastic impact) or exhaustive (every impact)")
+    p.add_argument("--chatter", choices=CHATTER_MODES, default=None,
+                   help="reference chatter model: feigin (plate entry -> inelastic impact) or exhaustive (every impact); "
+                        "None: feigin")
     p.add_argument("--events", metavar="PATH", default=None, help="write the event log (CSV) here")
     p.add_argument("--export-model", metavar="PATH", default=None, help="MuJoCo: write the generated MJCF here")
     add_out(p, what="write events.csv and episodes.csv under DIR")
+    add_budget(p)
     p.set_defaults(func=cmd_run)

@@ -7,7 +7,9 @@
 Prints verdict counts per engine and writes only under ``--out`` (default
 ``./sweep-SPEC_STEM``): ``sweep.toml``, ``rows/`` and ``rows.parquet`` (see ``sweep.py``).
 Exit codes: 0 the sweep finished (failed runs are rows, not errors), 2 bad input (the spec,
-the options, an unreachable scheduler, an --out holding another sweep), 130 interrupted.
+the options, an unreachable scheduler or one left without workers under
+``--dask-no-workers stop``, an --out holding another sweep or written by another sweep
+now), 130 interrupted. A resumed sweep says on stderr which part files it set aside.
 """
 
 from __future__ import annotations
@@ -18,19 +20,26 @@ from pathlib import Path
 
 import pandas as pd
 
+from chatterbench.comparisons.pipeline.budget import GIB, MAX_MEMORY
 from chatterbench.comparisons.pipeline.tolerances import tolerance_values
-from chatterbench.comparisons.studies.sweep import FAILED, load_sweep, run_sweep
+from chatterbench.comparisons.studies.sweep import FAILED, NO_WORKER_WAIT, NO_WORKERS, load_sweep, run_sweep
 
-from .common import UsageError, add_out, add_tolerance, positive_float, positive_int, print_table
+from .common import UsageError, add_budget, add_out, add_tolerance, budget_of, local_workers, positive_int, print_table, timeout_seconds
+from .paths import check_dir
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    sweep = load_sweep(args.spec)
+    out = Path(args.out) if args.out else Path(f"sweep-{Path(args.spec).stem}")
+    check_dir("--out", out)
+    budget = budget_of(args)
+    sweep = load_sweep(args.spec, budget)
     if args.timeout is not None:
         sweep = dataclasses.replace(sweep, timeout=args.timeout)
     if args.tolerance:
         sweep = dataclasses.replace(sweep, tolerances={**dict(sweep.tolerances), **tolerance_values(args.tolerance)})
-    out = Path(args.out) if args.out else Path(f"sweep-{Path(args.spec).stem}")
+    if args.dask is not None and not args.dask.strip():
+        raise UsageError("--dask '': no scheduler address; give one (tcp://host:8786), or leave --dask out to run locally")
+    workers = args.workers if args.dask else local_workers(args.workers, budget.max_memory)
     client = None
     if args.dask:
         try:
@@ -40,7 +49,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         except (OSError, TimeoutError, ValueError) as exc:
             raise UsageError(f"--dask {args.dask}: cannot reach the Dask scheduler ({exc})") from None
     try:
-        rows = run_sweep(sweep, out, executor=client, resume=args.resume, workers=args.workers, batch=args.batch)
+        rows = run_sweep(sweep, out, executor=client, resume=args.resume, workers=workers, batch=args.batch,
+                         no_worker_wait=args.dask_wait, no_workers=args.dask_no_workers)
     finally:
         if client is not None:
             client.close()
@@ -65,11 +75,20 @@ def register(sub, formatter) -> None:
     p.add_argument("spec", metavar="SPEC.toml", help="sweep spec (format: chatterbench.comparisons.sweep docstring)")
     add_out(p, what="output directory; None: ./sweep-SPEC_STEM")
     p.add_argument("--resume", action="store_true", help="finish the sweep already under --out; skip its finished runs")
-    p.add_argument("--workers", type=positive_int, default=None, help="local worker processes; None: all cores")
+    p.add_argument("--workers", type=positive_int, default=None,
+                   help=f"local worker processes, at most one per core and per {MAX_MEMORY / GIB:g} GiB of memory; None: that many. "
+                        "With --dask: the runs in flight; None: the cluster's threads")
     p.add_argument("--dask", metavar="ADDRESS", default=None,
                    help="run on this Dask scheduler (tcp://host:8786) instead of local processes")
+    p.add_argument("--dask-wait", type=timeout_seconds, default=NO_WORKER_WAIT, metavar="SECONDS",
+                   help="with --dask: a cluster with no worker this long [s], in (0, 86400], is said on stderr")
+    p.add_argument("--dask-no-workers", choices=NO_WORKERS, default="wait",
+                   help="with --dask, after --dask-wait s without a worker: wait for one, or stop (finished rows "
+                        "kept; finish with --resume)")
     p.add_argument("--batch", type=positive_int, default=None,
                    help="runs per isolated unit of work, MuJoCo's in one mujoco.rollout call; None: automatic, 1: each run alone")
-    p.add_argument("--timeout", type=positive_float, default=None, help="wall-clock limit of one run [s]; None: the spec's")
+    p.add_argument("--timeout", type=timeout_seconds, default=None, metavar="SECONDS",
+                   help="wall-clock limit of one run [s], in (0, 86400]; None: the spec's")
     add_tolerance(p)
+    add_budget(p)
     p.set_defaults(func=cmd_sweep)

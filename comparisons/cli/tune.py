@@ -11,19 +11,20 @@ import argparse
 from pathlib import Path
 
 from chatterbench.comparisons.outputs.atomic import write_bytes, write_frame, write_text
-from chatterbench.comparisons.outputs.figures import figure_bytes
-from chatterbench.comparisons.outputs.guide import guide_html, guide_markdown, guide_section_html, tradeoff_figure
-from chatterbench.comparisons.studies.tune import tune
+from chatterbench.comparisons.pipeline.budget import check_engine_run, check_reference
+from chatterbench.comparisons.studies.tune import SEARCH_SPACE, tune
 from chatterbench.reference.scene import load_scene
 
-from .common import (UsageError, add_out, add_scene, add_set, add_tolerance, engine_list, parse_tolerances,
-                     positive_int, print_table, split_overrides)
+from .common import (UsageError, add_budget, add_out, add_scene, add_set, add_tolerance, budget_of, local_workers,
+                     engine_list, parse_tolerances, positive_int, print_table, split_overrides)
+from .paths import check_dir
 
 SHOW = ["stage", "settings", "verdict", "n_match", "n_episodes", "exit_error_rel_max", "stick_error_rel_max",
         "restitution_error_max", "cost_per_sim_s"]
 
 
 def cmd_tune(args: argparse.Namespace) -> int:
+    check_dir("--out", args.out)
     scene_over, engine_over = split_overrides(args.set)
     if engine_over:
         raise UsageError(f"--set {engine_over[0]}: tune searches the engine settings itself; set scene fields only")
@@ -32,7 +33,10 @@ def cmd_tune(args: argparse.Namespace) -> int:
         raise UsageError(f"--engines {args.engines}: tune takes one engine at a time")
     scene = load_scene(args.scene, scene_over)
     tol = parse_tolerances(args.tolerance)
-    result = tune(scene, engines[0], tol, workers=args.workers)
+    budget = budget_of(args)  # the finest candidate and the reference, before any run
+    check_engine_run(scene, engines[0], min(SEARCH_SPACE[engines[0]]["dt"]), budget)
+    check_reference(scene, budget)
+    result = tune(scene, engines[0], tol, workers=local_workers(args.workers, budget.max_memory))
     print_table(result.table[SHOW], title=f"tune {engines[0]} on {scene.name}; {tol.describe()}:")
     if result.best is None:
         b = result.best_reachable
@@ -42,6 +46,9 @@ def cmd_tune(args: argparse.Namespace) -> int:
         print(f"recommended: {result.best['settings']} (cost {result.best['cost_per_sim_s']:.3g} s per simulated s)")
     if args.out:
         out = Path(args.out)
+        from chatterbench.comparisons.outputs.figures import figure_bytes  # draws: loads matplotlib (0.7 s), so only when asked
+        from chatterbench.comparisons.outputs.guide import guide_html, guide_markdown, guide_section_html, tradeoff_figure
+
         write_text(out / "guide.md", guide_markdown(result))
         write_text(out / "guide.html", guide_html(result))
         write_text(out / "guide_section.html", guide_section_html(result))  # for `report --tune DIR`
@@ -62,4 +69,5 @@ def register(sub, formatter) -> None:
     p.add_argument("--workers", type=positive_int, default=None, help="parallel candidate runs; None: all cores")
     add_set(p)
     add_out(p, what="write guide.md, guide.html, candidates.csv and tradeoff.png under DIR")
+    add_budget(p)
     p.set_defaults(func=cmd_tune)

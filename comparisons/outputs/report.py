@@ -30,9 +30,11 @@ from typing import Any, Callable, Sequence
 
 import pandas as pd
 
+from chatterbench.engines.registry import make_settings
 from chatterbench.reference.catalogue import CATALOGUE
 from chatterbench.reference.scene import load_scene
 
+from chatterbench.comparisons.pipeline.budget import Budget, check_comparison
 from chatterbench.comparisons.pipeline.compare import Comparison, compare
 from chatterbench.comparisons.pipeline.summary import summarize
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
@@ -108,6 +110,8 @@ def build_report(
     sweep: SweepSection | None = None,
     progress: Progress | None = _stderr,
     command: str = "",
+    timeout: float | None = None,
+    budget: Budget | None = None,
 ) -> Report:
     """Compare every scene on every engine; the scenes are all loaded (validated) before any run.
 
@@ -118,15 +122,22 @@ def build_report(
     scene_overrides, engine_overrides : ``KEY=VALUE`` items (``duration=1.6``;
         ``mujoco.w0_dt=0.05``) applied to every scene / engine.
     progress : called with one line per scene and engine as the runs finish; None: silent.
+    timeout : wall-clock limit [s] of each engine run, run isolated in a child (``compare``);
+        a crash or hang is that engine's failure verdict and the report goes on. None: in-process.
+    budget : every scene's reference and engine runs are checked against it before the first run.
     """
     say = progress or (lambda line: None)
     loaded = [load_scene(s, list(scene_overrides)) for s in scenes]
+    if budget is not None:
+        settings = {name: make_settings(name, dt, list(engine_overrides)) for name in engines}
+        for scene in loaded:
+            check_comparison(scene, settings, budget)
     start = time.perf_counter()
     comparisons, rows = [], []
     for i, scene in enumerate(loaded, 1):
         say(f"[{i}/{len(loaded)}] {scene.name}: reference and {', '.join(engines)} ...")
         t0 = time.perf_counter()
-        c = compare(scene, engines=tuple(engines), dt=dt, overrides=list(engine_overrides), tol=tol)
+        c = compare(scene, engines=tuple(engines), dt=dt, overrides=list(engine_overrides), tol=tol, timeout=timeout)
         comparisons.append(c)
         for name, run in c.runs.items():
             row = summarize(c, name, {})

@@ -20,11 +20,10 @@ from __future__ import annotations
 
 import math
 import textwrap
-from typing import Any, Iterable, Sequence
+from typing import TYPE_CHECKING, Any, Iterable, Sequence
 
 import numpy as np
 import pandas as pd
-from matplotlib.figure import Figure
 
 from chatterbench.comparisons.pipeline.summary import DERIVED_PARAMETERS, ROW_COLUMNS, mass_ratio
 from chatterbench.engines.registry import ENGINE_NAMES, make_settings, settings_dict
@@ -34,6 +33,9 @@ from chatterbench.comparisons.pipeline.vocabulary import ABBREVIATIONS, COLOURS,
 from chatterbench.comparisons.pipeline.vocabulary import PASSING as PASSING_VERDICTS
 from chatterbench.reference.errors import InputError, did_you_mean
 from chatterbench.reference.tables import flatten
+
+if TYPE_CHECKING:  # annotations only: importing this module loads no matplotlib
+    from matplotlib.figure import Figure
 
 # verdict names, colours, abbreviations and meanings: the one vocabulary (pipeline/vocabulary.py)
 VERDICT_ORDER = NAMES  # best first, "none" first of all: nothing to judge

@@ -26,11 +26,13 @@ from typing import Any, Mapping, Sequence
 import pandas as pd
 
 from chatterbench.engines.base import failed_trajectory
-from chatterbench.engines.registry import check_engine, engine_version, make_settings, run_engine, settings_dict
+from chatterbench.engines.registry import (check_engine, engine_version, make_settings, run_engine, run_engine_isolated,
+                                           settings_dict)
 from chatterbench.engines.trajectory import Trajectory
 from chatterbench.reference.scene import Scene
 from chatterbench.reference.simulate import Result
 
+from .budget import Budget, check_comparison
 from .extract import Extraction, ExtractionOptions, extract
 from .judge import IMPACT_PAIR_COLUMNS, TABLE_COLUMNS, judge
 from .solution import ReferenceSolution, solve
@@ -106,15 +108,23 @@ class Comparison:
 
 
 def judge_run(ref: ReferenceSolution, name: str, settings: Any, tol: Tolerances, trajectory: Trajectory | None = None,
-              options: ExtractionOptions | None = None) -> tuple[EngineRun, pd.DataFrame, pd.DataFrame]:
+              options: ExtractionOptions | None = None,
+              timeout: float | None = None) -> tuple[EngineRun, pd.DataFrame, pd.DataFrame]:
     """Run one engine (or take its ``trajectory``, already run), extract and judge it.
 
     Returns the run, its judged table (``judge.TABLE_COLUMNS``) and its paired impacts.
-    Exceptions of the engine become an ``error`` run.
+    Exceptions of the engine become an ``error`` run. With ``timeout`` [s] the engine runs in
+    a forked child (``run_engine_isolated``): a crash or a hang becomes a ``crashed`` or
+    ``timeout`` run and this process goes on.
     """
     scene = ref.scene
     try:
-        traj = trajectory if trajectory is not None else run_engine(name, scene, settings)
+        if trajectory is not None:
+            traj = trajectory
+        elif timeout is not None:
+            traj = run_engine_isolated(name, scene, settings, timeout)
+        else:
+            traj = run_engine(name, scene, settings)
     except Exception as exc:  # an engine fault must not lose the other results
         traj = failed_trajectory(name, scene, "error", f"{type(exc).__name__}: {exc}", settings_dict(settings))
     found = extract(traj, scene, ref.stick_tolerance(tol.stick), options)
@@ -136,6 +146,8 @@ def compare(
     trajectories: Mapping[str, Trajectory] | None = None,
     solution: ReferenceSolution | None = None,
     options: ExtractionOptions | None = None,
+    timeout: float | None = None,
+    budget: Budget | None = None,
 ) -> Comparison:
     """Run the reference (both chatter modes) and each engine on ``scene``; judge every episode.
 
@@ -155,13 +167,24 @@ def compare(
         ``solve(scene)`` already computed (tune and sweeps judge many runs against one).
     options : ExtractionOptions, optional
         The extraction's internal thresholds (their robustness is tested, not tuned).
+    timeout : float, optional
+        Wall-clock limit [s] of each engine run; given, each engine runs isolated in a forked
+        child (the command line always does this), so a crash or hang in one engine is that
+        engine's ``crashed`` / ``timeout`` verdict and the others' results are kept. None: in
+        this process, without a limit.
+    budget : Budget, optional
+        Refuse (``BudgetError``) before any run when the reference or an engine run is estimated
+        over it (``budget.py``); None: no estimate.
     """
     tol = tol or Tolerances()
     settings = {name: make_settings(check_engine(name), dt, overrides) for name in engines}  # validate all first
+    if budget is not None:
+        check_comparison(scene, {n: s for n, s in settings.items() if n not in (trajectories or {})}, budget,
+                         reference=solution is None)
     ref = solution if solution is not None else solve(scene)
     runs, tables, impact_tables = {}, [], []
     for name in engines:
-        run, table, impacts = judge_run(ref, name, settings[name], tol, (trajectories or {}).get(name), options)
+        run, table, impacts = judge_run(ref, name, settings[name], tol, (trajectories or {}).get(name), options, timeout)
         runs[name] = run
         step = run.trajectory.dt if len(run.trajectory.t) > 1 else getattr(settings[name], "dt", math.nan)
         table.insert(0, "dt", step)

@@ -73,6 +73,7 @@ class MujocoEngine(EngineAdapter):
     package = "mujoco"
     settings_type = MujocoSettings
     batches = True
+    bytes_per_step = 250.0  # measured 187 B/step (feigin-pair, 4e6 -> 2e7 steps: 1.08 -> 4.00 GB peak)
 
     def build(self, scene: Scene, settings: MujocoSettings | None = None) -> Any:
         """The compiled ``MjModel`` for ``scene``."""

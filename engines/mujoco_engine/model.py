@@ -25,7 +25,7 @@ import numpy as np
 from chatterbench.reference.forces import ForceModel, Terms
 from chatterbench.reference.scene import Scene
 
-from .settings import INTEGRATORS, SOLVERS, MujocoSettings
+from .settings import INTEGRATORS, SOLVERS, MujocoSettings, SettingsError
 
 BODY_INERTIA = 1.0  # rotational inertia of the bodies [kg m^2]; unused by slide joints
 ONE_SIDED_RANGE = 1e9  # upper joint limit offset for a one-sided gap [m]
@@ -166,7 +166,7 @@ def build_spec(scene: Scene, settings: MujocoSettings | None = None) -> mujoco.M
     # A = J M^-1 J' (from body_invweight0), so the realised stiffness and damping are
     # (d'/d) k, (d'/d) b with d' = A / (A + R): exact for the joint limit, ~0.7% low for the
     # geom contact at d = 0.99. Measure d' on the compiled model and rescale solref by d/d'.
-    factor = _impedance_factor(spec.compile(), scene, s)
+    factor = _impedance_factor(compiled(spec, scene), scene, s)
     for obj in [jy] if s.gap_model == "limit" else [g for g in body1.geoms] + [ball]:
         _set_contact(obj, k * factor, b * factor, s.impedance, s.gap_model)
 
@@ -234,13 +234,23 @@ def controls(scene: Scene, s: MujocoSettings, t: np.ndarray) -> np.ndarray:
     return np.stack(cols, axis=1) if cols else np.zeros((len(t), 0))
 
 
+def compiled(spec: mujoco.MjSpec, scene: Scene) -> mujoco.MjModel:
+    """``spec.compile()``; a scene MuJoCo's compiler refuses (a mass below its mjMINVAL = 1e-15) is a SettingsError."""
+    try:
+        return spec.compile()
+    except ValueError as exc:
+        reason = "; ".join(line.strip() for line in str(exc).splitlines() if line.strip())
+        raise SettingsError(f"MuJoCo cannot build scene {scene.name!r} (mass1 = {scene.mass1:g}, mass2 = "
+                            f"{scene.mass2:g} kg): {reason}") from None
+
+
 def build(scene: Scene, settings: MujocoSettings | None = None) -> mujoco.MjModel:
     """Compile the scene's model; raises SettingsError for settings the scene cannot run with."""
-    return build_spec(scene, settings).compile()
+    return compiled(build_spec(scene, settings), scene)
 
 
 def export_mjcf(scene: Scene, settings: MujocoSettings | None = None) -> str:
     """The model as an MJCF string (``spec.to_xml()``), to paste into MuJoCo's viewer."""
     spec = build_spec(scene, settings)
-    spec.compile()
+    compiled(spec, scene)
     return spec.to_xml()

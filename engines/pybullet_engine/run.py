@@ -212,7 +212,8 @@ def run(scene: Scene, settings: PybulletSettings | None = None) -> Trajectory:
     -------
     Trajectory
         ``status`` "ok"; "diverged" with the finite samples when the state blew up; "error"
-        with PyBullet's message (and no steps) when the engine refused the model.
+        with PyBullet's message (and no steps) when the engine refused the model, or when
+        the samples of the run do not fit in memory.
     """
     settings = settings or PybulletSettings()
     n = n_steps(scene.duration, settings.dt)
@@ -223,6 +224,8 @@ def run(scene: Scene, settings: PybulletSettings | None = None) -> Trajectory:
             return _trajectory(scene, settings, world, raw)
     except p.error as exc:
         return failed_trajectory(NAME, scene, "error", f"pybullet: {exc}", dataclasses.asdict(settings))
+    except MemoryError as exc:  # the samples of n steps do not fit: a result, as MuJoCo gives it
+        return failed_trajectory(NAME, scene, "error", f"{type(exc).__name__}: {n} steps: {exc}", dataclasses.asdict(settings))
 
 
 def _raw_loop(scene: Scene, settings: PybulletSettings, world: PybulletWorld, forces: tuple[list, list], n: int) -> float:

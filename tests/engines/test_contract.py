@@ -84,3 +84,12 @@ def test_a_segfault_fault_kills_the_process_running_the_engine():
     proc = subprocess.run([sys.executable, "-c", code], env={**__import__("os").environ, ENV: "segfault:mujoco"},
                           capture_output=True, timeout=120)
     assert proc.returncode == -11  # SIGSEGV
+
+
+@pytest.mark.parametrize("engine", ENGINE_NAMES)
+def test_a_run_too_big_for_memory_is_an_error_result_in_every_engine(engine):
+    # before: PyBullet died with ArrayMemoryError where MuJoCo gave status "error"
+    scene = load_scene("feigin-pair", ["duration=1e9"])  # 1e13 steps: tens of TiB of samples
+    traj = run_engine(engine, scene, make_settings(engine))
+    assert traj.status == "error" and "MemoryError" in traj.message
+    assert len(traj.t) == 1

@@ -12,9 +12,11 @@ process, to its row), ``dataset`` (rows as Parquet parts, read back and normalis
 """
 
 from .dataset import DatasetError, load_rows, read_rows
-from .runner import run_sweep
-from .spec import DEFAULT_TIMEOUT, FAILED, RunTask, SpecError, Sweep, load_sweep, sweep_points, sweep_runs
+from .directory import OutDirError
+from .runner import NO_WORKER_WAIT, NO_WORKERS, NoWorkersError, run_sweep
+from .spec import DEFAULT_TIMEOUT, FAILED, MAX_TIMEOUT, RunTask, SpecError, Sweep, load_sweep, sweep_points, sweep_runs
 from .worker import run_batch_task, run_task, work_units
 
-__all__ = ["DEFAULT_TIMEOUT", "FAILED", "DatasetError", "RunTask", "SpecError", "Sweep", "load_rows", "load_sweep",
-           "read_rows", "run_batch_task", "run_sweep", "run_task", "sweep_points", "sweep_runs", "work_units"]
+__all__ = ["DEFAULT_TIMEOUT", "FAILED", "MAX_TIMEOUT", "NO_WORKERS", "NO_WORKER_WAIT", "DatasetError", "NoWorkersError",
+           "OutDirError", "RunTask", "SpecError", "Sweep", "load_rows", "load_sweep", "read_rows", "run_batch_task",
+           "run_sweep", "run_task", "sweep_points", "sweep_runs", "work_units"]

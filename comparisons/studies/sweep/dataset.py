@@ -12,16 +12,23 @@
     ...
     chatterbench.comparisons.studies.sweep.dataset.DatasetError: .../missing: no such file or directory
 
-Rows reach ``OUT/rows/part-*.parquet`` as runs finish, each part written atomically; the
-finished sweep writes ``OUT/rows.parquet`` (all rows in run order). Columns have fixed
-dtypes whatever the order runs finish in (``normalize``).
+Rows reach ``OUT/rows/part-*.parquet`` as runs finish, each part written atomically and
+tagged with its spec's ``Sweep.fingerprint``; the finished sweep writes ``OUT/rows.parquet``
+(all rows in run order). Columns have fixed dtypes whatever the order runs finish in
+(``normalize``).
+
+A resumed sweep reads only parts that belong to its spec (``check_parts``) and moves every
+other one to ``OUT/rows/set-aside/``, saying why, so rows of two sweeps are never mixed; the
+lock and the temp-file cleanup of OUT are ``directory.py``'s.
 """
 
 from __future__ import annotations
 
 import itertools
+import math
 import os
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -29,9 +36,13 @@ import pandas as pd
 
 from chatterbench.comparisons.outputs.atomic import write_frame
 from chatterbench.comparisons.pipeline.summary import METRIC_COLUMNS, ROW_COLUMNS
-from chatterbench.reference.errors import InputError
+from chatterbench.comparisons.pipeline.vocabulary import VERDICTS
+from chatterbench.reference.errors import InputError, is_number
 
 from .spec import RunTask, Sweep
+
+SET_ASIDE = "set-aside"  # OUT/rows/set-aside/: parts that do not belong to the sweep resumed
+FINGERPRINT = "sweep_fingerprint"  # a part's DataFrame.attrs key (stored in its Parquet metadata)
 
 
 class DatasetError(InputError):
@@ -52,10 +63,24 @@ def normalize(frame: pd.DataFrame) -> pd.DataFrame:
     return frame
 
 
-def read_rows(out_dir: str | Path, dedupe: bool = True) -> pd.DataFrame:
-    """All rows under ``OUT/rows/`` (part files in write order); ``dedupe`` keeps the first of a point_id+engine."""
-    parts = sorted(Path(out_dir, "rows").glob("part-*.parquet"))
-    frames = [pd.read_parquet(p) for p in parts]
+def _part_paths(out_dir: str | Path) -> list[Path]:
+    return sorted(Path(out_dir, "rows").glob("part-*.parquet"))  # names start with the time: write order
+
+
+def _why(exc: Exception) -> str:
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__
+
+
+def _read_part(path: Path) -> pd.DataFrame:
+    try:
+        return pd.read_parquet(path)
+    except Exception as exc:  # a torn or foreign file: pyarrow's errors are not one class
+        raise DatasetError(f"{path}: cannot read this part ({_why(exc)}); "
+                           "`chatterbench sweep SPEC --out DIR --resume` sets such parts aside") from None
+
+
+def _frame_of(frames: list[pd.DataFrame], dedupe: bool) -> pd.DataFrame:
     frames = [f for f in frames if len(f)]
     if not frames:
         return pd.DataFrame(columns=ROW_COLUMNS)
@@ -65,14 +90,103 @@ def read_rows(out_dir: str | Path, dedupe: bool = True) -> pd.DataFrame:
     return frame
 
 
-class PartWriter:
-    """Appends batches of rows to OUT/rows/ as atomically written part files."""
+def read_rows(out_dir: str | Path, dedupe: bool = True) -> pd.DataFrame:
+    """All rows under ``OUT/rows/`` (part files in write order); ``dedupe`` keeps the first of a point_id+engine.
 
-    def __init__(self, rows_dir: Path) -> None:
+    Raises ``DatasetError`` naming a part that cannot be read.
+    """
+    return _frame_of([_read_part(p) for p in _part_paths(out_dir)], dedupe)
+
+
+def _same(got: Any, want: Any) -> bool:
+    """A row's parameter value is its point's (a NaN of a missing column never is)."""
+    try:
+        return float(got) == float(want) if is_number(want) else bool(got == want)
+    except (TypeError, ValueError):
+        return False
+
+
+def part_problem(path: Path, runs: dict[tuple[str, str], RunTask], fingerprint: str,
+                 untagged_ok: bool) -> tuple[pd.DataFrame | None, str | None]:
+    """A part's rows, or why it does not belong to the sweep of ``runs`` (``(None, reason)``).
+
+    ``runs``: the sweep's runs by (point_id, engine); ``untagged_ok``: accept a part with no
+    fingerprint (written before parts had one) because OUT/sweep.toml named this very spec.
+    """
+    if path.stat().st_size == 0:
+        return None, "empty file (0 bytes)"
+    try:
+        frame = pd.read_parquet(path)
+    except Exception as exc:  # as in _read_part
+        return None, f"unreadable ({_why(exc)})"
+    if frame.empty:
+        return None, "holds no rows"
+    tag = frame.attrs.get(FINGERPRINT)
+    if tag is None and not untagged_ok:
+        return None, "no spec fingerprint, and sweep.toml is missing: which sweep wrote it cannot be told"
+    if tag is not None and tag != fingerprint:
+        return None, f"written by another sweep spec (fingerprint {tag}, this spec's {fingerprint})"
+    missing = [c for c in ROW_COLUMNS if c not in frame]
+    if missing:
+        return None, f"another schema: no column {', '.join(missing[:4])}{' ...' if len(missing) > 4 else ''}"
+    keys = list(zip(frame["point_id"], frame["engine"]))
+    foreign = sum(k not in runs for k in keys)
+    if foreign:
+        return None, f"rows of points not in this sweep ({foreign} of {len(keys)} rows)"
+    known = set(ROW_COLUMNS).union(*(dict(runs[k].params) for k in keys))
+    extra = [c for c in frame if c not in known]
+    if extra:
+        return None, f"another schema: columns {', '.join(map(repr, extra[:4]))} are not this sweep's"
+    for i, key in enumerate(keys):
+        for name, want in runs[key].params:
+            got = frame[name].iat[i] if name in frame else math.nan
+            if name != "dt" and not _same(got, want):  # dt: the engine's own, in ROW_COLUMNS
+                return None, f"another schema: row {i} has {name} = {got!r}, its point has {want!r}"
+    return frame, None
+
+
+@dataclass(frozen=True)
+class SetAside:
+    """A part moved out of a sweep's rows, and why."""
+
+    source: Path  # where it was: OUT/rows/part-*.parquet
+    path: Path  # where it is: OUT/rows/set-aside/...
+    reason: str
+
+
+def check_parts(out_dir: str | Path, runs: Sequence[RunTask], fingerprint: str,
+                untagged_ok: bool) -> tuple[pd.DataFrame, list[SetAside]]:
+    """Every part under OUT/rows/ read once: (the rows of those that belong, deduplicated; those set aside).
+
+    A part is set aside (moved to ``OUT/rows/set-aside/``) when it is empty or unreadable,
+    when another spec wrote it (``Sweep.fingerprint``), when it has rows of points not in
+    ``runs``, or when its columns are not those of its rows' runs (``part_problem``).
+    """
+    by_key = {(r.point_id, r.engine): r for r in runs}
+    frames, aside = [], []
+    for path in _part_paths(out_dir):
+        frame, reason = part_problem(path, by_key, fingerprint, untagged_ok)
+        if reason is None:
+            frames.append(frame)
+            continue
+        folder = path.parent / SET_ASIDE
+        folder.mkdir(exist_ok=True)
+        target, n = folder / path.name, 0
+        while target.exists():
+            n += 1
+            target = folder / f"{path.stem}.{n}{path.suffix}"
+        os.replace(path, target)
+        aside.append(SetAside(path, target, reason))
+    return _frame_of(frames, dedupe=True), aside
+
+
+class PartWriter:
+    """Appends batches of rows to OUT/rows/ as atomically written part files tagged with ``fingerprint``."""
+
+    def __init__(self, rows_dir: Path, fingerprint: str = "") -> None:
         self.dir = rows_dir
         self.dir.mkdir(parents=True, exist_ok=True)
-        for stale in self.dir.glob(".part-*.tmp"):  # torn writes of a killed sweep
-            stale.unlink(missing_ok=True)
+        self.fingerprint = fingerprint
         self.seq = 0
 
     def append(self, rows: list[dict[str, Any]]) -> None:
@@ -81,7 +195,10 @@ class PartWriter:
         self.seq += 1
         # time first, so that sorted names are write order across resumed sessions
         name = f"part-{time.time_ns():020d}-{os.getpid()}-{self.seq:06d}.parquet"
-        write_frame(self.dir / name, normalize(pd.DataFrame(rows)))
+        frame = normalize(pd.DataFrame(rows))
+        if self.fingerprint:
+            frame.attrs[FINGERPRINT] = self.fingerprint
+        write_frame(self.dir / name, frame)
 
 
 def ordered(frame: pd.DataFrame, runs: Sequence[RunTask], sweep: Sweep) -> pd.DataFrame:
@@ -124,4 +241,21 @@ def load_rows(path: str | Path) -> pd.DataFrame:
                          f"(expected {', '.join(ROW_COLUMNS)} and one column per parameter)")
     if rows.empty:
         raise DatasetError(f"{path}: the dataset has no rows")
+    check_values(rows, str(path))
     return rows
+
+
+def check_values(rows: pd.DataFrame, where: str) -> None:
+    """Refuse (``DatasetError``) a dataset whose verdicts are not the judge's or whose numbers are text."""
+    unknown = sorted(set(rows["verdict"].astype(str)) - set(VERDICTS))
+    if unknown:
+        raise DatasetError(f"{where}: column verdict: unknown verdict(s) {', '.join(map(repr, unknown[:5]))}; "
+                           f"allowed: {', '.join(VERDICTS)}")
+    for c in (c for c in _FLOAT_COLUMNS + _INT_COLUMNS if c in rows):
+        if rows[c].dtype == bool or not (pd.api.types.is_numeric_dtype(rows[c]) or rows[c].isna().all()):
+            numbers = pd.to_numeric(rows[c].replace("", float("nan")), errors="coerce")
+            bad = rows[c][numbers.isna() & rows[c].notna() & (rows[c].astype(str) != "")]
+            if len(bad) or rows[c].dtype == bool:
+                first = bad.iloc[0] if len(bad) else rows[c].iloc[0]
+                raise DatasetError(f"{where}: column {c}: {first!r} (row {(bad.index[0] if len(bad) else 0)}) is not a "
+                                   "number; the column holds numbers")

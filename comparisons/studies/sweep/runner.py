@@ -10,8 +10,13 @@
 Promises: the whole spec is checked before any engine starts; rows reach ``OUT/rows/`` as
 runs finish; a sweep killed at any moment and resumed (``resume=True``) ends with exactly
 the rows of an uninterrupted one: finished rows are never re-run, unfinished runs are run once.
+One sweep at a time holds OUT (a second is refused, naming the holder); a resumed sweep sets
+aside, with a note on stderr, every part that is not its own (``dataset.check_parts``). On
+Dask, a cluster left with no worker for ``no_worker_wait`` seconds is said on stderr, then
+waited for or stopped (``no_workers``), the finished rows kept.
 Layout of OUT: ``sweep.toml`` (the resolved spec, written first), ``rows/`` (the Parquet
-dataset, one part per batch of finished runs), ``rows.parquet`` (all rows in run order).
+dataset, one part per batch of finished runs), ``rows.parquet`` (all rows in run order),
+``.lock`` (``directory.OutLock``).
 """
 
 from __future__ import annotations
@@ -27,12 +32,26 @@ from typing import Any
 import pandas as pd
 
 from chatterbench.comparisons.outputs.atomic import write_frame, write_text
-from chatterbench.comparisons.studies.isolate import die_with_parent
-from chatterbench.reference.errors import InputError
+from chatterbench.engines.isolate import die_with_parent
+from chatterbench.reference.errors import InputError, check_choice, check_integer, check_number
 
-from .dataset import PartWriter, ordered, read_rows
-from .spec import FAILED, SpecError, Sweep, load_sweep, sweep_runs
+from .dataset import PartWriter, SetAside, check_parts, ordered, read_rows
+from .directory import OutLock, clean_temps
+from .spec import FAILED, MAX_TIMEOUT, SpecError, Sweep, load_sweep, sweep_runs
 from .worker import run_batch_task, work_units
+
+NO_WORKER_WAIT = 60.0  # [s] a Dask cluster without a worker this long is said on stderr
+NO_WORKERS = ("wait", "stop")  # then: wait for a worker, or stop the sweep
+_SHOWN_ASIDE = 3  # set-aside parts named per reason; more are counted
+
+
+class NoWorkersError(InputError):
+    """A Dask cluster had no worker for longer than allowed (``no_workers="stop"``): exit 2, as an unreachable scheduler."""
+
+
+def _note(text: str) -> None:
+    print(f"chatterbench: note: {text}", file=sys.stderr)
+
 
 def _slots(executor: Any) -> int | None:
     """Parallel slots an executor offers, when it says (process pool, Dask)."""
@@ -56,21 +75,82 @@ def _progress(total: int, done: int, enabled: bool):
                 dynamic_ncols=True, smoothing=0.1)
 
 
-def _prepare_out(sweep: Sweep, out: Path, resume: bool) -> None:
+def _n_workers(client: Any) -> int:
+    try:
+        return len(client.nthreads())
+    except Exception:  # a scheduler that cannot answer has no worker to offer
+        return 0
+
+
+class _WorkerWatch:
+    """Watches a Dask cluster while a sweep waits on it: no worker for ``patience`` s is said, then waited or stopped."""
+
+    def __init__(self, client: Any, patience: float, policy: str, total: int) -> None:
+        self.client, self.patience, self.policy, self.total = client, patience, policy, total
+        self.since: float | None = None  # when the cluster was first seen without a worker
+        self.said = False
+        # wait() returns at this interval [s] to look at the cluster; locally it need not
+        self.interval = None if client is None else min(1.0, patience / 4)
+
+    def idle(self, done: int) -> None:
+        """Nothing finished for ``interval`` s: look for workers."""
+        if self.client is None:
+            return
+        n, now = _n_workers(self.client), time.monotonic()
+        if n:
+            if self.said:
+                _note(f"Dask: {n} worker(s) back; the sweep goes on")
+            self.since, self.said = None, False
+            return
+        self.since = now if self.since is None else self.since
+        if now - self.since < self.patience:
+            return
+        where = getattr(self.client, "scheduler", None)
+        where = f" at {where.address}" if getattr(where, "address", None) else ""
+        if self.policy == "stop":
+            raise NoWorkersError(f"Dask scheduler{where}: no worker for {self.patience:g} s (--dask-wait); stopped "
+                                 f"(--dask-no-workers stop) with {done} of {self.total} runs finished, their rows kept; "
+                                 "finish with --resume")
+        if not self.said:
+            _note(f"Dask scheduler{where}: no worker for {self.patience:g} s (--dask-wait); waiting for one "
+                  f"(--dask-no-workers wait), {done} of {self.total} runs finished; Ctrl-C stops, keeping their rows")
+            self.said = True
+
+    def progressed(self) -> None:
+        self.since = None
+
+
+def _note_set_aside(aside: list[SetAside]) -> None:
+    """One stderr line per reason: how many parts, where they went, the first few names."""
+    by_reason: dict[str, list[SetAside]] = {}
+    for a in aside:
+        by_reason.setdefault(a.reason, []).append(a)
+    for reason, parts in by_reason.items():
+        names = ", ".join(a.source.name for a in parts[:_SHOWN_ASIDE])
+        more = f" and {len(parts) - _SHOWN_ASIDE} more" if len(parts) > _SHOWN_ASIDE else ""
+        _note(f"set aside {len(parts)} part file(s) of {parts[0].source.parent} in {parts[0].path.parent} "
+              f"({names}{more}): {reason}")
+
+
+def _prepare_out(sweep: Sweep, out: Path, resume: bool) -> bool:
+    """Check OUT against the spec and write sweep.toml; True when OUT's sweep.toml was this very spec's."""
     spec_path = out / "sweep.toml"
     has_rows = any((out / "rows").glob("part-*.parquet")) if (out / "rows").is_dir() else False
+    same = False
     if has_rows and resume and spec_path.exists():
         try:
-            previous = load_sweep(spec_path)
+            previous = load_sweep(spec_path, sweep.budget)
         except InputError as exc:
             raise SpecError(f"{spec_path}: the sweep written there cannot be read back ({exc}); choose another --out") from None
         if previous.identity() != sweep.identity():
             diff = [k for k in sweep.identity() if sweep.identity()[k] != previous.identity()[k]]
             raise SpecError(f"{out}: holds rows of a different sweep ({', '.join(diff)} differ); "
                             "resume with the same spec or choose another --out")
+        same = True
     if has_rows and not resume:
         raise SpecError(f"{out}: already holds sweep rows; pass --resume to finish that sweep, or choose an empty --out")
     write_text(spec_path, sweep.to_toml())
+    return same
 
 
 def run_sweep(
@@ -81,6 +161,8 @@ def run_sweep(
     workers: int | None = None,
     progress: bool = True,
     batch: int | None = None,
+    no_worker_wait: float = NO_WORKER_WAIT,
+    no_workers: str = "wait",
 ) -> pd.DataFrame:
     """Run every run of ``sweep`` not yet in ``out_dir``; returns all its rows in run order.
 
@@ -91,7 +173,8 @@ def run_sweep(
         (all cores). A Dask ``Client`` is used through ``client.get_executor()``.
     resume : bool
         Continue the sweep already in ``out_dir`` (same spec); without it ``out_dir``
-        must hold no rows.
+        must hold no rows. Parts that are not this sweep's are moved to
+        ``OUT/rows/set-aside/`` with a note on stderr (``dataset.check_parts``).
     workers : int, optional
         Local pool size; with a given executor only bounds the runs in flight.
     progress : bool
@@ -99,34 +182,59 @@ def run_sweep(
     batch : int, optional
         Runs per unit of work (one isolated child; MuJoCo: one ``mujoco.rollout`` call), see
         ``work_units``; default automatic, 1 runs every run alone. The rows are the same either way.
+    no_worker_wait : float
+        [s] in (0, 86400]: a Dask cluster with no worker this long is said on stderr, then ...
+    no_workers : {"wait", "stop"}
+        ... waited for, or stopped with ``NoWorkersError`` (the finished rows kept).
+
+    Raises ``OutDirError`` when another sweep holds ``out_dir`` (``directory.OutLock``).
 
     Returns
     -------
     DataFrame
         ``rows.ROW_COLUMNS`` plus one column per parameter; ``attrs["sweep"]`` holds this
         call's ``wall_s``, ``runs`` executed, ``units`` of work submitted (``work_units``), ``run_s_sum`` (isolated runs' own wall time),
-        ``engine_s_sum`` (their engine stepping time) and ``workers``.
+        ``engine_s_sum`` (their engine stepping time), ``workers`` and ``set_aside`` (parts set aside).
     """
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
-        raise SpecError(f"workers = {workers!r}: must be an integer >= 1")
-    if batch is not None and (isinstance(batch, bool) or not isinstance(batch, int) or batch < 1):
-        raise SpecError(f"batch = {batch!r}: must be an integer >= 1")
+    if workers is not None:
+        check_integer("workers", workers, lo=1, error=SpecError)
+    if batch is not None:
+        check_integer("batch", batch, lo=1, error=SpecError)
+    check_number("no_worker_wait", no_worker_wait, lo=0.0, hi=MAX_TIMEOUT, lo_open=True, unit=" [s]", error=SpecError)
+    check_choice("no_workers", no_workers, NO_WORKERS, error=SpecError)
     out = Path(out_dir)
     runs = sweep_runs(sweep)
-    _prepare_out(sweep, out, resume)
-    writer = PartWriter(out / "rows")
-    have = read_rows(out)
+    with OutLock(out):  # from here on this process alone writes OUT
+        clean_temps(out)
+        same_spec = _prepare_out(sweep, out, resume)
+        have, aside = check_parts(out, runs, sweep.fingerprint(), untagged_ok=same_spec)
+        _note_set_aside(aside)
+        stats = _run(sweep, out, runs, have, executor, workers, progress, batch, no_worker_wait, no_workers)
+        stats["set_aside"] = len(aside)
+        frame = ordered(read_rows(out), runs, sweep)
+        write_frame(out / "rows.parquet", frame)
+    frame.attrs["sweep"] = stats
+    return frame
+
+
+def _run(sweep: Sweep, out: Path, runs: list, have: pd.DataFrame, executor: Any, workers: int | None,
+         progress: bool, batch: int | None, no_worker_wait: float, no_workers: str) -> dict[str, Any]:
+    """Run the runs not in ``have``, appending their rows to OUT/rows/; returns run_sweep's stats."""
+    writer = PartWriter(out / "rows", sweep.fingerprint())
     done_keys = set(zip(have["point_id"], have["engine"]))
     todo = [r for r in runs if (r.point_id, r.engine) not in done_keys]
     failures = int(have["status"].isin(FAILED).sum()) if len(have) else 0
     stats = {"wall_s": 0.0, "runs": 0, "units": 0, "run_s_sum": 0.0, "engine_s_sum": 0.0, "workers": 0}
     start = time.perf_counter()
-    owned = None
+    owned = client = None
     if todo:
         if executor is None:
             owned = executor = ProcessPoolExecutor(max_workers=workers or os.cpu_count() or 1, initializer=die_with_parent)
         elif hasattr(executor, "get_executor"):  # a dask.distributed Client
-            executor = executor.get_executor(pure=False)
+            client, executor = executor, executor.get_executor(pure=False)
+        else:
+            client = getattr(executor, "_client", None)  # a Dask ClientExecutor given as is
+        watch = _WorkerWatch(client, no_worker_wait, no_workers, len(runs))
         slots = workers or _slots(executor) or os.cpu_count() or 1
         stats["workers"] = slots
         bar = _progress(len(runs), len(runs) - len(todo), progress)
@@ -145,7 +253,11 @@ def run_sweep(
                     pending.add(executor.submit(run_batch_task, unit))
                 if not pending:
                     break
-                finished, pending = wait(pending, return_when=FIRST_COMPLETED)
+                finished, pending = wait(pending, timeout=watch.interval, return_when=FIRST_COMPLETED)
+                if not finished:
+                    watch.idle(len(runs) - len(todo) + stats["runs"])
+                    continue
+                watch.progressed()
                 results = [r for f in finished if f.exception() is None for r in f.result()]
                 writer.append([r.row for r in results])
                 for f in finished:  # an executor failure (a broken pool, a lost Dask worker) ends the sweep
@@ -171,7 +283,4 @@ def run_sweep(
             if owned is not None:
                 owned.shutdown(wait=True, cancel_futures=True)
     stats["wall_s"] = time.perf_counter() - start
-    frame = ordered(read_rows(out), runs, sweep)
-    write_frame(out / "rows.parquet", frame)
-    frame.attrs["sweep"] = stats
-    return frame
+    return stats

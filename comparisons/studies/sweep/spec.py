@@ -8,7 +8,7 @@ Spec file (TOML)::
 
     scene = "feigin-pair"              # built-in scene, or a scene TOML path (relative to this file)
     engines = ["mujoco", "pybullet"]   # default: both
-    timeout = 120                      # [s] wall-clock limit of one run (one engine at one point)
+    timeout = 120                      # [s] wall-clock limit of one run (one engine at one point), <= 86400
     description = "free text"          # optional
 
     [set]                              # fixed for every point
@@ -55,6 +55,9 @@ Promises:
   masses, gap, initial state, forcing, w0 dt, solver options may all differ). The rows
   are the same as run one by one, bit for bit; a unit that does not come back whole is
   rerun one run at a time, so a faulty run is still classified alone.
+- ``Sweep.to_toml`` writes any Unicode as itself (an emoji in a description, a string value
+  or the scene path), so ``OUT/sweep.toml`` always reads back to an equal Sweep; a string
+  that is not valid Unicode (a lone surrogate) is refused. ``timeout`` is at most one day.
 - Rows reach ``OUT/rows/part-*.parquet`` as runs finish, each part written atomically. A
   sweep killed at any moment and resumed (``resume=True``) ends with exactly the rows of an
   uninterrupted one: finished rows are never re-run, unfinished runs are run once.
@@ -66,6 +69,7 @@ written at the end).
 
 from __future__ import annotations
 
+import hashlib
 import itertools
 import json
 import math
@@ -73,16 +77,19 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
+from chatterbench.comparisons.pipeline.budget import Budget, check_engine_run
 from chatterbench.comparisons.pipeline.summary import point_id
 from chatterbench.comparisons.pipeline.tolerances import make_tolerances
 from chatterbench.engines.registry import ENGINE_NAMES, make_settings
 from chatterbench.reference.catalogue import CATALOGUE
-from chatterbench.reference.errors import InputError, did_you_mean
+from chatterbench.reference.errors import InputError, did_you_mean, is_number, shown
 from chatterbench.reference.scene import load_scene
 from chatterbench.reference.tables import flatten, read_toml
 
 SPEC_KEYS = ("scene", "engines", "timeout", "description", "set", "grid", "points", "tolerances")
 DEFAULT_TIMEOUT = 120.0  # [s] per run
+MAX_RUNS = 100_000  # (points x engines) a sweep: about 14 h at 0.5 s a run on two cores
+MAX_TIMEOUT = 86400.0  # [s] one day: beyond it a limit is no limit (and past ~1e9 s the OS refuses it)
 FAILED = ("crashed", "timeout", "error")  # run statuses counted as failures by the progress bar (a sweep's isolation)
 class SpecError(InputError):
     """A sweep spec is malformed or names something not allowed; the message says where."""
@@ -140,6 +147,7 @@ class Sweep:
     tolerances: Mapping[str, Any] = field(default_factory=dict)  # pipeline.tolerances.Tolerances fields
     description: str = ""
     source: str = ""  # the spec file, for messages ("" when built in Python)
+    budget: Budget = field(default_factory=Budget, compare=False)  # each run's steps and memory (not in the rows)
 
     def __post_init__(self) -> None:
         _validate(self)
@@ -167,6 +175,18 @@ class Sweep:
             lines += ["", "[[points]]"] + [f"{_toml(k)} = {_toml(v)}" for k, v in p.items()]
         return "\n".join(lines) + "\n"
 
+    def fingerprint(self) -> str:
+        """16 hex digits of ``identity``: equal for specs that give the same rows (1 and 1.0 alike)."""
+        def floats(v: Any) -> Any:
+            if isinstance(v, dict):
+                return {k: floats(x) for k, x in v.items()}
+            if isinstance(v, list):
+                return [floats(x) for x in v]
+            return float(v) if isinstance(v, int) and not isinstance(v, bool) else v
+
+        blob = json.dumps(floats(self.identity()), sort_keys=True)
+        return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
     def identity(self) -> dict[str, Any]:
         """What decides the rows (everything but timeout, description and source)."""
         return {"scene": self.scene, "engines": list(self.engines), "set": dict(self.fixed),
@@ -187,16 +207,49 @@ def _toml(value: Any) -> str:
             return "inf" if value > 0 else "-inf"
         return repr(value)
     if isinstance(value, str):
-        return json.dumps(value)  # JSON's escapes are TOML basic-string escapes
+        return _toml_string(value)
     if isinstance(value, (list, tuple)):
         return "[" + ", ".join(_toml(v) for v in value) + "]"
     raise TypeError(f"no TOML form for {value!r}")
 
 
+# TOML basic-string escapes; every other character but the controls is written as itself
+_ESCAPES = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
+
+
+def _toml_string(text: str) -> str:
+    """A TOML basic string holding ``text`` exactly, any Unicode (an emoji is written as itself).
+
+    JSON's ``\\ud83c\\udfbe`` surrogate pairs are not TOML: TOML escapes name Unicode scalar
+    values, so a non-BMP character written that way could not be read back.
+    """
+    out = []
+    for ch in text:
+        code = ord(ch)
+        if ch in _ESCAPES:
+            out.append(_ESCAPES[ch])
+        elif code < 0x20 or code == 0x7F:  # control characters must be escaped
+            out.append(f"\\u{code:04x}")
+        elif 0xD800 <= code <= 0xDFFF:  # refused by _unicode before a sweep exists
+            raise ValueError(f"{text!r}: a lone surrogate has no TOML form")
+        else:
+            out.append(ch)
+    return '"' + "".join(out) + '"'
+
+
+def _unicode(sweep: Sweep, where: str, text: str) -> str:
+    """``text`` if it is valid Unicode (what TOML and UTF-8 files can hold), else a SpecError."""
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError as exc:  # a lone surrogate, e.g. an undecodable byte of a file name
+        raise sweep.fail(f"{where} = {text!r}: not valid Unicode ({exc.reason} at character {exc.start})") from None
+    return text
+
+
 def _scalar(sweep: Sweep, where: str, value: Any) -> Any:
     if _kind(value) is None:
         raise sweep.fail(f"{where} = {value!r}: must be a number, a string or a boolean")
-    return value
+    return _unicode(sweep, where, value) if isinstance(value, str) else value
 
 
 def _values(sweep: Sweep, key: str, values: Any) -> tuple:
@@ -224,6 +277,7 @@ def _validate(sweep: Sweep) -> None:
     set_ = lambda name, value: object.__setattr__(sweep, name, value)  # noqa: E731
     if not isinstance(sweep.scene, str) or not sweep.scene:
         raise sweep.fail(f"scene = {sweep.scene!r}: must be a built-in scene ({', '.join(CATALOGUE)}) or a scene TOML path")
+    _unicode(sweep, "scene", sweep.scene)
     if sweep.scene not in CATALOGUE and Path(sweep.scene).exists():  # a file: the same one from any directory
         set_("scene", str(Path(sweep.scene).resolve()))
     engines = sweep.engines
@@ -236,11 +290,14 @@ def _validate(sweep: Sweep) -> None:
         raise sweep.fail(f"engines = {list(engines)!r}: lists an engine twice")
     set_("engines", tuple(engines))
     t = sweep.timeout
-    if isinstance(t, bool) or not isinstance(t, (int, float)) or not (t > 0 and math.isfinite(t)):
-        raise sweep.fail(f"timeout = {t!r}: must be a finite number of seconds > 0")
+    if not is_number(t) or not (t > 0 and math.isfinite(t)):
+        raise sweep.fail(f"timeout = {shown(t)}: must be a finite number of seconds > 0")
+    if t > MAX_TIMEOUT:  # past ~1e9 s the OS refuses the wait: a traceback from the first run
+        raise sweep.fail(f"timeout = {shown(t)}: must be in (0, {MAX_TIMEOUT:g}] seconds (one day at most)")
     set_("timeout", float(t))
     if not isinstance(sweep.description, str):
         raise sweep.fail(f"description = {sweep.description!r}: must be a string")
+    _unicode(sweep, "description", sweep.description)
     for name in ("fixed", "grid", "tolerances"):
         if not isinstance(getattr(sweep, name), Mapping):
             raise sweep.fail(f"{'set' if name == 'fixed' else name} = {getattr(sweep, name)!r}: must be a table")
@@ -258,6 +315,13 @@ def _validate(sweep: Sweep) -> None:
         points.append(flat)
     if not grid and not points:
         raise sweep.fail("no points: give a [grid] of KEY = [values] or [[points]] tables")
+    n_grid = math.prod(len(v) for v in grid.values()) if grid else 0  # counted, never enumerated, before refusing
+    runs = (n_grid + len(points)) * len(sweep.engines)
+    if runs > MAX_RUNS:
+        sizes = " x ".join(f"{k} ({len(v)})" for k, v in grid.items())
+        raise sweep.fail(f"grid: {sizes} = {n_grid:.3g} points{f' + {len(points)} [[points]]' if points else ''}, x "
+                         f"{len(sweep.engines)} engines = {runs:.3g} runs, more than {MAX_RUNS} a sweep; use fewer "
+                         "values, or split the sweep into several specs")
     for where, keys in [("set", fixed), ("grid", grid)] + [(f"points[{i}]", p) for i, p in enumerate(points)]:
         for k in keys:
             _check_key(sweep, f"{where}.{k}", k)
@@ -288,10 +352,13 @@ def _resolve(sweep: Sweep, params: Mapping[str, Any], where: str) -> dict[str, f
     """Build the point's scene and each engine's settings; returns each engine's dt [s]."""
     scene_over = {k: v for k, v in params.items() if _key_role(k) == "scene"}
     try:
-        load_scene(sweep.scene, scene_over)
-        return {e: make_settings(e, params.get("dt"), {k: v for k, v in params.items() if _key_role(k) == e}).dt
-                for e in sweep.engines}
-    except InputError as exc:  # SettingsError too
+        scene = load_scene(sweep.scene, scene_over)
+        dts = {e: make_settings(e, params.get("dt"), {k: v for k, v in params.items() if _key_role(k) == e}).dt
+               for e in sweep.engines}
+        for e, dt in dts.items():  # a run too big for a worker is refused before the first one starts
+            check_engine_run(scene, e, dt, sweep.budget)
+        return dts
+    except InputError as exc:  # SettingsError and BudgetError too
         raise sweep.fail(f"{where}: {exc}") from None
 
 
@@ -301,10 +368,11 @@ def _grid_product(grid: Mapping[str, tuple]) -> Iterable[dict[str, Any]]:
         yield dict(zip(keys, combo))
 
 
-def load_sweep(path: str | Path) -> Sweep:
+def load_sweep(path: str | Path, budget: Budget | None = None) -> Sweep:
     """Read and fully validate a sweep spec file (format in the module docstring).
 
-    A scene given as a path is resolved relative to the spec file. Raises ``SpecError``.
+    A scene given as a path is resolved relative to the spec file. Every run is checked
+    against ``budget`` (default ``Budget()``: one worker's steps and memory). Raises ``SpecError``.
     """
     path = Path(path)
     where = f"sweep spec {str(path)!r}"
@@ -326,6 +394,7 @@ def load_sweep(path: str | Path) -> Sweep:
         scene=scene, engines=data.get("engines", ENGINE_NAMES), fixed=data.get("set", {}), grid=data.get("grid", {}),
         points=points if not isinstance(points, list) else tuple(points), timeout=data.get("timeout", DEFAULT_TIMEOUT),
         tolerances=data.get("tolerances", {}), description=data.get("description", ""), source=str(path),
+        budget=budget or Budget(),
     )
 
 

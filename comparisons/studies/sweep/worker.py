@@ -22,7 +22,7 @@ from typing import Any, Sequence
 from chatterbench.comparisons.pipeline.compare import compare
 from chatterbench.comparisons.pipeline.summary import failure_row, mass_ratio, summarize
 from chatterbench.comparisons.pipeline.tolerances import make_tolerances
-from chatterbench.comparisons.studies.isolate import run_isolated
+from chatterbench.engines.isolate import run_isolated
 from chatterbench.engines.registry import can_batch, engine_version, make_settings, run_engine_batch
 from chatterbench.reference.scene import load_scene
 

@@ -160,3 +160,21 @@ def test_chatter_gate_failure_message_has_measured_and_limit_per_metric():
     assert any(line.split()[:3] == ["n_episodes", "==", "1"] and line.endswith("ok") for line in lines)
     with pytest.raises(pytest.fail.Exception, match="unknown metric"):
         gate.check("bouncing-ball", engine="pybullet", exit_eror_max=1.0)
+
+
+def test_a_misspelt_metric_in_the_pytest_plugin_is_said_once(tmp_path):
+    # before: the GateError was re-raised inside its handler, so pytest printed the message
+    # twice, joined by "During handling of the above exception"
+    import subprocess
+    import sys
+
+    (tmp_path / "test_typo.py").write_text(
+        "def test_typo(chatter_gate):\n"
+        "    chatter_gate.check('bouncing-ball', engine='pybullet', stick_eror_max=1e-3)\n")
+    # the plugin comes with the installed package (entry point pytest11)
+    proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", str(tmp_path / "test_typo.py")],
+                          capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert proc.returncode == 1
+    out = proc.stdout.split("short test summary info")[0]  # the failure itself (the summary repeats its line)
+    assert out.count("unknown metric (did you mean 'stick_error_max'?)") == 1, out
+    assert "During handling" not in out and "Traceback" not in out

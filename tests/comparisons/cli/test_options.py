@@ -14,7 +14,8 @@ from chatterbench.comparisons.pipeline.summary import ROW_COLUMNS
 from chatterbench.comparisons.studies.tune import TUNE_COLUMNS
 
 # what each shared option means, and the subcommands that take it
-SHARED = {"--engines": "engines", "--dt": "timestep", "--set": "override", "--tolerance": "tolerance", "--out": "write"}
+SHARED = {"--engines": "engines", "--dt": "timestep", "--set": "override", "--tolerance": "tolerance", "--out": "write",
+          "--timeout": "wall-clock limit", "--max-steps": "steps", "--max-memory": "memory"}
 
 
 def _subparsers() -> dict[str, argparse.ArgumentParser]:
@@ -71,3 +72,19 @@ def test_compare_report_tune_and_sweep_print_the_same_column_names():
 def test_tune_takes_one_engine(capsys):
     assert main(["tune", "bouncing-ball", "--engines", "mujoco,pybullet", "--tolerance", "0.05"]) == 2
     assert "one engine" in capsys.readouterr().err
+
+
+def test_a_refusal_loads_no_drawing_code():
+    # matplotlib takes 0.7 s to import: the drawing modules load only when a command draws, so a
+    # refused runaway input answers at once (before: every command imported them at start)
+    import subprocess
+    import sys
+
+    code = ("import sys\nfrom chatterbench.comparisons.cli.main import main\n"
+            "assert main(['run', 'feigin-pair', '--engine', 'mujoco', '--dt', '1e-7']) == 2\n"
+            "assert main(['compare', 'feigin-pair', '--set', 'duration=1e6']) == 2\n"
+            "print(sorted(m for m in sys.modules if m.split('.')[0] in ('matplotlib', 'mujoco', 'pybullet')))\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    loaded = proc.stdout.strip()
+    assert "matplotlib" not in loaded, loaded

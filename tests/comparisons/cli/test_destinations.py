@@ -1,0 +1,37 @@
+"""Writing that fails after the up-front checks: one line, exit 2, no temp file (a real full disk)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+
+import pytest
+
+from chatterbench.comparisons.cli.main import main
+
+
+@pytest.fixture
+def full_disk(tmp_path):
+    """A 64 KiB tmpfs: the comparison's first files fit, its figures do not."""
+    mount = tmp_path / "tiny"
+    mount.mkdir()
+    proc = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mount)], capture_output=True, text=True)
+    if proc.returncode != 0:
+        pytest.skip(f"cannot mount a small tmpfs here (needs root and mount rights): {proc.stderr.strip()}")
+    try:
+        yield mount
+    finally:
+        subprocess.run(["umount", str(mount)], check=False)
+
+
+def test_a_full_disk_is_one_line_and_leaves_no_temp_file(full_disk, capsys):
+    out = full_disk / "cmp"
+    code = main(["compare", "bouncing-ball", "--engines", "pybullet", "--set", "duration=0.5", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.count("\n") == 1 and err.startswith("chatterbench: error: cannot write "), err
+    assert "No space left on device" in err and str(out) in err
+    assert not [p for p in full_disk.rglob("*") if p.name.endswith(".tmp")]  # the torn write is gone
+    finished = sorted(p.name for p in out.iterdir())
+    assert "episodes.csv" in finished  # what was written before the disk filled is whole
+    assert all(os.path.getsize(out / name) > 0 for name in finished)
