@@ -222,6 +222,10 @@ CASES: list[tuple[str, str, list[str], str | None, tuple[str, ...]]] = [
      None, ("the reference", "duration = 1e+06", "events", "--max-memory")),
     ("platemap-huge", "a 1e10-strike plate map", ["platemap", "feigin-pair", "--phases", "100000", "--speeds", "100000"], None,
      ("--phases 100000", "--speeds 100000", "GiB", "--max-memory")),
+    ("platemap-unforced", "a plate map of a scene without forcing (before: exit 0, speeds to 4e13 m/s)",
+     ["platemap", "bouncing-ball"], None, ("bouncing-ball", "no forcing")),
+    ("scenes --toml typo", "a built-in scene name misspelt", ["scenes", "--toml", "feigin"], None,
+     ("--toml", "did you mean 'feigin-pair'")),
     ("--max-memory 0.01", "a memory limit below a process's own size", ["run", "feigin-pair", "--max-memory", "0.01"], None,
      ("--max-memory", ">=")),
     # numbers that cannot be represented

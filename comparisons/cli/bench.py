@@ -4,6 +4,9 @@
     $ chatterbench bench engines --steps 200000
     $ chatterbench bench platemap
     $ chatterbench bench sweep --points 40 --workers 2
+
+Each prints its figures, what one repeat is, and ``PASS``/``FAIL`` per goal (``GOALS``);
+the exit code is 1 when a goal fails, so a benchmark can gate a performance job.
 """
 
 from __future__ import annotations
@@ -17,28 +20,56 @@ from chatterbench.comparisons.studies.bench import bench_engines, bench_platemap
 from .common import positive_int, print_table
 
 
+# each benchmark's goals: (figure, "<=" or ">=", bound, what it means)
+GOALS = {
+    "reference": [("feigin_ms_per_100_periods", "<=", 20.0, "Feigin mode, ms per 100 forcing periods"),
+                  ("exhaustive_us_per_impact", "<=", 20.0, "exhaustive mode, us per impact")],
+    "sweep": [("overhead_ratio", "<=", 1.15, "sweep wall time against the runs' own time"),
+              ("engine_ratio", "<=", 1.15, "sweep wall time against engine stepping alone"),
+              ("speedup", ">=", 1.7, "1 worker against --workers")],
+    "platemap": [("seconds", "<=", 30.0 * 1e-5, "seconds per strike (100,000 strikes in under 30 s)")],
+    "engines": [("ratio", ">=", 0.8, "adapter steps/s against the raw engine loop, each engine")],
+}
+REPEAT = {  # what one repeat is, and which counts
+    "reference": "one repeat = one run of each chatter mode over --periods; the best of --repeats counts",
+    "engines": "one repeat = --steps steps of each engine, adapter and raw loop; the best of --repeats counts",
+    "platemap": "one repeat = the whole grid of --strikes strikes; the best of --repeats counts (time of one repeat)",
+    "sweep": "one sweep of --points points x 2 engines, once with --workers and once with 1 worker (no repeats)",
+}
+
+
+def goal_lines(what: str, figures: dict[str, float] | pd.DataFrame, strikes: int = 1) -> tuple[list[str], bool]:
+    """``PASS``/``FAIL`` per goal of benchmark ``what`` with the measured value; and whether all passed."""
+    lines, ok = [], True
+    for key, op, bound, meaning in GOALS[what]:
+        values = list(figures[key]) if isinstance(figures, pd.DataFrame) else [figures[key]]
+        if what == "platemap":
+            values = [v / strikes for v in values]
+        passed = all((v <= bound) if op == "<=" else (v >= bound) for v in values)
+        ok &= passed
+        shown = ", ".join(f"{v:.4g}" for v in values)
+        lines.append(f"{'PASS' if passed else 'FAIL'}: {key} = {shown} (goal {op} {bound:g}: {meaning})")
+    return lines, ok
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
     if args.what == "reference":
         figures = bench_reference(periods=args.periods, repeats=args.repeats)
         print_table(pd.DataFrame([figures]), title="reference on feigin-pair (best of repeats, one core):")
-        print("goals: feigin mode < 20 ms per 100 periods; exhaustive mode < 20 us per impact")
-        return 0
-    if args.what == "sweep":
+    elif args.what == "sweep":
         figures = bench_sweep(points=args.points, workers=args.workers)
         print_table(pd.DataFrame([figures]).T.reset_index().rename(columns={"index": "figure", 0: "value"}),
                     title="sweep overhead: feigin-pair, both engines, 3 periods, dt = 1e-4")
-        print("goals: overhead_ratio (wall against the runs' own time) and engine_ratio (against engine stepping alone) "
-              "<= 1.15; speedup (1 worker against --workers) >= 1.7")
-        return 0
-    if args.what == "platemap":
+    elif args.what == "platemap":
         figures = bench_platemap(strikes=args.strikes, repeats=args.repeats)
         print_table(pd.DataFrame([figures]), title="plate map, feigin-pair lower wall, reference exhaustive mode (best of repeats):")
-        print("goal: 100,000 strikes in under 30 s")
-        return 0
-    table = bench_engines(steps=args.steps, repeats=args.repeats)
-    print_table(table, title="engines on feigin-pair (steps per second, best of repeats):")
-    print("goal: adapter keeps >= 80% of the raw engine loop")
-    return 0
+    else:
+        figures = bench_engines(steps=args.steps, repeats=args.repeats)
+        print_table(figures, title="engines on feigin-pair (steps per second, best of repeats):")
+    print(REPEAT[args.what])
+    lines, ok = goal_lines(args.what, figures, strikes=args.strikes)
+    print("\n".join(lines))
+    return 0 if ok else 1
 
 
 def register(sub, formatter) -> None:

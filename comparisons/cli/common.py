@@ -200,5 +200,15 @@ def add_timeout(p: argparse.ArgumentParser) -> None:
                         "results are kept")
 
 
+def add_judging(p: argparse.ArgumentParser) -> None:
+    """The options of every command that runs engines and judges them (compare, report)."""
+    add_engines(p)
+    add_dt(p)
+    add_set(p)
+    add_tolerance(p)
+    add_timeout(p)
+    add_budget(p)
+
+
 def add_out(p: argparse.ArgumentParser, default: str | None = None, what: str = "write the files under DIR") -> None:
     p.add_argument("--out", metavar="DIR", default=default, help=what)

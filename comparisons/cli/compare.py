@@ -17,8 +17,8 @@ from pathlib import Path
 from chatterbench.comparisons.pipeline.compare import compare
 from chatterbench.reference.scene import load_scene
 
-from .common import add_budget, add_dt, add_engines, add_out, add_scene, add_set, add_timeout, add_tolerance, \
-    budget_of, engine_list, parse_tolerances, print_table, split_overrides
+from .common import add_judging, add_out, add_scene, budget_of, engine_list, parse_tolerances, print_table, \
+    split_overrides
 from .paths import check_dir
 
 EPISODE_SHOW = ["engine", "wall", "ref_t_stick", "t_stick", "stick_error_zeno", "stick_error_rel", "ref_t_exit", "t_exit",
@@ -55,12 +55,7 @@ def register(sub, formatter) -> None:
     p = sub.add_parser("compare", help="run the reference and the engines on a scene; judge every episode",
                        formatter_class=formatter)
     add_scene(p)
-    add_engines(p)
-    add_dt(p)
-    add_set(p)
-    add_tolerance(p)
-    add_timeout(p)
-    add_budget(p)
+    add_judging(p)
     add_out(p, what="write tables (CSV, Parquet), event logs, impacts, provenance and figures under DIR")
     p.add_argument("--no-figures", action="store_true", help="skip the figures under --out")
     p.set_defaults(func=cmd_compare)

@@ -20,8 +20,8 @@ from pathlib import Path
 from chatterbench.comparisons.studies.sweep.dataset import load_rows
 from chatterbench.reference.catalogue import CATALOGUE
 
-from .common import (ENGINE_TIMEOUT, UsageError, add_budget, add_dt, add_engines, add_out, add_set, add_timeout,
-                     add_tolerance, budget_of, engine_list, parse_tolerances, print_table, split_overrides)
+from .common import (ENGINE_TIMEOUT, UsageError, add_judging, add_out, budget_of, engine_list, parse_tolerances,
+                     print_table, split_overrides)
 from .paths import check_dir
 
 
@@ -34,8 +34,10 @@ def _command_line(args: argparse.Namespace) -> str:
         words += ["--set", item]
     for item in args.tolerance or []:
         words += ["--tolerance", item]
-    if args.sweep:
-        words += ["--sweep", args.sweep]
+    for item in args.sweep or []:
+        words += ["--sweep", item]
+    for item in args.tune or []:  # before: left out of the provenance
+        words += ["--tune", item]
     if args.timeout != ENGINE_TIMEOUT:
         words += ["--timeout", f"{args.timeout:g}"]
     return " ".join(shlex.quote(w) for w in words)
@@ -55,10 +57,10 @@ def cmd_report(args: argparse.Namespace) -> int:
             raise UsageError(f"--tune {d}: no guide_section.html there (write one with `chatterbench tune ... --out {d}`)")
         tuning.append(f.read_text(encoding="utf-8"))
     tuning = tuple(tuning)
-    sweep = SweepSection(str(args.sweep), load_rows(args.sweep)) if args.sweep else None  # bad input before any run
+    sweeps = [SweepSection(str(d), load_rows(d)) for d in args.sweep or ()]  # bad input before any run
     report = build_report(
         scenes=args.scenes or tuple(CATALOGUE), engines=engine_list(args.engines), dt=args.dt,
-        scene_overrides=scene_over, engine_overrides=engine_over, tol=tol, sweep=sweep,
+        scene_overrides=scene_over, engine_overrides=engine_over, tol=tol, sweeps=sweeps,
         command=_command_line(args), timeout=args.timeout, budget=budget_of(args),
     )
     print_table(report.summary[SUMMARY_COLUMNS], title=f"summary ({report.wall_time_s:.1f} s of runs; errors in s):")
@@ -75,15 +77,11 @@ def register(sub, formatter) -> None:
                        formatter_class=formatter)
     p.add_argument("scenes", nargs="*", metavar="SCENE",
                    help="built-in scene names or scene TOML files; none: every built-in scene")
-    add_engines(p)
-    add_dt(p)
-    add_set(p)
-    add_tolerance(p)
-    add_timeout(p)
-    add_budget(p)
+    add_judging(p)
     add_out(p, default="report", what="output directory")
-    p.add_argument("--sweep", metavar="DIR", default=None,
-                   help="a sweep dataset (directory with rows.parquet): add its work-precision chart and stability maps")
+    p.add_argument("--sweep", action="append", metavar="DIR", default=None,
+                   help="a sweep dataset (directory with rows.parquet, or a .parquet/.csv file): add its work-precision "
+                        "chart and stability maps of the --engines; repeatable, one section each")
     p.add_argument("--tune", action="append", metavar="DIR", default=None,
                    help="include the tuning guide that `chatterbench tune ... --out DIR` wrote (repeatable)")
     p.set_defaults(func=cmd_report)

@@ -1,21 +1,29 @@
-"""``chatterbench scenes``: the built-in scenes, one line each.
+"""``chatterbench scenes``: the built-in scenes, one line each; ``--toml NAME`` prints one as a file to start from.
 
     $ chatterbench scenes
+    $ chatterbench scenes --toml feigin-pair > my-scene.toml     # edit, then: chatterbench run my-scene.toml
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 
 import pandas as pd
 
 from chatterbench.reference.catalogue import CATALOGUE, describe
+from chatterbench.reference.errors import check_choice
 from chatterbench.reference.scene import load_scene
+from chatterbench.reference.scene_toml import scene_toml
 
-from .common import print_table
+from .common import UsageError, print_table
 
 
 def cmd_scenes(args: argparse.Namespace) -> int:
+    if args.toml is not None:
+        name = check_choice("--toml", args.toml, tuple(CATALOGUE), error=UsageError)
+        sys.stdout.write(scene_toml(load_scene(name), describe(name)))
+        return 0
     rows = []
     for name in CATALOGUE:
         s = load_scene(name)
@@ -28,4 +36,6 @@ def cmd_scenes(args: argparse.Namespace) -> int:
 def register(sub, formatter) -> None:
     """Add ``scenes`` to the ``chatterbench`` subparsers."""
     p = sub.add_parser("scenes", help="list the built-in scenes", formatter_class=formatter)
+    p.add_argument("--toml", metavar="NAME", default=None,
+                   help="print built-in scene NAME as a commented TOML file (every field with its unit) to edit and run")
     p.set_defaults(func=cmd_scenes)

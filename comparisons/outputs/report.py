@@ -92,7 +92,7 @@ class Report:
     wall_time_s: float  # [s] the whole report's runs
     created: str  # ISO date, UTC
     command: str = ""  # the command line that produced it, for the provenance
-    sweep: SweepSection | None = None
+    sweeps: tuple[SweepSection, ...] = ()  # every ``--sweep`` dataset, in the order given
     tuning: tuple[str, ...] = ()  # HTML sections written by `chatterbench tune --out DIR` (guide_section.html)
 
 
@@ -107,7 +107,7 @@ def build_report(
     scene_overrides: Sequence[str] = (),
     engine_overrides: Sequence[str] = (),
     tol: Tolerances | None = None,
-    sweep: SweepSection | None = None,
+    sweeps: Sequence[SweepSection] = (),
     progress: Progress | None = _stderr,
     command: str = "",
     timeout: float | None = None,
@@ -150,7 +150,7 @@ def build_report(
     return Report(
         comparisons=tuple(comparisons), summary=summary, engines=tuple(engines), dt=dt,
         overrides=tuple(scene_overrides) + tuple(engine_overrides), wall_time_s=time.perf_counter() - start,
-        created=datetime.now(timezone.utc).isoformat(timespec="seconds"), command=command, sweep=sweep,
+        created=datetime.now(timezone.utc).isoformat(timespec="seconds"), command=command, sweeps=tuple(sweeps),
     )
 
 
@@ -276,13 +276,21 @@ def _stability_pairs(rows: pd.DataFrame, engine: str, params: Sequence[str], lim
     return pairs[:limit]
 
 
-def sweep_figures(section: SweepSection) -> tuple[list[Figure], list[str]]:
-    """The sweep's work-precision chart and stability maps, rendered; plus notes on what was skipped.
+def sweep_rows(section: SweepSection, engines: Sequence[str] | None = None) -> pd.DataFrame:
+    """The sweep's rows of ``engines`` (None: all), as the report draws and counts them."""
+    rows = section.rows
+    return rows if engines is None else rows[rows["engine"].astype(str).isin(list(engines))]
+
+
+def sweep_figures(section: SweepSection, engines: Sequence[str] | None = None) -> tuple[list[Figure], list[str]]:
+    """The sweep's work-precision chart and stability maps of ``engines`` (None: all), rendered; plus notes.
 
     The charts come from ``work_precision`` and ``stability_map``; a chart that cannot be
     drawn from these rows becomes a note, not an error.
     """
-    rows = section.rows
+    rows = sweep_rows(section, engines)
+    if rows.empty:
+        return [], [f"no rows of {', '.join(engines or ())} in this dataset"]
     figures, notes = [], []
     params = parameter_columns(rows)
     engines = sorted(rows["engine"].astype(str).unique())

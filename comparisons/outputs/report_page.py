@@ -8,6 +8,7 @@
 from __future__ import annotations
 
 import base64
+import dataclasses
 import html
 from pathlib import Path
 from typing import Sequence
@@ -18,7 +19,8 @@ from chatterbench.comparisons.pipeline.vocabulary import COLOURS, MEANINGS, NAME
 
 from .atomic import write_text
 from .report import (EPISODE_COLUMNS, HEADERS, SUMMARY_COLUMNS, Figure, Report, cell, engine_rows, plural,
-                     provenance_items, summary_frame, tolerance_line, build_report, scene_figures, sweep_figures)
+                     provenance_items, summary_frame, tolerance_line, build_report, scene_figures, sweep_figures,
+                     sweep_rows)
 
 __all__ = ["build_report", "report_html", "report_markdown", "write_report"]
 
@@ -103,11 +105,14 @@ def report_html(report: Report) -> str:
         failed = {n: r.trajectory.message for n, r in c.runs.items() if r.trajectory.message}
         for n, msg in failed.items():
             parts.append(f'<p class="note">{html.escape(n)}: {html.escape(msg.splitlines()[0])}</p>')
-    if report.sweep is not None:
-        figs, notes = sweep_figures(report.sweep)
-        parts.append('<h2 id="sweep">Sweep</h2>')
-        parts.append(f'<p class="note">dataset {html.escape(report.sweep.source)}: {len(report.sweep.rows)} rows '
-                     f'({", ".join(sorted(report.sweep.rows["engine"].astype(str).unique()))}).</p>')
+    for i, section in enumerate(report.sweeps, 1):
+        figs, notes = sweep_figures(section, report.engines)
+        if i > 1:  # ids stay unique on the page
+            figs = [dataclasses.replace(f, id=f"sweep{i}-{f.id}") for f in figs]
+        rows = sweep_rows(section, report.engines)
+        parts.append(f'<h2 id="sweep-{i}">Sweep: {html.escape(section.source)}</h2>')
+        parts.append(f'<p class="note">{len(rows)} rows of {html.escape(", ".join(report.engines))} '
+                     f'(of {len(section.rows)} in the dataset).</p>')
         parts.extend(_img(f) for f in figs)
         parts.extend(f'<p class="note">{html.escape(n)}</p>' for n in notes)
     parts.extend(report.tuning)  # tuning guides, as `chatterbench tune` wrote them
@@ -142,6 +147,14 @@ def report_markdown(report: Report) -> str:
            "## Summary", "", _md_table(summary_frame(report), SUMMARY_COLUMNS), ""]
     for c in report.comparisons:
         out += [f"## {c.scene.name}", "", f"{tolerance_line(c)}.", "", _md_table(c.table, EPISODE_COLUMNS), ""]
+    for section in report.sweeps:  # the charts are in index.html; here the verdicts they draw
+        rows = sweep_rows(section, report.engines)
+        counts = rows.groupby(["engine", "verdict"]).size().unstack(fill_value=0)
+        out += [f"## Sweep: {section.source}", "", f"{len(rows)} rows of {', '.join(report.engines)}; runs per "
+                "verdict (the work-precision chart and stability maps are in index.html):", "",
+                "| engine | " + " | ".join(counts.columns) + " |", "|---|" + "---:|" * len(counts.columns)]
+        out += [f"| {engine} | " + " | ".join(str(int(v)) for v in row) + " |" for engine, row in counts.iterrows()]
+        out.append("")
     out += ["## What produced this report", ""]
     for key, value in provenance_items(report):
         out.append(f"- {key}: `{value}`" if key == "command" else f"- {key}: {value}")

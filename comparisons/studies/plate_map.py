@@ -96,6 +96,9 @@ def plate_map(
     """Map which strikes on ``wall`` end in sliding (module docstring); one row per strike."""
     if wall not in scene.gap.walls:
         raise SceneError(f"wall = {wall!r}: must be one of {', '.join(scene.gap.walls)}")
+    if not scene.forcing_omegas:  # strikes are placed by the phase of a forcing period
+        raise SceneError(f"scene {scene.name!r} has no forcing (no harmonic force, no prescribed motion), so a strike "
+                         "has no phase to map; a plate map needs a forced scene (feigin-pair, impact-damper)")
     T, S = strike_grid(scene, n_phase, n_speed, max_speed)
     sign = -1.0 if wall == "lower" else 1.0  # incoming y' points into the wall
     fates = strike_fates(scene, wall, T, sign * S)

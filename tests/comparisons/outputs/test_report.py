@@ -77,6 +77,23 @@ def test_html_states_what_produced_it(report_dir):
     assert "w0_dt=0.03" in page and "restitution_velocity_threshold=0" in page  # the settings that ran
 
 
+def test_every_sweep_gets_its_section_with_only_the_reports_engines(report_dir, tmp_path):
+    # before: `--sweep A --sweep B` kept only B, `--engines pybullet` still drew MuJoCo's maps,
+    # and report.md had no sweep section
+    sweep = report_dir.parent / "sweep"
+    out = tmp_path / "two"
+    assert main(["report", "bouncing-ball", "--set", SHORT, "--engines", "pybullet", "--out", str(out),
+                 "--sweep", str(sweep), "--sweep", str(sweep / "rows.parquet")]) == 0
+    page = (out / "index.html").read_text()
+    assert page.count('<h2 id="sweep-') == 2 and f"Sweep: {sweep / 'rows.parquet'}" in page
+    assert 'id="stability-pybullet-dt-restitution"' in page and 'id="sweep2-stability-pybullet-dt-restitution"' in page
+    assert "stability-mujoco" not in page
+    md = (out / "report.md").read_text()
+    assert md.count("## Sweep: ") == 2
+    section = md.split("## Sweep: ")[1]
+    assert "| pybullet |" in section and "| mujoco |" not in section
+
+
 def test_sweep_section_has_work_precision_and_stability_maps(report_dir):
     page = (report_dir / "index.html").read_text()
     assert 'id="work-precision"' in page
