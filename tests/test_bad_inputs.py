@@ -283,6 +283,10 @@ CASES: list[tuple[str, str, list[str], str | None, tuple[str, ...]]] = [
      ROWS.replace("0.2,", "slow,"), ("column cost_per_sim_s", "'slow'", "not a number")),
     ("report-dataset-verdict", "report --sweep with an unknown verdict", ["report", "bouncing-ball", "--sweep", CSV],
      ROWS.replace("late", "slipped"), ("column verdict",)),
+    ("gate --band -1", "a negative regression band", ["gate", FILE, "--band", "-1"],
+     '[[check]]\nscene = "bouncing-ball"\nengine = "pybullet"\nlimits = ["verdict == match"]\n', ("--band", ">= 0")),
+    ("gate --baseline not-json", "a baseline that is not one", ["gate", FILE, "--baseline", FILE],
+     '[[check]]\nscene = "bouncing-ball"\nengine = "pybullet"\nlimits = ["verdict == match"]\n', ("--baseline", "not JSON")),
     ("gate-unclosed-list", "a verdict list without its closing bracket", ["gate", FILE],
      '[[check]]\nscene = "bouncing-ball"\nengine = "pybullet"\nlimits = ["verdict in [match"]\n', ("bracketed list",)),
 ]

@@ -23,7 +23,7 @@ from chatterbench.comparisons.outputs.sweep_data import check_columns, equals, p
 from chatterbench.comparisons.studies.sweep.dataset import load_rows
 
 from .common import UsageError, add_out, positive_float, print_table
-from .paths import check_dir
+from .paths import check_dir, writing
 
 KINDS = ("work-precision", "stability")
 ERROR_METRICS = ("exit_error_max", "stick_error_max", "stick_error_plate_max", "first_impact_error_max",
@@ -67,17 +67,18 @@ def _default_out(dataset: Path) -> Path:
 def _save(fig, out: Path, stem: str) -> list[Path]:
     from chatterbench.comparisons.outputs.figures import figure_bytes  # draws: loads matplotlib (0.7 s), so only when asked
 
-    return [write_bytes(out / f"{stem}.{fmt}", figure_bytes(fig, fmt)) for fmt in ("png", "svg")]
+    with writing("--out", out):
+        return [write_bytes(out / f"{stem}.{fmt}", figure_bytes(fig, fmt)) for fmt in ("png", "svg")]
 
 
 def cmd_chart(args: argparse.Namespace) -> int:
+    out = Path(args.out) if args.out else _default_out(Path(args.dataset))
+    check_dir("--out", out)
     from chatterbench.comparisons.outputs.stability_map import stability_map_figure, verdict_grid  # draws: loads matplotlib (0.7 s), so only when asked
     from chatterbench.comparisons.outputs.work_precision import pareto_front, work_precision_figure, work_precision_points
 
     rows = load_rows(args.dataset)
     rows = _where(rows, args.where or [])
-    out = Path(args.out) if args.out else _default_out(Path(args.dataset))
-    check_dir("--out", out)
     engines = [e.strip() for e in (args.engines or "").split(",") if e.strip()]
     present = sorted(rows["engine"].astype(str).unique())
     check_columns(rows, engines, present, what="engine")

@@ -19,7 +19,7 @@ from chatterbench.reference.scene import load_scene
 
 from .common import add_judging, add_out, add_scene, budget_of, engine_list, parse_tolerances, print_table, \
     split_overrides
-from .paths import check_dir
+from .paths import check_dir, writing
 
 EPISODE_SHOW = ["engine", "wall", "ref_t_stick", "t_stick", "stick_error_zeno", "stick_error_rel", "ref_t_exit", "t_exit",
                 "exit_error", "exit_error_steps", "restitution_error", "resolved_impacts", "ref_resolved_impacts",
@@ -45,7 +45,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
     if args.out:
         from chatterbench.comparisons.outputs.comparison_files import write_comparison  # draws: loads matplotlib (0.7 s), so only when asked
 
-        paths = write_comparison(result, Path(args.out), figures=not args.no_figures)
+        with writing("--out", args.out):
+            paths = write_comparison(result, Path(args.out), figures=not args.no_figures)
         print(f"wrote {len(paths)} files under {args.out}")
     return 0
 

@@ -10,33 +10,65 @@
     Traceback (most recent call last):
     ...
     chatterbench.comparisons.cli.common.UsageError: --events ...: is a directory; give a file path
+    >>> with writing("--out", tmp / "out"):         # a disk that fills while writing
+    ...     raise OSError(28, "No space left on device", str(tmp / "out" / "report.html"))
+    Traceback (most recent call last):
+    ...
+    chatterbench.comparisons.cli.common.UsageError: --out .../out: cannot write report.html: No space left on device
 
 A directory option must name a directory or a place where one can be made (its nearest
-existing ancestor a directory this user may write); a file option must not name a directory
-and its directory must be one or be creatable. Writing can still fail later (a full disk):
-``main`` turns that ``OSError`` into one line, and ``outputs/atomic.py`` leaves no temp file.
+existing ancestor a directory this user may write); a file option must not name a directory,
+a device or a pipe, and its directory must be one or be creatable. Every subcommand checks
+all its output options first, so a refusal costs nothing. Writing can still fail later (a
+full disk): ``writing`` turns that ``OSError`` into one line naming the option and the file,
+and ``outputs/atomic.py`` leaves no temp file.
 """
 
 from __future__ import annotations
 
 import os
+from contextlib import contextmanager, suppress
 from pathlib import Path
+
+from chatterbench.comparisons.outputs.atomic import TEMP_NAME_EXTRA
 
 from .common import UsageError
 
+_NOT_FILE = "is not a regular file (a device, pipe or socket); give a file path"
 
-def _creatable(option: str, shown: Path, path: Path) -> None:
-    """``path`` (a directory to be) exists as a directory or can be made under its nearest existing ancestor.
+
+def _why_not_writable(directory: Path) -> str:
+    if hasattr(os, "ST_RDONLY") and os.statvfs(directory).f_flag & os.ST_RDONLY:
+        return "a read-only filesystem"
+    return "permission denied"
+
+
+def _creatable(option: str, shown: Path, path: Path) -> Path:
+    """``path`` (a directory to be) exists as a directory or can be made under its nearest existing ancestor (returned).
 
     Paths are walked as given (relative ones end at ``.``), so messages quote what the user typed.
     """
     probe = path
     while not probe.exists() and not probe.is_symlink() and probe.parent != probe:
         probe = probe.parent
-    if probe != path and not probe.is_dir():
+    if probe.is_symlink() and not probe.exists():
+        raise UsageError(f"{option} {shown}: {probe} is a broken link (-> {os.readlink(probe)})")
+    if not probe.is_dir():
         raise UsageError(f"{option} {shown}: {probe} is not a directory, so nothing can be made under it")
     if not os.access(probe, os.W_OK | os.X_OK):
-        raise UsageError(f"{option} {shown}: cannot write in {probe} (permission denied)")
+        raise UsageError(f"{option} {shown}: cannot write in {probe} ({_why_not_writable(probe)})")
+    return probe
+
+
+@contextmanager
+def _checking(option: str, path: Path):
+    """Refusals of the path itself: a NUL character, a name the filesystem cannot hold (too long, ...)."""
+    if "\0" in str(path):
+        raise UsageError(f"{option} {str(path)!r}: contains a NUL character")
+    try:
+        yield
+    except OSError as exc:
+        raise UsageError(f"{option} {path}: {exc.strerror or exc}") from None
 
 
 def check_dir(option: str, path: str | Path | None) -> None:
@@ -44,24 +76,53 @@ def check_dir(option: str, path: str | Path | None) -> None:
     if path is None:
         return
     path = Path(path)
-    if path.exists() and not path.is_dir():
-        raise UsageError(f"{option} {path}: exists and is not a directory")
-    _creatable(option, path, path)
+    with _checking(option, path):
+        if path.exists() and not path.is_dir():
+            raise UsageError(f"{option} {path}: exists and is not a directory")
+        _creatable(option, path, path)
 
 
 def check_file(option: str, path: str | Path | None) -> None:
-    """Refuse (``UsageError``) a file option that names a directory or a place no file can be written."""
+    """Refuse (``UsageError``) a file option that names a directory or a place no file can be written.
+
+    The file is written beside itself and renamed over (``outputs/atomic.py``): a device or a
+    pipe would be replaced, not written to, so only a regular file, a link or a new name will do.
+    """
     if path is None:
         return
     path = Path(path)
-    if path.is_dir():
-        raise UsageError(f"{option} {path}: is a directory; give a file path")
-    if path.exists() and not os.access(path, os.W_OK):
-        raise UsageError(f"{option} {path}: cannot be overwritten (permission denied)")
-    _creatable(option, path, path.parent)
+    with _checking(option, path):
+        if path.is_dir():
+            raise UsageError(f"{option} {path}: is a directory; give a file path")
+        if path.exists() and not path.is_file():
+            raise UsageError(f"{option} {path}: {_NOT_FILE}")
+        if path.exists() and not os.access(path, os.W_OK):
+            raise UsageError(f"{option} {path}: cannot be overwritten (permission denied)")
+        limit = os.pathconf(_creatable(option, path, path.parent), "PC_NAME_MAX")
+        if len(os.fsencode(path.name)) + TEMP_NAME_EXTRA > limit:
+            raise UsageError(f"{option} {path}: file name too long, at most {limit - TEMP_NAME_EXTRA} bytes here "
+                             "(it is first written beside itself under a longer temporary name)")
 
 
-def write_error(exc: OSError) -> str:
-    """One line for an OSError met while writing (a full disk, a permission taken away)."""
-    where = f" {exc.filename}" if exc.filename else ""
-    return f"cannot write{where}: {exc.strerror or exc}"
+def write_error(exc: OSError, under: str | Path | None = None) -> str:
+    """One line for an OSError met while writing (a full disk, a permission taken away).
+
+    The file is named relative to ``under`` (the option's path) when it lies there.
+    """
+    name = exc.filename
+    if name is not None and under is not None:
+        with suppress(ValueError):
+            name = Path(name).relative_to(under)
+            name = None if name == Path(".") else name
+    return f"cannot write{f' {name}' if name else ''}: {exc.strerror or exc}"
+
+
+@contextmanager
+def writing(option: str, path: str | Path):
+    """Turn an ``OSError`` met while writing what ``option`` names into a ``UsageError`` (one line, exit 2)."""
+    try:
+        yield
+    except BrokenPipeError:  # the reader of stdout left (``| head``): ``main`` says nothing more
+        raise
+    except OSError as exc:
+        raise UsageError(f"{option} {path}: {write_error(exc, path)}") from None

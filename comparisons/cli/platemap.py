@@ -18,7 +18,7 @@ from chatterbench.reference.scene import load_scene
 
 from .common import UsageError, add_budget, add_dt, add_engines, add_out, add_scene, add_set, budget_of, engine_list, \
     positive_float, positive_int, print_table, split_overrides
-from .paths import check_dir
+from .paths import check_dir, writing
 
 
 def cmd_platemap(args: argparse.Namespace) -> int:
@@ -43,13 +43,14 @@ def cmd_platemap(args: argparse.Namespace) -> int:
     print(f"strikes inside Feigin's sufficient plate that do not slide: {outside} (the conditions are sufficient: expect 0)")
     if args.out:
         out = Path(args.out)
-        write_frame(out / "plate_map.csv", table)
-        from chatterbench.comparisons.outputs.figures import figure_bytes  # draws: loads matplotlib (0.7 s), so only when asked
-        from chatterbench.comparisons.outputs.plate_map_figure import plate_map_figure
+        with writing("--out", out):
+            write_frame(out / "plate_map.csv", table)
+            from chatterbench.comparisons.outputs.figures import figure_bytes  # draws: loads matplotlib (0.7 s), so only when asked
+            from chatterbench.comparisons.outputs.plate_map_figure import plate_map_figure
 
-        fig = plate_map_figure(table, scene, args.wall)
-        write_bytes(out / "plate_map.png", figure_bytes(fig, "png"))
-        write_bytes(out / "plate_map.svg", figure_bytes(fig, "svg"))
+            fig = plate_map_figure(table, scene, args.wall)
+            write_bytes(out / "plate_map.png", figure_bytes(fig, "png"))
+            write_bytes(out / "plate_map.svg", figure_bytes(fig, "svg"))
         print(f"wrote {out / 'plate_map.csv'}, plate_map.png, plate_map.svg")
     return 0
 

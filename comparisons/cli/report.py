@@ -22,7 +22,7 @@ from chatterbench.reference.catalogue import CATALOGUE
 
 from .common import (ENGINE_TIMEOUT, UsageError, add_judging, add_out, budget_of, engine_list, parse_tolerances,
                      print_table, split_overrides)
-from .paths import check_dir
+from .paths import check_dir, writing
 
 
 def _command_line(args: argparse.Namespace) -> str:
@@ -66,7 +66,8 @@ def cmd_report(args: argparse.Namespace) -> int:
     print_table(report.summary[SUMMARY_COLUMNS], title=f"summary ({report.wall_time_s:.1f} s of runs; errors in s):")
     if tuning:
         report = dataclasses.replace(report, tuning=tuning)
-    paths = write_report(report, Path(args.out))
+    with writing("--out", args.out):
+        paths = write_report(report, Path(args.out))
     print(f"wrote {paths[0]} and {paths[1]}")
     return 0
 

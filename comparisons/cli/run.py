@@ -29,7 +29,7 @@ from chatterbench.reference.scene import Scene, load_scene
 from chatterbench.reference.simulate import CHATTER_MODES, simulate
 
 from .common import UsageError, add_budget, add_dt, add_out, add_set, budget_of, one_line, print_table, split_overrides
-from .paths import check_dir, check_file
+from .paths import check_dir, check_file, writing
 
 SIMULATORS = ("reference", "mujoco", "pybullet")
 
@@ -43,7 +43,8 @@ def run_engine_events(scene: Scene, engine: str, dt: float | None, overrides: Se
     if export_model:
         if engine != "mujoco":
             raise UsageError("--export-model: only MuJoCo models can be exported (use --engines mujoco)")
-        write_text(Path(export_model), adapter("mujoco").snippet(scene, settings))
+        with writing("--export-model", export_model):
+            write_text(Path(export_model), adapter("mujoco").snippet(scene, settings))
     resolution = solve(scene).stick_tolerance(Tolerances().stick)
     traj = run_engine(engine, scene, settings)
     log = extract_events(traj, scene, resolution) if len(traj.t) > 1 else log_frame([])
@@ -81,12 +82,14 @@ def cmd_run(args: argparse.Namespace) -> int:
     print(f"{scene.name}: {summary}")
     print_table(eps, title="episodes:")
     if args.events:
-        write_frame(Path(args.events), log)
+        with writing("--events", args.events):
+            write_frame(Path(args.events), log)
         print(f"event log: {args.events}")
     if args.out:
         out = Path(args.out)
-        write_frame(out / "events.csv", log)
-        write_frame(out / "episodes.csv", eps)
+        with writing("--out", out):
+            write_frame(out / "events.csv", log)
+            write_frame(out / "episodes.csv", eps)
         print(f"wrote {out / 'events.csv'}, {out / 'episodes.csv'}")
     if result is not None and result.status != "ok":  # the partial log is printed and written above
         print(f"chatterbench: error: the reference run stopped ({result.status}): {one_line(result.message)}", file=sys.stderr)

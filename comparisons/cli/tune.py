@@ -17,7 +17,7 @@ from chatterbench.reference.scene import load_scene
 
 from .common import (UsageError, add_budget, add_out, add_scene, add_set, add_tolerance, budget_of, local_workers,
                      engine_list, parse_tolerances, positive_int, print_table, split_overrides)
-from .paths import check_dir
+from .paths import check_dir, writing
 
 SHOW = ["stage", "settings", "verdict", "n_match", "n_episodes", "exit_error_rel_max", "stick_error_rel_max",
         "restitution_error_max", "cost_per_sim_s"]
@@ -49,11 +49,12 @@ def cmd_tune(args: argparse.Namespace) -> int:
         from chatterbench.comparisons.outputs.figures import figure_bytes  # draws: loads matplotlib (0.7 s), so only when asked
         from chatterbench.comparisons.outputs.guide import guide_html, guide_markdown, guide_section_html, tradeoff_figure
 
-        write_text(out / "guide.md", guide_markdown(result))
-        write_text(out / "guide.html", guide_html(result))
-        write_text(out / "guide_section.html", guide_section_html(result))  # for `report --tune DIR`
-        write_frame(out / "candidates.csv", result.table.drop(columns=["_run_settings"], errors="ignore"))
-        write_bytes(out / "tradeoff.png", figure_bytes(tradeoff_figure(result), "png"))
+        with writing("--out", out):
+            write_text(out / "guide.md", guide_markdown(result))
+            write_text(out / "guide.html", guide_html(result))
+            write_text(out / "guide_section.html", guide_section_html(result))  # for `report --tune DIR`
+            write_frame(out / "candidates.csv", result.table.drop(columns=["_run_settings"], errors="ignore"))
+            write_bytes(out / "tradeoff.png", figure_bytes(tradeoff_figure(result), "png"))
         print(f"wrote {out / 'guide.md'}, guide.html, guide_section.html, candidates.csv, tradeoff.png")
     return 0 if result.best is not None else 1
 

@@ -6,36 +6,54 @@
     'episodes.csv'
 
 A crash at any point leaves either the old file or the new one, never a torn file
-(``os.replace`` is atomic on POSIX within one filesystem). A write that fails (a full disk,
-a permission) removes its temp file and raises an ``OSError`` naming the target path.
+(``os.replace`` is atomic on POSIX within one filesystem). A write that fails in any way
+(a full disk, a permission, an exception of the writer, Ctrl-C) removes its temp file
+``.NAME.XXXXXXXX.tmp``; an ``OSError`` is raised again naming the target path. Only a kill
+(SIGKILL, power loss) can leave a temp file, which ``studies/sweep/directory.py`` cleans.
 """
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import os
-import tempfile
+import secrets
 from pathlib import Path
 from typing import Callable
 
 import pandas as pd
 
+_TEMP_CHARS = "abcdefghijklmnopqrstuvwxyz0123456789_"  # tempfile's: 8 of them, as mkstemp draws
+TEMP_NAME_EXTRA = len("..XXXXXXXX.tmp")  # bytes a temp file's name adds to its target's (a 255-byte limit applies)
+_TRIES = 100  # names drawn before giving up (a collision is 1 in 37**8 per existing temp file)
+
 
 def write_with(path: Path, writer: Callable[[Path], None]) -> Path:
-    """Call ``writer(tmp_path)`` then atomically move the result to ``path``; returns ``path``."""
+    """Call ``writer(tmp_path)`` then atomically move the result to ``path``; returns ``path``.
+
+    The temp file is created (empty, mode 0666 less the umask, as any new file) before
+    ``writer`` runs; it is removed on every failure, ``BaseException`` included.
+    """
     path = Path(path)
     tmp = None
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-        os.close(fd)
-        writer(Path(tmp))
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600: give the file the usual permissions
+        for _ in range(_TRIES):
+            # named before it exists, so an interrupt at any point below still finds it to remove
+            tmp = path.with_name(f".{path.name}.{''.join(secrets.choice(_TEMP_CHARS) for _ in range(8))}.tmp")
+            try:
+                os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+                break
+            except FileExistsError:  # another writer's temp file: never ours to remove
+                tmp = None
+        else:
+            raise FileExistsError(errno.EEXIST, f"no free temporary name after {_TRIES} tries", str(path))
+        writer(tmp)
         os.replace(tmp, path)
     except BaseException as exc:
-        if tmp is not None and os.path.exists(tmp):
-            os.unlink(tmp)
+        if tmp is not None:
+            with contextlib.suppress(OSError):  # gone already, or the disk refuses even this: the first error counts
+                os.unlink(tmp)
         if isinstance(exc, OSError) and not isinstance(exc, BrokenPipeError):  # name the file the user asked for
             raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from None
         raise

@@ -17,7 +17,9 @@ Layout of DIR:
   event logs in the reference format;
 - ``provenance.json``: scene, engine versions and settings, tolerances, wall-clock cost of
   each run, machine and date;
-- ``timeseries.png`` / ``timeseries.svg``: the time-series chart.
+- ``timeseries.png`` / ``timeseries.svg``: the time-series chart;
+- ``ladder.png`` / ``ladder.svg``: the chatter ladder (``ladder.py``): each impact's incoming
+  speed per wall visit, the reference's geometric ladder and each engine's impacts over it.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from pathlib import Path
 
 from .atomic import write_bytes, write_frame, write_text
 from .figures import figure_bytes
+from .ladder import ladder_figure
 from .timeseries import timeseries_figure
 
 
@@ -53,7 +56,7 @@ def write_comparison(comparison, out: Path, figures: bool = True) -> list[Path]:
         paths.append(write_frame(out / f"impacts_{name}.csv", run.found.impacts))
     paths.append(write_text(out / "provenance.json", json.dumps(comparison.provenance, indent=2, default=_json_default)))
     if figures:
-        fig = timeseries_figure(comparison)
-        paths.append(write_bytes(out / "timeseries.png", figure_bytes(fig, "png")))
-        paths.append(write_bytes(out / "timeseries.svg", figure_bytes(fig, "svg")))
+        for stem, fig in (("timeseries", timeseries_figure(comparison)), ("ladder", ladder_figure(comparison))):
+            paths.append(write_bytes(out / f"{stem}.png", figure_bytes(fig, "png")))
+            paths.append(write_bytes(out / f"{stem}.svg", figure_bytes(fig, "svg")))
     return paths
