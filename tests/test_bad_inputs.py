@@ -255,27 +255,7 @@ CASES: list[tuple[str, str, list[str], str | None, tuple[str, ...]]] = [
      ("--dt", "--engines")),
     ("--timeout 1e300", "an engine time limit past a day", ["compare", "feigin-pair", "--timeout", "1e300"], None,
      ("--timeout", "one day")),
-    # output destinations: checked before anything runs (cli/paths.py)
-    ("run --out afile", "--out names a file", ["run", "feigin-pair", "--out", AFILE], None, ("--out afile", "not a directory")),
-    ("compare --out afile", "--out names a file", ["compare", "bouncing-ball", "--engines", "pybullet", "--out", AFILE], None,
-     ("--out afile", "not a directory")),
-    ("platemap --out afile", "--out names a file", ["platemap", "feigin-pair", "--out", AFILE], None, ("--out afile",)),
-    ("report --out afile", "--out names a file (before: every simulation ran first)", ["report", "--out", AFILE], None,
-     ("--out afile", "not a directory")),
-    ("tune --out afile", "--out names a file", ["tune", "bouncing-ball", "--engine", "pybullet", "--out", AFILE], None,
-     ("--out afile",)),
-    ("sweep --out afile", "--out names a file", ["sweep", FILE, "--out", AFILE],
-     'scene = "bouncing-ball"\n[grid]\ndt = [1e-3]\n', ("--out afile",)),
-    ("chart --out afile", "--out names a file", ["chart", CSV, "--kind", "work-precision", "--out", AFILE], ROWS,
-     ("--out afile",)),
-    ("--out under a file", "--out inside a file", ["compare", "bouncing-ball", "--out", AFILE + "/sub"], None,
-     ("--out afile/sub", "is not a directory")),
-    ("--events adir", "--events names a directory", ["run", "feigin-pair", "--engine", "mujoco", "--events", ADIR], None,
-     ("--events adir", "is a directory")),
-    ("--export-model adir", "--export-model names a directory", ["run", "feigin-pair", "--engine", "mujoco",
-                                                                 "--export-model", ADIR], None, ("--export-model adir",)),
-    ("--junit adir", "--junit names a directory", ["gate", FILE, "--junit", ADIR],
-     '[[check]]\nscene = "bouncing-ball"\nengine = "pybullet"\nlimits = ["verdict == match"]\n', ("--junit adir",)),
+    # output destinations: the table of tests/test_bad_outputs.py (the doc below shows both)
     # datasets (chart, report --sweep): only the judge's verdicts, numbers where numbers belong
     ("dataset-verdict", "a verdict the judge does not have", ["chart", CSV, "--kind", "work-precision"],
      ROWS.replace("late", "slipped"), ("column verdict", "'slipped'", "allowed")),
@@ -425,6 +405,22 @@ def markdown() -> str:
         shown = "" if content is None else f"`{_cell(describe_file(content))}`"
         code, err = run_cli(argv, content)
         out.append(f"| `{cid}` | {_cell(what)} | `{_cell(command)}` | {shown} | {_cell(message(err))} ({code}) |")
+    sys.path.insert(0, str(Path(__file__).resolve().parent))  # as pytest imports test modules
+    import test_bad_outputs as outputs  # its scratch directory holds a pipe, a broken link, ...
+
+    out += ["", "## Output destinations", "",
+            "From `tests/test_bad_outputs.py`: every output option given a place it cannot write, refused",
+            "before any work. Its scratch directory holds `afile`, `adir/`, a named pipe `apipe`, a broken link",
+            "`alink`; the permission cases (`rodir/`, `rofile`) are left out here, their message depends on the",
+            "user (root writes through them).", "",
+            "| case | what is wrong | command | file | message (exit code) |", "|---|---|---|---|---|"]
+    for cid, what, argv, content, _ in outputs.CASES:
+        if cid in outputs.PERMISSION:
+            continue
+        command = "chatterbench " + " ".join(a if a and " " not in a else repr(a) for a in argv)
+        shown = "" if content is None else f"`{_cell(describe_file(content))}`"
+        got = outputs.run_cli(argv, content)
+        out.append(f"| `{cid}` | {_cell(what)} | `{_cell(command)}` | {shown} | {_cell(message(got.stderr))} ({got.code}) |")
     out += [
         "",
         "Every message is one stderr line: argparse's refusals too (no usage line), a newline typed into",

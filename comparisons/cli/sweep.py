@@ -25,7 +25,7 @@ from chatterbench.comparisons.pipeline.tolerances import tolerance_values
 from chatterbench.comparisons.studies.sweep import FAILED, NO_WORKER_WAIT, NO_WORKERS, load_sweep, run_sweep
 
 from .common import UsageError, add_budget, add_out, add_tolerance, budget_of, local_workers, positive_int, print_table, timeout_seconds
-from .paths import check_dir
+from .paths import check_dir, writing
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
@@ -49,8 +49,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         except (OSError, TimeoutError, ValueError) as exc:
             raise UsageError(f"--dask {args.dask}: cannot reach the Dask scheduler ({exc})") from None
     try:
-        rows = run_sweep(sweep, out, executor=client, resume=args.resume, workers=workers, batch=args.batch,
-                         no_worker_wait=args.dask_wait, no_workers=args.dask_no_workers)
+        with writing("--out", out):  # a full disk mid-sweep: one line naming the file; finished parts stay
+            rows = run_sweep(sweep, out, executor=client, resume=args.resume, workers=workers, batch=args.batch,
+                             no_worker_wait=args.dask_wait, no_workers=args.dask_no_workers)
     finally:
         if client is not None:
             client.close()

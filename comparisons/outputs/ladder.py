@@ -13,7 +13,8 @@ model sticks. Over it, per engine: the impacts the judge paired with the referen
 impacts in the visit (hollow: micro-bounces a time-stepper cannot resolve), and where the
 engine starts sticking (a vertical line in its colour). So the figure shows where a velocity
 threshold cuts the ladder, where a soft contact's rebound drifts off R, and how late or early
-sticking starts. One panel per visit, the first ``MAX_VISITS`` of the run.
+sticking starts. One panel per visit, the first ``MAX_VISITS`` of the run with chatter (a
+visit that starts at rest on the wall has one impact at speed 0 and no ladder).
 
 Signs and units: speeds are |y'| just before impact [m/s]; time [s].
 """
@@ -39,7 +40,8 @@ def _window(row) -> tuple[float, float]:
 def ladder_figure(comparison) -> Figure:
     """The ladder of the first ``MAX_VISITS`` reference visits (module docstring); an empty note when none."""
     ref = comparison.reference.reset_index(drop=True)
-    visits = ref.head(MAX_VISITS)
+    # real chatter only: a visit that starts at rest on the wall (one impact at speed 0) has no ladder
+    visits = ref[(ref.n_impacts > 1) & (ref.chatter_duration > 0)].head(MAX_VISITS)
     fig = Figure(figsize=(max(9.0, 4.6 * len(visits) + 0.6), 4.4 if len(visits) > 1 else 5.2), layout="constrained")
     if visits.empty:
         ax = fig.subplots()
@@ -50,7 +52,8 @@ def ladder_figure(comparison) -> Figure:
     axes = np.atleast_1d(fig.subplots(1, len(visits), squeeze=False)[0])
     log = comparison.exhaustive.log
     strikes = log[log.kind == "impact"]
-    for i, (ax, row) in enumerate(zip(axes, visits.itertuples())):
+    for ax, row in zip(axes, visits.itertuples()):
+        i = row.Index  # the episode's index in the judge's tables
         lo, hi = _window(row)
         mine = strikes[(strikes.wall == row.wall) & (strikes.t >= lo) & (strikes.t <= row.t_stick)]
         speed = mine.v_minus.abs()

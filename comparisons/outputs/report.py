@@ -42,6 +42,7 @@ from chatterbench.comparisons.pipeline.tolerances import Tolerances
 from .figures import figure_bytes
 from .stability_map import stability_map_figure
 from .sweep_data import ChartError, at_defaults, parameter_columns
+from .ladder import ladder_figure
 from .timeseries import timeseries_figure
 from .work_precision import work_precision_figure
 
@@ -248,10 +249,15 @@ def _render(fig) -> bytes:
 
 
 def scene_figures(report: Report) -> list[Figure]:
-    """The time-series chart of every scene, rendered."""
-    return [Figure(f"timeseries-{c.scene.name}", f"{c.scene.name}: y(t) of the reference and each engine; "
-                   "shaded: the reference's sliding (plate entry to exit)", _render(timeseries_figure(c)))
-            for c in report.comparisons]
+    """The time-series chart and the chatter ladder of every scene, rendered."""
+    out = []
+    for c in report.comparisons:
+        out.append(Figure(f"timeseries-{c.scene.name}", f"{c.scene.name}: y(t) of the reference and each engine; "
+                          "shaded: the reference's sliding (plate entry to exit)", _render(timeseries_figure(c))))
+        out.append(Figure(f"ladder-{c.scene.name}", f"{c.scene.name}: chatter ladder, each impact's incoming speed "
+                          "per wall visit; filled: the engine impacts whose restitution is judged",
+                          _render(ladder_figure(c))))
+    return out
 
 
 def _stability_pairs(rows: pd.DataFrame, engine: str, params: Sequence[str], limit: int = 4) -> list[tuple[str, str]]:

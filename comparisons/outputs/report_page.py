@@ -101,6 +101,7 @@ def report_html(report: Report) -> str:
         parts.append(f'<p class="note">R = {c.scene.restitution:g}, walls: {", ".join(c.scene.gap.walls)}, '
                      f"duration {c.scene.duration:.4g} s; {html.escape(tolerance_line(c))}.</p>")
         parts.append(_img(figures[f"timeseries-{name}"]))
+        parts.append(_img(figures[f"ladder-{name}"]))
         parts.append(_html_table(c.table, EPISODE_COLUMNS))
         failed = {n: r.trajectory.message for n, r in c.runs.items() if r.trajectory.message}
         for n, msg in failed.items():

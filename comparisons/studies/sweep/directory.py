@@ -23,7 +23,7 @@ from typing import Any
 from chatterbench.reference.errors import InputError
 
 LOCK_NAME = ".lock"  # in OUT; kept after the sweep (see OutLock)
-# atomic.write_with's temp files: tempfile.mkstemp(prefix=".NAME.", suffix=".tmp"), 8 random characters
+# atomic.write_with's temp files: .NAME.XXXXXXXX.tmp, 8 random characters of [a-z0-9_]
 _TEMP = re.compile(r"\..+\.[a-z0-9_]{8}\.tmp")
 _HOLDER_WAIT = 1.0  # [s] for a lock's new holder to write its pid
 

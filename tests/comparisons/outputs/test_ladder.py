@@ -54,3 +54,12 @@ def test_a_run_without_chatter_says_so():
     c = compare(load_scene("feigin-pair", ["duration=0.5"]), engines=("pybullet",), dt=1e-3)
     fig = ladder_figure(c)
     assert "no chatter in this run" in fig.axes[0].texts[0].get_text()
+
+
+def test_a_visit_that_starts_at_rest_has_no_ladder():
+    # spring-pair starts on its wall at rest: one "impact" at speed 0, no chatter; before, it took
+    # the first panel (and a log axis with nothing positive on it)
+    c = compare(load_scene("spring-pair", ["duration=4"]), engines=())
+    assert c.reference.n_impacts.iloc[0] == 1
+    fig = ladder_figure(c)
+    assert [ax.get_title().split(" (")[0] for ax in fig.axes] == ["visit 2", "visit 3"]

@@ -94,6 +94,11 @@ def test_every_sweep_gets_its_section_with_only_the_reports_engines(report_dir, 
     assert "| pybullet |" in section and "| mujoco |" not in section
 
 
+def test_every_scene_has_its_time_series_and_chatter_ladder(report_dir):
+    page = (report_dir / "index.html").read_text()
+    assert 'id="timeseries-bouncing-ball"' in page and 'id="ladder-bouncing-ball"' in page
+
+
 def test_sweep_section_has_work_precision_and_stability_maps(report_dir):
     page = (report_dir / "index.html").read_text()
     assert 'id="work-precision"' in page
@@ -119,7 +124,7 @@ def _chromium(tmp_path: Path, *args: str) -> subprocess.CompletedProcess:
 def test_report_renders_in_chromium(report_dir, tmp_path):
     page = (report_dir / "index.html").read_text()
     n_img = page.count("<img ")
-    assert n_img == 1 + 1 + 2  # time series, work-precision, one stability map per engine
+    assert n_img == 2 + 1 + 2  # time series and chatter ladder, work-precision, one stability map per engine
     # the probe is added to a copy: the report itself carries no script
     probe = tmp_path / "probe.html"
     probe.write_text(page.replace("</body>", _PROBE + "</body>"))
