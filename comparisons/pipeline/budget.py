@@ -44,7 +44,7 @@ BASE_MEMORY = 0.3 * GIB  # [B] a process with numpy, pandas, both engines and nu
 BYTES_PER_EVENT = 1500.0  # [B] one reference event, both the log row and its episode bookkeeping
 BYTES_PER_STRIKE = 200.0  # [B] one plate-map strike: grid, fates, table columns
 LONG_PERIODS = 200  # reference runs longer than this many forcing periods get a pilot estimate
-PILOT_PERIODS = 20
+PILOT_PERIODS = 8
 # times are floats: a step must be this many float spacings wide at the run's end time
 STEP_RESOLUTION = 1e3
 
