@@ -12,8 +12,8 @@ To add an engine: a package beside ``mujoco_engine`` with its settings dataclass
 """
 
 from .base import EngineAdapter, n_steps, sample_times
-from .registry import ENGINE_NAMES, adapter, engine_version, make_settings, run_engine, run_engine_batch
+from .registry import DEFAULT_ENGINES, ENGINE_NAMES, adapter, engine_version, make_settings, run_engine, run_engine_batch
 from .trajectory import Trajectory
 
-__all__ = ["ENGINE_NAMES", "EngineAdapter", "Trajectory", "adapter", "engine_version", "make_settings", "n_steps",
+__all__ = ["DEFAULT_ENGINES", "ENGINE_NAMES", "EngineAdapter", "Trajectory", "adapter", "engine_version", "make_settings", "n_steps",
            "run_engine", "run_engine_batch", "sample_times"]

@@ -94,6 +94,11 @@ class EngineAdapter(abc.ABC):
         """Steps per second of ``run`` against the bare engine loop (``adapter_steps_per_s``,
         ``raw_steps_per_s``, ``ratio``)."""
 
+    def cost_lever(self, settings: Any) -> str:
+        """The settings field a user turns to trade accuracy for cost: ``"dt"`` for fixed-step engines,
+        ``"accuracy"`` for an error-controlled integrator (charts label their points with it)."""
+        return "dt"
+
     def version(self) -> str:
         """The engine package's version."""
         return _version(self.package)

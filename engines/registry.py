@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import functools
 import importlib
+import importlib.util
 from typing import Any, Sequence
 
 from chatterbench.reference.errors import did_you_mean
@@ -25,9 +26,18 @@ from .isolate import run_isolated
 from .settings import SettingsError, settings_with_overrides
 from .trajectory import Trajectory
 
-ENGINE_NAMES = ("mujoco", "pybullet")
+ENGINE_NAMES = ("mujoco", "pybullet", "drake", "mujoco_warp")  # every engine the suite knows
+DEFAULT_ENGINES = ("mujoco", "pybullet")  # what commands and sweeps run when no engine is named
 _ADAPTERS = {"mujoco": ("chatterbench.engines.mujoco_engine", "MujocoEngine"),
-             "pybullet": ("chatterbench.engines.pybullet_engine", "PybulletEngine")}
+             "pybullet": ("chatterbench.engines.pybullet_engine", "PybulletEngine"),
+             "drake": ("chatterbench.engines.drake_engine", "DrakeEngine"),
+             "mujoco_warp": ("chatterbench.engines.mujoco_warp_engine", "MujocoWarpEngine")}
+# optional engines: the Python module an engine needs, and the pyproject extra that installs it
+EXTRAS = {"drake": ("pydrake", "drake"), "mujoco_warp": ("mujoco_warp", "warp")}
+
+
+class EngineUnavailable(SettingsError):
+    """An optional engine's extra is not installed; the message says which ``pip install`` adds it."""
 
 
 def check_engine(name: str) -> str:
@@ -37,10 +47,28 @@ def check_engine(name: str) -> str:
     return name
 
 
+def unavailable_reason(name: str) -> str:
+    """Why engine ``name`` cannot run here ("" when it can): the missing extra and how to install it."""
+    if check_engine(name) not in EXTRAS:
+        return ""
+    module, extra = EXTRAS[name]
+    if importlib.util.find_spec(module) is None:
+        return f"engine {name!r} needs the optional extra {extra!r}: pip install \".[{extra}]\" (module {module} not found)"
+    return ""
+
+
+def available_engines() -> tuple[str, ...]:
+    """The engines that can run on this machine (every non-optional one, and the optional ones installed)."""
+    return tuple(n for n in ENGINE_NAMES if not unavailable_reason(n))
+
+
 @functools.cache
 def adapter(name: str) -> EngineAdapter:
-    """The adapter of engine ``name`` (imported on first use)."""
-    module, cls = _ADAPTERS[check_engine(name)]
+    """The adapter of engine ``name`` (imported on first use); EngineUnavailable when its extra is missing."""
+    reason = unavailable_reason(name)
+    if reason:
+        raise EngineUnavailable(reason)
+    module, cls = _ADAPTERS[name]
     return getattr(importlib.import_module(module), cls)()
 
 

@@ -23,7 +23,7 @@ import pandas as pd
 from chatterbench.comparisons.pipeline.budget import GIB, MAX_MEMORY, MAX_STEPS, Budget
 from chatterbench.comparisons.pipeline.tolerances import Tolerances, tolerances_from_items
 from chatterbench.comparisons.studies.sweep.spec import MAX_TIMEOUT
-from chatterbench.engines.registry import ENGINE_NAMES, check_engine
+from chatterbench.engines.registry import DEFAULT_ENGINES, ENGINE_NAMES, check_engine
 from chatterbench.reference.errors import InputError
 from chatterbench.reference.scene import split_assignment
 
@@ -118,7 +118,7 @@ def add_scene(p: argparse.ArgumentParser) -> None:
     p.add_argument("scene", help="built-in scene name (chatterbench scenes) or path to a scene TOML file")
 
 
-def add_engines(p: argparse.ArgumentParser, default: str = ",".join(ENGINE_NAMES), what: str = "engines to run") -> None:
+def add_engines(p: argparse.ArgumentParser, default: str = ",".join(DEFAULT_ENGINES), what: str = "engines to run") -> None:
     p.add_argument("--engines", default=default, metavar="E[,E...]", help=f"comma-separated {what}")
 
 

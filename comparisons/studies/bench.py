@@ -61,16 +61,15 @@ def bench_engines(steps: int = 200_000, repeats: int = 3):
     """
     import pandas as pd
 
-    from chatterbench.engines.registry import ENGINE_NAMES, adapter, make_settings
+    from chatterbench.engines.registry import adapter, available_engines, make_settings
 
     scene = load_scene("feigin-pair")
     rows = []
-    for name in ENGINE_NAMES:
+    for name in available_engines():
         figures = adapter(name).benchmark(scene, make_settings(name), steps, repeats)
-        adapter = figures["adapter_steps_per_s"]
-        raw = figures["raw_steps_per_s"]
-        rows.append({"engine": name, "steps": steps, "adapter_steps_per_s": adapter, "raw_steps_per_s": raw,
-                     "ratio": adapter / raw})
+        ours, raw = figures["adapter_steps_per_s"], figures["raw_steps_per_s"]
+        rows.append({"engine": name, "steps": steps, "adapter_steps_per_s": ours, "raw_steps_per_s": raw,
+                     "ratio": ours / raw})
     return pd.DataFrame(rows)
 
 

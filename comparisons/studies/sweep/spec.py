@@ -80,7 +80,7 @@ from typing import Any, Iterable, Mapping
 from chatterbench.comparisons.pipeline.budget import Budget, check_engine_run
 from chatterbench.comparisons.pipeline.summary import point_id
 from chatterbench.comparisons.pipeline.tolerances import make_tolerances
-from chatterbench.engines.registry import ENGINE_NAMES, make_settings
+from chatterbench.engines.registry import DEFAULT_ENGINES, ENGINE_NAMES, make_settings
 from chatterbench.reference.catalogue import CATALOGUE
 from chatterbench.reference.errors import InputError, did_you_mean, is_number, shown
 from chatterbench.reference.scene import load_scene
@@ -139,7 +139,7 @@ class Sweep:
     """A validated sweep (see the module docstring for the meaning of each part)."""
 
     scene: str  # built-in scene name or path of a scene TOML file
-    engines: tuple[str, ...] = ENGINE_NAMES
+    engines: tuple[str, ...] = DEFAULT_ENGINES
     fixed: Mapping[str, Any] = field(default_factory=dict)  # [set]: dotted key -> value
     grid: Mapping[str, tuple] = field(default_factory=dict)  # [grid]: dotted key -> values
     points: tuple[Mapping[str, Any], ...] = ()  # [[points]]
@@ -391,7 +391,7 @@ def load_sweep(path: str | Path, budget: Budget | None = None) -> Sweep:
             scene = str(scene_path.resolve())
     points = data.get("points", ())
     return Sweep(
-        scene=scene, engines=data.get("engines", ENGINE_NAMES), fixed=data.get("set", {}), grid=data.get("grid", {}),
+        scene=scene, engines=data.get("engines", DEFAULT_ENGINES), fixed=data.get("set", {}), grid=data.get("grid", {}),
         points=points if not isinstance(points, list) else tuple(points), timeout=data.get("timeout", DEFAULT_TIMEOUT),
         tolerances=data.get("tolerances", {}), description=data.get("description", ""), source=str(path),
         budget=budget or Budget(),
