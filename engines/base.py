@@ -10,7 +10,8 @@ An adapter (``mujoco_engine``, ``pybullet_engine``) is a subclass of ``EngineAda
 ``name``, the Python package it drives (for the version), its frozen settings dataclass,
 and ``build`` (the engine's model of a scene), ``run`` (a scene in, a ``Trajectory`` out),
 ``run_batch`` (many runs; one by one unless the engine batches), ``snippet`` (the settings
-as a user pastes them into their own model) and ``benchmark``. The registry
+as a user pastes them into their own model), ``benchmark`` and ``tuning_space`` (what
+``tune`` searches). The registry
 (``registry.py``) goes through this class and nothing else.
 
 Promises every adapter keeps, and the tests check for each:
@@ -93,6 +94,11 @@ class EngineAdapter(abc.ABC):
     def benchmark(self, scene: Scene, settings: Any, n_steps: int, repeats: int) -> dict[str, Any]:
         """Steps per second of ``run`` against the bare engine loop (``adapter_steps_per_s``,
         ``raw_steps_per_s``, ``ratio``)."""
+
+    def tuning_space(self, scene: Scene) -> dict[str, tuple] | None:
+        """What ``tune`` searches for ``scene``: ``"dt"`` [s], a ladder from coarse to fine, and per setting
+        (``"engine.field"``) its candidate values, the default first; None: the engine declares none."""
+        return None
 
     def cost_lever(self, settings: Any) -> str:
         """The settings field a user turns to trade accuracy for cost: ``"dt"`` for fixed-step engines,

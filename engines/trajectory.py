@@ -10,6 +10,10 @@ sample k is the state after k engine steps (``t[k] = t0 + k dt``; ``base.sample_
 Units: s, m, m/s, N. ``normal_force[wall]`` is the magnitude of the wall's contact force on
 body 2 (>= 0) and ``contact[wall]`` says where it is on. ``status`` is ``"ok"`` or a failure
 class (``"diverged"``, ``"error"``, ``"timeout"``); a failed run keeps every sample it finished.
+
+A long run comes *compact* (``window.py``): only the samples the judge needs, ``index[i]``
+the step number of sample i (``t[i] = t0 + index[i] dt``) and ``step`` the median spacing of
+the run's samples [s]; ``index`` None (the default) is a full trajectory, sample k after k steps.
 """
 
 from __future__ import annotations
@@ -39,6 +43,13 @@ class Trajectory:
     message: str = ""  # what went wrong, when status != "ok"
     contact_time: float = 0.0  # [s] duration of one bounce of the engine's contact law at these settings (0: rigid)
     contact_frequency: float = math.inf  # [rad/s] natural frequency of a compliant contact (inf: rigid)
+    index: np.ndarray | None = None  # step number of each sample (compact); None: every sample, 0..n
+    step: float = math.nan  # [s] median spacing of the full run's samples (set with ``index``)
+
+    @property
+    def compact(self) -> bool:
+        """Whether this is a compact trajectory (some samples between contacts left out)."""
+        return self.index is not None
 
     @property
     def y(self) -> np.ndarray:
@@ -52,5 +63,11 @@ class Trajectory:
 
     @property
     def dt(self) -> float:
-        """Sampling step [s] (the engine timestep)."""
+        """Sampling step [s] (the engine timestep; a compact trajectory keeps samples 0 and 1)."""
         return float(self.t[1] - self.t[0]) if len(self.t) > 1 else float("nan")
+
+    def sampling_step(self) -> float:
+        """The median spacing of the run's samples [s] (what the extraction takes as dt); NaN below 2 samples."""
+        if self.compact:
+            return self.step
+        return float(np.median(np.diff(self.t))) if len(self.t) > 1 else math.nan

@@ -168,6 +168,22 @@ CASES: list[tuple[str, str, list[str], str | None, tuple[str, ...]]] = [
     ("sweep-both", "a key both fixed and varied", ["sweep", FILE],
      'scene = "bouncing-ball"\n[set]\ndt = 1e-3\n[grid]\ndt = [1e-3]\n', ("grid.dt", "also in [set]")),
     ("sweep-workers", "zero workers", ["sweep", "examples/sweeps/bouncing-ball-dt.toml", "--workers", "0"], None, ("--workers",)),
+    # [refine] tables (adaptive maps): the field named, nothing run
+    ("sweep-refine-axis", "a refined axis misspelt", ["sweep", FILE],
+     'scene = "bouncing-ball"\n[grid]\ndt = [1e-3, 1e-2]\nrestitution = [0.3, 0.5]\n[refine]\naxes = ["dtt", "restitution"]\ndepth = 2\n',
+     ("refine.axes", "'dtt'", "did you mean 'dt'")),
+    ("sweep-refine-grid", "a refined axis that is not in [grid]", ["sweep", FILE],
+     'scene = "bouncing-ball"\n[set]\nmass2 = 2.0\n[grid]\ndt = [1e-3, 1e-2]\n[refine]\naxes = ["dt", "mass2"]\ndepth = 2\n',
+     ("refine.axes", "'mass2' is not a key of [grid]")),
+    ("sweep-refine-depth", "refinement depth out of range", ["sweep", FILE],
+     'scene = "bouncing-ball"\n[grid]\ndt = [1e-3, 1e-2]\nrestitution = [0.3, 0.5]\n[refine]\naxes = ["dt", "restitution"]\ndepth = 7\n',
+     ("refine.depth = 7", "[1, 6]")),
+    ("sweep-refine-boundary", "an unknown verdict or metric as the boundary", ["sweep", FILE],
+     'scene = "bouncing-ball"\n[grid]\ndt = [1e-3, 1e-2]\nrestitution = [0.3, 0.5]\n[refine]\naxes = ["dt", "restitution"]\n'
+     'depth = 2\nboundary = "mach"\n', ("refine.boundary = 'mach'", "did you mean 'match'")),
+    ("sweep-refine-threshold", "a metric boundary without its threshold", ["sweep", FILE],
+     'scene = "bouncing-ball"\n[grid]\ndt = [1e-3, 1e-2]\nrestitution = [0.3, 0.5]\n[refine]\naxes = ["dt", "restitution"]\n'
+     'depth = 2\nboundary = "exit_error_max"\n', ("refine.threshold", "missing")),
     # gate files (chatterbench gate GATES.toml): every problem of the file, one per line
     ("gate-metric", "unknown metric", ["gate", FILE],
      '[[check]]\nscene = "bouncing-ball"\nengine = "pybullet"\nlimits = ["exit_eror_max <= 1e-3"]\n', ("exit_eror_max", "exit_error_max")),
@@ -255,6 +271,19 @@ CASES: list[tuple[str, str, list[str], str | None, tuple[str, ...]]] = [
      ("--dt", "--engines")),
     ("--timeout 1e300", "an engine time limit past a day", ["compare", "feigin-pair", "--timeout", "1e300"], None,
      ("--timeout", "one day")),
+    # calibrate (effective restitution against impact speed)
+    ("calibrate-R=1", "calibrate against R = 1", ["calibrate", "mujoco", "--restitution", "1"], None,
+     ("--restitution", "(0, 1)")),
+    ("calibrate-R=0", "calibrate against R = 0 (e / R has no meaning)", ["calibrate", "pybullet", "--restitution", "0"], None,
+     ("--restitution", "(0, 1)")),
+    ("calibrate-speeds-order", "speeds LO above HI", ["calibrate", "mujoco", "--speeds", "1,0.1"], None,
+     ("--speeds", "LO must be below HI")),
+    ("calibrate-speeds-one", "one speed where a range is wanted", ["calibrate", "mujoco", "--speeds", "1"], None,
+     ("--speeds", "LO,HI")),
+    ("calibrate-points", "a million speeds", ["calibrate", "mujoco", "--points", "1000000"], None, ("--points", "[2, 200]")),
+    ("calibrate-engine-typo", "an engine misspelt", ["calibrate", "pybulet"], None, ("pybulet", "did you mean 'pybullet'")),
+    ("calibrate-R-twice", "R given twice", ["calibrate", "mujoco", "--restitution", "0.5", "--set", "restitution=0.6"], None,
+     ("--restitution", "give R once")),
     # output destinations: the table of tests/test_bad_outputs.py (the doc below shows both)
     # datasets (chart, report --sweep): only the judge's verdicts, numbers where numbers belong
     ("dataset-verdict", "a verdict the judge does not have", ["chart", CSV, "--kind", "work-precision"],

@@ -75,7 +75,8 @@ def cmd_chart(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else _default_out(Path(args.dataset))
     check_dir("--out", out)
     from chatterbench.comparisons.outputs.stability_map import stability_map_figure, verdict_grid  # draws: loads matplotlib (0.7 s), so only when asked
-    from chatterbench.comparisons.outputs.work_precision import pareto_front, work_precision_figure, work_precision_points
+    from chatterbench.comparisons.outputs.work_precision import (panel_metrics, pareto_front, work_precision_figure,
+                                                                 work_precision_points)
 
     rows = load_rows(args.dataset)
     rows = _where(rows, args.where or [])
@@ -86,17 +87,22 @@ def cmd_chart(args: argparse.Namespace) -> int:
         rows = rows[rows["engine"].astype(str).isin(engines)]
     engine = engines[0] if len(engines) == 1 else None
     if args.kind == "work-precision":
+        if args.error is None:
+            args.error = "exit_error_rel_max" if "exit_error_rel_max" in rows else "exit_error_max"
         if args.x or args.y:
             raise UsageError("--x/--y are for --kind stability; work-precision always draws error against cost")
         fig = work_precision_figure(rows, error=args.error, reference_cost=args.reference_cost,
                                     reference_error=args.reference_error)
-        metrics = list(dict.fromkeys([args.error, "stick_error_max"]))
+        metrics, empty = panel_metrics(rows, args.error)
         points = work_precision_points(rows, metrics)
         for m in metrics:
             points[f"front_{m.removesuffix('_max')}"] = pareto_front(points, m).map({True: "*", False: ""})
         show = points.drop(columns=["settings", "engine"])
         print_table(show, title=f"work-precision: {len(points)} points from {len(rows)} rows "
-                                f"(errors [s], worst over the folded rows; * = on the Pareto front)")
+                                f"(errors: worst over the folded rows, _rel_max and restitution as fractions, others [s];"
+                                f" * = on the Pareto front)")
+        for note in empty:
+            print(note)
         paths = _save(fig, out, "work_precision")
     else:
         if not (args.x and args.y):
@@ -126,8 +132,10 @@ def register(sub, formatter) -> None:
     p.add_argument("--y", metavar="KEY", default=None, help="stability: parameter on the y axis")
     p.add_argument("--engines", "--engine", metavar="E[,E...]", default=None,
                    help="the engines to draw (comma-separated); None: every engine in the dataset")
-    p.add_argument("--error", choices=ERROR_METRICS, default="exit_error_max",
-                   help="work-precision: metric of the first panel (the second is stick_error_max)")
+    p.add_argument("--error", choices=ERROR_METRICS, default=None,
+                   help="work-precision: metric of the first panel (the second: the sticking start in the same unit; "
+                        "a metric no row measured gives way to one that was); None: exit_error_rel_max, or "
+                        "exit_error_max for a dataset written before the relative errors existed")
     p.add_argument("--where", action="append", metavar="KEY=VALUE", default=None,
                    help="keep only rows with this parameter value (repeatable)")
     p.add_argument("--reference-cost", type=positive_float, default=None,

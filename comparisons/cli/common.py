@@ -101,15 +101,24 @@ def positive_float(text: str) -> float:
     return value
 
 
-def positive_int(text: str) -> int:
-    """argparse type: an integer > 0."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if value <= 0:
-        raise argparse.ArgumentTypeError(f"{text!r}: must be an integer > 0")
-    return value
+def integer_type(lo: int, hi: int | None = None, note: str = ""):
+    """An argparse type: an integer in [lo, hi] (no upper bound when ``hi`` is None); ``note`` ends the refusal."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+        if value < lo or (hi is not None and value > hi):
+            bound = f"in [{lo}, {hi}]" if hi is not None else ("> 0" if lo == 1 else f">= {lo}")
+            raise argparse.ArgumentTypeError(f"{text!r}: must be an integer {bound}{note}")
+        return value
+
+    parse.__name__ = "integer"
+    return parse
+
+
+positive_int = integer_type(1)  # argparse type: an integer > 0
 
 
 # -- the options every judging subcommand names the same way ---------------------------------

@@ -15,6 +15,7 @@ import sys
 from pathlib import Path
 
 from chatterbench.comparisons.pipeline.compare import compare
+from chatterbench.comparisons.pipeline.conformance import conformance, describe, same_model_pairs
 from chatterbench.reference.scene import load_scene
 
 from .common import add_judging, add_out, add_scene, budget_of, engine_list, parse_tolerances, print_table, \
@@ -26,6 +27,8 @@ EPISODE_SHOW = ["engine", "wall", "ref_t_stick", "t_stick", "stick_error_zeno", 
                 "n_impacts", "verdict"]
 SUMMARY_SHOW = ["engine", "verdict", "n_episodes", "n_match", "stick_error_max", "stick_error_rel_max", "exit_error_max",
                 "exit_error_rel_max", "restitution_error_max", "penetration_max", "cost_per_sim_s", "status"]
+CONFORMANCE_SHOW = ["wall", "ref_t_first_impact", "verdict", "other_verdict", "stick_difference", "stick_difference_rel",
+                    "exit_difference", "impact_count_difference", "resolved_impacts", "other_resolved_impacts", "disagree"]
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
@@ -39,6 +42,10 @@ def cmd_compare(args: argparse.Namespace) -> int:
                 title=f"{scene.name}: engine episodes against the reference (errors in s; _rel: fraction of the "
                       f"episode's scale; _steps: in timesteps); {tol.describe()}")
     print_table(result.summary()[SUMMARY_SHOW], title="summary:")
+    for engine, other in same_model_pairs(result.runs):  # one model, two executors: where they part on chatter
+        print_table(conformance(result, engine, other)[CONFORMANCE_SHOW],
+                    title=f"conformance, {other} against {engine} (differences: {other} - {engine}):")
+        print(describe(result, engine, other))
     for name, run in result.runs.items():  # a failed run says why
         if run.status != "ok":
             print(f"{name}: {run.status}: {run.trajectory.message}", file=sys.stderr)

@@ -17,12 +17,12 @@ import sys
 
 from chatterbench.reference.errors import InputError
 
-from . import bench, chart, compare, gate, platemap, report, run, scenes, sweep, tune
+from . import bench, calibrate, chart, compare, gate, platemap, report, run, scenes, sweep, tune
 from .common import HelpFormatter, Parser, UsageError, one_line
 from .paths import write_error
 
 # in the order ``chatterbench --help`` lists them
-SUBCOMMANDS = (scenes, run, compare, report, gate, platemap, tune, sweep, chart, bench)
+SUBCOMMANDS = (scenes, run, compare, report, gate, platemap, tune, calibrate, sweep, chart, bench)
 
 
 def build_parser() -> Parser:

@@ -22,7 +22,7 @@ from chatterbench.comparisons.pipeline.budget import Budget, check_engine_run, c
 from chatterbench.comparisons.pipeline.extract import extract_events
 from chatterbench.comparisons.pipeline.solution import solve
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
-from chatterbench.engines.registry import adapter, make_settings, run_engine
+from chatterbench.engines.registry import ENGINE_NAMES, adapter, make_settings, run_engine
 from chatterbench.reference.errors import check_choice
 from chatterbench.reference.log import episodes, log_frame
 from chatterbench.reference.scene import Scene, load_scene
@@ -31,7 +31,7 @@ from chatterbench.reference.simulate import CHATTER_MODES, simulate
 from .common import UsageError, add_budget, add_dt, add_out, add_set, budget_of, one_line, print_table, split_overrides
 from .paths import check_dir, check_file, writing
 
-SIMULATORS = ("reference", "mujoco", "pybullet")
+SIMULATORS = ("reference", *ENGINE_NAMES)
 
 
 def run_engine_events(scene: Scene, engine: str, dt: float | None, overrides: Sequence[str],

@@ -2,8 +2,8 @@
 
     >>> from chatterbench.comparisons import compare
     >>> paths = write_comparison(compare(load_scene("bouncing-ball"), engines=("pybullet",), dt=1e-3), tmp / "cmp")
-    >>> sorted(p.name for p in paths)[:3]
-    ['episodes.csv', 'episodes.parquet', 'events_pybullet.csv']
+    >>> sorted(p.name for p in paths if p.suffix == ".png")
+    ['episode_errors.png', 'ladder.png', 'timeseries.png']
 
 Layout of DIR:
 
@@ -15,11 +15,16 @@ Layout of DIR:
 - ``reference_episodes.csv``: plate entry, Zeno point, exit and scales of every reference episode;
 - ``events_reference_feigin.csv``, ``events_reference_exhaustive.csv``, ``events_ENGINE.csv``:
   event logs in the reference format;
+- ``conformance_mujoco_mujoco_warp.csv``: when both ran, MuJoCo Warp against MuJoCo C episode by
+  episode (``pipeline.conformance.CONFORMANCE_COLUMNS``): verdicts, sticking, exit and impact differences;
 - ``provenance.json``: scene, engine versions and settings, tolerances, wall-clock cost of
   each run, machine and date;
 - ``timeseries.png`` / ``timeseries.svg``: the time-series chart;
 - ``ladder.png`` / ``ladder.svg``: the chatter ladder (``ladder.py``): each impact's incoming
-  speed per wall visit, the reference's geometric ladder and each engine's impacts over it.
+  speed per wall visit, the reference's geometric ladder and each engine's impacts over it;
+- ``episode_errors.png`` / ``episode_errors.svg``: every episode's sticking, exit and
+  restitution error per engine as a fraction of its scale, with the tolerance bands
+  (``episode_errors.py``).
 """
 
 from __future__ import annotations
@@ -27,7 +32,10 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from chatterbench.comparisons.pipeline.conformance import conformance, same_model_pairs
+
 from .atomic import write_bytes, write_frame, write_text
+from .episode_errors import episode_errors_figure
 from .figures import figure_bytes
 from .ladder import ladder_figure
 from .timeseries import timeseries_figure
@@ -54,9 +62,12 @@ def write_comparison(comparison, out: Path, figures: bool = True) -> list[Path]:
     for name, run in comparison.runs.items():
         paths.append(write_frame(out / f"events_{name}.csv", run.log))
         paths.append(write_frame(out / f"impacts_{name}.csv", run.found.impacts))
+    for engine, other in same_model_pairs(comparison.runs):  # one model on two executors: where they part
+        paths.append(write_frame(out / f"conformance_{engine}_{other}.csv", conformance(comparison, engine, other)))
     paths.append(write_text(out / "provenance.json", json.dumps(comparison.provenance, indent=2, default=_json_default)))
     if figures:
-        for stem, fig in (("timeseries", timeseries_figure(comparison)), ("ladder", ladder_figure(comparison))):
+        for stem, fig in (("timeseries", timeseries_figure(comparison)), ("ladder", ladder_figure(comparison)),
+                          ("episode_errors", episode_errors_figure(comparison))):
             paths.append(write_bytes(out / f"{stem}.png", figure_bytes(fig, "png")))
             paths.append(write_bytes(out / f"{stem}.svg", figure_bytes(fig, "svg")))
     return paths

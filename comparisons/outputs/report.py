@@ -7,8 +7,8 @@
 ``report_page.py`` writes it (``write_report``).
 
 ``index.html`` opens with the summary table (scene x engine: verdict, episodes matched,
-worst exit and sticking errors, cost), then per scene the time-series chart and the
-episode table, then, when a sweep dataset is given, its work-precision chart and stability
+worst exit and sticking errors, cost), then per scene the time-series chart, the chatter
+ladder, the per-episode error figure and the episode table, then, when a sweep dataset is given, its work-precision chart and stability
 maps, and ends with what produced it (engine versions and settings, reference chatter
 modes, tolerances, machine, date, command).
 
@@ -39,6 +39,7 @@ from chatterbench.comparisons.pipeline.compare import Comparison, compare
 from chatterbench.comparisons.pipeline.summary import summarize
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
 
+from .episode_errors import episode_errors_figure
 from .figures import figure_bytes
 from .stability_map import stability_map_figure
 from .sweep_data import ChartError, at_defaults, parameter_columns
@@ -249,14 +250,18 @@ def _render(fig) -> bytes:
 
 
 def scene_figures(report: Report) -> list[Figure]:
-    """The time-series chart and the chatter ladder of every scene, rendered."""
+    """The time-series chart, the chatter ladder and the per-episode errors of every scene, rendered."""
     out = []
     for c in report.comparisons:
-        out.append(Figure(f"timeseries-{c.scene.name}", f"{c.scene.name}: y(t) of the reference and each engine; "
-                          "shaded: the reference's sliding (plate entry to exit)", _render(timeseries_figure(c))))
+        out.append(Figure(f"timeseries-{c.scene.name}", f"{c.scene.name}: y(t) of the reference and each engine, "
+                          "where each starts sticking and exits; shaded: the reference's sliding (Zeno point to exit); "
+                          "zoom: the end of the first chatter", _render(timeseries_figure(c))))
         out.append(Figure(f"ladder-{c.scene.name}", f"{c.scene.name}: chatter ladder, each impact's incoming speed "
                           "per wall visit; filled: the engine impacts whose restitution is judged",
                           _render(ladder_figure(c))))
+        out.append(Figure(f"episode-errors-{c.scene.name}", f"{c.scene.name}: every episode's sticking, exit and "
+                          "restitution error per engine, as fractions of the episode's scales; grey: the tolerance",
+                          _render(episode_errors_figure(c))))
     return out
 
 
@@ -306,8 +311,9 @@ def sweep_figures(section: SweepSection, engines: Sequence[str] | None = None) -
     slices = [at_defaults(rows, e, ["dt"], scene_params) for e in engines]
     held = {k: v for _, h in slices for k, v in h.items()}
     try:
-        figures.append(Figure("work-precision", "work-precision: worst error against wall-clock cost per engine, "
-                              "one point per timestep" + _held(held),
+        figures.append(Figure("work-precision", "work-precision: the judge's worst errors (fractions of each "
+                              "episode's scales; dashed: the tolerance) against wall-clock cost per engine, one point "
+                              "per value of its cost lever (dt, or an integrator's accuracy)" + _held(held),
                               _render(work_precision_figure(pd.concat([s for s, _ in slices])))))
     except ChartError as exc:
         notes.append(f"work-precision chart: {exc}")

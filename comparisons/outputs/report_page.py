@@ -15,9 +15,12 @@ from typing import Sequence
 
 import pandas as pd
 
+from chatterbench.comparisons.pipeline.conformance import describe, same_model_pairs
 from chatterbench.comparisons.pipeline.vocabulary import COLOURS, MEANINGS, NAMES, text_colour
 
 from .atomic import write_text
+from .style import PAGE_CSS
+
 from .report import (EPISODE_COLUMNS, HEADERS, SUMMARY_COLUMNS, Figure, Report, cell, engine_rows, plural,
                      provenance_items, summary_frame, tolerance_line, build_report, scene_figures, sweep_figures,
                      sweep_rows)
@@ -25,22 +28,7 @@ from .report import (EPISODE_COLUMNS, HEADERS, SUMMARY_COLUMNS, Figure, Report, 
 __all__ = ["build_report", "report_html", "report_markdown", "write_report"]
 
 
-# -- HTML --------------------------------------------------------------------------------
-
-_CSS = """
-body { font-family: system-ui, -apple-system, "Segoe UI", sans-serif; margin: 2em auto; max-width: 1300px;
-       padding: 0 1em; color: #222; line-height: 1.4; }
-h1 { margin-bottom: 0.2em; } h2 { margin-top: 2em; border-bottom: 1px solid #ccc; }
-table { border-collapse: collapse; margin: 0.8em 0; font-size: 0.9em; }
-th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: right; }
-th { background: #f3f3f3; } td.text, th.text { text-align: left; }
-td.verdict { font-weight: 600; text-align: center; }
-figure { margin: 1em 0; } figure img { max-width: 100%; height: auto; border: 1px solid #eee; }
-figcaption { font-size: 0.85em; color: #555; }
-.note { color: #555; font-size: 0.9em; } code { background: #f6f6f6; padding: 0 0.2em; }
-table.prov th { width: 13em; }
-"""
-
+# -- HTML (style sheet: ``style.PAGE_CSS``, shared with the tuning guide) -----------------------------------------
 
 def _verdict_style(verdict: str) -> str:
     return f"background:{COLOURS.get(verdict, '#ffffff')};color:{text_colour(verdict)}"
@@ -84,7 +72,7 @@ def report_html(report: Report) -> str:
     figures = {f.id: f for f in scene_figures(report)}
     parts = [
         "<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
-        "<title>chatterbench report</title>", f"<style>{_CSS}</style></head><body>",
+        "<title>chatterbench report</title>", f"<style>{PAGE_CSS}</style></head><body>",
         "<h1>chatterbench report</h1>",
         f'<p class="note">{plural(len(report.comparisons), "scene")} on {", ".join(report.engines)} against the exact '
         f"event-driven reference (Feigin 1967), {html.escape(report.created)}. Errors are engine minus reference; "
@@ -102,7 +90,10 @@ def report_html(report: Report) -> str:
                      f"duration {c.scene.duration:.4g} s; {html.escape(tolerance_line(c))}.</p>")
         parts.append(_img(figures[f"timeseries-{name}"]))
         parts.append(_img(figures[f"ladder-{name}"]))
+        parts.append(_img(figures[f"episode-errors-{name}"]))
         parts.append(_html_table(c.table, EPISODE_COLUMNS))
+        for a, b in same_model_pairs(c.runs):  # one model on two executors (MuJoCo C, MuJoCo Warp): where they part
+            parts.append(f'<p class="note">Conformance: {html.escape(describe(c, a, b))}</p>')
         failed = {n: r.trajectory.message for n, r in c.runs.items() if r.trajectory.message}
         for n, msg in failed.items():
             parts.append(f'<p class="note">{html.escape(n)}: {html.escape(msg.splitlines()[0])}</p>')
@@ -148,6 +139,7 @@ def report_markdown(report: Report) -> str:
            "## Summary", "", _md_table(summary_frame(report), SUMMARY_COLUMNS), ""]
     for c in report.comparisons:
         out += [f"## {c.scene.name}", "", f"{tolerance_line(c)}.", "", _md_table(c.table, EPISODE_COLUMNS), ""]
+        out += [f"Conformance: {describe(c, a, b)}\n" for a, b in same_model_pairs(c.runs)]
     for section in report.sweeps:  # the charts are in index.html; here the verdicts they draw
         rows = sweep_rows(section, report.engines)
         counts = rows.groupby(["engine", "verdict"]).size().unstack(fill_value=0)

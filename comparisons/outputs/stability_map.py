@@ -13,6 +13,11 @@
 engine, one colour per verdict class (``VERDICT_COLORS``), worst verdict where other
 parameters vary within a cell.
 
+A refined sweep's rows (``refine_level``, ``studies/sweep/refine.py``) are drawn at their
+size: a point added at level ``k`` is a cell of ``2**-k`` coarse cells along each refined
+axis (an axis with values between the level-0 ones), centred on it, coarse levels first
+and finer ones over them; exactly the fine map ``refine.fill`` measures.
+
 """
 
 from __future__ import annotations
@@ -22,18 +27,18 @@ from typing import Sequence
 import matplotlib.ticker
 import numpy as np
 import pandas as pd
+from matplotlib.collections import PolyCollection
 from matplotlib.colors import BoundaryNorm, ListedColormap
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
 from chatterbench.comparisons.pipeline.vocabulary import combine, text_colour
 
-from .sweep_data import (VERDICT_ABBREV, VERDICT_COLORS, VERDICT_MEANING, VERDICT_ORDER, ChartError, check_columns,
-                         engines_of, fmt, folded_parameters, parameter_columns, suptitle)
+from .sweep_data import (REFINE_LEVEL, VERDICT_ABBREV, VERDICT_COLORS, VERDICT_MEANING, VERDICT_ORDER, ChartError,
+                         axis_scale, check_columns, engines_of, fmt, folded_parameters, parameter_columns, suptitle)
 
-LOG_SPAN = 10.0  # an axis whose values span this ratio (a decade) or more is log-scaled
-IRREGULAR = 2.0  # a linear axis whose steps differ by more than this factor gets equal cells
 ANNOTATE_MAX_CELLS = 150  # write the verdict in the cells up to this many per panel
+TICK_CHARS = 60  # x tick labels longer than this in all are turned, so that they do not overlap
 
 
 def verdict_grid(rows: pd.DataFrame, x: str, y: str, engine: str) -> pd.DataFrame:
@@ -52,24 +57,13 @@ def verdict_grid(rows: pd.DataFrame, x: str, y: str, engine: str) -> pd.DataFram
 
 
 def _axis(values: Sequence) -> tuple[np.ndarray, np.ndarray, str]:
-    """Cell centres, cell edges and scale (``log``, ``linear`` or ``category``) of one map axis.
-
-    Positive numbers spanning a decade or more: log. Other numbers: linear when evenly
-    enough spaced (largest step at most ``IRREGULAR`` times the smallest), else equal
-    cells in value order, like strings (0, 0.1, 0.5 or 0, 0.1, 1, 10 would otherwise
-    squeeze the small values into slivers).
-    """
+    """Cell centres, cell edges and scale (``sweep_data.axis_scale``) of one map axis."""
     vals = list(values)
-    numeric = all(isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_)) for v in vals)
-    v = np.asarray(vals, float) if numeric else np.empty(0)
-    log = numeric and v.min() > 0 and v.max() / v.min() >= LOG_SPAN
-    if numeric and not log and len(v) > 2:
-        steps = np.diff(v)
-        numeric = steps.max() <= IRREGULAR * steps.min()
-    if not numeric:
+    scale = axis_scale(vals)
+    if scale == "category":
         pos = np.arange(len(vals), dtype=float)
         return pos, np.arange(len(vals) + 1) - 0.5, "category"
-    scale = "log" if log else "linear"
+    v = np.asarray(vals, float)
     u = np.log10(v) if scale == "log" else v
     if len(u) == 1:
         half = 0.5 if scale == "log" else (0.5 * abs(u[0]) or 0.5)
@@ -84,8 +78,82 @@ def _set_axis(ax, which: str, values: Sequence, centres: np.ndarray, edges: np.n
     setter = ax.set_xscale if which == "x" else ax.set_yscale
     setter("log" if scale == "log" else "linear")
     (ax.set_xlim if which == "x" else ax.set_ylim)(edges[0], edges[-1])
-    (ax.set_xticks if which == "x" else ax.set_yticks)(centres, labels=[fmt(v) for v in values])
+    # three digits on a tick: a refined log axis has values such as 0.000177828 (its geometric midpoints)
+    labels = [f"{v:.3g}" if isinstance(v, (int, float, np.floating, np.integer)) and not isinstance(v, bool) else fmt(v)
+              for v in values]
+    (ax.set_xticks if which == "x" else ax.set_yticks)(centres, labels=labels)
+    if which == "x" and sum(len(t) + 2 for t in labels) > TICK_CHARS:  # side by side they would overlap
+        ax.tick_params(axis="x", labelrotation=30)
+        for t in ax.get_xticklabels():
+            t.set_horizontalalignment("right")
     (ax.xaxis if which == "x" else ax.yaxis).set_minor_locator(matplotlib.ticker.NullLocator())
+
+
+def _refined(rows: pd.DataFrame) -> bool:
+    return REFINE_LEVEL in rows and bool((pd.to_numeric(rows[REFINE_LEVEL], errors="coerce") > 0).any())
+
+
+class _CoarseAxis:
+    """A refined map's axis: its level-0 values, and positions in coarse cells (index ``k`` at the ``k``-th value)."""
+
+    def __init__(self, coarse: Sequence[float], all_values: Sequence[float]) -> None:
+        self.values = np.sort(np.asarray(coarse, float))
+        self.scale = axis_scale(self.values)
+        self.u = np.log10(self.values) if self.scale == "log" else self.values
+        self.refined = bool(set(map(float, all_values)) - set(self.values.tolist()))
+
+    def index(self, v: np.ndarray) -> np.ndarray:
+        """Values -> coarse positions, piecewise linear in the axis's scale."""
+        v = np.asarray(v, float)
+        return np.interp(np.log10(v) if self.scale == "log" else v, self.u, np.arange(len(self.u)))
+
+    def at(self, c: np.ndarray) -> np.ndarray:
+        """Coarse positions -> where to draw them (values; positions themselves on a category axis), ends extended."""
+        if self.scale == "category":
+            return np.asarray(c, float)
+        n, c = len(self.u), np.asarray(c, float)
+        k = np.clip(np.floor(c), 0, max(n - 2, 0)).astype(int)
+        step = np.diff(self.u)[k] if n > 1 else np.ones_like(c)
+        u = self.u[k] + (c - k) * step
+        return 10.0 ** u if self.scale == "log" else u
+
+    def set(self, ax, which: str) -> None:
+        n = len(self.values)
+        _set_axis(ax, which, self.values, self.at(np.arange(n)), self.at(np.array([-0.5, n - 0.5])), self.scale)
+
+
+def _draw_refined(ax, sub: pd.DataFrame, x: str, y: str, cmap, norm, codes: dict[str, int]) -> set[str]:
+    """A refined sweep's cells at their size, coarse levels first (module docstring); returns the verdicts drawn."""
+    level = pd.to_numeric(sub[REFINE_LEVEL], errors="coerce").fillna(0).astype(int)
+    cells = sub.assign(_level=level).groupby([x, y]).agg(verdict=("verdict", lambda v: combine(v.astype(str))),
+                                                         level=("_level", "min")).reset_index()
+    level0 = cells[cells["level"] == 0]
+    ax_x, ax_y = (_CoarseAxis(level0[k].unique() if len(level0) else cells[k].unique(), cells[k]) for k in (x, y))
+    annotate = len(cells) <= ANNOTATE_MAX_CELLS
+    for lv, at in cells.groupby("level"):
+        nx, ny = (2 ** int(lv) if a.refined else 1 for a in (ax_x, ax_y))  # cells per coarse cell
+        i = np.rint(ax_x.index(at[x].to_numpy()) * nx).astype(int)
+        j = np.rint(ax_y.index(at[y].to_numpy()) * ny).astype(int)
+        x0, x1 = ax_x.at((i - 0.5) / nx), ax_x.at((i + 0.5) / nx)
+        y0, y1 = ax_y.at((j - 0.5) / ny), ax_y.at((j + 0.5) / ny)
+        boxes = [[(a, c), (b, c), (b, d), (a, d)] for a, b, c, d in zip(x0, x1, y0, y1)]
+        colours = cmap(norm([codes.get(v, codes["error"]) for v in at["verdict"]]))
+        ax.add_collection(PolyCollection(boxes, facecolors=colours, edgecolors="white", linewidths=0.8 / 2 ** int(lv),
+                                         zorder=1 + int(lv)))
+        if annotate:
+            for xv, yv, v in zip(at[x], at[y], at["verdict"]):
+                ax.text(ax_x.at(ax_x.index(xv)), ax_y.at(ax_y.index(yv)), VERDICT_ABBREV.get(v, v), ha="center",
+                        va="center", fontsize=max(5.0, 8.0 * 0.8 ** int(lv)), color=text_colour(v), zorder=20)
+    ax_x.set(ax, "x")
+    ax_y.set(ax, "y")
+    return set(cells["verdict"])
+
+
+def _width(sub: pd.DataFrame, x: str, grid: pd.DataFrame) -> float:
+    """A panel's width in cells: its columns; a refined one's coarse columns, one and a half times (cells split)."""
+    if not _refined(sub):
+        return float(grid.shape[1])
+    return 1.5 * sub.loc[pd.to_numeric(sub[REFINE_LEVEL], errors="coerce") == 0, x].nunique()
 
 
 def stability_map_figure(rows: pd.DataFrame, x: str, y: str, engine: str | None = None) -> Figure:
@@ -115,10 +183,16 @@ def stability_map_figure(rows: pd.DataFrame, x: str, y: str, engine: str | None 
     cmap = ListedColormap([VERDICT_COLORS[v] for v in VERDICT_ORDER]).with_extremes(bad="white")  # no run: blank
     norm = BoundaryNorm(np.arange(len(VERDICT_ORDER) + 1) - 0.5, len(VERDICT_ORDER))
     n = len(grids)
-    fig = Figure(figsize=(max(5.0, 0.45 * max(g.shape[1] for g in grids.values()) + 3.0) * n, 5.4), layout="constrained")
+    widths = [_width(rows[rows["engine"] == e], x, g) for e, g in grids.items()]
+    fig = Figure(figsize=(max(5.0, 0.45 * max(widths) + 3.0) * n, 5.4), layout="constrained")
     axes = fig.subplots(1, n, squeeze=False)
     seen: set[str] = set()
     for ax, (eng, grid) in zip(axes[0], grids.items()):
+        sub = rows[rows["engine"] == eng].dropna(subset=[x, y])
+        if _refined(sub):
+            seen |= _draw_refined(ax, sub, x, y, cmap, norm, codes)
+            _titles(ax, rows, sub, x, y, eng, f", refined to level {int(pd.to_numeric(sub[REFINE_LEVEL]).max())}")
+            continue
         xc, xe, xs = _axis(grid.columns)
         yc, ye, ys = _axis(grid.index)
         c = np.ma.masked_invalid(np.array([[codes.get(v, codes["error"]) if isinstance(v, str) else np.nan
@@ -135,12 +209,7 @@ def stability_map_figure(rows: pd.DataFrame, x: str, y: str, engine: str | None 
                     if isinstance(v, str):
                         ax.text(xv, yv, VERDICT_ABBREV.get(v, v), ha="center", va="center", fontsize=8,
                                 color=text_colour(v))
-        ax.set_xlabel(x + (" [s]" if x == "dt" else ""))
-        ax.set_ylabel(y + (" [s]" if y == "dt" else ""))
-        sub = rows[rows["engine"] == eng].dropna(subset=[x, y])
-        folded = folded_parameters(sub, (x, y), parameter_columns(rows))
-        note = ("\nworst over " + ", ".join(f"{c} ({sub[c].nunique()})" for c in folded)) if folded else ""
-        ax.set_title(f"{eng}: {len(sub)} runs{note}", fontsize=10)
+        _titles(ax, rows, sub, x, y, eng)
     handles = [Patch(facecolor=VERDICT_COLORS[v], edgecolor="0.5", label=f"{VERDICT_ABBREV[v]}  {v}: {VERDICT_MEANING[v]}")
                for v in VERDICT_ORDER if v in seen]
     ncol = max(1, min(3, len(handles), int(fig.get_figwidth() // 3.6)))
@@ -148,3 +217,12 @@ def stability_map_figure(rows: pd.DataFrame, x: str, y: str, engine: str | None 
     scene = ", ".join(sorted(rows["scene"].astype(str).unique())) if "scene" in rows else ""
     suptitle(fig, f"{scene}: verdict over {x} and {y}")
     return fig
+
+
+def _titles(ax, rows: pd.DataFrame, sub: pd.DataFrame, x: str, y: str, eng: str, extra: str = "") -> None:
+    """Axis labels, and the panel's title: the engine, its runs, what is folded in."""
+    ax.set_xlabel(x + (" [s]" if x == "dt" else ""))
+    ax.set_ylabel(y + (" [s]" if y == "dt" else ""))
+    folded = folded_parameters(sub, (x, y), parameter_columns(rows))
+    note = ("\nworst over " + ", ".join(f"{c} ({sub[c].nunique()})" for c in folded)) if folded else ""
+    ax.set_title(f"{eng}: {len(sub)} runs{extra}{note}", fontsize=10)

@@ -9,23 +9,32 @@
     >>> fig.axes[0].get_xlabel()
     'cost: wall-clock s per simulated s'
 
-``work_precision_figure``: worst |exit error| and worst |sticking start error| [s] against
-wall-clock cost per simulated second, log-log, one curve per engine (and per value of that
-engine's swept settings, e.g. ``mujoco.w0_dt``) through its timesteps, each point labelled
-with its dt. Swept scene parameters (``restitution``, ``mass2``, ...) are folded into each
-point as the worst case: largest error, worst verdict, median cost. Points whose verdict is
-a failure (not match/early/late) are hollow, one marker per class; failures with no
-measured error sit on a strip at the top of the panel. The best trade-off (Pareto front:
-no other point both cheaper and more accurate) is ringed and joined. Artists carry ids
-(``Line2D.get_gid``): ``curve:LABEL``, ``pareto-front``, ``failed:VERDICT``,
-``failed-no-error:VERDICT``, ``reference``.
+``work_precision_figure``: the judge's worst relative errors (``exit_error_rel_max``: exit
+error / sliding duration; ``stick_error_rel_max``: sticking start error / chatter duration;
+``pipeline/summary.py``) against wall-clock cost per simulated second, log-log, each panel
+with its tolerance as a dashed line. One curve per engine (and per value of that engine's
+other swept settings, e.g. ``mujoco.w0_dt``) through the values of its cost lever
+(``EngineAdapter.cost_lever``: ``dt`` for a fixed-step engine, ``accuracy`` for an
+error-controlled one, a dotted column such as ``drake.accuracy``), each point labelled with
+it (``dt=0.001``); where labels of coinciding points would pile up, one is written. A metric
+no row measured (the ball never leaves its floor: no exit) gives its panel to the next one
+the rows have (``FALLBACK``: sticking start, then restitution), and the title says why in a
+sentence; with nothing measured at all, the one panel says why. Swept scene parameters
+(``restitution``, ``mass2``, ...) are folded into each point as the worst case: largest
+error, worst verdict, median cost. Points whose verdict is a failure (not match/early/late)
+are hollow, one marker per class; failures with no measured error sit on a strip at the top
+of the panel. The best trade-off (Pareto front: no other point both cheaper and more
+accurate) is ringed and joined. Artists carry ids (``Line2D.get_gid``): ``curve:LABEL``,
+``pareto-front``, ``failed:VERDICT``, ``failed-no-error:VERDICT``, ``reference``,
+``tolerance``; the axes carry their metric (``Axes.get_gid``).
 
 """
 
 from __future__ import annotations
 
 import math
-from typing import Sequence
+import textwrap
+from typing import Any, Sequence
 
 import matplotlib.ticker
 import numpy as np
@@ -35,7 +44,9 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Rectangle
 from matplotlib.transforms import blended_transform_factory
 
+from chatterbench.comparisons.pipeline.tolerances import Tolerances
 from chatterbench.comparisons.pipeline.vocabulary import combine, rank
+from chatterbench.reference.errors import InputError
 
 from .style import ENGINE_COLORS
 from .sweep_data import (COST, FAIL_MARKERS, METRIC_LABELS, PASSING, VERDICT_COLORS, VERDICT_MEANING, VERDICT_ORDER,
@@ -43,47 +54,137 @@ from .sweep_data import (COST, FAIL_MARKERS, METRIC_LABELS, PASSING, VERDICT_COL
 
 ROOT_PRECISION = 1e-12  # [s] the reference's event times: its root finder's tolerance
 OFF_SCALE = 1e3  # a reference error this many times below the engines' smallest is drawn on the panel's foot
+RELATIVE = ("exit_error_rel_max", "stick_error_rel_max")  # the default panels: the judge's own measures
+# what a panel falls back to when the rows measured nothing of its metric, in order
+FALLBACK = {"rel": ("exit_error_rel_max", "stick_error_rel_max", "restitution_error_max"),
+            "s": ("exit_error_max", "stick_error_max", "first_impact_error_max")}
+# the tolerance (``Tolerances`` field) each relative metric is judged against
+TOLERANCE_OF = {"exit_error_rel_max": "exit", "stick_error_rel_max": "stick", "restitution_error_max": "restitution"}
+LABEL_BOX = (0.0115, 0.04)  # [axes fraction] a label character's width and a label's height on a 6.4 x 5.6 in panel
 
 
-def work_precision_points(rows: pd.DataFrame, errors: Sequence[str] = ("exit_error_max", "stick_error_max")) -> pd.DataFrame:
-    """The points of the work-precision chart: one per (engine, engine settings, dt).
+def cost_lever(engine: str, settings: dict | None = None) -> str:
+    """The settings field engine ``engine`` trades accuracy for cost with (``EngineAdapter.cost_lever``).
+
+    ``settings`` are the engine's own fields (``{"accuracy": 1e-3}``). ``"dt"`` when the engine
+    cannot be asked here (not installed, unknown to this version, settings it refuses).
+    """
+    from chatterbench.engines.registry import adapter, make_settings
+
+    try:
+        return str(adapter(engine).cost_lever(make_settings(engine, overrides={f"{engine}.{k}": v
+                                                                              for k, v in (settings or {}).items()})))
+    except (InputError, ImportError, TypeError, ValueError):
+        return "dt"
+
+
+def _engine_settings(row: pd.Series, engine: str) -> dict:
+    """The engine's settings in one dataset row: its dotted columns with a value, without the prefix."""
+    return {k.split(".", 1)[1]: v for k, v in row.items() if k.startswith(engine + ".") and not pd.isna(v)}
+
+
+def work_precision_points(rows: pd.DataFrame, errors: Sequence[str] = RELATIVE) -> pd.DataFrame:
+    """The points of the work-precision chart: one per (engine, engine settings, value of its cost lever).
 
     Rows that differ only in swept scene parameters (``restitution``, ``mass2``, ...) fold
-    into one point: worst error of each metric [s] (NaN-skipping), median cost [s per
-    simulated s], worst verdict.
+    into one point: worst |error| of each metric (NaN-skipping), median cost [s per simulated
+    s], worst verdict. The lever is ``cost_lever`` of the engine's first row: ``dt``, or a
+    setting read from the dotted column ``ENGINE.FIELD`` (``drake.accuracy``).
 
     Returns
     -------
     DataFrame with columns ``engine``, ``curve`` (legend label), ``settings`` (dict of the
-    engine's swept settings), ``dt`` [s], the ``errors`` columns [s], ``cost_per_sim_s``,
-    ``verdict``, ``n_rows``, ``verdicts`` (each verdict with its count, "match 2, late 1").
+    engine's swept settings but the lever), ``lever`` (its field name), ``lever_value``,
+    ``dt`` [s] (the lever's value when it is dt, else the group's median dt), the ``errors``
+    columns, ``cost_per_sim_s``, ``verdict``, ``n_rows``, ``verdicts`` ("match 2, late 1").
     """
     check_columns(rows, ["engine", "dt", "verdict", COST, *errors])
     out = []
     for engine in sorted(rows["engine"].astype(str).unique()):
-        sub = rows[rows["engine"] == engine]
-        settings = varying(sub, [c for c in rows.columns if c.startswith(engine + ".")])
-        keys = settings + ["dt"]
-        sub = sub.assign(**{c: sub[c].fillna("-") if sub[c].dtype == object else sub[c] for c in settings})
-        for key, grp in sub.groupby(keys, sort=True, dropna=False):
-            key = key if isinstance(key, tuple) else (key,)
-            sett = dict(zip(settings, key[:-1]))
-            label = engine + (" (" + ", ".join(f"{k.split('.', 1)[1]}={fmt(v)}" for k, v in sett.items()) + ")" if sett else "")
-            counts = grp["verdict"].astype(str).value_counts()
-            point = {"engine": engine, "curve": label, "settings": sett, "dt": float(key[-1])}
-            for e in errors:
-                vals = pd.to_numeric(grp[e], errors="coerce").abs().dropna()
-                point[e] = float(vals.max()) if len(vals) else math.nan
-            cost = pd.to_numeric(grp[COST], errors="coerce").dropna()
-            point[COST] = float(cost.median()) if len(cost) else math.nan
-            point["verdict"] = combine(grp["verdict"].astype(str))
-            point["n_rows"] = len(grp)
-            point["verdicts"] = ", ".join(f"{v} {counts[v]}" for v in sorted(counts.index, key=rank))
-            out.append(point)
-    return pd.DataFrame(out, columns=["engine", "curve", "settings", "dt", *errors, COST, "verdict", "n_rows", "verdicts"])
+        every = rows[rows["engine"] == engine]
+        levers = _row_levers(every, engine)
+        columns = {lev: "dt" if lev == "dt" or f"{engine}.{lev}" not in every else f"{engine}.{lev}" for lev in levers.unique()}
+        # the settings that tell curves apart: an engine with two levers (drake's modes) gets both curves labelled
+        settings = varying(every, [c for c in rows.columns if c.startswith(engine + ".") and c not in columns.values()])
+        for lever, column in sorted(columns.items()):
+            sub = every[levers == lever]
+            lever = "dt" if column == "dt" else lever
+            keys = settings + [column]
+            sub = sub.assign(**{c: sub[c].fillna("-") if sub[c].dtype == object else sub[c] for c in settings})
+            for key, grp in sub.groupby(keys, sort=True, dropna=False):
+                out.append(_point(engine, lever, column, dict(zip(settings, key[:-1])), key[-1], grp, errors))
+    return pd.DataFrame(out, columns=["engine", "curve", "settings", "lever", "lever_value", "dt", *errors, COST, "verdict",
+                                      "n_rows", "verdicts"])
 
 
-def pareto_front(points: pd.DataFrame, error: str = "exit_error_max", cost: str = COST,
+def _row_levers(rows: pd.DataFrame, engine: str) -> pd.Series:
+    """``cost_lever`` of each row of ``engine`` (asked once per distinct set of its settings)."""
+    asked: dict[tuple, str] = {}
+    levers = []
+    for _, row in rows.iterrows():
+        sett = _engine_settings(row, engine)
+        key = tuple(sorted((k, repr(v)) for k, v in sett.items()))
+        if key not in asked:
+            asked[key] = cost_lever(engine, sett)
+        levers.append(asked[key])
+    return pd.Series(levers, index=rows.index, dtype=object)
+
+
+def _point(engine: str, lever: str, column: str, sett: dict, value: Any, grp: pd.DataFrame,
+           errors: Sequence[str]) -> dict[str, Any]:
+    """One chart point: the rows ``grp`` of one curve at one value of its lever, folded."""
+    label = engine + (" (" + ", ".join(f"{k.split('.', 1)[1]}={fmt(v)}" for k, v in sett.items()) + ")" if sett else "")
+    dts = pd.to_numeric(grp["dt"], errors="coerce").dropna()
+    point = {"engine": engine, "curve": label, "settings": sett, "lever": lever, "lever_value": value,
+             "dt": float(value) if column == "dt" else (float(dts.median()) if len(dts) else math.nan)}
+    for e in errors:
+        vals = pd.to_numeric(grp[e], errors="coerce").abs().dropna()
+        point[e] = float(vals.max()) if len(vals) else math.nan
+    cost = pd.to_numeric(grp[COST], errors="coerce").dropna()
+    point[COST] = float(cost.median()) if len(cost) else math.nan
+    counts = grp["verdict"].astype(str).value_counts()
+    point["verdict"] = combine(grp["verdict"].astype(str))
+    point["n_rows"] = len(grp)
+    point["verdicts"] = ", ".join(f"{v} {counts[v]}" for v in sorted(counts.index, key=rank))
+    return point
+
+
+def _why_empty(rows: pd.DataFrame, metric: str) -> str:
+    """One sentence: why no row measured ``metric``."""
+    label = METRIC_LABELS.get(metric, metric).split(" (")[0]
+    verdicts = rows["verdict"].astype(str)
+    if verdicts.eq("none").all():
+        return f"no {label} measured: neither the reference nor the engines slide in these runs"
+    if not verdicts.isin(PASSING).any():
+        counts = verdicts.value_counts()
+        return (f"no {label} measured: no run reproduced the episodes ("
+                + ", ".join(f"{counts[v]} {v}" for v in sorted(counts.index, key=rank)) + ")")
+    if metric.startswith("exit"):
+        return f"no {label} measured: the reference never leaves the wall in these runs"
+    if metric.startswith("restitution"):
+        return f"no {label} measured: no engine flight lasted long enough after an impact to measure its rebound"
+    return f"no {label} measured in these runs"
+
+
+def panel_metrics(rows: pd.DataFrame, error: str = RELATIVE[0]) -> tuple[list[str], list[str]]:
+    """The metrics the chart draws and a sentence for each one asked for that no row measured.
+
+    Asked for: ``error`` and the sticking start in the same unit (relative or seconds). A
+    metric with no finite value gives its panel to the next of ``FALLBACK`` that has one
+    (the ball never exits: sticking start and restitution instead); with nothing measured,
+    the one panel of ``error`` (it says why).
+    """
+    unit = "s" if error in FALLBACK["s"] or error == "stick_error_plate_max" else "rel"
+    asked = list(dict.fromkeys([error, "stick_error_rel_max" if unit == "rel" else "stick_error_max"]))
+    has = {m: m in rows and np.isfinite(pd.to_numeric(rows[m], errors="coerce")).any() for m in {*asked, *FALLBACK[unit]}}
+    chosen, notes = [m for m in asked if has[m]], [_why_empty(rows, m) for m in asked if not has[m]]
+    for m in FALLBACK[unit]:
+        if len(chosen) < len(asked) and m not in chosen and has[m]:
+            chosen.append(m)
+    return (chosen or [error]), notes
+
+
+def pareto_front(points: pd.DataFrame, error: str = RELATIVE[0], cost: str = COST,
                  eligible: pd.Series | None = None) -> pd.Series:
     """Which points are on the best-trade-off front (no other point both cheaper and more accurate).
 
@@ -93,7 +194,7 @@ def pareto_front(points: pd.DataFrame, error: str = "exit_error_max", cost: str 
 
     Parameters
     ----------
-    points : DataFrame with the ``error`` [s] and ``cost`` [s per simulated s] columns.
+    points : DataFrame with the ``error`` column (any error metric) and ``cost`` [s per simulated s].
     eligible : bool Series aligned with ``points``; default: verdict in ``PASSING`` when
         there is a ``verdict`` column (a failing point's error does not describe a
         working method), else all.
@@ -144,16 +245,17 @@ def measured_reference_cost(rows: pd.DataFrame) -> float | None:
     return float(cost.median()) if len(cost) else None
 
 
-def work_precision_figure(rows: pd.DataFrame, error: str = "exit_error_max", reference_cost: float | None = None,
-                          reference_error: float | None = None) -> Figure:
-    """Error against cost per engine, log-log: the exit time panel and the sticking start panel.
+def work_precision_figure(rows: pd.DataFrame, error: str = RELATIVE[0], reference_cost: float | None = None,
+                          reference_error: float | None = None, tolerances: Tolerances | None = None) -> Figure:
+    """Error against cost per engine, log-log: the exit time panel and the sticking start panel (module docstring).
 
     Parameters
     ----------
     rows : sweep dataset (``summary.ROW_COLUMNS`` plus one column per parameter).
     error : str
-        Metric of the first panel (``exit_error_max`` default); the second is
-        ``stick_error_max`` (a single panel when ``error`` is that).
+        Metric of the first panel (``exit_error_rel_max`` default); the second is the
+        sticking start in the same unit (``stick_error_rel_max``, or ``stick_error_max`` [s]
+        for a metric in seconds). ``panel_metrics`` says what replaces a metric no row measured.
     reference_cost : float, optional
         The reference's own wall-clock seconds per simulated second: drawn as a star at
         (``reference_cost``, ``reference_error`` or ``ROOT_PRECISION``). Default: the median
@@ -161,8 +263,11 @@ def work_precision_figure(rows: pd.DataFrame, error: str = "exit_error_max", ref
         have none, a band at the foot of each panel stands for the reference (exact).
     reference_error : float, optional
         The reference's error [s], its root precision (~1e-12 s).
+    tolerances : Tolerances, optional
+        Drawn as a dashed line on each relative panel; default ``Tolerances()``.
     """
-    metrics = list(dict.fromkeys([error, "stick_error_max"]))
+    metrics, empty = panel_metrics(rows, error)
+    tolerances = tolerances or Tolerances()
     points = work_precision_points(rows, metrics)
     if points.empty:
         raise ChartError("no rows to draw")
@@ -173,6 +278,8 @@ def work_precision_figure(rows: pd.DataFrame, error: str = "exit_error_max", ref
     axes = fig.subplots(1, len(metrics), squeeze=False)
     classes_seen: set[str] = set()
     for ax, metric in zip(axes[0], metrics):
+        ax.set_gid(metric)
+        labels: list[tuple[float, float, str, str]] = []
         front = pareto_front(points, metric)
         has = np.isfinite(points[metric]) & np.isfinite(points[COST])
         passing = points["verdict"].isin(PASSING)
@@ -190,9 +297,8 @@ def work_precision_figure(rows: pd.DataFrame, error: str = "exit_error_max", ref
                 classes_seen.add(v)
                 ax.plot(gv[COST], gv[metric], ls="none", marker=FAIL_MARKERS.get(v, "x"), mfc="white",
                         mec=st["color"], mew=1.6, ms=8, zorder=3, gid=f"failed:{v}")
-            for r in g.itertuples():
-                ax.annotate(f"{r.dt:g}", (getattr(r, COST), getattr(r, metric)), xytext=(4, -9),
-                            textcoords="offset points", fontsize=6.5, color=st["color"])
+            labels += [(getattr(r, COST), getattr(r, metric), f"{r.lever}={fmt(r.lever_value)}", st["color"])
+                       for r in g.itertuples()]
             # failures without a measured error: a strip along the top, at their cost
             lost = grp[~has.loc[grp.index] & np.isfinite(grp[COST]) & ~grp["verdict"].isin(PASSING + ("none",))]
             for v, gv in lost.groupby("verdict"):
@@ -200,8 +306,8 @@ def work_precision_figure(rows: pd.DataFrame, error: str = "exit_error_max", ref
                 ax.plot(gv[COST], np.full(len(gv), 0.965), transform=strip, ls="none", marker=FAIL_MARKERS.get(v, "x"),
                         mfc="white", mec=st["color"], mew=1.6, ms=8, zorder=3, clip_on=False, gid=f"failed-no-error:{v}")
                 for r in gv.itertuples():
-                    ax.annotate(f"{r.dt:g}", (getattr(r, COST), 0.965), xycoords=strip, xytext=(6, -3),
-                                textcoords="offset points", fontsize=6.5, color=st["color"])
+                    ax.annotate(f"{r.lever}={fmt(r.lever_value)}", (getattr(r, COST), 0.965), xycoords=strip,
+                                xytext=(6, -3), textcoords="offset points", fontsize=6.5, color=st["color"])
         fr = points[front].sort_values(COST)
         if len(fr):
             ax.plot(fr[COST], fr[metric], color="#ffc107", lw=7, alpha=0.35, solid_capstyle="round", zorder=1)
@@ -227,8 +333,9 @@ def work_precision_figure(rows: pd.DataFrame, error: str = "exit_error_max", ref
                 else:
                     ax.plot([reference_cost], [ref_err], ls="none", marker="*", ms=16, color=ENGINE_COLORS["reference"], zorder=5,
                             gid="reference")
-                    ax.annotate("reference", (reference_cost, ref_err), xytext=(9, 0), textcoords="offset points",
-                                fontsize=8, va="center")
+                    name = "reference (exact)" if reference_error is None else f"reference (error {ref_err:.0e})"
+                    ax.annotate(name, (reference_cost, ref_err), xytext=(9, 0), textcoords="offset points", fontsize=8,
+                                va="center")
             else:
                 if reference_error is not None:
                     ax.axhline(reference_error, color="black", lw=0.8, ls="--")
@@ -241,16 +348,25 @@ def work_precision_figure(rows: pd.DataFrame, error: str = "exit_error_max", ref
             costs = points[COST][np.isfinite(points[COST]) & (points[COST] > 0)]
             ax.set_xlim(*((costs.min() / 2.0, costs.max() * 2.0) if len(costs) else (1e-3, 1.0)))
             ax.set_ylim(1e-6, 1.0)  # any decades: nothing to scale to, and a log axis needs positive limits
-            ax.text(0.5, 0.5, f"no {METRIC_LABELS.get(metric, metric)} measured\n(no episode of this kind in the scene?)",
-                    transform=ax.transAxes, ha="center", va="center", color="0.4")
+            ax.text(0.5, 0.5, textwrap.fill(_why_empty(rows, metric), 48), transform=ax.transAxes, ha="center",
+                    va="center", color="0.3")
         if (~has & ~points["verdict"].isin(PASSING + ("none",))).any():
             ax.plot([0, 1], [0.93, 0.93], transform=ax.transAxes, color="0.6", lw=0.6, ls=":")
             ax.text(0.99, 0.965, "failed, no error measured", transform=ax.transAxes, fontsize=7, va="center", ha="right",
                     color="0.3")
+        if metric in TOLERANCE_OF and has.any():
+            tol = getattr(tolerances, TOLERANCE_OF[metric])
+            ax.axhline(tol, color="0.35", lw=1.0, ls="--", zorder=1, gid="tolerance")
+            ax.annotate(f"tolerance {tol:g}", (0.01, tol), xycoords=("axes fraction", "data"), xytext=(0, 3),
+                        textcoords="offset points", fontsize=7.5, color="0.3")
+            lo, hi = ax.get_ylim()
+            ax.set_ylim(min(lo, tol / 3.0), max(hi, tol * 3.0))
+        _write_labels(ax, labels)
         ax.grid(True, which="major", color="0.9", lw=0.6)
         ax.set_xlabel("cost: wall-clock s per simulated s")
-        ax.set_ylabel(f"worst |error| in {METRIC_LABELS.get(metric, metric)} [s]")
-        ax.set_title(f"error in {METRIC_LABELS.get(metric, metric)}", fontsize=10)
+        unit = " [s]" if metric in FALLBACK["s"] or metric == "stick_error_plate_max" else ""
+        ax.set_ylabel(f"worst |error|: {METRIC_LABELS.get(metric, metric)}{unit}")
+        ax.set_title(f"error in {METRIC_LABELS.get(metric, metric).split(' (')[0]}", fontsize=10)
     handles = [Line2D([], [], color=styles[c]["color"], ls=styles[c]["ls"], marker=styles[c]["marker"], label=c)
                for c in styles]
     handles.append(Line2D([], [], ls="none", marker="o", ms=12, mfc="none", mec="black",
@@ -264,13 +380,43 @@ def work_precision_figure(rows: pd.DataFrame, error: str = "exit_error_max", ref
         if points["verdict"].eq(v).any():
             handles.append(Line2D([], [], ls="none", marker="o", color="0.5", mec=VERDICT_COLORS[v], mew=2.2, ms=8,
                                   label=f"{v}: {VERDICT_MEANING[v]}"))
-    handles.append(Line2D([], [], ls="none", label="labels: dt [s]; hollow: the run failed"))
+    levers = ", ".join(f"{lv} [s]" if lv == "dt" else lv for lv in dict.fromkeys(points["lever"]))
+    handles.append(Line2D([], [], ls="none", label=f"labels: {levers}; hollow: the run failed"))
     fig.legend(handles=handles, loc="outside lower center", ncol=3, fontsize=8, frameon=False)
     scene = ", ".join(sorted(rows["scene"].astype(str).unique())) if "scene" in rows else ""
-    notes = [_folded_note(rows)]
+    notes = [_folded_note(rows), *empty]
     uncosted = rows[~np.isfinite(pd.to_numeric(rows[COST], errors="coerce"))]
     if len(uncosted):  # crashed, timed out or refused before any step: nothing to place on a cost axis
         counts = uncosted["verdict"].astype(str).value_counts()
         notes.append("not drawn (no cost measured): " + ", ".join(f"{counts[v]} {v}" for v in sorted(counts.index, key=rank)))
     suptitle(fig, "; ".join([f"{scene}: work-precision, {len(rows)} runs", *filter(None, notes)]))
     return fig
+
+
+def _write_labels(ax, labels: Sequence[tuple[float, float, str, str]]) -> None:
+    """Write each point's lever label beside it where it overlaps no other label (log-log axes).
+
+    Each label tries four places around its point (below right, above right, below left,
+    above left); a label whose text is already written at a coinciding point is left out, as
+    is one with no free place. Boxes are measured in axes fractions (``LABEL_BOX``: width of
+    a character, height of a line), so placement does not depend on the final layout.
+    """
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    char, line = LABEL_BOX
+    boxes: list[tuple[float, float, float, float, str, float, float]] = []
+    for x, y, text, color in labels:
+        if not (x > 0 and y > 0 and math.isfinite(x) and math.isfinite(y)):
+            continue
+        fx = math.log(x / x0) / math.log(x1 / x0)
+        fy = math.log(y / y0) / math.log(y1 / y0)
+        if any(t == text and abs(px - fx) < 3 * char and abs(py - fy) < 1.5 * line for *_, t, px, py in boxes):
+            continue  # the same label at a coinciding point: once is enough
+        w = char * len(text)
+        for dx, dy in ((1, -1), (1, 1), (-1, -1), (-1, 1)):
+            bx0 = fx + 0.008 if dx > 0 else fx - 0.008 - w
+            by0 = fy - 0.01 - line if dy < 0 else fy + 0.01
+            if not any(bx0 < b[1] and b[0] < bx0 + w and by0 < b[3] and b[2] < by0 + line for b in boxes):
+                ax.annotate(text, (x, y), xytext=(4 * dx, -9 if dy < 0 else 4), textcoords="offset points", fontsize=6.5,
+                            color=color, ha="left" if dx > 0 else "right")
+                boxes.append((bx0, bx0 + w, by0, by0 + line, text, fx, fy))
+                break

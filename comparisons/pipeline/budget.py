@@ -7,13 +7,16 @@
     >>> check_engine_run(scene, "mujoco", 1e-7, budget)
     Traceback (most recent call last):
     ...
-    chatterbench.comparisons.pipeline.budget.BudgetError: mujoco on 'feigin-pair': dt = 1e-07 s over duration = 40.2 s is 4.02e+08 steps and about 93.9 GiB, more than --max-steps 5e+07 ...
+    chatterbench.comparisons.pipeline.budget.BudgetError: mujoco on 'feigin-pair': dt = 1e-07 s over duration = 40.2 s is 4.02e+08 steps and about 37.8 GiB, more than --max-steps 5e+07 ...
 
 Estimates, each from a measurement on this code (2-core machine, ``/usr/bin/time -f %M``
-of ``chatterbench run feigin-pair --engine E --dt D`` at 4e6 and 2e7 steps):
+of ``chatterbench run feigin-pair --engine E --dt D`` at 4e6 and 8e6 or 1.2e7 steps):
 - an engine run: ``duration / dt`` steps (``engines.base.n_steps``); its memory is
-  ``EngineAdapter.bytes_per_step`` per step (MuJoCo 187 B, PyBullet 421 B measured, stated
-  with a margin) over the ``BASE_MEMORY`` of a process with both engines loaded;
+  ``EngineAdapter.bytes_per_step`` per step (MuJoCo 69 B, PyBullet 88 B measured, stated
+  with a margin) over the ``BASE_MEMORY`` of a process with both engines loaded. A run that
+  long is handed on compact (``engines/window.py``: the samples near the walls, about a third
+  of feigin-pair's), so the figure follows the time the scene spends near its walls; a scene
+  in contact most of the time keeps more (spring-pair: 72 % of its samples);
 - the reference (both chatter modes): events = the events of a pilot run over the first
   ``PILOT_PERIODS`` forcing periods, scaled to the duration (only for runs longer than
   ``LONG_PERIODS`` periods: shorter ones cost under a second); ``BYTES_PER_EVENT`` each

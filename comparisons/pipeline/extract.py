@@ -80,6 +80,7 @@ from .tolerances import ToleranceError
 
 STICK_RULE = "contact"  # the ``rule`` of an extracted stick
 _KIND_ORDER = {"exit": 0, "impact": 1, "stick": 2}  # at one time: leave, strike, then stick
+_STEP_BLOCK = 1 << 16  # steps examined at once for impacts between samples (memory, not results)
 IMPACT_COLUMNS = ["t", "wall", "v_minus", "v_plus", "t_release", "flight", "apex", "pressing", "slow", "stuck", "onset",
                   "exits", "x1", "v1"]
 
@@ -208,16 +209,9 @@ def _wall_impacts(traj: Trajectory, scene: Scene, wall: str, acc: np.ndarray, op
              "first": starts, "begin": np.where(released, stops, n_s), "contact": np.ones(len(starts), bool)}
 
     # (ii) impacts between two free samples: a velocity jump the free motion cannot make
-    ks = np.empty(0, dtype=np.int64)
-    if n_s > 1:
-        dt = np.diff(t)
-        free_step = ~contact[:-1] & ~contact[1:]
-        jump = u[1:] - u[:-1] - 0.5 * (a[:-1] + a[1:]) * dt
-        a_max = np.maximum(np.abs(a[:-1]), np.abs(a[1:]))
-        threshold = np.maximum(options.jump_atol, options.jump_factor * a_max * dt)
-        reach = np.maximum(np.abs(u[:-1]), np.abs(u[1:])) * dt + a_max * dt * dt
-        near = np.minimum(d[:-1], d[1:]) <= reach
-        ks = np.flatnonzero(free_step & (jump > threshold) & near)
+    ks = np.concatenate([np.empty(0, dtype=np.int64),
+                         *(_jump_steps(t, d, u, a, contact, traj.index, options, lo)
+                           for lo in range(0, n_s - 1, _STEP_BLOCK))])
     h = t[ks + 1] - t[ks] if len(ks) else np.empty(0)
     s_fwd = _first_root(d[ks], u[ks], a[ks], h)
     s_bwd = _first_root(d[ks + 1], -u[ks + 1], a[ks + 1], h)
@@ -240,8 +234,25 @@ def _wall_impacts(traj: Trajectory, scene: Scene, wall: str, acc: np.ndarray, op
     a_rel = a[np.minimum(begin, n_s - 1)]
     flight = np.append(imp["t"][1:], np.nan) - imp["t_release"]  # to the next impact on this wall
     imp.update(apex=apex, a_release=a_rel, flight=flight, a_onset=a[np.maximum(imp["first"] - 1, 0)],
-               d=d, a=a, u=u, next_first=nxt)
+               n_samples=n_s, u_last=u[n_s - 1], next_first=nxt)  # not d, a, u: per sample, they are the memory
     return imp
+
+
+def _jump_steps(t, d, u, a, contact, index, options: ExtractionOptions, lo: int) -> np.ndarray:
+    """Steps k in [lo, lo + _STEP_BLOCK) between two free samples with a velocity jump the free motion cannot
+    make, near the wall (rule 2; a block at a time: the temporaries stay small however long the run)."""
+    hi = min(len(t) - 1, lo + _STEP_BLOCK)
+    k, k1 = slice(lo, hi), slice(lo + 1, hi + 1)
+    dt = t[k1] - t[k]
+    free_step = ~contact[k] & ~contact[k1]
+    if index is not None:  # a compact trajectory: only steps between neighbouring samples
+        free_step &= index[k1] - index[k] == 1
+    jump = u[k1] - u[k] - 0.5 * (a[k] + a[k1]) * dt
+    a_max = np.maximum(np.abs(a[k]), np.abs(a[k1]))
+    threshold = np.maximum(options.jump_atol, options.jump_factor * a_max * dt)
+    reach = np.maximum(np.abs(u[k]), np.abs(u[k1])) * dt + a_max * dt * dt
+    near = np.minimum(d[k], d[k1]) <= reach
+    return lo + np.flatnonzero(free_step & (jump > threshold) & near)
 
 
 def _segment_max(values: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -264,13 +275,13 @@ def _stuck_stretches(imp: dict, band: np.ndarray, held: np.ndarray, f_min: float
     """
     out, m, i = [], len(band), 0
     apex, a_on = imp["apex"], imp["a_onset"]
-    n_s = len(imp["d"])
+    n_s = imp["n_samples"]
     while i < m:
         # a flight cut short by the end of the data cannot start a stretch (a bounce may be under
         # way), nor can a contact the data end in unless the bodies are at rest in it (too slow
         # to fly, as for a single contact below) or it is the initial rest
         judged = imp["next_first"][i] < n_s
-        resting = a_on[i] < 0.0 and abs(imp["u"][n_s - 1]) <= -a_on[i] * f_min / 2.0
+        resting = a_on[i] < 0.0 and abs(imp["u_last"]) <= -a_on[i] * f_min / 2.0
         if (band[i] > 0 and apex[i] <= band[i] and judged) or (held[i] and (imp["first"][i] == 0 or resting)):
             j, h = i, band[i]
             while j < m and (held[j] or apex[j] <= max(h, band[j])):
@@ -311,7 +322,7 @@ def extract(traj: Trajectory, scene: Scene, stick_tolerance: float = math.nan,
         raise ValueError("trajectory times must increase strictly")
     if len(t) < 2:
         return Extraction(pd.DataFrame(columns=IMPACT_COLUMNS), log_frame([]), episodes(log_frame([])), math.nan)
-    dt = float(np.median(np.diff(t)))
+    dt = traj.sampling_step()  # the median spacing; a compact trajectory's is the full run's
     R = scene.restitution
     f_min = options.floor_steps * dt
     if math.isfinite(stick_tolerance) and stick_tolerance > 0:
@@ -335,13 +346,12 @@ def extract(traj: Trajectory, scene: Scene, stick_tolerance: float = math.nan,
             onset[i] = True
             exits[j] = released
         after = np.minimum(imp["begin"], len(t) - 1)
-        for i in range(len(slow)):
-            impact_rows.append((float(imp["t"][i]), wall, nrm * float(imp["v_minus"][i]), nrm * float(imp["v_plus"][i]),
-                                float(imp["t_release"][i]), float(imp["flight"][i]), float(imp["apex"][i]),
-                                float(-imp["a_release"][i]), bool(slow[i]), bool(stuck[i] and not onset[i]), bool(onset[i]),
-                                bool(exits[i]),
-                                float(x1[after[i]]), float(v1[after[i]])))
-            if not stuck[i] or onset[i]:
+        # the IMPACT_COLUMNS as columns (a row of Python objects per impact would be ~0.4 kB each)
+        impact_rows.append({"t": imp["t"], "wall": np.full(len(slow), wall, dtype=object), "v_minus": nrm * imp["v_minus"],
+                            "v_plus": nrm * imp["v_plus"], "t_release": imp["t_release"], "flight": imp["flight"],
+                            "apex": imp["apex"], "pressing": -imp["a_release"], "slow": slow, "stuck": stuck & ~onset,
+                            "onset": onset, "exits": exits, "x1": x1[after], "v1": v1[after]})
+        for i in np.flatnonzero(~stuck | onset):
                 rows.append((float(imp["t"][i]), "impact", wall, nrm * float(imp["v_minus"][i]), nrm * float(imp["v_plus"][i]),
                              float(x1[after[i]]), float(v1[after[i]]), ""))
         for i, j, released in stretches:
@@ -359,7 +369,9 @@ def extract(traj: Trajectory, scene: Scene, stick_tolerance: float = math.nan,
                 rows.append((end, "exit", wall, float(traj.vy[kk]), float(traj.vy[kk]), float(x1[kk]), float(v1[kk]), ""))
     rows.sort(key=lambda r: (r[0], _KIND_ORDER[r[1]]))
     log = log_frame(rows)
-    impacts = pd.DataFrame(impact_rows, columns=IMPACT_COLUMNS).sort_values("t", kind="stable").reset_index(drop=True)
+    columns = {c: np.concatenate([w[c] for w in impact_rows]) for c in IMPACT_COLUMNS} if impact_rows else {}
+    impacts = pd.DataFrame(columns if columns and len(columns["t"]) else [], columns=IMPACT_COLUMNS)
+    impacts = impacts.sort_values("t", kind="stable").reset_index(drop=True)
     # a flight that ends on the other wall, or that an exit starts, is no bounce's flight
     crossing = impacts["wall"].ne(impacts["wall"].shift(-1)) & impacts.index.to_series().lt(len(impacts) - 1)
     impacts.loc[crossing | impacts["exits"], "flight"] = np.nan

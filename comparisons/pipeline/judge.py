@@ -164,7 +164,7 @@ def judge(ref: ReferenceSolution, found: Extraction, traj: Trajectory, tol: Tole
     tol = tol or Tolerances()
     scene = ref.scene
     t = np.asarray(traj.t, dtype=float)
-    dt = float(np.median(np.diff(t))) if len(t) > 1 else math.nan
+    dt = traj.sampling_step()
     t_end = float(t[-1]) if len(t) else -math.inf
     ref_eps, eng_eps, imps = ref.episodes, found.episodes, found.impacts
     paired = _pairs(ref_eps, eng_eps)
@@ -210,7 +210,7 @@ def judge(ref: ReferenceSolution, found: Extraction, traj: Trajectory, tol: Tole
     table = pd.DataFrame(rows)
     if table.empty:
         table = pd.DataFrame(columns=[*TABLE_COLUMNS, "stick_scale", "restitution_excess"])
-    table["penetration_max"] = [_window_max(t, pen, w0, w1) for w0, w1 in windows]
+    table["penetration_max"] = [_window_max(t, pen, w0, w1, traj.index) for w0, w1 in windows]
     errors(table, dt)
 
     beyond = pen > allowance
@@ -244,10 +244,20 @@ def assign_verdicts(table: pd.DataFrame, tol: Tolerances, run: RunFacts, penetra
     return table
 
 
-def _window_max(t: np.ndarray, values: np.ndarray, t0: float, t1: float) -> float:
+def _window_max(t: np.ndarray, values: np.ndarray, t0: float, t1: float, index: np.ndarray | None = None) -> float:
+    """max of ``values`` over the samples in [t0, t1] (NaN: none). A compact trajectory (``index``) left out
+    samples only clear of the walls, where the penetration is 0: a window holding only those gives 0."""
     t1 = math.inf if math.isnan(t1) else t1
     sel = (t >= t0) & (t <= t1)
-    return float(values[sel].max()) if sel.any() else math.nan
+    if sel.any():
+        return float(values[sel].max())
+    k = int(np.searchsorted(t, t0))
+    if index is not None and 0 < k < len(t) and index[k] - index[k - 1] > 1:
+        step = (t[k] - t[k - 1]) / (index[k] - index[k - 1])  # the left-out samples between kept ones k - 1 and k
+        first, last = math.ceil((t0 - t[k - 1]) / step), math.floor((t1 - t[k - 1]) / step)
+        if max(first, 1) <= min(last, index[k] - index[k - 1] - 1):
+            return 0.0
+    return math.nan
 
 
 def errors(table: pd.DataFrame, dt: float) -> None:

@@ -32,6 +32,7 @@ cost_per_sim_s             wall-clock seconds of engine stepping per simulated s
 reference_cost_per_sim_s   wall-clock seconds of the reference (Feigin's model) per simulated second
 wall_time_s                wall-clock seconds of engine stepping
 engine_version             the engine package's version
+precision                  the engine's floating-point type: ``float32`` for MuJoCo Warp, ``float64`` for the others
 message                    failure message, "" when ok
 =========================  ===========================================================================
 """
@@ -51,7 +52,7 @@ METRIC_COLUMNS = [
 ]
 ROW_COLUMNS = [
     "point_id", "scene", "engine", "dt", "mass_ratio", "status", "verdict", "n_episodes", "n_match",
-    *METRIC_COLUMNS, "cost_per_sim_s", "reference_cost_per_sim_s", "wall_time_s", "engine_version", "message",
+    *METRIC_COLUMNS, "cost_per_sim_s", "reference_cost_per_sim_s", "wall_time_s", "engine_version", "precision", "message",
 ]
 SUMMARY_COLUMNS = [c for c in ROW_COLUMNS if c != "point_id"]
 # columns a sweep does not set but charts may use as an axis, like a swept parameter
@@ -108,8 +109,15 @@ def summarize(comparison, engine: str, params: Mapping[str, Any]) -> dict[str, A
         "reference_cost_per_sim_s": comparison.solution.cost_per_sim_s,
         "wall_time_s": run.wall_time,
         "engine_version": run.version,
+        "precision": precision(run.settings),
         "message": run.trajectory.message,
     }
+
+
+def precision(settings: Mapping[str, Any]) -> str:
+    """The floating-point type a run computed in: its ``precision`` setting (MuJoCo Warp), else ``float64``
+    (MuJoCo's mjtNum, Drake's double, PyBullet's double-precision Bullet build)."""
+    return str(settings.get("precision", "float64"))
 
 
 def failure_row(scene: str, engine: str, params: Mapping[str, Any], status: str, message: str, version: str = "",
@@ -123,5 +131,6 @@ def failure_row(scene: str, engine: str, params: Mapping[str, Any], status: str,
         "dt": float(params.get("dt", math.nan)), "mass_ratio": mu, "status": status, "verdict": status,
         "n_episodes": 0, "n_match": 0, **{m: math.nan for m in METRIC_COLUMNS},
         "cost_per_sim_s": math.nan, "reference_cost_per_sim_s": math.nan,
-        "wall_time_s": math.nan, "engine_version": version, "message": message,
+        "wall_time_s": math.nan, "engine_version": version, "precision": str(params.get(f"{engine}.precision", "")),
+        "message": message,
     }

@@ -17,7 +17,7 @@ from pathlib import Path
 
 from chatterbench.reference import load_scene, simulate
 
-from .sweep import Sweep, run_sweep
+from .sweep import Sweep, load_sweep, run_sweep
 
 
 def _best(fn, repeats: int) -> tuple[float, object]:
@@ -127,3 +127,88 @@ def bench_sweep(points: int = 200, workers: int = 2, out_dir: str | Path | None 
     figures["engine_ratio"] = figures["wall_s"] / (figures["engine_s_sum"] / workers)
     figures["speedup"] = figures["wall_1_worker_s"] / figures["wall_s"]
     return figures
+
+
+def refine_bench_sweep() -> Sweep:
+    """The adaptive map `bench sweep` times by default: feigin-pair over one forcing period, dt x R, both engines.
+
+    Depth 2 on a 5 x 5 grid, standing for 17 x 17 (578 runs of the fine grid, a couple of minutes on 2 cores).
+    """
+    return Sweep(scene="feigin-pair", engines=("mujoco", "pybullet"), fixed={"duration": 2.0 * math.pi},
+                 grid={"dt": (1e-4, 10 ** -3.5, 1e-3, 10 ** -2.5, 1e-2), "restitution": (0.1, 0.3, 0.5, 0.7, 0.9)},
+                 timeout=600.0, refine={"axes": ["dt", "restitution"], "depth": 2})
+
+
+def bench_refine(spec: str | Path | Sweep | None = None, workers: int = 2, out_dir: str | Path | None = None):
+    """Cells per minute of an adaptive map (a spec with ``[refine]``) against the full fine grid it stands for.
+
+    Runs ``sweep.adaptive.fine_sweep(spec)`` (default ``refine_bench_sweep()``) and then the adaptive sweep, each from scratch on
+    ``workers`` local processes, and fills the fine map from the adaptive rows
+    (``sweep.adaptive.agreement``).
+
+    Returns
+    -------
+    (dict, DataFrame)
+        Figures: ``depth``, ``cells`` (fine points x engines), ``fine_runs``, ``adaptive_runs``,
+        ``run_ratio`` = adaptive / fine runs, ``fine_wall_s``, ``adaptive_wall_s``,
+        ``fine_cells_per_min``, ``adaptive_cells_per_min`` (cells / wall time), ``speedup``
+        = fine / adaptive wall time, ``agreement`` (fraction of cells whose label the adaptive
+        map gets right); and ``agreement``'s table, one row per engine.
+    """
+    import tempfile
+
+    from .sweep.adaptive import agreement, fine_sweep
+
+    sweep = refine_bench_sweep() if spec is None else spec if isinstance(spec, Sweep) else load_sweep(spec)
+    if sweep.refine is None:
+        raise sweep.fail("no [refine] table: `bench sweep --refine` needs an adaptive map spec")
+    with tempfile.TemporaryDirectory(dir=out_dir) as tmp:
+        fine = run_sweep(fine_sweep(sweep), Path(tmp, "fine"), workers=workers, progress=False)
+        adaptive = run_sweep(sweep, Path(tmp, "adaptive"), workers=workers, progress=False)
+    table = agreement(sweep, adaptive, fine)
+    cells = int(table["cells"].sum())
+    fine_s, adaptive_s = fine.attrs["sweep"]["wall_s"], adaptive.attrs["sweep"]["wall_s"]
+    figures = {"depth": sweep.refine.depth, "cells": cells, "fine_runs": len(fine), "adaptive_runs": len(adaptive),
+               "run_ratio": len(adaptive) / len(fine), "fine_wall_s": fine_s, "adaptive_wall_s": adaptive_s,
+               "fine_cells_per_min": 60.0 * cells / fine_s, "adaptive_cells_per_min": 60.0 * cells / adaptive_s,
+               "speedup": fine_s / adaptive_s, "agreement": int(table["agree"].sum()) / cells}
+    return figures, table
+
+
+def bench_warp(worlds: tuple[int, ...] = (1, 16, 256), steps: int = 500, repeats: int = 1):
+    """World-steps per second of MuJoCo Warp on the device it finds, per number of worlds, beside MuJoCo C.
+
+    Each world is feigin-pair at dt = 1e-3 for ``steps`` steps from its own phase and a strike
+    of 0.4 m/s towards a wall (so that its contacts are stepped too). Per number of worlds:
+    MuJoCo Warp through the adapter (``run_engine_batch``: one model of that many worlds,
+    controls fed and samples recorded per step, kernel loading not counted), its bare
+    ``mujoco_warp.step`` loop (``world_steps_per_s``, best of ``repeats``), and MuJoCo C's
+    adapter on the same runs (one ``mujoco.rollout`` call, one thread).
+
+    Returns a DataFrame with columns device, precision, nworld, steps,
+    warp_world_steps_per_s, warp_bare_world_steps_per_s, mujoco_world_steps_per_s,
+    warp_over_mujoco (adapter against adapter), warmup_s (kernel loading of the first batch).
+    """
+    import pandas as pd
+
+    from chatterbench.engines.mujoco_warp_engine import world_steps_per_s
+    from chatterbench.engines.registry import make_settings, run_engine_batch
+
+    dt, period = 1e-3, 2.0 * math.pi  # feigin-pair forcing: omega = 1 rad/s
+    duration = [f"duration={steps * dt!r}"]
+    rows = []
+    for n in worlds:
+        scenes = [load_scene("feigin-pair", duration + [f"initial.t={period * i / n!r}", f"initial.vy={0.4 * (-1) ** i}"])
+                  for i in range(n)]
+        warp_settings, c_settings = make_settings("mujoco_warp", dt), make_settings("mujoco", dt)
+        warp = run_engine_batch("mujoco_warp", [(s, warp_settings) for s in scenes])
+        c = run_engine_batch("mujoco", [(s, c_settings) for s in scenes])
+        bare = world_steps_per_s(scenes[0], warp_settings, nworld=n, repeats=repeats)
+        world_steps = n * (len(warp[0].t) - 1)
+        warp_rate = world_steps / sum(t.wall_time for t in warp)
+        c_rate = world_steps / sum(t.wall_time for t in c)
+        rows.append({"device": warp[0].settings.get("device", ""), "precision": warp[0].settings.get("precision", ""),
+                     "nworld": n, "steps": steps, "warp_world_steps_per_s": warp_rate,
+                     "warp_bare_world_steps_per_s": bare["world_steps_per_s"], "mujoco_world_steps_per_s": c_rate,
+                     "warp_over_mujoco": warp_rate / c_rate, "warmup_s": warp[0].settings.get("warmup_s", math.nan)})
+    return pd.DataFrame(rows)

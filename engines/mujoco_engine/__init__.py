@@ -6,7 +6,8 @@
     ('ok', True, 0.2553)
 
 Modules: ``settings`` (``MujocoSettings``, the integrators' stability limits), ``model``
-(the MjSpec model of a scene, its MJCF), ``run`` (rollout, batches, classification).
+(the MjSpec model of a scene, its MJCF), ``run`` (rollout, batches, classification),
+``snippet`` (the settings as MJCF attributes a user pastes: ``<option>``, joint limit, geom pair).
 
 The model (built with ``mujoco.MjSpec``; ``export_mjcf`` gives the MJCF to paste):
 
@@ -60,6 +61,7 @@ from ..base import EngineAdapter
 from ..trajectory import Trajectory
 from .model import build, build_spec, controls, export_mjcf
 from .run import benchmark, run, run_batch
+from .snippet import mjcf_snippet
 from .settings import GAP_MODELS, INTEGRATORS, SOLVERS, MujocoSettings, stability_limit
 
 __all__ = ["GAP_MODELS", "INTEGRATORS", "SOLVERS", "MujocoEngine", "MujocoSettings", "benchmark", "build",
@@ -73,7 +75,7 @@ class MujocoEngine(EngineAdapter):
     package = "mujoco"
     settings_type = MujocoSettings
     batches = True
-    bytes_per_step = 250.0  # measured 187 B/step (feigin-pair, 4e6 -> 2e7 steps: 1.08 -> 4.00 GB peak)
+    bytes_per_step = 100.0  # measured 69 B/step (feigin-pair, compact, 4.0e6 -> 1.2e7 steps: 545,060 -> 1,079,520 KiB)
 
     def build(self, scene: Scene, settings: MujocoSettings | None = None) -> Any:
         """The compiled ``MjModel`` for ``scene``."""
@@ -88,8 +90,19 @@ class MujocoEngine(EngineAdapter):
         return run_batch(list(jobs))
 
     def snippet(self, scene: Scene, settings: MujocoSettings | None = None) -> str:
-        """The scene's model with these settings as MJCF (``model.export_mjcf``)."""
-        return export_mjcf(scene, settings)
+        """The MJCF a user pastes: ``<option>``, the gap as a joint limit or a geom pair (``snippet.mjcf_snippet``)."""
+        return mjcf_snippet(scene, settings)
+
+    def tuning_space(self, scene: Scene) -> dict[str, tuple]:
+        """dt from 1 ms down to 10 us; w0 dt from soft (0.03) to 0.9 of the integrator's stability limit for the
+        scene's R (the stiffest stable contact); the two integrators of one force evaluation per step; solimp's
+        impedance d (``MujocoSettings.impedance``) from 0.9 to MuJoCo's largest. Defaults first."""
+        base = MujocoSettings()
+        zeta = base.zeta(scene.restitution) if scene.restitution > 0 else 1.0
+        stiffest = 0.9 * min(stability_limit(name, zeta) for name in ("euler", "implicitfast"))
+        w0_dts = [base.w0_dt] + [w for w in (0.1, 0.3) if w < stiffest] + [round(stiffest, 3)]
+        return {"dt": (1e-3, 3e-4, 1e-4, 3e-5, 1e-5), "mujoco.w0_dt": tuple(w0_dts),
+                "mujoco.integrator": (base.integrator, "implicitfast"), "mujoco.impedance": (base.impedance, 0.9, 0.9999)}
 
     def benchmark(self, scene: Scene, settings: MujocoSettings | None = None, n_steps: int = 200_000,
                   repeats: int = 3) -> dict[str, Any]:

@@ -10,7 +10,9 @@ at sample k belong to the step that ended there: ``contact[wall][k]`` is True wh
 pushed body 2 in that step (PyBullet normal force > 0), the force being PyBullet's
 ``appliedImpulse / dt`` summed over the wall's contact points. Every scene force is applied
 as an external force each step, from the state the step starts with (the scene's force
-model as an affine map, ``reference.forces.ForceModel.body_forces``).
+model as an affine map, ``reference.forces.ForceModel.body_forces``). The samples go to a
+``window.Recorder`` a chunk of ``window.CHUNK`` steps at a time, so a long run comes back
+compact and never holds more than a chunk of Python floats.
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ from chatterbench.reference.scene import Scene
 
 from ..base import failed_trajectory, n_steps
 from ..trajectory import Trajectory
+from ..window import CHUNK, Recorder
 from .bullet import p
 from .settings import PybulletSettings
 from .world import PybulletWorld, build, connect
@@ -77,24 +80,33 @@ def _force_plan(scene: Scene, t: np.ndarray) -> _ForcePlan:
     )
 
 
-def _simulate(scene: Scene, settings: PybulletSettings, world: PybulletWorld, n: int) -> dict[str, Any]:
-    """Step ``world`` n times; return raw per-step records and the stepping wall time.
+def _force_flags(scene: Scene, t0: float, dt: float, n: int) -> tuple[bool, bool, bool]:
+    """``_ForcePlan``'s on1, on2 and state_dependent over the whole run, planned chunk by chunk."""
+    on1 = on2 = dep = False
+    for k0 in range(0, max(n, 1), CHUNK):
+        plan = _force_plan(scene, t0 + dt * np.arange(k0, min(n, k0 + CHUNK)))
+        on1, on2, dep = on1 or plan.on1, on2 or plan.on2, dep or plan.state_dependent
+    return on1, on2, dep
+
+
+def _simulate(scene: Scene, settings: PybulletSettings, world: PybulletWorld, n: int, recorder: Recorder) -> dict[str, Any]:
+    """Step ``world`` n times, handing the samples to ``recorder`` chunk by chunk; return the status and the
+    stepping wall time.
 
     The loop is the cost the benchmark measures, so it keeps Python work per step small:
-    forces come from a plan precomputed from the scene's force model (time part as a list, state
-    part as eight gains), states go into preallocated lists, the finiteness check runs every
-    1024 steps, and contact points are read only for steps that start near a wall and change
-    body 2's momentum by more than the forces do (so the wall pushed).
+    forces come from a plan precomputed per chunk from the scene's force model (time part as a
+    list, state part as eight gains), states go into preallocated lists, the finiteness check
+    runs every 1024 steps, and contact points are read only for steps that start near a wall and
+    change body 2's momentum by more than the forces do (so the wall pushed). Between chunks
+    (``window.CHUNK`` steps) the samples become arrays, contacts become flags and forces, and
+    the recorder keeps what it keeps: the memory of a run does not grow with its length.
     """
     cid = world.client
     dt = settings.dt
-    t = scene.initial.t + dt * np.arange(n + 1)
-    plan = _force_plan(scene, t)
+    t0 = scene.initial.t
     init = scene.initial
     x1, v1 = float(init.x1), float(init.v1)
     x2, v2 = x1 + init.y, v1 + init.vy
-    x1s, v1s, x2s, v2s = [x1] * (n + 1), [v1] * (n + 1), [x2] * (n + 1), [v2] * (n + 1)
-    contacts: list[tuple[int, tuple]] = []  # (sample, getContactPoints result), only near walls
 
     b1, b2, l1 = world.body1, world.body2, world.link1
     lower = scene.gap.lower
@@ -110,11 +122,9 @@ def _simulate(scene: Scene, settings: PybulletSettings, world: PybulletWorld, n:
     kick = dt / scene.mass2
     rel_tol = IMPULSE_RELATIVE_TOLERANCE
     prescribed = scene.prescribed if scene.body1_infinite else None
-    if prescribed is not None:
-        px, pv = prescribed.position(t).tolist(), prescribed.velocity(t).tolist()
-    time1, time2 = plan.time1.tolist(), plan.time2.tolist()
-    g10, g11, g12, g13, g20, g21, g22, g23 = (float(v) for v in plan.gain.ravel())
-    on1, on2, dep = plan.on1, plan.on2, plan.state_dependent
+    on1, on2, dep = _force_flags(scene, t0, dt, n)
+    gain = _force_plan(scene, t0 + dt * np.arange(1)).gain  # the state part does not depend on time
+    g10, g11, g12, g13, g20, g21, g22, g23 = (float(v) for v in gain.ravel())
     moving1 = l1 >= 0
 
     step = p.stepSimulation
@@ -126,87 +136,104 @@ def _simulate(scene: Scene, settings: PybulletSettings, world: PybulletWorld, n:
     origin = (0.0, 0.0, 0.0)
     isfinite = math.isfinite
     status, message = "ok", ""
-    last = n
+    wall_time = 0.0
     k = 0
-    start = time.perf_counter()
-    try:
-        for k in range(n):
-            if prescribed is not None:
-                x1 = px[k]
-                v1 = pv[k]
-                reset(b1, 0, x1, v1, physicsClientId=cid)
-            if on1:
-                f = time1[k]
-                if dep:
-                    f += g10 * x1 + g11 * v1 + g12 * x2 + g13 * v2
-                push(b1, l1, (f, 0.0, 0.0), origin, frame, physicsClientId=cid)
-            f2 = 0.0
-            if on2:
-                f2 = time2[k]
-                if dep:
-                    f2 += g20 * x1 + g21 * v1 + g22 * x2 + g23 * v2
-                push(b2, 0, (f2, 0.0, 0.0), origin, frame, physicsClientId=cid)
-            y = x2 - x1
-            near = y - lower <= band or upper - y <= band
-            if near:
-                w2 = v2 + f2 * kick
-            step(physicsClientId=cid)
-            if moving1:
-                x1, v1, _, _ = joint(b1, 0, physicsClientId=cid)
-                x1s[k + 1] = x1
-                v1s[k + 1] = v1
-            x2, v2, _, _ = joint(b2, 0, physicsClientId=cid)
-            x2s[k + 1] = x2
-            v2s[k + 1] = v2
-            if near and abs(v2 - w2) > rel_tol * abs(w2) + IMPULSE_ABSOLUTE_TOLERANCE:
-                contacts.append((k + 1, points(b1, b2, physicsClientId=cid)))
-            if not k & 1023 and not isfinite(x1 + v1 + x2 + v2):
-                last = k + 1
-                break
-    except p.error as exc:
-        status, message = "error", f"pybullet: {exc}"
-        last = k
-    wall_time = time.perf_counter() - start
-    return {
-        "t": t, "x1": np.array(x1s), "v1": np.array(v1s), "x2": np.array(x2s), "v2": np.array(v2s),
-        "contacts": contacts, "last": last, "status": status, "message": message, "wall_time": wall_time,
-    }
+    for k0 in range(0, n + 1, CHUNK):
+        k1 = min(n, k0 + CHUNK)  # this chunk: steps k0 .. k1 - 1, samples k0 (known) .. k1
+        c = k1 - k0
+        times = t0 + dt * np.arange(k0, k1 + 1)
+        plan = _force_plan(scene, times[:-1])
+        time1, time2 = plan.time1.tolist(), plan.time2.tolist()
+        if prescribed is not None:
+            px, pv = prescribed.position(times[:-1]).tolist(), prescribed.velocity(times[:-1]).tolist()
+        x1s, v1s, x2s, v2s = [x1] * (c + 1), [v1] * (c + 1), [x2] * (c + 1), [v2] * (c + 1)
+        contacts: list[tuple[int, tuple]] = []  # (position in the chunk, getContactPoints result), only near walls
+        last = c  # the chunk's last position with a sample
+        stop = False
+        start = time.perf_counter()
+        try:
+            for j in range(c):
+                k = k0 + j
+                if prescribed is not None:
+                    x1 = px[j]
+                    v1 = pv[j]
+                    reset(b1, 0, x1, v1, physicsClientId=cid)
+                if on1:
+                    f = time1[j]
+                    if dep:
+                        f += g10 * x1 + g11 * v1 + g12 * x2 + g13 * v2
+                    push(b1, l1, (f, 0.0, 0.0), origin, frame, physicsClientId=cid)
+                f2 = 0.0
+                if on2:
+                    f2 = time2[j]
+                    if dep:
+                        f2 += g20 * x1 + g21 * v1 + g22 * x2 + g23 * v2
+                    push(b2, 0, (f2, 0.0, 0.0), origin, frame, physicsClientId=cid)
+                y = x2 - x1
+                near = y - lower <= band or upper - y <= band
+                if near:
+                    w2 = v2 + f2 * kick
+                step(physicsClientId=cid)
+                if moving1:
+                    x1, v1, _, _ = joint(b1, 0, physicsClientId=cid)
+                    x1s[j + 1] = x1
+                    v1s[j + 1] = v1
+                x2, v2, _, _ = joint(b2, 0, physicsClientId=cid)
+                x2s[j + 1] = x2
+                v2s[j + 1] = v2
+                if near and abs(v2 - w2) > rel_tol * abs(w2) + IMPULSE_ABSOLUTE_TOLERANCE:
+                    contacts.append((j + 1, points(b1, b2, physicsClientId=cid)))
+                if not k & 1023 and not isfinite(x1 + v1 + x2 + v2):
+                    last, stop = j + 1, True
+                    break
+        except p.error as exc:
+            status, message = "error", f"pybullet: {exc}"
+            last, stop = k - k0, True
+        wall_time += time.perf_counter() - start
+        status, message, stop = _record(world, recorder, k0, times, (x1s, v1s, x2s, v2s), contacts, last,
+                                        (status, message, stop))
+        if stop or k1 == n:
+            break
+    return {"status": status, "message": message, "wall_time": wall_time}
 
 
-def _trajectory(scene: Scene, settings: PybulletSettings, world: PybulletWorld, raw: dict[str, Any]) -> Trajectory:
-    last = raw["last"]
-    cols = {k: raw[k][: last + 1] for k in ("t", "x1", "v1", "x2", "v2")}
-    status, message = raw["status"], raw["message"]
-    finite = np.isfinite(cols["x1"]) & np.isfinite(cols["v1"]) & np.isfinite(cols["x2"]) & np.isfinite(cols["v2"])
+def _record(world: PybulletWorld, recorder: Recorder, k0: int, times: np.ndarray, states: tuple, contacts: list,
+            last: int, outcome: tuple[str, str, bool]) -> tuple[str, str, bool]:
+    """Hand positions 0 (for the first chunk; later ones start at 1) .. ``last`` of a chunk to the recorder,
+    up to the first non-finite sample (then the run is ``diverged`` and stops)."""
+    status, message, stop = outcome
+    first = 0 if k0 == 0 else 1
+    cols = [np.array(col[first:last + 1]) for col in states]
+    finite = np.isfinite(cols[0]) & np.isfinite(cols[1]) & np.isfinite(cols[2]) & np.isfinite(cols[3])
+    m = len(finite)
     if not finite.all():
-        bad = int(np.argmin(finite))
-        cols = {k: v[:bad] for k, v in cols.items()}
-        status, message = "diverged", f"non-finite state at sample {bad} (t = {raw['t'][bad]:.6g} s)"
-    n = len(cols["t"])
-    contact = {w: np.zeros(n, dtype=bool) for w in world.walls}
-    force = {w: np.zeros(n) for w in world.walls}
+        m = int(np.argmin(finite))
+        bad = k0 + first + m
+        status, message, stop = "diverged", f"non-finite state at sample {bad} (t = {times[bad - k0]:.6g} s)", True
+    contact = {w: np.zeros(m, dtype=bool) for w in world.walls}
+    force = {w: np.zeros(m) for w in world.walls}
     # Body 1 is bodyA: contactNormalOnB points from body 2 towards body 1. The lower wall lies
     # on body 2's -x side, the upper wall on its +x side, so the normal's x sign names the wall.
-    for k, pts in raw["contacts"]:
-        if k >= n:
+    for j, pts in contacts:
+        i = j - first
+        if i >= m:
             break
         for pt in pts or ():
             wall = "lower" if pt[7][0] < 0.0 else "upper"
             if wall not in contact:
                 continue
             if pt[9] > 0.0:  # the wall pushed during the step
-                contact[wall][k] = True
-                force[wall][k] += pt[9]
-    return Trajectory(
-        engine=NAME,
-        t=cols["t"], x1=cols["x1"], x2=cols["x2"], v1=cols["v1"], v2=cols["v2"],
-        contact=contact, normal_force=force, wall_time=raw["wall_time"],
-        settings=dataclasses.asdict(settings), status=status, message=message,
-    )
+                contact[wall][i] = True
+                force[wall][i] += pt[9]
+    recorder.add(times[first:first + m], cols[0][:m], cols[1][:m], cols[2][:m], cols[3][:m], contact, force)
+    return status, message, stop
 
 
-def run(scene: Scene, settings: PybulletSettings | None = None) -> Trajectory:
+def run(scene: Scene, settings: PybulletSettings | None = None, compact_above: float | None = None) -> Trajectory:
     """Simulate ``scene.duration`` seconds from ``scene.initial``; see the module docstring.
+
+    ``compact_above``: hand on a compact trajectory when the run has more samples than this
+    (default ``window.COMPACT_ABOVE``; ``math.inf``: always full).
 
     Returns
     -------
@@ -217,15 +244,17 @@ def run(scene: Scene, settings: PybulletSettings | None = None) -> Trajectory:
     """
     settings = settings or PybulletSettings()
     n = n_steps(scene.duration, settings.dt)
+    record = dataclasses.asdict(settings)
     try:
+        recorder = Recorder(scene, n + 1, compact_above)
         with connect() as cid:
             world = build(scene, settings, cid)
-            raw = _simulate(scene, settings, world, n)
-            return _trajectory(scene, settings, world, raw)
+            out = _simulate(scene, settings, world, n, recorder)
+        return recorder.trajectory(NAME, out["wall_time"], settings=record, status=out["status"], message=out["message"])
     except p.error as exc:
-        return failed_trajectory(NAME, scene, "error", f"pybullet: {exc}", dataclasses.asdict(settings))
+        return failed_trajectory(NAME, scene, "error", f"pybullet: {exc}", record)
     except MemoryError as exc:  # the samples of n steps do not fit: a result, as MuJoCo gives it
-        return failed_trajectory(NAME, scene, "error", f"{type(exc).__name__}: {n} steps: {exc}", dataclasses.asdict(settings))
+        return failed_trajectory(NAME, scene, "error", f"{type(exc).__name__}: {n} steps: {exc}", record)
 
 
 def _raw_loop(scene: Scene, settings: PybulletSettings, world: PybulletWorld, forces: tuple[list, list], n: int) -> float:
@@ -281,14 +310,15 @@ def benchmark(scene: Scene, settings: PybulletSettings | None = None, steps: int
     with connect() as cid:
         for _ in range(repeat):
             world = build(scene, settings, cid)
-            raw = _simulate(scene, settings, world, steps)
-            best_adapter = min(best_adapter, raw["wall_time"])
-            plan = _force_plan(scene, raw["t"])
-            states = np.stack([raw["x1"], raw["v1"], raw["x2"], raw["v2"]])
+            recorder = Recorder(scene, steps + 1, math.inf)
+            best_adapter = min(best_adapter, _simulate(scene, settings, world, steps, recorder)["wall_time"])
+            raw = recorder.trajectory(NAME, 0.0)
+            plan = _force_plan(scene, raw.t)
+            states = np.stack([raw.x1, raw.v1, raw.x2, raw.v2])
             g = plan.gain
             pr = scene.prescribed if scene.body1_infinite else None
             if pr is not None:  # the adapter used the prescription, not the recorded x1, v1
-                states[0], states[1] = pr.position(raw["t"]), pr.velocity(raw["t"])
+                states[0], states[1] = pr.position(raw.t), pr.velocity(raw.t)
             # Same operation order as the adapter loop, so the replayed forces are identical.
             f1, f2 = (
                 plan.time1 + (g[i, 0] * states[0] + g[i, 1] * states[1] + g[i, 2] * states[2] + g[i, 3] * states[3])

@@ -44,9 +44,11 @@ def test_adapters_go_through_the_contract(name):
     scene = load_scene("bouncing-ball")
     assert a.snippet(scene, settings)  # something a user pastes
     traj = a.run(scene, settings)
-    # the contact law's own scales are typed fields: MuJoCo's soft contact, PyBullet's rigid one
-    if name == "mujoco":
+    # the contact law's own scales are typed fields: MuJoCo's soft contact (MuJoCo Warp runs its model), PyBullet's rigid one
+    if name in ("mujoco", "mujoco_warp"):
         assert traj.contact_frequency == pytest.approx(settings.w0) and 0 < traj.contact_time < 0.2
+    elif name == "drake":  # compliant too, its w0 from the scene's scales (drake_engine/contact.py)
+        assert traj.contact_frequency == pytest.approx(traj.settings["w0_used"]) and 0 < traj.contact_time < 0.2
     else:
         assert math.isinf(traj.contact_frequency) and traj.contact_time == 0.0
     assert "contact_time" not in traj.settings and "contact_duration" not in traj.settings

@@ -8,7 +8,10 @@
 Modules, in the order a sweep goes through them: ``spec`` (the TOML spec, validated in full
 before any engine starts; the runs it asks for), ``worker`` (one run, isolated in a child
 process, to its row), ``dataset`` (rows as Parquet parts, read back and normalised),
-``runner`` (the runs on a local pool or a Dask cluster, resumable, with progress).
+``runner`` (the runs on a local pool or a Dask cluster, resumable, with progress); for an
+adaptive map (``[refine]``), ``refine`` (the table, where cells split, the fine map they
+stand for) and ``adaptive`` (each level's runs from the rows before it, and how well the
+result stands for the full fine grid).
 """
 
 from .dataset import DatasetError, load_rows, read_rows

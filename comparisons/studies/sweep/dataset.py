@@ -30,11 +30,12 @@ import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import pandas as pd
 
 from chatterbench.comparisons.outputs.atomic import write_frame
+from chatterbench.comparisons.outputs.sweep_data import REFINE_LEVEL
 from chatterbench.comparisons.pipeline.summary import METRIC_COLUMNS, ROW_COLUMNS
 from chatterbench.comparisons.pipeline.vocabulary import VERDICTS
 from chatterbench.reference.errors import InputError, is_number
@@ -50,7 +51,7 @@ class DatasetError(InputError):
 
 
 _FLOAT_COLUMNS = ("dt", "mass_ratio", *METRIC_COLUMNS, "cost_per_sim_s", "reference_cost_per_sim_s", "wall_time_s")
-_INT_COLUMNS = ("n_episodes", "n_match")
+_INT_COLUMNS = ("n_episodes", "n_match", REFINE_LEVEL)
 
 
 def normalize(frame: pd.DataFrame) -> pd.DataFrame:
@@ -106,12 +107,14 @@ def _same(got: Any, want: Any) -> bool:
         return False
 
 
-def part_problem(path: Path, runs: dict[tuple[str, str], RunTask], fingerprint: str,
-                 untagged_ok: bool) -> tuple[pd.DataFrame | None, str | None]:
+def part_problem(path: Path, runs: Mapping[tuple[str, str], Any], fingerprint: str, untagged_ok: bool,
+                 lattice: Callable[[pd.DataFrame], Mapping] | None = None) -> tuple[pd.DataFrame | None, str | None]:
     """A part's rows, or why it does not belong to the sweep of ``runs`` (``(None, reason)``).
 
-    ``runs``: the sweep's runs by (point_id, engine); ``untagged_ok``: accept a part with no
-    fingerprint (written before parts had one) because OUT/sweep.toml named this very spec.
+    ``runs``: the sweep's runs by (point_id, engine) (anything with their ``params``);
+    ``untagged_ok``: accept a part with no fingerprint (written before parts had one) because
+    OUT/sweep.toml named this very spec; ``lattice(frame)``: a refined sweep's runs among the
+    part's rows (``adaptive.Levels.lattice_runs``), which no list of runs holds in advance.
     """
     if path.stat().st_size == 0:
         return None, "empty file (0 bytes)"
@@ -129,11 +132,13 @@ def part_problem(path: Path, runs: dict[tuple[str, str], RunTask], fingerprint: 
     missing = [c for c in ROW_COLUMNS if c not in frame]
     if missing:
         return None, f"another schema: no column {', '.join(missing[:4])}{' ...' if len(missing) > 4 else ''}"
+    if lattice is not None:
+        runs = {**lattice(frame), **runs}
     keys = list(zip(frame["point_id"], frame["engine"]))
     foreign = sum(k not in runs for k in keys)
     if foreign:
         return None, f"rows of points not in this sweep ({foreign} of {len(keys)} rows)"
-    known = set(ROW_COLUMNS).union(*(dict(runs[k].params) for k in keys))
+    known = set(ROW_COLUMNS).union(*(dict(runs[k].params) for k in keys)) | ({REFINE_LEVEL} if lattice else set())
     extra = [c for c in frame if c not in known]
     if extra:
         return None, f"another schema: columns {', '.join(map(repr, extra[:4]))} are not this sweep's"
@@ -154,18 +159,19 @@ class SetAside:
     reason: str
 
 
-def check_parts(out_dir: str | Path, runs: Sequence[RunTask], fingerprint: str,
-                untagged_ok: bool) -> tuple[pd.DataFrame, list[SetAside]]:
+def check_parts(out_dir: str | Path, runs: Sequence[RunTask], fingerprint: str, untagged_ok: bool,
+                lattice: Callable[[pd.DataFrame], Mapping] | None = None) -> tuple[pd.DataFrame, list[SetAside]]:
     """Every part under OUT/rows/ read once: (the rows of those that belong, deduplicated; those set aside).
 
     A part is set aside (moved to ``OUT/rows/set-aside/``) when it is empty or unreadable,
     when another spec wrote it (``Sweep.fingerprint``), when it has rows of points not in
-    ``runs``, or when its columns are not those of its rows' runs (``part_problem``).
+    ``runs``, or when its columns are not those of its rows' runs (``part_problem``; a refined
+    sweep's ``lattice`` finds its points of later levels).
     """
     by_key = {(r.point_id, r.engine): r for r in runs}
     frames, aside = [], []
     for path in _part_paths(out_dir):
-        frame, reason = part_problem(path, by_key, fingerprint, untagged_ok)
+        frame, reason = part_problem(path, by_key, fingerprint, untagged_ok, lattice)
         if reason is None:
             frames.append(frame)
             continue

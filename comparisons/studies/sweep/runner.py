@@ -13,7 +13,10 @@ the rows of an uninterrupted one: finished rows are never re-run, unfinished run
 One sweep at a time holds OUT (a second is refused, naming the holder); a resumed sweep sets
 aside, with a note on stderr, every part that is not its own (``dataset.check_parts``). On
 Dask, a cluster left with no worker for ``no_worker_wait`` seconds is said on stderr, then
-waited for or stopped (``no_workers``), the finished rows kept.
+waited for or stopped (``no_workers``), the finished rows kept. A sweep with ``[refine]``
+runs level by level (``adaptive.Levels``): the grid, then the points of the cells whose
+corners differ, each level's rows (with their ``refine_level``) written before the next is
+planned from them; resumed mid-level, it plans the same levels and runs what is missing.
 Layout of OUT: ``sweep.toml`` (the resolved spec, written first), ``rows/`` (the Parquet
 dataset, one part per batch of finished runs), ``rows.parquet`` (all rows in run order),
 ``.lock`` (``directory.OutLock``).
@@ -32,9 +35,11 @@ from typing import Any
 import pandas as pd
 
 from chatterbench.comparisons.outputs.atomic import write_frame, write_text
+from chatterbench.comparisons.outputs.sweep_data import REFINE_LEVEL
 from chatterbench.engines.isolate import die_with_parent
 from chatterbench.reference.errors import InputError, check_choice, check_integer, check_number
 
+from .adaptive import Levels
 from .dataset import PartWriter, SetAside, check_parts, ordered, read_rows
 from .directory import OutLock, clean_temps
 from .spec import FAILED, MAX_TIMEOUT, SpecError, Sweep, load_sweep, sweep_runs
@@ -67,11 +72,11 @@ def _slots(executor: Any) -> int | None:
     return None
 
 
-def _progress(total: int, done: int, enabled: bool):
+def _progress(total: int, done: int, enabled: bool, desc: str = "sweep"):
     from tqdm import tqdm
 
     on = enabled and hasattr(sys.stderr, "isatty") and sys.stderr.isatty()
-    return tqdm(total=total, initial=done, desc="sweep", unit="run", file=sys.stderr, disable=not on,
+    return tqdm(total=total, initial=done, desc=desc, unit="run", file=sys.stderr, disable=not on,
                 dynamic_ncols=True, smoothing=0.1)
 
 
@@ -194,7 +199,8 @@ def run_sweep(
     DataFrame
         ``rows.ROW_COLUMNS`` plus one column per parameter; ``attrs["sweep"]`` holds this
         call's ``wall_s``, ``runs`` executed, ``units`` of work submitted (``work_units``), ``run_s_sum`` (isolated runs' own wall time),
-        ``engine_s_sum`` (their engine stepping time), ``workers`` and ``set_aside`` (parts set aside).
+        ``engine_s_sum`` (their engine stepping time), ``workers`` and ``set_aside`` (parts set aside);
+        with ``[refine]`` also ``levels``: the runs of each level, finished before or now.
     """
     if workers is not None:
         check_integer("workers", workers, lo=1, error=SpecError)
@@ -203,13 +209,19 @@ def run_sweep(
     check_number("no_worker_wait", no_worker_wait, lo=0.0, hi=MAX_TIMEOUT, lo_open=True, unit=" [s]", error=SpecError)
     check_choice("no_workers", no_workers, NO_WORKERS, error=SpecError)
     out = Path(out_dir)
-    runs = sweep_runs(sweep)
+    levels = Levels(sweep) if sweep.refine is not None else None
+    runs = levels.runs(0, None) if levels else sweep_runs(sweep)
+    options = (workers, progress, batch, no_worker_wait, no_workers)
     with OutLock(out):  # from here on this process alone writes OUT
         clean_temps(out)
         same_spec = _prepare_out(sweep, out, resume)
-        have, aside = check_parts(out, runs, sweep.fingerprint(), untagged_ok=same_spec)
+        have, aside = check_parts(out, runs, sweep.fingerprint(), untagged_ok=same_spec,
+                                  lattice=levels.lattice_runs if levels else None)
         _note_set_aside(aside)
-        stats = _run(sweep, out, runs, have, executor, workers, progress, batch, no_worker_wait, no_workers)
+        if levels is None:
+            stats = _run(sweep, out, runs, have, executor, *options)
+        else:
+            stats, runs = _run_levels(sweep, levels, out, runs, have, executor, options)
         stats["set_aside"] = len(aside)
         frame = ordered(read_rows(out), runs, sweep)
         write_frame(out / "rows.parquet", frame)
@@ -217,9 +229,37 @@ def run_sweep(
     return frame
 
 
+def _run_levels(sweep: Sweep, levels: Levels, out: Path, runs: list, have: pd.DataFrame, executor: Any,
+                options: tuple) -> tuple[dict[str, Any], list]:
+    """Level 0 (``runs``), then each level's runs from the rows so far; returns the stats and every run in order."""
+    owned = None
+    if executor is None:  # one pool for every level: its workers stay warm
+        owned = executor = ProcessPoolExecutor(max_workers=options[0] or os.cpu_count() or 1, initializer=die_with_parent)
+    total: dict[str, Any] = {"levels": []}
+    every, seen = list(runs), {r.point_id for r in runs}
+    try:
+        for level in range(sweep.refine.depth + 1):
+            if level:
+                have = read_rows(out)  # the rows of the levels before, this session's and earlier ones
+                runs = levels.runs(level, have, start=len(every), seen=seen)
+                every += runs
+            stats = _run(sweep, out, runs, have, executor, *options, level=level)
+            for k, v in stats.items():
+                total[k] = max(total.get(k, 0), v) if k == "workers" else total.get(k, 0) + v
+            total["levels"].append(len(runs))
+    finally:
+        if owned is not None:
+            owned.shutdown(wait=True, cancel_futures=True)
+    return total, every
+
+
 def _run(sweep: Sweep, out: Path, runs: list, have: pd.DataFrame, executor: Any, workers: int | None,
-         progress: bool, batch: int | None, no_worker_wait: float, no_workers: str) -> dict[str, Any]:
-    """Run the runs not in ``have``, appending their rows to OUT/rows/; returns run_sweep's stats."""
+         progress: bool, batch: int | None, no_worker_wait: float, no_workers: str, level: int | None = None
+         ) -> dict[str, Any]:
+    """Run the runs not in ``have``, appending their rows to OUT/rows/; returns run_sweep's stats.
+
+    ``level``: a refined sweep's level, written in each row's ``refine_level``.
+    """
     writer = PartWriter(out / "rows", sweep.fingerprint())
     done_keys = set(zip(have["point_id"], have["engine"]))
     todo = [r for r in runs if (r.point_id, r.engine) not in done_keys]
@@ -237,7 +277,7 @@ def _run(sweep: Sweep, out: Path, runs: list, have: pd.DataFrame, executor: Any,
         watch = _WorkerWatch(client, no_worker_wait, no_workers, len(runs))
         slots = workers or _slots(executor) or os.cpu_count() or 1
         stats["workers"] = slots
-        bar = _progress(len(runs), len(runs) - len(todo), progress)
+        bar = _progress(len(runs), len(runs) - len(todo), progress, "sweep" if level is None else f"level {level}")
         bar.set_postfix(failed=failures)
         pending: set[Future] = set()
         units = work_units(todo, batch, slots)
@@ -259,7 +299,7 @@ def _run(sweep: Sweep, out: Path, runs: list, have: pd.DataFrame, executor: Any,
                     continue
                 watch.progressed()
                 results = [r for f in finished if f.exception() is None for r in f.result()]
-                writer.append([r.row for r in results])
+                writer.append([_tagged(r.row, level) for r in results])
                 for f in finished:  # an executor failure (a broken pool, a lost Dask worker) ends the sweep
                     if f.exception() is not None:
                         raise f.exception()
@@ -276,7 +316,7 @@ def _run(sweep: Sweep, out: Path, runs: list, have: pd.DataFrame, executor: Any,
                 f.cancel()
             # rows of runs that finished meanwhile are kept; the rest run on --resume
             done_now = [f for f in pending if f.done() and not f.cancelled() and f.exception() is None]
-            writer.append([r.row for f in done_now for r in f.result()])
+            writer.append([_tagged(r.row, level) for f in done_now for r in f.result()])
             raise
         finally:
             bar.close()
@@ -284,3 +324,8 @@ def _run(sweep: Sweep, out: Path, runs: list, have: pd.DataFrame, executor: Any,
                 owned.shutdown(wait=True, cancel_futures=True)
     stats["wall_s"] = time.perf_counter() - start
     return stats
+
+
+def _tagged(row: dict[str, Any], level: int | None) -> dict[str, Any]:
+    """The row as written: a refined sweep's rows carry the level their point was added at."""
+    return row if level is None else {**row, REFINE_LEVEL: level}

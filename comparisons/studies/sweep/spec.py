@@ -27,6 +27,11 @@ Spec file (TOML)::
     [tolerances]                       # verdict tolerances (pipeline.tolerances.Tolerances), optional
     exit = 0.02                        # (--tolerance KEY=VALUE on the command line sets them too)
 
+    [refine]                           # optional: an adaptive map over two grid keys (refine.py)
+    axes = ["dt", "restitution"]       # two [grid] keys of numbers: the coarse map
+    depth = 2                          # 1..6 levels of splitting the cells whose corners' verdicts differ
+    boundary = "verdict"               # or "passing", a verdict name, or a metric with threshold = VALUE
+
 Keys in ``[set]``, ``[grid]`` and ``[[points]]`` are the dotted keys of ``--set``: ``dt`` is
 the engine timestep [s] (every engine); ``mujoco.KEY`` / ``pybullet.KEY`` are that engine's
 settings and apply to that engine only; every other key is a scene override
@@ -61,6 +66,9 @@ Promises:
 - Rows reach ``OUT/rows/part-*.parquet`` as runs finish, each part written atomically. A
   sweep killed at any moment and resumed (``resume=True``) ends with exactly the rows of an
   uninterrupted one: finished rows are never re-run, unfinished runs are run once.
+- A sweep with ``[refine]`` runs the grid (level 0), then level by level only the points
+  of the cells whose corners differ (``refine.py``), each row with its ``refine_level``;
+  killed mid-level and resumed, it ends with the rows of an uninterrupted one too.
 
 Layout of OUT: ``sweep.toml`` (the resolved spec, written first), ``rows/`` (the Parquet
 dataset, one part per batch of finished runs), ``rows.parquet`` (all rows in run order,
@@ -86,7 +94,9 @@ from chatterbench.reference.errors import InputError, did_you_mean, is_number, s
 from chatterbench.reference.scene import load_scene
 from chatterbench.reference.tables import flatten, read_toml
 
-SPEC_KEYS = ("scene", "engines", "timeout", "description", "set", "grid", "points", "tolerances")
+from .refine import Refine, make_refine
+
+SPEC_KEYS = ("scene", "engines", "timeout", "description", "set", "grid", "points", "tolerances", "refine")
 DEFAULT_TIMEOUT = 120.0  # [s] per run
 MAX_RUNS = 100_000  # (points x engines) a sweep: about 14 h at 0.5 s a run on two cores
 MAX_TIMEOUT = 86400.0  # [s] one day: beyond it a limit is no limit (and past ~1e9 s the OS refuses it)
@@ -146,6 +156,7 @@ class Sweep:
     timeout: float = DEFAULT_TIMEOUT  # [s] per run, > 0
     tolerances: Mapping[str, Any] = field(default_factory=dict)  # pipeline.tolerances.Tolerances fields
     description: str = ""
+    refine: Refine | Mapping[str, Any] | None = None  # [refine]: an adaptive map (refine.py); a table becomes a Refine
     source: str = ""  # the spec file, for messages ("" when built in Python)
     budget: Budget = field(default_factory=Budget, compare=False)  # each run's steps and memory (not in the rows)
 
@@ -173,6 +184,8 @@ class Sweep:
                 lines += ["", f"[{name}]"] + [f"{_toml(k)} = {_toml(v)}" for k, v in table.items()]
         for p in self.points:
             lines += ["", "[[points]]"] + [f"{_toml(k)} = {_toml(v)}" for k, v in p.items()]
+        if self.refine is not None:
+            lines += ["", "[refine]"] + [f"{_toml(k)} = {_toml(v)}" for k, v in self.refine.to_table().items()]
         return "\n".join(lines) + "\n"
 
     def fingerprint(self) -> str:
@@ -188,10 +201,13 @@ class Sweep:
         return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
     def identity(self) -> dict[str, Any]:
-        """What decides the rows (everything but timeout, description and source)."""
-        return {"scene": self.scene, "engines": list(self.engines), "set": dict(self.fixed),
-                "grid": {k: list(v) for k, v in self.grid.items()}, "points": [dict(p) for p in self.points],
-                "tolerances": dict(self.tolerances)}
+        """What decides the rows (everything but timeout, description and source; ``refine`` only when given)."""
+        out = {"scene": self.scene, "engines": list(self.engines), "set": dict(self.fixed),
+               "grid": {k: list(v) for k, v in self.grid.items()}, "points": [dict(p) for p in self.points],
+               "tolerances": dict(self.tolerances)}
+        if self.refine is not None:
+            out["refine"] = self.refine.to_table()
+        return out
 
 
 def _toml(value: Any) -> str:
@@ -327,6 +343,9 @@ def _validate(sweep: Sweep) -> None:
             _check_key(sweep, f"{where}.{k}", k)
             if where != "set" and k in fixed:
                 raise sweep.fail(f"{where}.{k}: also in [set]; a key is either fixed or varied")
+    if sweep.refine is not None:  # its axes' values become floats: a split value is one, and one column type
+        set_("refine", make_refine(sweep.refine, grid, lambda text: sweep.fail(text)))
+        grid.update({a: tuple(float(v) for v in grid[a]) for a in sweep.refine.axes})
     set_("fixed", fixed)
     set_("grid", grid)
     set_("points", tuple(points))
@@ -393,7 +412,8 @@ def load_sweep(path: str | Path, budget: Budget | None = None) -> Sweep:
     return Sweep(
         scene=scene, engines=data.get("engines", DEFAULT_ENGINES), fixed=data.get("set", {}), grid=data.get("grid", {}),
         points=points if not isinstance(points, list) else tuple(points), timeout=data.get("timeout", DEFAULT_TIMEOUT),
-        tolerances=data.get("tolerances", {}), description=data.get("description", ""), source=str(path),
+        tolerances=data.get("tolerances", {}), description=data.get("description", ""), refine=data.get("refine"),
+        source=str(path),
         budget=budget or Budget(),
     )
 
@@ -410,20 +430,35 @@ def sweep_points(sweep: Sweep) -> list[dict[str, Any]]:
     return out
 
 
-def sweep_runs(sweep: Sweep) -> list[RunTask]:
-    """Every (point, engine) run in order, identical runs once (see the module docstring)."""
+def seen_by(key: str, engine: str) -> bool:
+    """Whether ``engine``'s runs see the dotted ``key``: dt, scene fields and its own settings, not another engine's."""
+    return _key_role(key) in ("dt", "scene", engine)
+
+
+def run_params(point: Mapping[str, Any], engine: str) -> dict[str, Any]:
+    """A run's parameters: the point's keys minus the other engines' settings."""
+    return {k: v for k, v in point.items() if seen_by(k, engine)}
+
+
+def sweep_runs(sweep: Sweep, points: Iterable[Mapping[str, Any]] | None = None, engines: Iterable[str] | None = None,
+               start: int = 0, seen: set[str] | None = None) -> list[RunTask]:
+    """Every (point, engine) run in order, identical runs once (see the module docstring).
+
+    ``points`` (default ``sweep_points``) and ``engines`` (default the sweep's) choose the
+    runs; indices start at ``start``; point ids in ``seen`` are skipped (and the new ones added).
+    """
     name = sweep.scene_name
     runs: list[RunTask] = []
-    seen: set[str] = set()
-    for point in sweep_points(sweep):
+    seen = set() if seen is None else seen
+    for point in sweep_points(sweep) if points is None else points:
         dts = _resolve(sweep, point, "point")
-        for engine in sweep.engines:
-            params = {k: v for k, v in point.items() if _key_role(k) in ("dt", "scene", engine)}
+        for engine in sweep.engines if engines is None else engines:
+            params = run_params(point, engine)
             pid = point_id(name, engine, params)
             if pid in seen:
                 continue
             seen.add(pid)
-            runs.append(RunTask(index=len(runs), point_id=pid, scene=sweep.scene, scene_name=name, engine=engine,
+            runs.append(RunTask(index=start + len(runs), point_id=pid, scene=sweep.scene, scene_name=name, engine=engine,
                                 params=tuple(params.items()), dt=dts[engine], timeout=sweep.timeout,
                                 tolerances=tuple(sweep.tolerances.items())))
     return runs

@@ -12,6 +12,7 @@ from chatterbench.comparisons.cli.main import SUBCOMMANDS, build_parser, main
 from chatterbench.comparisons.outputs.report import SUMMARY_COLUMNS as REPORT_COLUMNS
 from chatterbench.comparisons.pipeline.summary import ROW_COLUMNS
 from chatterbench.comparisons.studies.tune import TUNE_COLUMNS
+from chatterbench.comparisons.studies.tune_checks import RATIO_COLUMNS
 
 # what each shared option means, and the subcommands that take it
 SHARED = {"--engines": "engines", "--dt": "timestep", "--set": "override", "--tolerance": "tolerance", "--out": "write",
@@ -25,8 +26,9 @@ def _subparsers() -> dict[str, argparse.ArgumentParser]:
 
 
 def test_every_subcommand_is_registered():
-    assert set(_subparsers()) == {"scenes", "run", "compare", "report", "gate", "platemap", "tune", "sweep", "chart", "bench"}
-    assert len(SUBCOMMANDS) == 10
+    assert set(_subparsers()) == {"scenes", "run", "compare", "report", "gate", "platemap", "tune", "calibrate", "sweep",
+                                  "chart", "bench"}
+    assert len(SUBCOMMANDS) == 11
 
 
 @pytest.mark.parametrize("name", sorted(_subparsers()))
@@ -60,7 +62,8 @@ def test_compare_report_tune_and_sweep_print_the_same_column_names():
     summary = set(ROW_COLUMNS)
     assert set(compare_cli.SUMMARY_SHOW) - {"engine"} <= summary
     assert set(REPORT_COLUMNS) <= summary
-    own = {"stage", "settings", "timing_score"}  # tune's own: the candidate and its score
+    # tune's own: the candidate, the checks it failed and their ratios to the tolerances, its cost in steps
+    own = {"stage", "settings", "failed", *RATIO_COLUMNS, "steps_per_sim_s", "cost_repeats", "n_non_default"}
     assert set(TUNE_COLUMNS) - own <= summary
     assert set(tune_cli.SHOW) - own <= summary
     # the episode table names its errors as the judge does

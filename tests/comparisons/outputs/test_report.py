@@ -94,9 +94,10 @@ def test_every_sweep_gets_its_section_with_only_the_reports_engines(report_dir, 
     assert "| pybullet |" in section and "| mujoco |" not in section
 
 
-def test_every_scene_has_its_time_series_and_chatter_ladder(report_dir):
+def test_every_scene_has_its_time_series_chatter_ladder_and_episode_errors(report_dir):
     page = (report_dir / "index.html").read_text()
     assert 'id="timeseries-bouncing-ball"' in page and 'id="ladder-bouncing-ball"' in page
+    assert 'id="episode-errors-bouncing-ball"' in page
 
 
 def test_sweep_section_has_work_precision_and_stability_maps(report_dir):
@@ -120,18 +121,32 @@ def _chromium(tmp_path: Path, *args: str) -> subprocess.CompletedProcess:
     return subprocess.run(cmd, capture_output=True, text=True, timeout=60)
 
 
+def _probe(page: Path, tmp_path: Path) -> dict:
+    """Open a copy of ``page`` with a probe script in headless Chromium: its title, tables and images as loaded."""
+    probe = tmp_path / "probe.html"  # the report itself carries no script
+    probe.write_text(page.read_text().replace("</body>", _PROBE + "</body>"))
+    done = _chromium(tmp_path, "--dump-dom", probe.as_uri())
+    found = re.search(r'<pre id="probe">(.*?)</pre>', done.stdout)
+    assert found, done.stderr[-2000:]
+    return json.loads(found.group(1))
+
+
+def _ink(shot: Path, size: tuple[int, int]) -> float:
+    """The share of a screenshot that is not background (text, table rules, figures)."""
+    import matplotlib.image
+
+    pixels = matplotlib.image.imread(shot)[..., :3]
+    assert pixels.shape[:2] == size
+    return float(np.mean(np.abs(pixels - pixels[0, 0]).sum(axis=-1) > 0.1))
+
+
 @pytest.mark.skipif(CHROMIUM is None, reason="no Chromium installed (apt-get install chromium) to render the report")
 def test_report_renders_in_chromium(report_dir, tmp_path):
     page = (report_dir / "index.html").read_text()
     n_img = page.count("<img ")
-    assert n_img == 2 + 1 + 2  # time series and chatter ladder, work-precision, one stability map per engine
-    # the probe is added to a copy: the report itself carries no script
-    probe = tmp_path / "probe.html"
-    probe.write_text(page.replace("</body>", _PROBE + "</body>"))
-    done = _chromium(tmp_path, "--dump-dom", probe.as_uri())
-    found = re.search(r'<pre id="probe">(.*?)</pre>', done.stdout)
-    assert found, done.stderr[-2000:]
-    result = json.loads(found.group(1))
+    # time series, chatter ladder and episode errors, work-precision, one stability map per engine
+    assert n_img == 3 + 1 + 2
+    result = _probe(report_dir / "index.html", tmp_path)
     assert result["title"] == "chatterbench report"
     assert result["tables"] >= 3  # summary, episodes, provenance (+ legend, engines)
     assert len(result["images"]) == n_img
@@ -140,13 +155,30 @@ def test_report_renders_in_chromium(report_dir, tmp_path):
 
     shot = tmp_path / "shot.png"
     _chromium(tmp_path, f"--screenshot={shot}", "--window-size=1400,2000", (report_dir / "index.html").as_uri())
-    import matplotlib.image
-
-    pixels = matplotlib.image.imread(shot)[..., :3]
-    assert pixels.shape[:2] == (2000, 1400)
     # not blank: a fair share of the page is ink (text, table rules, the figure), not background
-    ink = np.mean(np.abs(pixels - pixels[0, 0]).sum(axis=-1) > 0.1)
-    assert ink > 0.02, ink
+    assert _ink(shot, (2000, 1400)) > 0.02
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(CHROMIUM is None, reason="no Chromium installed (apt-get install chromium) to render the report")
+def test_the_readmes_report_loads_every_figure_in_chromium(tmp_path):
+    # the README's main command, all built-in scenes on the default engines, as a new user runs it
+    out = tmp_path / "report"
+    assert main(["report", "--out", str(out)]) == 0
+    page = (out / "index.html").read_text()
+    scenes = re.findall(r'<h2 id="scene-([^"]+)">', page)
+    assert len(scenes) == 4
+    for scene in scenes:  # each scene's three figures
+        for stem in ("timeseries", "ladder", "episode-errors"):
+            assert f'id="{stem}-{scene}"' in page
+    result = _probe(out / "index.html", tmp_path)
+    assert len(result["images"]) == page.count("<img ") == 3 * len(scenes)
+    for width, height, complete in result["images"]:
+        assert complete and width > 500 and height > 300  # decoded, at the size the figures were drawn
+    # the first screen a reader sees, kept beside the report
+    shot = out / "first-screen.png"
+    _chromium(tmp_path, f"--screenshot={shot}", "--window-size=1400,900", (out / "index.html").as_uri())
+    assert _ink(shot, (900, 1400)) > 0.02
 
 
 def test_the_verdict_legend_is_the_vocabulary(report_dir):

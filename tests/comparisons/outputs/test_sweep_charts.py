@@ -82,14 +82,15 @@ def test_points_fold_scene_parameters_into_the_worst_case(feigin_rows):
         if p.settings:
             sub = sub[sub["mujoco.w0_dt"] == p.settings["mujoco.w0_dt"]]
         assert p.n_rows == 3  # one per restitution
-        e = sub["exit_error_max"].abs().max()
-        assert (math.isnan(p.exit_error_max) and math.isnan(e)) or p.exit_error_max == e
+        e = sub["exit_error_rel_max"].abs().max()  # the judge's relative error, as the chart draws it by default
+        assert (math.isnan(p.exit_error_rel_max) and math.isnan(e)) or p.exit_error_rel_max == e
+        assert p.lever == "dt" and p.lever_value == p.dt
         assert p.verdict == point_verdict(sub["verdict"])
 
 
 # -- Pareto front ------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("metric", ["exit_error_max", "stick_error_max"])
+@pytest.mark.parametrize("metric", ["exit_error_rel_max", "stick_error_rel_max"])
 def test_pareto_front_is_exactly_the_non_dominated_points(feigin_rows, metric):
     pts = work_precision_points(feigin_rows)
     front = pareto_front(pts, metric)
@@ -126,9 +127,12 @@ def test_work_precision_figure_is_log_log_with_one_line_per_curve(feigin_rows):
     fig = work_precision_figure(feigin_rows)
     assert len(fig.axes) == 2  # exit time, sticking start
     pts = work_precision_points(feigin_rows)
-    for ax, metric in zip(fig.axes, ["exit_error_max", "stick_error_max"]):
+    for ax, metric, tol in zip(fig.axes, ["exit_error_rel_max", "stick_error_rel_max"], (0.02, 0.05)):
+        assert ax.get_gid() == metric  # the judge's relative errors, each with its tolerance drawn
         assert ax.get_xscale() == "log" and ax.get_yscale() == "log"
-        assert "[s]" in ax.get_ylabel() and "per simulated s" in ax.get_xlabel()
+        assert "fraction of the" in ax.get_ylabel() and "per simulated s" in ax.get_xlabel()
+        (line,) = [ln for ln in ax.get_lines() if ln.get_gid() == "tolerance"]
+        assert list(line.get_ydata()) == [tol, tol]
         curves = {ln.get_gid()[len("curve:"):] for ln in ax.get_lines() if str(ln.get_gid()).startswith("curve:")}
         assert curves == {"mujoco (w0_dt=0.03)", "mujoco (w0_dt=0.1)", "pybullet"}
         # the ringed points are the front's, no more, no fewer
@@ -162,19 +166,68 @@ def test_reference_star_and_failures_without_error(feigin_rows):
     assert _lines(fig, "failed-no-error:")
 
 
-def test_ball_has_no_exit_panel_data_but_sticking_data(ball_rows):
-    assert ball_rows["exit_error_max"].isna().all()
+def test_ball_has_no_exit_so_the_chart_draws_what_it_has_and_says_why(ball_rows):
+    # before: an empty exit panel ("no exit time measured") beside the sticking start
+    assert ball_rows["exit_error_rel_max"].isna().all()
     fig = work_precision_figure(ball_rows)
-    assert figure_bytes(fig, "png")  # an empty log panel must still render
-    exit_ax, stick_ax = fig.axes
-    assert not [ln for ln in _lines(fig, "curve:") if ln.axes is exit_ax and len(ln.get_xdata())]
-    assert any("no exit time measured" in t.get_text() for t in exit_ax.texts)
-    # the failures still show there, on the strip of failures without an error
-    failed = ball_rows[~ball_rows["verdict"].isin(PASSING)]
-    strip = [ln for ln in _lines(fig, "failed-no-error:") if ln.axes is exit_ax]
-    assert {ln.get_gid().split(":")[1] for ln in strip} == set(failed["verdict"])
-    assert {ln.get_gid() for ln in stick_ax.get_lines() if str(ln.get_gid()).startswith("curve:")} == {
-        "curve:mujoco", "curve:pybullet"}
+    assert figure_bytes(fig, "png")
+    assert [ax.get_gid() for ax in fig.axes] == ["stick_error_rel_max", "restitution_error_max"]
+    assert "no exit time measured: the reference never leaves the wall" in fig._suptitle.get_text().replace("\n", " ")
+    for ax in fig.axes:
+        assert {ln.get_gid() for ln in ax.get_lines() if str(ln.get_gid()).startswith("curve:")} == {
+            "curve:mujoco", "curve:pybullet"}
+    # in seconds, the same: sticking start, then the first impact
+    fig = work_precision_figure(ball_rows, error="exit_error_max")
+    assert [ax.get_gid() for ax in fig.axes] == ["stick_error_max", "first_impact_error_max"]
+
+
+def test_a_panel_with_nothing_measured_says_why(feigin_rows):
+    # R = 0.8: a little over one forcing period without sliding (verdict none where no engine fails)
+    quiet = feigin_rows[(feigin_rows["restitution"] == 0.8) & (feigin_rows["verdict"] == "none")]
+    assert len(quiet) > 5
+    fig = work_precision_figure(quiet)
+    (ax,) = fig.axes
+    assert any("neither the reference nor the engines slide" in t.get_text().replace("\n", " ") for t in ax.texts)
+
+
+def test_lever_labels_do_not_pile_up(feigin_rows):
+    # before: a dt label per point, piled up where the curves of two settings coincide
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig = work_precision_figure(feigin_rows)
+    FigureCanvasAgg(fig).draw()
+    for ax in fig.axes:
+        labels = [t for t in ax.texts if t.get_text().startswith("dt=")]
+        assert labels
+        boxes = [t.get_window_extent() for t in labels]
+        for i, a in enumerate(boxes):
+            for b in boxes[i + 1:]:
+                assert not a.overlaps(b), [t.get_text() for t in labels]
+
+
+def test_points_are_labelled_by_each_engines_cost_lever():
+    # chart input only (an error-controlled engine's rows, as a sweep writes them): Drake's lever is its
+    # integrator's accuracy, a dotted column; PyBullet's is dt. Both are asked of the engines' adapters.
+    rows = []
+    for acc, cost, err in ((1e-2, 0.01, 0.03), (1e-3, 0.03, 0.01), (1e-4, 0.1, 0.002)):
+        rows.append({"scene": "feigin-pair", "engine": "drake", "dt": 1e-4, "drake.accuracy": acc, "verdict": "match",
+                     "cost_per_sim_s": cost, "exit_error_rel_max": err / 2, "stick_error_rel_max": err})
+    for dt, cost, err in ((1e-3, 0.02, 0.02), (1e-4, 0.2, 0.004)):
+        rows.append({"scene": "feigin-pair", "engine": "pybullet", "dt": dt, "verdict": "match", "cost_per_sim_s": cost,
+                     "exit_error_rel_max": err / 2, "stick_error_rel_max": err})
+    rows = pd.DataFrame(rows)
+    pts = work_precision_points(rows)
+    drake = pts[pts["engine"] == "drake"]
+    assert set(drake["lever"]) == {"accuracy"} and sorted(drake["lever_value"]) == [1e-4, 1e-3, 1e-2]
+    assert set(drake["curve"]) == {"drake"}  # one curve through the accuracies, not one per accuracy
+    assert set(pts[pts["engine"] == "pybullet"]["lever"]) == {"dt"}
+    fig = work_precision_figure(rows)
+    texts = {t.get_text() for t in fig.axes[0].texts}
+    assert {"accuracy=0.01", "accuracy=0.001", "accuracy=0.0001", "dt=0.001", "dt=0.0001"} <= texts
+    assert fig.axes[0].get_xlabel() == "cost: wall-clock s per simulated s"  # the x axis stays cost
+    # Drake in discrete mode steps with dt: its lever is dt again
+    discrete = rows.assign(**{"drake.mode": np.where(rows["engine"] == "drake", "discrete", None)})
+    assert set(work_precision_points(discrete)["lever"]) == {"dt"}
 
 
 # -- stability map -------------------------------------------------------------------------------
@@ -356,3 +409,25 @@ def test_report_sweep_section_draws_the_issue_maps_at_the_defaults(feigin_rows):
     assert caption["stability-mujoco-dt-restitution"].endswith("held at the defaults: mujoco.w0_dt = 0.03")
     assert "held" not in caption["stability-pybullet-dt-restitution"]
     assert all(f.png[:8] == b"\x89PNG\r\n\x1a\n" for f in figures) and not notes
+
+
+def test_an_engine_with_two_levers_gets_one_curve_per_lever():
+    # one sweep of Drake in both modes (examples/sweeps/feigin-pair-drake.toml): continuous rows trade
+    # accuracy, discrete rows dt. Before, the first row's lever (accuracy) was used for all rows and the
+    # discrete rows (accuracy NaN) folded into one point labelled accuracy=nan.
+    rows = []
+    for acc, cost in ((1e-2, 0.003), (1e-4, 0.005)):
+        rows.append({"scene": "feigin-pair", "engine": "drake", "dt": 1e-4, "drake.mode": "continuous",
+                     "drake.accuracy": acc, "verdict": "early", "cost_per_sim_s": cost,
+                     "exit_error_rel_max": 0.5, "stick_error_rel_max": 0.5})
+    for dt, cost in ((1e-3, 0.03), (3e-4, 0.08), (1e-4, 0.2)):
+        rows.append({"scene": "feigin-pair", "engine": "drake", "dt": dt, "drake.mode": "discrete",
+                     "drake.accuracy": np.nan, "verdict": "early", "cost_per_sim_s": cost,
+                     "exit_error_rel_max": 1e-4, "stick_error_rel_max": 0.2})
+    pts = work_precision_points(pd.DataFrame(rows))
+    by_curve = {c: g for c, g in pts.groupby("curve")}
+    assert set(by_curve) == {"drake (mode=continuous)", "drake (mode=discrete)"}
+    assert set(by_curve["drake (mode=continuous)"]["lever"]) == {"accuracy"}
+    assert sorted(by_curve["drake (mode=continuous)"]["lever_value"]) == [1e-4, 1e-2]
+    assert set(by_curve["drake (mode=discrete)"]["lever"]) == {"dt"}
+    assert sorted(by_curve["drake (mode=discrete)"]["lever_value"]) == [1e-4, 3e-4, 1e-3]

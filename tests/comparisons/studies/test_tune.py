@@ -2,11 +2,18 @@
 
 import math
 
+import pandas as pd
 import pytest
 
 from chatterbench.comparisons.pipeline.compare import compare
 from chatterbench.comparisons.outputs.guide import guide_html, guide_markdown, tradeoff_figure
-from chatterbench.comparisons.studies.tune import tune
+from chatterbench.comparisons import reference_trajectory
+from chatterbench.comparisons.pipeline.compare import judge_run
+from chatterbench.comparisons.pipeline.solution import solve
+from chatterbench.comparisons.studies.tune import choose, engine_space, reachable, tune
+from chatterbench.comparisons.studies.tune_checks import check_ratios, describe_failures
+from chatterbench.engines.mujoco_engine import MujocoSettings, stability_limit
+from chatterbench.engines.registry import make_settings
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
 from chatterbench.reference import load_scene
 from chatterbench.reference.errors import InputError
@@ -22,18 +29,22 @@ def test_tune_mujoco_feigin_pair_reruns_as_match():
     assert result.best is not None
     assert (result.table["stage"] == "refine").any()  # the front was refined, not brute-forced
     best = result.best
-    # the cheapest match is no more expensive than every other match
+    # the recommendation takes the fewest steps of every match (one setting combination: no tie to break)
     matches = result.table[result.table["verdict"] == "match"]
-    assert best["cost_per_sim_s"] == matches["cost_per_sim_s"].min()
+    assert best["steps_per_sim_s"] == matches["steps_per_sim_s"].min()
+    # every cheaper candidate failed, and says which check: here the sticking error, late
+    cheaper = result.cheaper()
+    assert len(cheaper) and cheaper["failed"].str.startswith("sticking error +").all()
     rerun = compare(scene, engines=("mujoco",), dt=best["dt"],
                     overrides=[f"mujoco.w0_dt={best['mujoco.w0_dt']}", f"mujoco.integrator={best['mujoco.integrator']}"],
                     tol=Tolerances())
     assert (rerun.table["verdict"] == "match").all()
     text = guide_markdown(result)
-    assert "Recommended" in text and "<mujoco" in text  # the MJCF snippet is in the guide
+    assert "Recommended" in text and "solreflimit=" in text  # the MJCF snippet is in the guide
     assert tradeoff_figure(result).axes[0].get_xscale() == "log"
     page = guide_html(result)  # the same guide as an HTML section for the report
-    assert "Recommended" in page and "data:image/png;base64," in page and "&lt;mujoco" in page
+    assert "Recommended" in page and "data:image/png;base64," in page and "&lt;option" in page
+    assert "<style>" in page  # styled like the report
 
 
 def test_tune_says_when_nothing_meets_the_tolerance():
@@ -43,9 +54,81 @@ def test_tune_says_when_nothing_meets_the_tolerance():
     space = {"dt": (3e-4,), "mujoco.w0_dt": (0.1,), "mujoco.integrator": ("euler",)}
     result = tune(scene, "mujoco", tolerance=1e-5, space=space, workers=1, refine_steps=0)
     assert result.best is None and result.best_reachable is not None
-    assert "No candidate met the tolerance" in guide_markdown(result)
+    assert "No candidate passes these tolerances" in guide_markdown(result)
 
 
 def test_tune_refuses_bad_tolerance():
     with pytest.raises(InputError, match="tolerance"):
         tune(load_scene("bouncing-ball"), "mujoco", tolerance=1.5)
+
+
+def _table(rows):
+    base = {"n_episodes": 13, "n_match": 13, "worst_ratio": 0.5, "cost_per_sim_s": 1.0, "n_non_default": 0}
+    frame = pd.DataFrame([{**base, **r} for r in rows])
+    frame["steps_per_sim_s"] = 1.0 / frame["dt"]
+    return frame
+
+
+def test_choice_ignores_timing_noise_and_prefers_the_simplest():
+    # two passing candidates at one dt (the same steps): the one with the defaults wins, whichever was timed
+    # faster (the 50 against 10 solver iterations with identical errors: wall time follows the load)
+    table = _table([{"dt": 1e-4, "verdict": "match", "cost_per_sim_s": 0.5, "n_non_default": 1, "settings": "iter=10"},
+                    {"dt": 1e-4, "verdict": "match", "cost_per_sim_s": 1.05, "n_non_default": 0, "settings": "defaults"},
+                    {"dt": 1e-3, "verdict": "late", "cost_per_sim_s": 0.1, "settings": "coarse"}])
+    assert choose(table)["settings"] == "defaults"
+    # within the 10% band in steps the simpler still wins; a larger dt beyond it wins whatever it changes
+    table = pd.concat([table, _table([{"dt": 1.05e-4, "verdict": "match", "n_non_default": 2, "settings": "5% coarser"}])],
+                      ignore_index=True)
+    assert choose(table)["settings"] == "defaults"
+    table = pd.concat([table, _table([{"dt": 2e-4, "verdict": "match", "cost_per_sim_s": 2.0, "n_non_default": 2,
+                                       "settings": "coarser"}])], ignore_index=True)
+    assert choose(table)["settings"] == "coarser"
+
+
+def test_best_reachable_counts_matching_episodes_first():
+    # the case: 10 of 13 matching beats 0 of 13 with a smaller worst error
+    table = _table([{"dt": 1e-4, "verdict": "late", "n_match": 0, "worst_ratio": 1.5, "settings": "none match"},
+                    {"dt": 1e-4, "verdict": "late", "n_match": 10, "worst_ratio": 4.0, "settings": "ten match"},
+                    {"dt": 1e-3, "verdict": "missed", "n_match": 0, "worst_ratio": math.inf, "settings": "missed"}])
+    assert choose(table) is None
+    assert reachable(table)["settings"] == "ten match"
+
+
+def test_check_ratios_known_answers_both_ways():
+    ref, tol = solve(load_scene("feigin-pair", ["duration=12.6"])), Tolerances(stick=0.01, exit=0.01, first_impact=0.01)
+    allowance = tol.penetration * ref.length_scale
+    # the exact reference, sampled, passes every check: every ratio at most 1 and nothing to describe
+    exact = reference_trajectory(ref.scene, 1e-4, ref.exhaustive)
+    _, table, impacts = judge_run(ref, "mujoco", None, tol, trajectory=exact)
+    ratios = check_ratios(table, impacts, tol, allowance)
+    assert (table["verdict"] == "match").all() and ratios["worst_ratio"] <= 1.0
+    assert describe_failures(table, ratios, tol) == ""
+    # a soft contact at a coarse step sticks late: the stick ratio says by how much, and the description names it
+    run, table, impacts = judge_run(ref, "mujoco", make_settings("mujoco", 1e-3, ["mujoco.w0_dt=0.1"]), tol)
+    ratios = check_ratios(table, impacts, tol, allowance)
+    assert ratios["stick_ratio"] == pytest.approx(table["stick_error_rel"].abs().max() / 0.01)  # the definition
+    assert ratios["stick_ratio"] > 1 and ratios["worst_ratio"] == max(v for k, v in ratios.items()
+                                                                      if k.endswith("_ratio") and k != "worst_ratio")
+    assert describe_failures(table, ratios, tol).startswith("sticking error +")
+    # a run that never reaches the walls (the exact motion in a gap ten times wider) has no error to measure
+    # (its speed grows past the energy bound: diverged): the worst ratio is infinite, the description says why
+    wide = load_scene("feigin-pair", ["duration=12.6", "gap.lower=-1", "gap.upper=1"])
+    _, table, impacts = judge_run(ref, "mujoco", None, tol, trajectory=reference_trajectory(wide, 1e-4, solve(wide).exhaustive))
+    ratios = check_ratios(table, impacts, tol, allowance)
+    verdict = table["verdict"].iloc[0]
+    assert verdict not in ("match", "early", "late", "rebound") and math.isinf(ratios["worst_ratio"])
+    assert f"episodes {verdict}" in describe_failures(table, ratios, tol)
+
+
+def test_search_space_comes_from_the_engine_and_is_checked():
+    scene = load_scene("feigin-pair")
+    space = engine_space("mujoco", scene)
+    # stiffer than w0 dt = 0.1, up to 0.9 of the stability limit for the scene's R, and solimp's impedance
+    zeta = MujocoSettings().zeta(scene.restitution)
+    assert max(space["mujoco.w0_dt"]) == pytest.approx(0.9 * stability_limit("euler", zeta), rel=1e-3)
+    assert len(space["mujoco.impedance"]) > 1 and space["mujoco.impedance"][0] == MujocoSettings().impedance
+    assert engine_space("pybullet", scene)["pybullet.num_solver_iterations"][0] == 50  # defaults first
+    with pytest.raises(InputError, match="dt"):
+        engine_space("mujoco", scene, {"dt": ()})
+    with pytest.raises(InputError, match="pybullet.erp"):
+        engine_space("mujoco", scene, {"dt": (1e-3,), "pybullet.erp": (0.1,)})

@@ -1,0 +1,145 @@
+"""``chatterbench calibrate``: each engine's effective restitution against impact speed, and per impact of a scene.
+
+    $ chatterbench calibrate mujoco pybullet --restitution 0.5 --out out/calibrate
+    $ chatterbench calibrate mujoco --gravity 9.81 --speeds 0.01,10 --points 25 --set mujoco.w0_dt=0.1
+
+Prints two tables: e at each speed (one strike per speed, one column per engine:
+``studies/restitution_curve.py``), and the restitution of the first ``--impacts`` resolved
+impacts of ``--scene`` (the bouncing ball by default) per engine, from the judge's paired
+impacts. ``--out`` writes calibration.csv (the first table, one row per engine and speed,
+``CURVE_COLUMNS``), impacts.csv (the second, ``IMPACT_COLUMNS``) and restitution_curve.png/.svg
+(every engine in one picture). ``--restitution`` sets R for both (default: the scene's).
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import pandas as pd
+
+from chatterbench.comparisons.outputs.atomic import write_bytes, write_frame
+from chatterbench.comparisons.pipeline.budget import check_comparison
+from chatterbench.comparisons.pipeline.solution import solve
+from chatterbench.comparisons.studies.restitution_curve import (ABOVE, DEFAULT_POINTS, DECADES_BELOW, MAX_POINTS, default_speeds,
+                                                               impact_restitutions, log_speeds, pinned_settings,
+                                                               restitution_curve)
+from chatterbench.engines.registry import ENGINE_NAMES, make_settings, run_engine
+from chatterbench.reference.scene import load_scene
+
+from .common import (UsageError, integer_type, add_budget, add_dt, add_out, add_set, budget_of, engine_list, positive_float, print_table,
+                     split_overrides)
+from .paths import check_dir, writing
+
+
+def restitution_value(text: str) -> float:
+    """argparse type: Newton's R to calibrate against, in (0, 1)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not 0.0 < value < 1.0:
+        raise argparse.ArgumentTypeError(f"{text!r}: must be in (0, 1) (e / R needs R > 0)")
+    return value
+
+
+def speed_range(text: str) -> tuple[float, float]:
+    """argparse type: ``LO,HI`` impact speeds [m/s], 0 < LO < HI."""
+    parts = text.split(",")
+    if len(parts) != 2:
+        raise argparse.ArgumentTypeError(f"{text!r}: give two speeds LO,HI [m/s], e.g. 0.01,10")
+    lo, hi = (positive_float(p.strip()) for p in parts)
+    if not lo < hi:
+        raise argparse.ArgumentTypeError(f"{text!r}: LO must be below HI")
+    return lo, hi
+
+
+points_value = integer_type(2, MAX_POINTS, " (one engine run each)")  # argparse type: speeds per engine
+impacts_value = integer_type(0)  # argparse type: impacts to show per engine
+
+
+def gravity_value(text: str) -> float:
+    """argparse type: a finite acceleration >= 0 [m/s^2]."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not 0.0 <= value < float("inf"):
+        raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number >= 0 [m/s^2]")
+    return value
+
+
+def cmd_calibrate(args: argparse.Namespace) -> int:
+    check_dir("--out", args.out)
+    engines = engine_list(",".join(args.engine))
+    scene_over, engine_over = split_overrides(args.set)
+    if args.restitution is not None and any(s.split("=", 1)[0].strip() == "restitution" for s in scene_over):
+        raise UsageError("--restitution and --set restitution=...: give R once (--restitution)")
+    scene = load_scene(args.scene, scene_over + ([f"restitution={args.restitution!r}"] if args.restitution else []))
+    if scene.restitution <= 0.0:
+        raise UsageError(f"restitution = {scene.restitution:g} (the scene's): e / R needs R in (0, 1); give --restitution")
+    settings = {name: make_settings(name, args.dt, engine_over) for name in engines}  # every refusal before any run
+    check_comparison(scene, settings, budget_of(args), reference=args.impacts > 0)
+    speeds = log_speeds(*args.speeds, args.points) if args.speeds else default_speeds(scene, args.points)
+    # one run of the whole scene per engine: its impacts, and the contact it makes for the scene, which every strike meets
+    runs = {name: run_engine(name, scene, s) for name, s in settings.items()}
+    curve = pd.concat([restitution_curve(n, pinned_settings(s, runs[n].settings), scene.restitution, speeds, scene,
+                                         args.gravity) for n, s in settings.items()], ignore_index=True)
+    wide = curve.pivot(index="speed", columns="engine", values="restitution_effective")[list(engines)].round(4).reset_index()
+    wide["speed"] = [float(f"{v:.4g}") for v in wide["speed"]]
+    forces = f"under gravity g = {args.gravity:g} m/s^2" if args.gravity else "no other forces"
+    print_table(wide, title=f"effective restitution e = -v+/v- of one strike per speed [m/s] on {scene.name}'s bodies, "
+                            f"{forces}; nominal R = {scene.restitution:g} (0: no rebound)")
+    for row in curve[curve["status"] != "ok"].itertuples():
+        print(f"{row.engine} at {row.speed:.4g} m/s: {row.status}: {row.message}")
+    impacts = pd.DataFrame()
+    if args.impacts:
+        ref = solve(scene)
+        impacts = pd.concat([impact_restitutions(n, s, scene, ref, trajectory=runs[n]).head(args.impacts)
+                             for n, s in settings.items()], ignore_index=True)
+        print_table(impacts[["engine", "impact", "speed", "restitution_effective", "restitution_error",
+                             "restitution_uncertainty"]].round(4),
+                    title=f"{scene.name}: the first {args.impacts} resolved impacts per engine (the judge's pairs; "
+                          "speed: incoming [m/s]; error e/R - 1)")
+    if args.out:
+        out = Path(args.out)
+        from chatterbench.comparisons.outputs.figures import figure_bytes  # draws: loads matplotlib (0.7 s), so only when asked
+        from chatterbench.comparisons.outputs.restitution_curve import restitution_curve_figure
+
+        fig = restitution_curve_figure(curve, impacts if len(impacts) else None, scene.name)
+        with writing("--out", out):
+            write_frame(out / "calibration.csv", curve)
+            if len(impacts):
+                write_frame(out / "impacts.csv", impacts)
+            write_bytes(out / "restitution_curve.png", figure_bytes(fig, "png"))
+            write_bytes(out / "restitution_curve.svg", figure_bytes(fig, "svg"))
+        print(f"wrote {out / 'calibration.csv'}{', impacts.csv' if len(impacts) else ''}, restitution_curve.png, "
+              "restitution_curve.svg")
+    return 0
+
+
+def register(sub, formatter) -> None:
+    """Add ``calibrate`` to the ``chatterbench`` subparsers."""
+    p = sub.add_parser("calibrate", help="each engine's effective restitution against impact speed (where R drifts)",
+                       formatter_class=formatter)
+    p.add_argument("engine", nargs="+", metavar="ENGINE", help=f"engines to calibrate: {', '.join(ENGINE_NAMES)}")
+    p.add_argument("--restitution", type=restitution_value, default=None, metavar="R",
+                   help="Newton's R the engines are set up for, in (0, 1); None: the scene's")
+    p.add_argument("--speeds", type=speed_range, default=None, metavar="LO,HI",
+                   help=f"impact speeds [m/s], 0 < LO < HI, log-spaced; None: {DECADES_BELOW:g} decades below the "
+                        f"scene's first impact speed v1 up to {ABOVE:g} v1")
+    p.add_argument("--points", type=points_value, default=DEFAULT_POINTS, metavar="N",
+                   help=f"speeds per engine, in [2, {MAX_POINTS}] (one engine run each)")
+    p.add_argument("--gravity", type=gravity_value, default=0.0, metavar="G",
+                   help="[m/s^2] pressing the striking body into the wall (9.81: the ball dropped to each speed); "
+                        "0: the contact law alone")
+    p.add_argument("--scene", default="bouncing-ball",
+                   help="whose bodies strike (masses, lower wall, R), whose contact every strike meets (an engine "
+                        "that makes it from the scene, Drake, runs the scene once) and whose resolved impacts are listed")
+    p.add_argument("--impacts", type=impacts_value, default=5, metavar="N",
+                   help="list the first N resolved impacts of --scene per engine (judged against the reference); 0: none")
+    add_dt(p)
+    add_set(p)
+    add_out(p, what="write calibration.csv, impacts.csv and restitution_curve.png/.svg under DIR")
+    add_budget(p)
+    p.set_defaults(func=cmd_calibrate)

@@ -1,0 +1,113 @@
+"""How far a judged run is from each of the judge's checks: every error over its tolerance, and which checks failed.
+
+    >>> from chatterbench.comparisons.pipeline.compare import judge_run
+    >>> from chatterbench.comparisons.pipeline.solution import solve
+    >>> from chatterbench.engines.registry import make_settings
+    >>> ref, tol = solve(load_scene("feigin-pair", ["duration=12.6"])), Tolerances(stick=0.01, exit=0.01, first_impact=0.01)
+    >>> run, table, impacts = judge_run(ref, "mujoco", make_settings("mujoco", 1e-3, ["mujoco.w0_dt=0.1"]), tol)
+    >>> ratios = check_ratios(table, impacts, tol, tol.penetration * ref.length_scale)
+    >>> round(ratios["stick_ratio"], 1), describe_failures(table, ratios, tol)    # 12% late against 1%
+    (12.4, 'sticking error +0.124 of the chatter > 0.01')
+
+A ratio is the check's measure over its tolerance (``Tolerances``), taken over the run's
+episodes at their worst, so a ratio above 1 is a failed check and ``worst_ratio`` (the largest)
+is the run's distance from passing in one number: the same rules as ``pipeline.judge.verdict``
+(stick and first impact against the chatter duration, exit against the sliding duration,
+restitution beyond its measurement uncertainty, the resolved-impact count, the penetration
+against the scene's length scale). A run with an episode that has no error to measure
+(``missed``, ``endless``, ``spurious``, a failure) has ``worst_ratio`` = inf: no tolerance
+makes it pass.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import pandas as pd
+
+from ..pipeline.tolerances import Tolerances
+from ..pipeline.vocabulary import VERDICTS
+
+# check -> (the Tolerances field, how the guide names the measure, the scale it is a fraction of, a short name)
+CHECKS = {
+    "stick": ("stick", "sticking error", " of the chatter", "sticking"),
+    "first_impact": ("first_impact", "first impact error", " of the chatter", "first impact"),
+    "exit": ("exit", "exit error", " of the sliding", "exit"),
+    "restitution": ("restitution", "restitution error beyond its uncertainty", "", "restitution"),
+    "impact_count": ("impact_count", "resolved impacts differ by", "", "resolved impact count"),
+    "penetration": ("penetration", "penetration", " of the length scale", "penetration"),
+}
+RATIO_COLUMNS = [f"{name}_ratio" for name in CHECKS] + ["worst_ratio"]
+MEASURED = ("agree", "timing", "impacts")  # verdict groups whose episodes have every error measured
+
+
+def _signed_worst(series: pd.Series) -> float:
+    """The entry of largest magnitude, with its sign; NaN when there is none."""
+    vals = series.astype(float).dropna()
+    return float(vals.loc[vals.abs().idxmax()]) if len(vals) else math.nan
+
+
+def _ratio(value: float, limit: float) -> float:
+    if math.isnan(value):
+        return math.nan
+    if limit == 0:
+        return math.inf if value > 0 else 0.0
+    return abs(value) / limit
+
+
+def check_values(table: pd.DataFrame, impacts: pd.DataFrame, allowance: float) -> dict[str, float]:
+    """Each check's worst measure over the episodes (signed for the timing errors: + late, - early).
+
+    ``table``: the judged episodes (``judge.TABLE_COLUMNS``); ``impacts``: the paired impacts
+    (``judge.IMPACT_PAIR_COLUMNS``, column ``excess`` = |e / R - 1| - its uncertainty);
+    ``allowance``: the penetration allowance [m] (tolerance x the scene's length scale).
+    """
+    eps = table[table["wall"] != ""] if "wall" in table else table
+    excess = impacts["excess"].astype(float).dropna() if "excess" in impacts else pd.Series(dtype=float)
+    counts = (eps["resolved_impacts"] - eps["ref_resolved_impacts"]).abs() if len(eps) else pd.Series(dtype=float)
+    return {
+        "stick": _signed_worst(eps["stick_error_rel"]), "first_impact": _signed_worst(eps["first_impact_error_rel"]),
+        "exit": _signed_worst(eps["exit_error_rel"]), "restitution": float(excess.max()) if len(excess) else math.nan,
+        "impact_count": float(counts.max()) if len(counts) else math.nan,
+        "penetration": float(table["penetration_max"].max()) / allowance if allowance > 0 and len(table) else math.nan,
+    }
+
+
+def check_ratios(table: pd.DataFrame, impacts: pd.DataFrame, tol: Tolerances, allowance: float) -> dict[str, float]:
+    """``<check>_ratio``: each check's worst measure over its tolerance (> 1: failed), and ``worst_ratio``."""
+    values = check_values(table, impacts, allowance)
+    out = {}
+    for name, (field, _, _, _) in CHECKS.items():
+        limit = 1.0 if name == "penetration" else float(getattr(tol, field))  # penetration is already a fraction of the allowance
+        out[f"{name}_ratio"] = _ratio(values[name], limit)
+    unmeasured = any(VERDICTS[v].group not in MEASURED for v in table["verdict"] if v in VERDICTS)
+    finite = [r for r in out.values() if not math.isnan(r)]
+    out["worst_ratio"] = math.inf if unmeasured or not len(table) else (max(finite) if finite else 0.0)
+    return {**out, **{f"{name}_value": v for name, v in values.items()}}
+
+
+def describe_failures(table: pd.DataFrame, ratios: dict[str, Any], tol: Tolerances) -> str:
+    """The checks that failed, each with its measure and tolerance, and the episodes with no measure; "" if none.
+
+    ``ratios`` is ``check_ratios``'s dict (it carries the measures as ``<check>_value``).
+    """
+    parts = []
+    for name, (field, label, scale, _) in CHECKS.items():
+        ratio = ratios.get(f"{name}_ratio", math.nan)
+        if math.isnan(ratio) or ratio <= 1.0:
+            continue
+        value, limit = ratios[f"{name}_value"], getattr(tol, field)
+        if name == "impact_count":
+            parts.append(f"{label} {value:.0f} > {limit}")
+        elif name == "penetration":
+            parts.append(f"{label} {value * tol.penetration:.3g}{scale} > {tol.penetration:g}")
+        elif name == "restitution":
+            parts.append(f"{label} {value:.3g} > {limit:g}")
+        else:
+            parts.append(f"{label} {value:+.3g}{scale} > {limit:g}")
+    verdicts = table["verdict"].value_counts()
+    for verdict, n in verdicts.items():
+        if verdict in VERDICTS and VERDICTS[verdict].group not in MEASURED:
+            parts.append(f"{n} {'episode' if n == 1 else 'episodes'} {verdict} ({VERDICTS[verdict].meaning})")
+    return "; ".join(parts)

@@ -1,0 +1,70 @@
+"""The evidence behind a tuning answer: the chosen settings rerun on the scene, and their restitution against impact speed.
+
+    >>> from chatterbench.comparisons.studies.tune import tune
+    >>> result = tune(load_scene("bouncing-ball"), "pybullet", 0.05, space={"dt": (1e-3,)}, workers=1, refine_steps=0)
+    >>> ev = evidence(result, speeds=[0.5, 4.0])
+    >>> ev.comparison.table["verdict"].tolist(), ev.curve["restitution_effective"].round(3).tolist()
+    (['match'], [0.5, 0.5])
+
+For the chosen candidate (``TuneResult.chosen``: the recommendation, or the best reachable
+one when nothing passes): ``comparison``, the scene through ``compare`` with those settings
+(its episodes, impacts and the chatter ladder's data), ``curve``, the effective restitution
+of one strike per speed with those settings (``studies.restitution_curve``, the contact law
+alone: no other force) over ``default_speeds(scene)``, and ``impacts``, the restitution of
+each resolved impact of the scene in that same run (no curve for a scene without an impact:
+there is no speed to take). Nothing here changes the choice.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import pandas as pd
+
+from chatterbench.engines.registry import make_settings
+from chatterbench.reference.errors import InputError
+
+from ..pipeline.compare import Comparison, compare
+from .restitution_curve import default_speeds, impact_restitutions, restitution_curve
+from .tune import overrides_of
+
+
+@dataclass(frozen=True)
+class Evidence:
+    """The chosen settings' comparison on the scene and their R(v) curve (module docstring)."""
+
+    comparison: Comparison
+    curve: pd.DataFrame | None  # studies.restitution_curve.CURVE_COLUMNS; None when the scene has no impact
+    impacts: pd.DataFrame  # studies.restitution_curve.IMPACT_COLUMNS
+
+
+def chosen_params(result) -> dict | None:
+    """``dt`` and the searched settings of ``result.chosen`` (None when no candidate ran)."""
+    c = result.chosen
+    return None if c is None else {k: c[k] for k in result.extra["space"]}
+
+
+def chosen_settings(result):
+    """The engine's settings dataclass for ``result.chosen`` (None when no candidate ran)."""
+    params = chosen_params(result)
+    return None if params is None else make_settings(result.engine, float(params["dt"]), overrides_of(params))
+
+
+def evidence(result, speeds: Sequence[float] | None = None) -> Evidence | None:
+    """Rerun the chosen candidate on the scene and strike once per speed [m/s] (default ``default_speeds``)."""
+    params = chosen_params(result)
+    if params is None:
+        return None
+    comparison = compare(result.scene, engines=(result.engine,), dt=float(params["dt"]), overrides=overrides_of(params),
+                         tol=result.tolerance, solution=result.extra.get("solution"))
+    run, settings = comparison.runs[result.engine], chosen_settings(result)
+    impacts = impact_restitutions(result.engine, settings, result.scene, comparison.solution, result.tolerance,
+                                  trajectory=run.trajectory)
+    if speeds is None:
+        try:
+            speeds = default_speeds(result.scene)
+        except InputError:  # a run with no impact has no speed to take them from: no curve
+            return Evidence(comparison=comparison, curve=None, impacts=impacts)
+    curve = restitution_curve(result.engine, settings, result.scene.restitution, speeds, scene=result.scene)
+    return Evidence(comparison=comparison, curve=curve, impacts=impacts)

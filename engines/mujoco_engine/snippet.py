@@ -1,0 +1,109 @@
+"""MuJoCo settings as a user pastes them into their own MJCF: ``<option>``, a joint limit and a geom pair.
+
+    >>> from chatterbench.engines.mujoco_engine.snippet import contact_law, mjcf_snippet
+    >>> law = contact_law(load_scene("feigin-pair"), MujocoSettings(dt=1e-4, w0_dt=0.1))
+    >>> law.solref, law.solimp                       # MuJoCo's direct form: (-K, -B) and a constant impedance
+    ('-1000000 -510.55127529707534', '0.99 0.99 0.001 0.5 2')
+    >>> [line.split()[0] for line in mjcf_snippet(load_scene("feigin-pair"), MujocoSettings()).splitlines()
+    ...  if line.startswith("<") and not line.startswith("<!--")]
+    ['<option', '<joint', '<pair']
+
+Promises: the numbers are the ones ``build`` puts in the scene's own model (the same
+``build_spec``), written so that they read back to the same doubles, so the pasted law is the
+tuned law bit for bit (chatter amplifies a change in the 10th digit of B into another last bounce): the
+joint limit's ``solreflimit`` is exactly (-w0^2, -2 zeta w0) (for a joint limit MuJoCo's
+regulariser is exact); the pair's ``solref`` carries the model's impedance correction d / d'
+(``model._impedance_factor``) for a sphere on a box with the scene's masses, so in a model with
+other bodies it is right to that factor (0.7% at d = 0.99). Every other line is an XML comment.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+from chatterbench.reference.scene import Scene
+
+from .model import build_spec
+from .settings import SOLVERS, MujocoSettings
+
+# MJCF's spelling of each integrator (``<option integrator=...>``)
+MJCF_INTEGRATORS = {"euler": "Euler", "implicitfast": "implicitfast", "rk4": "RK4"}
+DEFAULT_SOLVER = next(iter(SOLVERS))  # MuJoCo's own default, left out of <option>
+
+
+def _num(v: float) -> str:
+    """A number as MJCF text that reads back to the same double (``repr``; ``to_xml`` keeps 6 digits)."""
+    v = float(v)
+    return str(int(v)) if v.is_integer() and abs(v) < 1e15 else repr(v)
+
+
+def _vec(values) -> str:
+    return " ".join(_num(v) for v in values)
+
+
+@dataclass(frozen=True)
+class ContactLaw:
+    """The tuned contact as MJCF attribute values and what they mean (units in the field comments)."""
+
+    solref: str  # "-K -B" for the joint limit (direct form)
+    solimp: str  # "d d width midpoint power": constant impedance d
+    pair_solref: str  # "-K' -B'": the geom pair's, with MuJoCo's impedance correction for a sphere on a box
+    stiffness: float  # K = w0^2 [1/s^2]: contact acceleration per metre of penetration
+    damping: float  # B = 2 zeta w0 [1/s]: contact acceleration per m/s of approach
+    w0: float  # contact natural frequency [rad/s] = w0_dt / dt
+    zeta: float  # contact damping ratio [-] that gives one impact Newton's R
+    contact_time: float  # one bounce lasts about pi / (w0 sqrt(1 - zeta^2)) [s] (inf for zeta >= 1)
+    pair_factor: float  # K' / K = d / d' [-]
+
+
+def contact_law(scene: Scene, settings: MujocoSettings | None = None) -> ContactLaw:
+    """The contact attributes ``build`` gives ``scene`` with ``settings`` (module docstring)."""
+    s = settings or MujocoSettings()
+    limit = build_spec(scene, dataclasses.replace(s, gap_model="limit")).joint("y")
+    pair = build_spec(scene, dataclasses.replace(s, gap_model="geom")).geom("ball")
+    zeta = s.zeta(scene.restitution)
+    k, b = -float(limit.solref_limit[0]), -float(limit.solref_limit[1])
+    ring = math.pi / (s.w0 * math.sqrt(1.0 - zeta * zeta)) if zeta < 1.0 else math.inf
+    return ContactLaw(solref=_vec(limit.solref_limit), solimp=_vec(limit.solimp_limit), pair_solref=_vec(pair.solref),
+                      stiffness=k, damping=b, w0=s.w0, zeta=zeta, contact_time=ring,
+                      pair_factor=-float(pair.solref[0]) / k)
+
+
+def option_line(settings: MujocoSettings) -> str:
+    """``<option timestep=... integrator=...>`` (and the solver when it is not MuJoCo's default)."""
+    solver = f' solver="{settings.solver}"' if settings.solver != DEFAULT_SOLVER else ""
+    return f'<option timestep="{_num(settings.dt)}" integrator="{MJCF_INTEGRATORS[settings.integrator]}"{solver}/>'
+
+
+def mjcf_snippet(scene: Scene, settings: MujocoSettings | None = None) -> str:
+    """What to paste into an MJCF model: the option line, the gap as a joint limit, the gap as a geom pair.
+
+    ``y`` is the slide joint of the moving part relative to the other (y = x2 - x1); ``lower`` /
+    ``upper`` and ``ball`` are the two sides' geoms. Keep one of the two forms.
+    """
+    s = settings or MujocoSettings()
+    law = contact_law(scene, s)
+    upper = scene.gap.upper
+    rng = f"{_num(scene.gap.lower)} {_num(upper) if upper is not None else _num(scene.gap.lower + 1e9)}"
+    contact_time = f"{law.contact_time:.3g} s ({law.contact_time / s.dt:.3g} timesteps)" if math.isfinite(law.contact_time) else "no rebound (overdamped)"
+    lines = [
+        f"<!-- chatterbench: MuJoCo settings for scene {scene.name} (Newton's R = {scene.restitution:g}),",
+        f"     timestep dt = {_num(s.dt)} s, contact stiffness w0 dt = {_num(s.w0_dt)}, integrator {s.integrator}.",
+        '     solref="-K -B" is MuJoCo\'s direct form: the contact drives the relative acceleration to -K r - B v',
+        "     (r the penetration [m], v its rate [m/s]), the same for any masses:",
+        f"       K = w0^2 = {_num(law.stiffness)} 1/s^2, w0 = w0_dt / dt = {_num(law.w0)} rad/s, the contact's natural frequency;",
+        f"       B = 2 zeta w0 = {_num(law.damping)} 1/s, zeta = {law.zeta:.6g}, the damping ratio whose single impact rebounds",
+        f"       with R = {scene.restitution:g} (a force-only contact: it ends when the force reaches zero); one impact lasts {contact_time}.",
+        f'     solimp="{law.solimp}": dmin = dmax = d = {_num(s.impedance)}, a constant impedance (width, midpoint and',
+        "     power then do nothing); while the contact pushes, the other forces reach the gap scaled by 1 - d. -->",
+        option_line(s),
+        "<!-- the gap as the range of a slide joint (inside the moving body): -->",
+        f'<joint name="y" type="slide" axis="1 0 0" limited="true" range="{rng}" solreflimit="{law.solref}" '
+        f'solimplimit="{law.solimp}"/>',
+        f"<!-- or the gap as a geom pair (inside <contact>, once per wall; condim 1: no friction); K and B times {law.pair_factor:.6g},",
+        "     MuJoCo's impedance correction d / d' for a sphere on a box with these masses: -->",
+        f'<pair geom1="lower" geom2="ball" condim="1" margin="0" gap="0" solref="{law.pair_solref}" solimp="{law.solimp}"/>',
+    ]
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,311 @@
+"""Running MuJoCo Warp: many worlds stepped together on a warp device, each world one run, float32 throughout.
+
+    >>> from chatterbench.engines.mujoco_warp_engine.run import run
+    >>> from chatterbench.engines.mujoco_warp_engine.settings import MujocoWarpSettings
+    >>> traj = run(load_scene("bouncing-ball", ["duration=0.2"]), MujocoWarpSettings(dt=1e-3, device="cpu"))
+    >>> traj.status, traj.engine, traj.settings["precision"], traj.settings["device"]
+    ('ok', 'mujoco_warp', 'float32', 'cpu')
+
+Each run is the MuJoCo engine's own model (``mujoco_engine.model.build``: the same MjSpec,
+contact law, forces and precomputed controls), adapted by ``worlds.warp_model`` and put on
+the device as one world. ``run_batch`` puts compatible runs (same sizes, step count and
+control layout, any per-world parameter: masses, R, gap, springs, forcing, initial state)
+into one MuJoCo Warp model of many worlds; one ``mujoco_warp.step`` advances them all.
+Per step, one small kernel records every world's state and sensors on the device and loads
+the next step's controls (``ctrl``, and ``mocap_pos`` for a prescribed body), as
+``mujoco.rollout`` does for MuJoCo C; every ``window.CHUNK`` samples the chunk comes back and
+goes to the MuJoCo engine's recorder and checks (``mujoco_engine.run._Run``: contact flags and
+forces from the same sensors, blow-ups, a long run kept compact), so memory stays bounded.
+
+Promises: sample k is the state after k steps and its contact force the one MuJoCo Warp
+computed at the start of step k (MuJoCo's rollout convention, so the two engines'
+trajectories line up sample by sample); the arrays are float32 values widened to float64;
+MuJoCo C's blow-up checks hold (a state past ``MAXVAL`` or not finite, and its qacc check,
+done on the device: an acceleration past ``MAXVAL`` drops the states after it);
+``settings["precision"]`` and ``settings["device"]`` say what computed them; a run never
+raises from inside MuJoCo Warp (``status = "error"`` / ``"diverged"``, as for MuJoCo); the
+kernel compilation of a first run (tens of seconds on the CPU device, then cached by warp
+under ``~/.cache/warp``) is not counted in ``wall_time`` but reported as
+``settings["warmup_s"]``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+import time
+from typing import Any, Sequence
+
+import mujoco
+import numpy as np
+
+from chatterbench.reference.errors import check_integer
+from chatterbench.reference.scene import Scene
+
+from ..base import n_steps
+from ..mujoco_engine.model import build_spec
+from ..mujoco_engine.run import MAXVAL, _controls, _failed, _prepare, _Prepared, _Run, _settings_record
+from ..trajectory import Trajectory
+from ..window import CHUNK
+from .settings import MujocoWarpSettings
+from .worlds import Incompatible, Worlds, device_name, put_worlds, warp_model, warp_modules
+
+NAME = "mujoco_warp"
+BENCH_STEP_CAP = 2_000  # steps per benchmark repeat: a step's cost is flat after the first few (launch-bound on cpu)
+
+
+@functools.cache
+def _record_kernel():
+    """The per-step kernel: store the state after step k0 + j and the sensors of its start, check its
+    acceleration, load the controls of the next step of the chunk."""
+    wp, _ = warp_modules()
+    maxval = wp.constant(wp.float32(MAXVAL))
+
+    @wp.kernel
+    def record(j: int, k0: int, qpos: wp.array2d(dtype=wp.float32), qvel: wp.array2d(dtype=wp.float32),
+               qacc: wp.array2d(dtype=wp.float32), sensordata: wp.array2d(dtype=wp.float32),
+               ctrl: wp.array2d(dtype=wp.float32), mocap_pos: wp.array2d(dtype=wp.vec3),
+               ctrl_in: wp.array3d(dtype=wp.float32), mocap_in: wp.array3d(dtype=wp.vec3),
+               qpos_out: wp.array3d(dtype=wp.float32), qvel_out: wp.array3d(dtype=wp.float32),
+               sens_out: wp.array3d(dtype=wp.float32), bad_acc: wp.array(dtype=wp.int32)):
+        w = wp.tid()
+        for i in range(qpos.shape[1]):
+            qpos_out[j, w, i] = qpos[w, i]
+        for i in range(qvel.shape[1]):
+            qvel_out[j, w, i] = qvel[w, i]
+        for i in range(sensordata.shape[1]):
+            sens_out[j, w, i] = sensordata[w, i]
+        for i in range(qacc.shape[1]):
+            # MuJoCo C's mj_checkAcc (mjWARN_BADQACC): an acceleration past mjMAXVAL or not finite
+            if not (wp.abs(qacc[w, i]) <= maxval) and bad_acc[w] > k0 + j:
+                bad_acc[w] = k0 + j
+        if j + 1 < ctrl_in.shape[0]:
+            for i in range(ctrl.shape[1]):
+                ctrl[w, i] = ctrl_in[j + 1, w, i]
+            for i in range(mocap_pos.shape[1]):
+                mocap_pos[w, i] = mocap_in[j + 1, w, i]
+
+    return record
+
+
+def _inputs(ps: list[_Prepared], k0: int, k1: int) -> tuple[np.ndarray, np.ndarray]:
+    """Controls (k1 - k0, nworld, nu) and mocap positions (k1 - k0, nworld, nmocap, 3) of steps k0 .. k1 - 1."""
+    model = ps[0].model
+    ctrl = np.zeros((k1 - k0, len(ps), model.nu), np.float32)
+    mocap = np.zeros((k1 - k0, len(ps), model.nmocap, 3), np.float32)
+    for w, p in enumerate(ps):
+        control = _controls(p, k0, k1)  # the MuJoCo engine's rollout input, (1, k1 - k0, nu + 3 nmocap)
+        if control is not None:
+            ctrl[:, w] = control[0, :, : model.nu]
+            mocap[:, w] = control[0, :, model.nu :].reshape(k1 - k0, model.nmocap, 3)
+    return ctrl, mocap
+
+
+def _flag_bad_acceleration(r: _Run, state: np.ndarray, bad: int, k0: int) -> None:
+    """Step ``bad`` (>= k0) had an acceleration past MAXVAL: MuJoCo C's warning, and the states after it dropped."""
+    state[bad - k0:, 1:] = np.nan
+    r.p.data.warning[int(mujoco.mjtWarning.mjWARN_BADQACC)].number = 1
+    r.note_warnings(r.p.data)
+
+
+def _roll_worlds(worlds: Worlds, ps: list[_Prepared], compact_above: float | None = None) -> tuple[list[_Run], float, float]:
+    """Step every world ``nstep`` times from its initial state with its controls, ``window.CHUNK`` samples of all
+    of them at a time, each chunk handed to its run's recorder (the MuJoCo engine's ``_Run``).
+
+    Returns the runs, the stepping wall time [s] and the kernels' loading (first time: compiling) time [s].
+    """
+    wp, mjw = warp_modules()
+    p0, nw = ps[0], len(ps)
+    mjm, nstep, s0 = p0.model, p0.nstep, p0.settings
+    runs = [_Run(p, compact_above) for p in ps]
+    chunk = max(256, CHUNK // nw)
+    with wp.ScopedDevice(worlds.device):
+        start = time.perf_counter()
+        mjw.step(worlds.model, mjw.put_data(mjm, p0.data))  # loads (the first time compiles) the kernels
+        wp.synchronize()
+        warmup = time.perf_counter() - start
+        d = mjw.put_data(mjm, p0.data, nworld=nw)
+        d.qpos.assign(np.stack([p.data.qpos for p in ps]).astype(np.float32))
+        d.qvel.assign(np.stack([p.data.qvel for p in ps]).astype(np.float32))
+        d.time.assign(np.array([p.data.time for p in ps], np.float32))
+        out = [wp.zeros((min(chunk, nstep), nw, size), dtype=wp.float32) for size in (mjm.nq, mjm.nv, mjm.nsensordata)]
+        bad_acc = wp.array(np.full(nw, nstep, np.int32), dtype=wp.int32)
+        before = [p.initial_state[0] for p in ps]  # the state at each chunk's first sample, rollout's layout
+        wall = 0.0
+        for k0 in range(0, nstep, chunk):
+            k1 = min(nstep, k0 + chunk)
+            ctrl, mocap = _inputs(ps, k0, k1)
+            ctrl_in, mocap_in = wp.array(ctrl, dtype=wp.float32), wp.array(mocap, dtype=wp.vec3)
+            if mjm.nu:
+                d.ctrl.assign(ctrl[0])
+            if mjm.nmocap:
+                d.mocap_pos.assign(mocap[0])
+            record = wp.launch(_record_kernel(), dim=nw, record_cmd=True,
+                               inputs=[0, k0, d.qpos, d.qvel, d.qacc, d.sensordata, d.ctrl, d.mocap_pos, ctrl_in,
+                                       mocap_in, *out, bad_acc])
+            wp.synchronize()
+            start = time.perf_counter()
+            for j in range(k1 - k0):
+                mjw.step(worlds.model, d)
+                record.set_param_at_index(0, j)
+                record.launch()
+            wp.synchronize()
+            wall += time.perf_counter() - start
+            qpos, qvel, sens = (a.numpy()[: k1 - k0].astype(np.float64) for a in out)
+            bad = bad_acc.numpy()
+            times = s0.dt * np.arange(k0 + 1, k1 + 1)
+            for w, r in enumerate(runs):
+                # the rollout layout _Run reads: row j = time, qpos, qvel after step k0 + j
+                state = np.concatenate([(r.p.scene.initial.t + times)[:, None], qpos[:, w], qvel[:, w]], axis=1)
+                if bad[w] < k1:
+                    _flag_bad_acceleration(r, state, int(bad[w]), k0)
+                r.take(k0, before[w], state, sens[:, w])
+                before[w] = state[-1]
+            if all(r.bad_at >= 0 for r in runs):
+                break
+    return runs, wall, warmup
+
+
+def _record(scene: Scene, s: MujocoWarpSettings, device: str) -> dict[str, Any]:
+    """The settings as run: MuJoCo's record, and what computed them (precision, device, versions)."""
+    wp, _ = warp_modules()
+    from importlib.metadata import version
+
+    return {**_settings_record(scene, s), "precision": s.precision, "device": device,
+            "mujoco_warp_version": version("mujoco-warp"), "warp_version": wp.__version__}
+
+
+def _run_group(jobs: list[tuple[Scene, MujocoWarpSettings]], ps: list[_Prepared], device: str) -> list[Trajectory]:
+    """The runs as the worlds of one MuJoCo Warp model, or each alone when they cannot share one."""
+    models = [dataclasses.replace(p, model=warp_model(p.model)) for p in ps]
+    try:
+        worlds = put_worlds([p.model for p in models], device)
+    except Incompatible:
+        return [traj for job, p in zip(jobs, ps) for traj in _run_group([job], [p], device)]
+    runs, wall, warmup = _roll_worlds(worlds, models)
+    return [dataclasses.replace(r.trajectory(wall / len(jobs), {**_record(scene, s, device), "batch_size": len(jobs),
+                                                                "warmup_s": warmup}), engine=NAME)
+            for r, (scene, s) in zip(runs, jobs)]
+
+
+def _signature(p: _Prepared) -> tuple:
+    """What must agree for runs to share one model: sizes, steps, controls (MuJoCo's ``run._signature``)."""
+    return (p.model.signature, p.nstep, p.model.nu, p.model.nmocap)
+
+
+def run_batch(jobs: Sequence[tuple[Scene, MujocoWarpSettings]]) -> list[Trajectory]:
+    """Run many (scene, settings) pairs; each group of compatible runs as the worlds of one MuJoCo Warp model.
+
+    Compatible: same model sizes, step count, controls layout and device, and no difference
+    outside MuJoCo Warp's per-world fields (``worlds.put_worlds``); the others run apart.
+    ``settings["batch_size"]`` says how many worlds shared the call and ``wall_time`` is the
+    run's share of its batch's stepping time. Raises SettingsError, like ``run``, before
+    anything runs (a device that is not there is such an error).
+    """
+    jobs = list(jobs)
+    devices = []
+    for scene, s in jobs:
+        build_spec(scene, s)  # settings errors first, for every job
+        devices.append(_device(s))
+    out: list[Trajectory | None] = [None] * len(jobs)
+    groups: dict[tuple, list[tuple[int, _Prepared]]] = {}
+    for i, (scene, s) in enumerate(jobs):
+        try:  # the MuJoCo engine's model and initial state
+            prepared = _prepare(scene, s, n_steps(scene.duration, s.dt))
+            groups.setdefault((devices[i], _signature(prepared)), []).append((i, prepared))
+        except Exception as exc:  # an engine failure is a result, not a crash
+            out[i] = _error(scene, s, devices[i], f"{type(exc).__name__}: {exc}")
+    for (device, _), members in groups.items():
+        idx = [i for i, _ in members]
+        try:
+            trajs = _run_group([jobs[i] for i in idx], [p for _, p in members], device)
+        except Exception as exc:  # an engine failure is a result, not a crash
+            trajs = [_error(*jobs[i], device, f"{type(exc).__name__}: {exc}") for i in idx]
+        for i, traj in zip(idx, trajs):
+            out[i] = traj
+    return out  # type: ignore[return-value]  # every job is in a group or failed
+
+
+def _error(scene: Scene, s: MujocoWarpSettings, device: str, message: str) -> Trajectory:
+    """The ``error`` trajectory of a run that failed before its first step."""
+    return dataclasses.replace(_failed(scene, _record(scene, s, device), "error", message), engine=NAME)
+
+
+def _device(s: MujocoWarpSettings) -> str:
+    """The warp device of settings ``s``; a device that is not there is the user's SettingsError."""
+    from ..settings import SettingsError
+
+    try:
+        return device_name(s.device)
+    except RuntimeError as exc:
+        raise SettingsError(str(exc)) from None
+
+
+def run(scene: Scene, settings: MujocoWarpSettings | None = None) -> Trajectory:
+    """Simulate ``scene.duration`` seconds from ``scene.initial`` in one world (see ``run_batch``).
+
+    Raises
+    ------
+    SettingsError
+        Settings the scene cannot run with, or a device warp does not find (checked before
+        MuJoCo Warp is called). What goes wrong inside it is ``status = "error"`` instead.
+    """
+    return run_batch([(scene, settings or MujocoWarpSettings())])[0]
+
+
+def benchmark(scene: Scene, settings: MujocoWarpSettings | None = None, steps: int = 200_000,
+              repeats: int = 3) -> dict[str, Any]:
+    """Steps per second of ``run`` (one world, all adapter work) and of the bare ``mujoco_warp.step`` loop.
+
+    At most ``BENCH_STEP_CAP`` steps per repeat (``n_steps`` says how many): on the CPU device
+    a step costs the same from the first to the last, so more only takes longer. Returns the
+    keys of ``mujoco_engine.run.benchmark`` and ``device``, ``precision``.
+    """
+    check_integer("steps", steps, lo=1)
+    check_integer("repeats", repeats, lo=1)
+    s = settings or MujocoWarpSettings()
+    short = dataclasses.replace(scene, duration=min(steps, BENCH_STEP_CAP) * s.dt)
+    figures = world_steps_per_s(short, s, nworld=1, repeats=repeats)
+    adapter, traj = math.inf, None
+    for _ in range(repeats):
+        start = time.perf_counter()
+        traj = run(short, s)
+        adapter = min(adapter, time.perf_counter() - start)
+    n = n_steps(short.duration, s.dt)
+    return {"scene": scene.name, "n_steps": n, "repeats": repeats, "adapter_steps_per_s": n / adapter,
+            "raw_steps_per_s": figures["world_steps_per_s"], "ratio": (n / adapter) / figures["world_steps_per_s"],
+            "status": traj.status, "device": figures["device"], "precision": s.precision}
+
+
+def world_steps_per_s(scene: Scene, settings: MujocoWarpSettings | None = None, nworld: int = 1,
+                      repeats: int = 3) -> dict[str, Any]:
+    """World-steps per second of the bare ``mujoco_warp.step`` loop: ``nworld`` copies of ``scene`` stepped
+    ``n_steps(scene.duration, dt)`` times, best of ``repeats`` (kernels loaded before the clock starts).
+
+    Returns ``device``, ``nworld``, ``steps``, ``seconds`` (best repeat), ``world_steps_per_s``, ``warmup_s``.
+    """
+    check_integer("nworld", nworld, lo=1)
+    check_integer("repeats", repeats, lo=1)
+    s = settings or MujocoWarpSettings()
+    wp, mjw = warp_modules()
+    device = _device(s)
+    p = _prepare(scene, s, n_steps(scene.duration, s.dt))
+    model = warp_model(p.model)
+    worlds = put_worlds([model], device)
+    with wp.ScopedDevice(device):
+        d = mjw.put_data(model, p.data, nworld=nworld)
+        if model.nu:
+            d.ctrl.assign(np.tile(_controls(p, 0, 1)[0, :, : model.nu].astype(np.float32), (nworld, 1)))
+        start = time.perf_counter()
+        mjw.step(worlds.model, d)
+        wp.synchronize()
+        warmup, best = time.perf_counter() - start, math.inf
+        for _ in range(repeats):
+            start = time.perf_counter()
+            for _ in range(p.nstep):
+                mjw.step(worlds.model, d)
+            wp.synchronize()
+            best = min(best, time.perf_counter() - start)
+    return {"device": device, "nworld": nworld, "steps": p.nstep, "seconds": best,
+            "world_steps_per_s": nworld * p.nstep / best, "warmup_s": warmup}
