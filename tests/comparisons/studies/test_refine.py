@@ -9,11 +9,6 @@ bit-identical rows.
 from __future__ import annotations
 
 import itertools
-import os
-import signal
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import matplotlib
@@ -150,11 +145,6 @@ def test_refined_cells_are_drawn_at_their_size(sweeps):
         assert sorted(map(tuple, coll.get_facecolors())) == sorted(want)
 
 
-def _cli(*args: str) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "chatterbench.comparisons.cli", "sweep", *args],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-
-
 def _has_level(out: Path, level: int) -> bool:
     try:
         rows = read_rows(out, dedupe=False)
@@ -164,23 +154,18 @@ def _has_level(out: Path, level: int) -> bool:
 
 
 @pytest.mark.slow
-def test_refined_sweep_killed_mid_level_resumes_to_the_uninterrupted_rows(sweeps):
+def test_refined_sweep_killed_mid_level_resumes_to_the_uninterrupted_rows(sweeps, sweep_process):
+    start, kill_when = sweep_process
     _, adaptive, _, tmp = sweeps
     out = tmp / "killed"
     # one run a unit, one worker: level 1 takes many parts, so the kill lands inside it
-    proc = _cli(str(tmp / "spec.toml"), "--out", str(out), "--workers", "1", "--batch", "1")
-    deadline = time.monotonic() + 60
-    while not ((out / "rows").is_dir() and _has_level(out, 1)):
-        assert proc.poll() is None, f"sweep ended before it could be killed: {proc.communicate()}"
-        assert time.monotonic() < deadline, "no level-1 rows after 60 s"
-        time.sleep(0.02)
-    os.kill(proc.pid, signal.SIGKILL)
-    proc.wait()
+    proc = start(str(tmp / "spec.toml"), "--out", str(out), "--workers", "1", "--batch", "1")
+    kill_when(proc, lambda: (out / "rows").is_dir() and _has_level(out, 1), "no level-1 rows")
     partial = read_rows(out, dedupe=False)
     in_level_1 = int((partial["refine_level"] == 1).sum())
     # the kill must land inside level 1 for this test to mean anything (one run a part: it does)
     assert 0 < in_level_1 < adaptive.attrs["sweep"]["levels"][1], (in_level_1, adaptive.attrs["sweep"]["levels"])
-    resumed = _cli(str(tmp / "spec.toml"), "--out", str(out), "--workers", "2", "--resume")
+    resumed = start(str(tmp / "spec.toml"), "--out", str(out), "--workers", "2", "--resume")
     _, stderr = resumed.communicate(timeout=120)
     assert resumed.returncode == 0, stderr
     assert "set aside" not in stderr  # every part of later levels is recognised as this sweep's

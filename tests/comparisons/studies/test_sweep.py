@@ -6,10 +6,6 @@ compared exactly, because the same inputs give bit-identical engine runs and ver
 
 from __future__ import annotations
 
-import os
-import signal
-import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -34,11 +30,6 @@ def _rows(frame: pd.DataFrame) -> pd.DataFrame:
     return frame[COMPARED].sort_values(KEY).reset_index(drop=True)
 
 
-def _cli(*args: str) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "chatterbench.comparisons.cli", "sweep", *args],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-
-
 # 16 restitutions x 2 engines = 32 runs of ~0.1 s: long enough to be killed halfway
 RESUME_SPEC = """
 scene = "bouncing-ball"
@@ -55,23 +46,18 @@ restitution = [{values}]
 
 
 @pytest.mark.slow
-def test_killed_sweep_resumes_to_the_rows_of_an_uninterrupted_one(tmp_path):
+def test_killed_sweep_resumes_to_the_rows_of_an_uninterrupted_one(tmp_path, sweep_process):
+    start, kill_when = sweep_process
     values = ", ".join(repr(float(r)) for r in np.linspace(0.2, 0.8, 16))
     spec = _spec(tmp_path, RESUME_SPEC.format(values=values))
     out = tmp_path / "killed"
-    proc = _cli(str(spec), "--out", str(out), "--workers", "2")
-    deadline = time.monotonic() + 60
-    while not list((out / "rows").glob("part-*.parquet")) if (out / "rows").exists() else True:
-        assert proc.poll() is None, f"sweep ended before it could be killed: {proc.communicate()}"
-        assert time.monotonic() < deadline, "no rows after 60 s"
-        time.sleep(0.02)
-    os.kill(proc.pid, signal.SIGKILL)
-    proc.wait()
+    proc = start(str(spec), "--out", str(out), "--workers", "2")
+    kill_when(proc, lambda: (out / "rows").exists() and bool(list((out / "rows").glob("part-*.parquet"))), "no rows")
     partial = read_rows(out, dedupe=False)
     total = len(sweep_runs(load_sweep(spec)))
     assert 0 < len(partial) < total, "the kill must land halfway for this test to mean anything"
 
-    resumed = _cli(str(spec), "--out", str(out), "--workers", "2", "--resume")
+    resumed = start(str(spec), "--out", str(out), "--workers", "2", "--resume")
     stdout, stderr = resumed.communicate(timeout=120)
     assert resumed.returncode == 0, stderr
     raw = read_rows(out, dedupe=False)
