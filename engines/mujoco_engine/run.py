@@ -260,7 +260,8 @@ def run_batch(jobs: list[tuple[Scene, MujocoSettings]]) -> list[Trajectory]:
     MjData); its ``wall_time`` is its share of its group's stepping time (group wall / group
     size) and ``settings["batch_size"]`` says how many shared it. A group in which MuJoCo
     warned (a possible blow-up) is rerun one run at a time, so that a diverged run is
-    classified alone. Raises SettingsError, like ``run``, before anything runs.
+    classified alone; a group of one already is that run, and is not rolled twice. Raises
+    SettingsError, like ``run``, before anything runs.
     """
     for scene, s in jobs:
         build_spec(scene, s)  # settings errors first, for every job
@@ -279,7 +280,11 @@ def run_batch(jobs: list[tuple[Scene, MujocoSettings]]) -> list[Trajectory]:
                 runs, wall = _roll([p for _, p in members], None)
         except Exception:  # rerun alone: each run's own failure is then its own result
             runs = None
-        if len(members) == 1 or runs is None or any(r.warned or r.bad_at >= 0 for r in runs):
+        if runs is not None and len(members) == 1:  # a group of one is the run alone, rolled as run() rolls it
+            (i, _), (r,) = members[0], runs
+            out[i] = r.trajectory(wall, _settings_record(*jobs[i]))
+            continue
+        if runs is None or any(r.warned or r.bad_at >= 0 for r in runs):
             for i, _ in members:  # a possible blow-up is run and classified alone, as one call
                 out[i] = run(*jobs[i])
             continue

@@ -34,9 +34,9 @@ import pandas as pd
 
 from chatterbench.comparisons.outputs.sweep_data import REFINE_LEVEL
 from chatterbench.comparisons.pipeline.summary import point_id
-from chatterbench.reference.errors import is_number
 
 from .refine import boundary_label, fill, lattice, refine_axis_values, split_points
+from .dataset import same_value
 from .spec import RunTask, Sweep, run_params, seen_by, sweep_runs
 
 Cell = tuple[int, int]  # fine indices (i along axes[0], j along axes[1])
@@ -55,13 +55,6 @@ def fine_sweep(sweep: Sweep) -> Sweep:
     r = sweep.refine
     grid = {k: (lattice(refine_axis_values(v), r.depth) if k in r.axes else v) for k, v in sweep.grid.items()}
     return dataclasses.replace(sweep, grid=grid, refine=None)
-
-
-def _equal(got: Any, want: Any) -> bool:
-    try:
-        return float(got) == float(want) if is_number(want) else bool(got == want)
-    except (TypeError, ValueError):
-        return False
 
 
 class Levels:
@@ -145,7 +138,7 @@ class Levels:
                 if not seen_by(k, e):
                     continue
                 allowed = [self.sweep.fixed[k]] if k in self.sweep.fixed else self.values.get(k, grid[k])
-                match = [a for a in allowed if _equal(rec.get(k), a)]
+                match = [a for a in allowed if same_value(rec.get(k), a)]
                 if not match:
                     break
                 point[k] = match[0]
@@ -167,7 +160,7 @@ def _cells(levels: Levels, rows: pd.DataFrame, engine: str, where: Mapping[str, 
     """``engine``'s rows of one slice that sit on the fine lattice, with their fine indices ``i``, ``j``."""
     sub = rows[rows["engine"] == engine]
     for k, v in where.items():
-        sub = sub[[_equal(x, v) for x in sub[k]]] if k in sub else sub.iloc[0:0]
+        sub = sub[[same_value(x, v) for x in sub[k]]] if k in sub else sub.iloc[0:0]
     x, y = levels.axes
     i = [levels.index[x].get(float(v)) for v in sub[x]]
     j = [levels.index[y].get(float(v)) for v in sub[y]]

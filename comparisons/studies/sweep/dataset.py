@@ -99,7 +99,7 @@ def read_rows(out_dir: str | Path, dedupe: bool = True) -> pd.DataFrame:
     return _frame_of([_read_part(p) for p in _part_paths(out_dir)], dedupe)
 
 
-def _same(got: Any, want: Any) -> bool:
+def same_value(got: Any, want: Any) -> bool:
     """A row's parameter value is its point's (a NaN of a missing column never is)."""
     try:
         return float(got) == float(want) if is_number(want) else bool(got == want)
@@ -145,7 +145,7 @@ def part_problem(path: Path, runs: Mapping[tuple[str, str], Any], fingerprint: s
     for i, key in enumerate(keys):
         for name, want in runs[key].params:
             got = frame[name].iat[i] if name in frame else math.nan
-            if name != "dt" and not _same(got, want):  # dt: the engine's own, in ROW_COLUMNS
+            if name != "dt" and not same_value(got, want):  # dt: the engine's own, in ROW_COLUMNS
                 return None, f"another schema: row {i} has {name} = {got!r}, its point has {want!r}"
     return frame, None
 
