@@ -75,8 +75,8 @@ def cmd_chart(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else _default_out(Path(args.dataset))
     check_dir("--out", out)
     from chatterbench.comparisons.outputs.stability_map import stability_map_figure, verdict_grid  # draws: loads matplotlib (0.7 s), so only when asked
-    from chatterbench.comparisons.outputs.work_precision import (panel_metrics, pareto_front, work_precision_figure,
-                                                                 work_precision_points)
+    from chatterbench.comparisons.outputs.work_precision import (default_error, panel_metrics, pareto_front,
+                                                                 work_precision_figure, work_precision_points)
 
     rows = load_rows(args.dataset)
     rows = _where(rows, args.where or [])
@@ -87,13 +87,12 @@ def cmd_chart(args: argparse.Namespace) -> int:
         rows = rows[rows["engine"].astype(str).isin(engines)]
     engine = engines[0] if len(engines) == 1 else None
     if args.kind == "work-precision":
-        if args.error is None:
-            args.error = "exit_error_rel_max" if "exit_error_rel_max" in rows else "exit_error_max"
         if args.x or args.y:
             raise UsageError("--x/--y are for --kind stability; work-precision always draws error against cost")
-        fig = work_precision_figure(rows, error=args.error, reference_cost=args.reference_cost,
+        error = args.error or default_error(rows)
+        fig = work_precision_figure(rows, error=error, reference_cost=args.reference_cost,
                                     reference_error=args.reference_error)
-        metrics, empty = panel_metrics(rows, args.error)
+        metrics, empty = panel_metrics(rows, error)
         points = work_precision_points(rows, metrics)
         for m in metrics:
             points[f"front_{m.removesuffix('_max')}"] = pareto_front(points, m).map({True: "*", False: ""})

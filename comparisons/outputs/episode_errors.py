@@ -33,6 +33,8 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
+from chatterbench.comparisons.pipeline.vocabulary import PASSING
+
 from .style import ENGINE_COLORS
 
 CLIP = 8.0  # a panel spans at most this many tolerances either side of zero; past it, points sit on the edge
@@ -92,8 +94,7 @@ def _panel(ax, comparison, column: str, field: str, label: str, why: str) -> boo
         has_ref = {"stick_error_rel": np.isfinite(mine["ref_t_stick"].astype(float)) | (mine["verdict"] == "spurious"),
                    "exit_error_rel": np.isfinite(mine["ref_t_exit"].astype(float)),
                    "restitution_error": mine["ref_resolved_impacts"] > 0}[column].to_numpy(bool)
-        lost = ~np.isfinite(v) & np.isfinite(x) & has_ref & ~mine["verdict"].isin(("match", "rebound", "early", "late",
-                                                                                  "none")).to_numpy()
+        lost = ~np.isfinite(v) & np.isfinite(x) & has_ref & ~mine["verdict"].isin((*PASSING, "none")).to_numpy()
         if lost.any():
             ax.plot(x[lost], np.zeros(lost.sum()), ls="none", marker="x", ms=7, mew=1.6, color=color, zorder=3,
                     gid=f"unmeasured:{column}:{name}")

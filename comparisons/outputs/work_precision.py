@@ -166,14 +166,21 @@ def _why_empty(rows: pd.DataFrame, metric: str) -> str:
     return f"no {label} measured in these runs"
 
 
-def panel_metrics(rows: pd.DataFrame, error: str = RELATIVE[0]) -> tuple[list[str], list[str]]:
+def default_error(rows: pd.DataFrame) -> str:
+    """The first panel's metric when none is asked for: the relative exit error, or the exit error in
+    seconds for a dataset written before the relative errors existed (it has no such column)."""
+    return RELATIVE[0] if RELATIVE[0] in rows else "exit_error_max"
+
+
+def panel_metrics(rows: pd.DataFrame, error: str | None = None) -> tuple[list[str], list[str]]:
     """The metrics the chart draws and a sentence for each one asked for that no row measured.
 
-    Asked for: ``error`` and the sticking start in the same unit (relative or seconds). A
-    metric with no finite value gives its panel to the next of ``FALLBACK`` that has one
-    (the ball never exits: sticking start and restitution instead); with nothing measured,
-    the one panel of ``error`` (it says why).
+    Asked for: ``error`` (None: ``default_error``) and the sticking start in the same unit
+    (relative or seconds). A metric with no finite value gives its panel to the next of
+    ``FALLBACK`` that has one (the ball never exits: sticking start and restitution instead);
+    with nothing measured, the one panel of ``error`` (it says why).
     """
+    error = error or default_error(rows)
     unit = "s" if error in FALLBACK["s"] or error == "stick_error_plate_max" else "rel"
     asked = list(dict.fromkeys([error, "stick_error_rel_max" if unit == "rel" else "stick_error_max"]))
     has = {m: m in rows and np.isfinite(pd.to_numeric(rows[m], errors="coerce")).any() for m in {*asked, *FALLBACK[unit]}}
@@ -245,15 +252,15 @@ def measured_reference_cost(rows: pd.DataFrame) -> float | None:
     return float(cost.median()) if len(cost) else None
 
 
-def work_precision_figure(rows: pd.DataFrame, error: str = RELATIVE[0], reference_cost: float | None = None,
+def work_precision_figure(rows: pd.DataFrame, error: str | None = None, reference_cost: float | None = None,
                           reference_error: float | None = None, tolerances: Tolerances | None = None) -> Figure:
     """Error against cost per engine, log-log: the exit time panel and the sticking start panel (module docstring).
 
     Parameters
     ----------
     rows : sweep dataset (``summary.ROW_COLUMNS`` plus one column per parameter).
-    error : str
-        Metric of the first panel (``exit_error_rel_max`` default); the second is the
+    error : str, optional
+        Metric of the first panel (default ``default_error``: ``exit_error_rel_max``); the second is the
         sticking start in the same unit (``stick_error_rel_max``, or ``stick_error_max`` [s]
         for a metric in seconds). ``panel_metrics`` says what replaces a metric no row measured.
     reference_cost : float, optional
@@ -266,6 +273,7 @@ def work_precision_figure(rows: pd.DataFrame, error: str = RELATIVE[0], referenc
     tolerances : Tolerances, optional
         Drawn as a dashed line on each relative panel; default ``Tolerances()``.
     """
+    error = error or default_error(rows)
     metrics, empty = panel_metrics(rows, error)
     tolerances = tolerances or Tolerances()
     points = work_precision_points(rows, metrics)

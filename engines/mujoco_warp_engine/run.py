@@ -43,7 +43,7 @@ import numpy as np
 from chatterbench.reference.errors import check_integer
 from chatterbench.reference.scene import Scene
 
-from ..base import n_steps
+from ..base import _version, n_steps
 from ..mujoco_engine.model import build_spec
 from ..mujoco_engine.run import MAXVAL, _controls, _failed, _prepare, _Prepared, _Run, _settings_record
 from ..trajectory import Trajectory
@@ -170,10 +170,8 @@ def _roll_worlds(worlds: Worlds, ps: list[_Prepared], compact_above: float | Non
 def _record(scene: Scene, s: MujocoWarpSettings, device: str) -> dict[str, Any]:
     """The settings as run: MuJoCo's record, and what computed them (precision, device, versions)."""
     wp, _ = warp_modules()
-    from importlib.metadata import version
-
     return {**_settings_record(scene, s), "precision": s.precision, "device": device,
-            "mujoco_warp_version": version("mujoco-warp"), "warp_version": wp.__version__}
+            "mujoco_warp_version": _version("mujoco-warp"), "warp_version": wp.__version__}
 
 
 def _run_group(jobs: list[tuple[Scene, MujocoWarpSettings]], ps: list[_Prepared], device: str) -> list[Trajectory]:

@@ -344,7 +344,7 @@ def _validate(sweep: Sweep) -> None:
             if where != "set" and k in fixed:
                 raise sweep.fail(f"{where}.{k}: also in [set]; a key is either fixed or varied")
     if sweep.refine is not None:  # its axes' values become floats: a split value is one, and one column type
-        set_("refine", make_refine(sweep.refine, grid, lambda text: sweep.fail(text)))
+        set_("refine", make_refine(sweep.refine, grid, sweep.fail))
         grid.update({a: tuple(float(v) for v in grid[a]) for a in sweep.refine.axes})
     set_("fixed", fixed)
     set_("grid", grid)

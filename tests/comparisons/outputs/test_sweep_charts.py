@@ -16,7 +16,8 @@ from chatterbench.comparisons.pipeline.summary import ROW_COLUMNS, summarize
 from chatterbench.comparisons.pipeline.vocabulary import combine as point_verdict
 from chatterbench.comparisons.outputs.stability_map import stability_map_figure, verdict_grid
 from chatterbench.comparisons.outputs.sweep_data import PASSING, VERDICT_ABBREV, VERDICT_COLORS, ChartError
-from chatterbench.comparisons.outputs.work_precision import pareto_front, work_precision_figure, work_precision_points
+from chatterbench.comparisons.outputs.work_precision import (default_error, panel_metrics, pareto_front,
+                                                             work_precision_figure, work_precision_points)
 from chatterbench.reference import load_scene
 
 pytestmark = pytest.mark.slow  # the module fixtures run 57 comparisons (about 8 s)
@@ -431,3 +432,15 @@ def test_an_engine_with_two_levers_gets_one_curve_per_lever():
     assert sorted(by_curve["drake (mode=continuous)"]["lever_value"]) == [1e-4, 1e-2]
     assert set(by_curve["drake (mode=discrete)"]["lever"]) == {"dt"}
     assert sorted(by_curve["drake (mode=discrete)"]["lever_value"]) == [1e-4, 3e-4, 1e-3]
+
+
+def test_a_dataset_without_relative_errors_is_charted_in_seconds():
+    # a sweep written before the relative errors existed (no *_rel_max columns): the chart and the
+    # report's sweep section draw the errors in seconds instead of refusing the dataset
+    rows = pd.DataFrame([{"scene": "feigin-pair", "engine": "pybullet", "dt": dt, "verdict": "match", "cost_per_sim_s": c,
+                          "exit_error_max": e, "stick_error_max": 2 * e} for dt, c, e in ((1e-3, 0.02, 1e-3), (1e-4, 0.2, 1e-4))])
+    assert default_error(rows) == "exit_error_max"
+    assert panel_metrics(rows)[0] == ["exit_error_max", "stick_error_max"]
+    fig = work_precision_figure(rows)
+    assert len(fig.axes) >= 2
+    assert default_error(rows.assign(exit_error_rel_max=0.01)) == "exit_error_rel_max"
