@@ -57,7 +57,7 @@ def _quiet_mujoco_log():
 
 
 @dataclass
-class _Prepared:
+class Prepared:
     """A compiled model with everything ``rollout`` needs, built before the clock starts."""
 
     scene: Scene
@@ -69,7 +69,7 @@ class _Prepared:
     nstep: int  # steps rolled out: n + 1 (the last gives the final sample's sensors)
 
 
-def _prepare(scene: Scene, s: MujocoSettings, n: int) -> _Prepared:
+def prepare(scene: Scene, s: MujocoSettings, n: int) -> Prepared:
     model = build(scene, s)
     data = mujoco.MjData(model)
     ini = scene.initial
@@ -87,10 +87,10 @@ def _prepare(scene: Scene, s: MujocoSettings, n: int) -> _Prepared:
         control_spec |= mujoco.mjtState.mjSTATE_CTRL
     if model.nmocap:
         control_spec |= mujoco.mjtState.mjSTATE_MOCAP_POS
-    return _Prepared(scene, s, model, data, state0[None], int(control_spec) or int(mujoco.mjtState.mjSTATE_CTRL), n + 1)
+    return Prepared(scene, s, model, data, state0[None], int(control_spec) or int(mujoco.mjtState.mjSTATE_CTRL), n + 1)
 
 
-def _controls(p: _Prepared, k0: int, k1: int) -> np.ndarray | None:
+def rollout_controls(p: Prepared, k0: int, k1: int) -> np.ndarray | None:
     """Rollout's control input for steps k0 .. k1 - 1, shape (1, k1 - k0, ncontrol), or None (no controls)."""
     t = p.scene.initial.t + p.settings.dt * np.arange(k0, k1)  # = sample_times(scene, dt)[k0:k1], bit for bit
     parts = []
@@ -103,7 +103,7 @@ def _controls(p: _Prepared, k0: int, k1: int) -> np.ndarray | None:
     return np.ascontiguousarray(np.concatenate(parts, axis=1)[None]) if parts else None
 
 
-def _settings_record(scene: Scene, s: MujocoSettings) -> dict[str, Any]:
+def settings_record(scene: Scene, s: MujocoSettings) -> dict[str, Any]:
     """The settings as run, by MuJoCo's names: ours, and the solref / solimp they make."""
     zeta = s.zeta(scene.restitution)
     return {
@@ -116,18 +116,19 @@ def _settings_record(scene: Scene, s: MujocoSettings) -> dict[str, Any]:
     }
 
 
-def _failed(scene: Scene, record: dict[str, Any], status: str, message: str) -> Trajectory:
-    return failed_trajectory(NAME, scene, status, message, record)
+def failed_run(scene: Scene, record: dict[str, Any], status: str, message: str, engine: str = NAME) -> Trajectory:
+    """The trajectory of a run that failed before its first step (``base.failed_trajectory``), named ``engine``."""
+    return failed_trajectory(engine, scene, status, message, record)
 
 
 _WARNINGS = ("mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_BADQACC")
 
 
-class _Run:
+class RunRecord:
     """One run's samples as its chunks come out of ``rollout``: checked, converted, handed to its recorder."""
 
-    def __init__(self, p: _Prepared, compact_above: float | None) -> None:
-        self.p = p
+    def __init__(self, p: Prepared, compact_above: float | None, engine: str = NAME) -> None:
+        self.p, self.engine = p, engine  # engine: the name the trajectory carries (mujoco_warp records with this class too)
         self.recorder = Recorder(p.scene, p.nstep, compact_above)
         self.bad_at = -1  # the first non-finite, huge or rewound sample (-1: none yet)
         self.warned: set[str] = set()
@@ -185,11 +186,11 @@ class _Run:
                        f"MuJoCo warnings: {', '.join(sorted(self.warned, key=_WARNINGS.index)) or 'none'}; "
                        f"w0_dt = {s.w0_dt}, integrator = {s.integrator}")
         zeta = s.zeta(self.p.scene.restitution)
-        return self.recorder.trajectory(NAME, wall, settings=record, status=status, message=message,
+        return self.recorder.trajectory(self.engine, wall, settings=record, status=status, message=message,
                                         contact_time=contact_duration(zeta, s.w0), contact_frequency=s.w0)
 
 
-def _roll(ps: list[_Prepared], compact_above: float | None) -> tuple[list[_Run], float]:
+def _roll(ps: list[Prepared], compact_above: float | None) -> tuple[list[RunRecord], float]:
     """Roll ``ps`` out, ``CHUNK`` steps of each in turn, each from where its last chunk ended.
 
     Each run has its own MjData: a chunk starts from the full physics state the last one ended
@@ -197,7 +198,7 @@ def _roll(ps: list[_Prepared], compact_above: float | None) -> tuple[list[_Run],
     one call, and MuJoCo's warnings are each run's own. A run that goes bad stops there.
     Returns each run and the stepping wall time.
     """
-    runs = [_Run(p, compact_above) for p in ps]
+    runs = [RunRecord(p, compact_above) for p in ps]
     states = [p.initial_state for p in ps]
     warm: list[np.ndarray | None] = [None] * len(ps)  # None: MjData's own (zero) warm start, as one call starts
     nstep, wall = ps[0].nstep, 0.0
@@ -206,7 +207,7 @@ def _roll(ps: list[_Prepared], compact_above: float | None) -> tuple[list[_Run],
         for b, (p, r) in enumerate(zip(ps, runs)):
             if r.bad_at >= 0:
                 continue
-            control = _controls(p, k0, k1)
+            control = rollout_controls(p, k0, k1)
             start = time.perf_counter()
             state, sensordata = mj_rollout.rollout(p.model, p.data, states[b], control, control_spec=p.control_spec,
                                                    nstep=k1 - k0, initial_warmstart=warm[b])
@@ -232,19 +233,19 @@ def run(scene: Scene, settings: MujocoSettings | None = None, compact_above: flo
         that goes wrong inside MuJoCo is returned as ``status = "error"`` instead.
     """
     s = settings or MujocoSettings()
-    record = _settings_record(scene, s)
+    record = settings_record(scene, s)
     n = n_steps(scene.duration, s.dt)
     build_spec(scene, s)  # settings errors surface here, as SettingsError, before MuJoCo runs
     try:
-        p = _prepare(scene, s, n)
+        p = prepare(scene, s, n)
         with _quiet_mujoco_log():
             (one,), wall = _roll([p], compact_above)
     except Exception as exc:  # an engine failure is a result, not a crash
-        return _failed(scene, record, "error", f"{type(exc).__name__}: {exc}")
+        return failed_run(scene, record, "error", f"{type(exc).__name__}: {exc}")
     return one.trajectory(wall, record)
 
 
-def _signature(p: _Prepared) -> tuple:
+def _signature(p: Prepared) -> tuple:
     """What must agree for runs to share one ``rollout`` call: sizes, steps, control layout."""
     return (p.model.signature, p.initial_state.shape[1], p.nstep, p.control_spec, p.model.nu, p.model.nmocap)
 
@@ -266,12 +267,12 @@ def run_batch(jobs: list[tuple[Scene, MujocoSettings]]) -> list[Trajectory]:
     for scene, s in jobs:
         build_spec(scene, s)  # settings errors first, for every job
     out: list[Trajectory | None] = [None] * len(jobs)
-    groups: dict[tuple, list[tuple[int, _Prepared]]] = {}
+    groups: dict[tuple, list[tuple[int, Prepared]]] = {}
     for i, (scene, s) in enumerate(jobs):
         try:
-            p = _prepare(scene, s, n_steps(scene.duration, s.dt))
+            p = prepare(scene, s, n_steps(scene.duration, s.dt))
         except Exception as exc:  # an engine failure is a result, not a crash
-            out[i] = _failed(scene, _settings_record(scene, s), "error", f"{type(exc).__name__}: {exc}")
+            out[i] = failed_run(scene, settings_record(scene, s), "error", f"{type(exc).__name__}: {exc}")
             continue
         groups.setdefault(_signature(p), []).append((i, p))
     for members in groups.values():
@@ -282,7 +283,7 @@ def run_batch(jobs: list[tuple[Scene, MujocoSettings]]) -> list[Trajectory]:
             runs = None
         if runs is not None and len(members) == 1:  # a group of one is the run alone, rolled as run() rolls it
             (i, _), (r,) = members[0], runs
-            out[i] = r.trajectory(wall, _settings_record(*jobs[i]))
+            out[i] = r.trajectory(wall, settings_record(*jobs[i]))
             continue
         if runs is None or any(r.warned or r.bad_at >= 0 for r in runs):
             for i, _ in members:  # a possible blow-up is run and classified alone, as one call
@@ -290,7 +291,7 @@ def run_batch(jobs: list[tuple[Scene, MujocoSettings]]) -> list[Trajectory]:
             continue
         for (i, _), r in zip(members, runs):
             scene, s = jobs[i]
-            out[i] = r.trajectory(wall / len(members), {**_settings_record(scene, s), "batch_size": len(members)})
+            out[i] = r.trajectory(wall / len(members), {**settings_record(scene, s), "batch_size": len(members)})
     return out  # type: ignore[return-value]
 
 
@@ -307,8 +308,8 @@ def benchmark(scene: Scene, settings: MujocoSettings | None = None, steps: int =
     s = settings or MujocoSettings()
     short = dataclasses.replace(scene, duration=steps * s.dt)
     n = n_steps(short.duration, s.dt)
-    p = _prepare(short, s, n)
-    control = _controls(p, 0, p.nstep)  # the bare engine: the whole run in one call, controls made beforehand
+    p = prepare(short, s, n)
+    control = rollout_controls(p, 0, p.nstep)  # the bare engine: the whole run in one call, controls made beforehand
     raw, adapter = math.inf, math.inf
     for _ in range(repeats):
         start = time.perf_counter()

@@ -14,7 +14,7 @@ into one MuJoCo Warp model of many worlds; one ``mujoco_warp.step`` advances the
 Per step, one small kernel records every world's state and sensors on the device and loads
 the next step's controls (``ctrl``, and ``mocap_pos`` for a prescribed body), as
 ``mujoco.rollout`` does for MuJoCo C; every ``window.CHUNK`` samples the chunk comes back and
-goes to the MuJoCo engine's recorder and checks (``mujoco_engine.run._Run``: contact flags and
+goes to the MuJoCo engine's recorder and checks (``mujoco_engine.run.RunRecord``: contact flags and
 forces from the same sensors, blow-ups, a long run kept compact), so memory stays bounded.
 
 Promises: sample k is the state after k steps and its contact force the one MuJoCo Warp
@@ -45,7 +45,7 @@ from chatterbench.reference.scene import Scene
 
 from ..base import _version, n_steps
 from ..mujoco_engine.model import build_spec
-from ..mujoco_engine.run import MAXVAL, _controls, _failed, _prepare, _Prepared, _Run, _settings_record
+from ..mujoco_engine.run import MAXVAL, rollout_controls, failed_run, prepare, Prepared, RunRecord, settings_record
 from ..trajectory import Trajectory
 from ..window import CHUNK
 from .settings import MujocoWarpSettings
@@ -89,36 +89,36 @@ def _record_kernel():
     return record
 
 
-def _inputs(ps: list[_Prepared], k0: int, k1: int) -> tuple[np.ndarray, np.ndarray]:
+def _inputs(ps: list[Prepared], k0: int, k1: int) -> tuple[np.ndarray, np.ndarray]:
     """Controls (k1 - k0, nworld, nu) and mocap positions (k1 - k0, nworld, nmocap, 3) of steps k0 .. k1 - 1."""
     model = ps[0].model
     ctrl = np.zeros((k1 - k0, len(ps), model.nu), np.float32)
     mocap = np.zeros((k1 - k0, len(ps), model.nmocap, 3), np.float32)
     for w, p in enumerate(ps):
-        control = _controls(p, k0, k1)  # the MuJoCo engine's rollout input, (1, k1 - k0, nu + 3 nmocap)
+        control = rollout_controls(p, k0, k1)  # the MuJoCo engine's rollout input, (1, k1 - k0, nu + 3 nmocap)
         if control is not None:
             ctrl[:, w] = control[0, :, : model.nu]
             mocap[:, w] = control[0, :, model.nu :].reshape(k1 - k0, model.nmocap, 3)
     return ctrl, mocap
 
 
-def _flag_bad_acceleration(r: _Run, state: np.ndarray, bad: int, k0: int) -> None:
+def _flag_bad_acceleration(r: RunRecord, state: np.ndarray, bad: int, k0: int) -> None:
     """Step ``bad`` (>= k0) had an acceleration past MAXVAL: MuJoCo C's warning, and the states after it dropped."""
     state[bad - k0:, 1:] = np.nan
     r.p.data.warning[int(mujoco.mjtWarning.mjWARN_BADQACC)].number = 1
     r.note_warnings(r.p.data)
 
 
-def _roll_worlds(worlds: Worlds, ps: list[_Prepared], compact_above: float | None = None) -> tuple[list[_Run], float, float]:
+def _roll_worlds(worlds: Worlds, ps: list[Prepared], compact_above: float | None = None) -> tuple[list[RunRecord], float, float]:
     """Step every world ``nstep`` times from its initial state with its controls, ``window.CHUNK`` samples of all
-    of them at a time, each chunk handed to its run's recorder (the MuJoCo engine's ``_Run``).
+    of them at a time, each chunk handed to its run's recorder (the MuJoCo engine's ``RunRecord``).
 
     Returns the runs, the stepping wall time [s] and the kernels' loading (first time: compiling) time [s].
     """
     wp, mjw = warp_modules()
     p0, nw = ps[0], len(ps)
     mjm, nstep, s0 = p0.model, p0.nstep, p0.settings
-    runs = [_Run(p, compact_above) for p in ps]
+    runs = [RunRecord(p, compact_above, engine=NAME) for p in ps]
     chunk = max(256, CHUNK // nw)
     with wp.ScopedDevice(worlds.device):
         start = time.perf_counter()
@@ -156,7 +156,7 @@ def _roll_worlds(worlds: Worlds, ps: list[_Prepared], compact_above: float | Non
             bad = bad_acc.numpy()
             times = s0.dt * np.arange(k0 + 1, k1 + 1)
             for w, r in enumerate(runs):
-                # the rollout layout _Run reads: row j = time, qpos, qvel after step k0 + j
+                # the rollout layout RunRecord reads: row j = time, qpos, qvel after step k0 + j
                 state = np.concatenate([(r.p.scene.initial.t + times)[:, None], qpos[:, w], qvel[:, w]], axis=1)
                 if bad[w] < k1:
                     _flag_bad_acceleration(r, state, int(bad[w]), k0)
@@ -170,11 +170,11 @@ def _roll_worlds(worlds: Worlds, ps: list[_Prepared], compact_above: float | Non
 def _record(scene: Scene, s: MujocoWarpSettings, device: str) -> dict[str, Any]:
     """The settings as run: MuJoCo's record, and what computed them (precision, device, versions)."""
     wp, _ = warp_modules()
-    return {**_settings_record(scene, s), "precision": s.precision, "device": device,
+    return {**settings_record(scene, s), "precision": s.precision, "device": device,
             "mujoco_warp_version": _version("mujoco-warp"), "warp_version": wp.__version__}
 
 
-def _run_group(jobs: list[tuple[Scene, MujocoWarpSettings]], ps: list[_Prepared], device: str) -> list[Trajectory]:
+def _run_group(jobs: list[tuple[Scene, MujocoWarpSettings]], ps: list[Prepared], device: str) -> list[Trajectory]:
     """The runs as the worlds of one MuJoCo Warp model, or each alone when they cannot share one."""
     models = [dataclasses.replace(p, model=warp_model(p.model)) for p in ps]
     try:
@@ -182,12 +182,11 @@ def _run_group(jobs: list[tuple[Scene, MujocoWarpSettings]], ps: list[_Prepared]
     except Incompatible:
         return [traj for job, p in zip(jobs, ps) for traj in _run_group([job], [p], device)]
     runs, wall, warmup = _roll_worlds(worlds, models)
-    return [dataclasses.replace(r.trajectory(wall / len(jobs), {**_record(scene, s, device), "batch_size": len(jobs),
-                                                                "warmup_s": warmup}), engine=NAME)
+    return [r.trajectory(wall / len(jobs), {**_record(scene, s, device), "batch_size": len(jobs), "warmup_s": warmup})
             for r, (scene, s) in zip(runs, jobs)]
 
 
-def _signature(p: _Prepared) -> tuple:
+def _signature(p: Prepared) -> tuple:
     """What must agree for runs to share one model: sizes, steps, controls (MuJoCo's ``run._signature``)."""
     return (p.model.signature, p.nstep, p.model.nu, p.model.nmocap)
 
@@ -207,10 +206,10 @@ def run_batch(jobs: Sequence[tuple[Scene, MujocoWarpSettings]]) -> list[Trajecto
         build_spec(scene, s)  # settings errors first, for every job
         devices.append(_device(s))
     out: list[Trajectory | None] = [None] * len(jobs)
-    groups: dict[tuple, list[tuple[int, _Prepared]]] = {}
+    groups: dict[tuple, list[tuple[int, Prepared]]] = {}
     for i, (scene, s) in enumerate(jobs):
         try:  # the MuJoCo engine's model and initial state
-            prepared = _prepare(scene, s, n_steps(scene.duration, s.dt))
+            prepared = prepare(scene, s, n_steps(scene.duration, s.dt))
             groups.setdefault((devices[i], _signature(prepared)), []).append((i, prepared))
         except Exception as exc:  # an engine failure is a result, not a crash
             out[i] = _error(scene, s, devices[i], f"{type(exc).__name__}: {exc}")
@@ -227,7 +226,7 @@ def run_batch(jobs: Sequence[tuple[Scene, MujocoWarpSettings]]) -> list[Trajecto
 
 def _error(scene: Scene, s: MujocoWarpSettings, device: str, message: str) -> Trajectory:
     """The ``error`` trajectory of a run that failed before its first step."""
-    return dataclasses.replace(_failed(scene, _record(scene, s, device), "error", message), engine=NAME)
+    return failed_run(scene, _record(scene, s, device), "error", message, engine=NAME)
 
 
 def _device(s: MujocoWarpSettings) -> str:
@@ -288,13 +287,13 @@ def world_steps_per_s(scene: Scene, settings: MujocoWarpSettings | None = None, 
     s = settings or MujocoWarpSettings()
     wp, mjw = warp_modules()
     device = _device(s)
-    p = _prepare(scene, s, n_steps(scene.duration, s.dt))
+    p = prepare(scene, s, n_steps(scene.duration, s.dt))
     model = warp_model(p.model)
     worlds = put_worlds([model], device)
     with wp.ScopedDevice(device):
         d = mjw.put_data(model, p.data, nworld=nworld)
         if model.nu:
-            d.ctrl.assign(np.tile(_controls(p, 0, 1)[0, :, : model.nu].astype(np.float32), (nworld, 1)))
+            d.ctrl.assign(np.tile(rollout_controls(p, 0, 1)[0, :, : model.nu].astype(np.float32), (nworld, 1)))
         start = time.perf_counter()
         mjw.step(worlds.model, d)
         wp.synchronize()
