@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from chatterbench.comparisons.outputs.atomic import write_bytes, write_frame
+from chatterbench.comparisons.outputs.atomic import write_frame
 from chatterbench.comparisons.pipeline.budget import check_comparison
 from chatterbench.comparisons.pipeline.solution import solve
 from chatterbench.comparisons.studies.restitution_curve import (ABOVE, DEFAULT_POINTS, DECADES_BELOW, MAX_POINTS, default_speeds,
@@ -103,7 +103,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
                           "speed: incoming [m/s]; error e/R - 1)")
     if args.out:
         out = Path(args.out)
-        from chatterbench.comparisons.outputs.figures import figure_bytes  # draws: loads matplotlib (0.7 s), so only when asked
+        from chatterbench.comparisons.outputs.figures import write_figure  # draws: loads matplotlib (0.7 s), so only when asked
         from chatterbench.comparisons.outputs.restitution_curve import restitution_curve_figure
 
         fig = restitution_curve_figure(curve, impacts if len(impacts) else None, scene.name)
@@ -111,8 +111,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
             write_frame(out / "calibration.csv", curve)
             if len(impacts):
                 write_frame(out / "impacts.csv", impacts)
-            write_bytes(out / "restitution_curve.png", figure_bytes(fig, "png"))
-            write_bytes(out / "restitution_curve.svg", figure_bytes(fig, "svg"))
+            write_figure(fig, out, "restitution_curve")
         print(f"wrote {out / 'calibration.csv'}{', impacts.csv' if len(impacts) else ''}, restitution_curve.png, "
               "restitution_curve.svg")
     return 0

@@ -18,7 +18,6 @@ from pathlib import Path
 
 import pandas as pd
 
-from chatterbench.comparisons.outputs.atomic import write_bytes
 from chatterbench.comparisons.outputs.sweep_data import check_columns, equals, parameter_columns
 from chatterbench.comparisons.studies.sweep.dataset import load_rows
 
@@ -65,10 +64,10 @@ def _default_out(dataset: Path) -> Path:
 
 
 def _save(fig, out: Path, stem: str) -> list[Path]:
-    from chatterbench.comparisons.outputs.figures import figure_bytes  # draws: loads matplotlib (0.7 s), so only when asked
+    from chatterbench.comparisons.outputs.figures import write_figure  # draws: loads matplotlib (0.7 s), so only when asked
 
     with writing("--out", out):
-        return [write_bytes(out / f"{stem}.{fmt}", figure_bytes(fig, fmt)) for fmt in ("png", "svg")]
+        return write_figure(fig, out, stem)
 
 
 def cmd_chart(args: argparse.Namespace) -> int:

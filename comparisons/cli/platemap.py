@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from chatterbench.comparisons.outputs.atomic import write_bytes, write_frame
+from chatterbench.comparisons.outputs.atomic import write_frame
 from chatterbench.comparisons.pipeline.budget import check_plate_map
 from chatterbench.comparisons.studies.plate_map import plate_map
 from chatterbench.reference.scene import load_scene
@@ -45,12 +45,11 @@ def cmd_platemap(args: argparse.Namespace) -> int:
         out = Path(args.out)
         with writing("--out", out):
             write_frame(out / "plate_map.csv", table)
-            from chatterbench.comparisons.outputs.figures import figure_bytes  # draws: loads matplotlib (0.7 s), so only when asked
+            from chatterbench.comparisons.outputs.figures import write_figure  # draws: loads matplotlib (0.7 s), so only when asked
             from chatterbench.comparisons.outputs.plate_map_figure import plate_map_figure
 
             fig = plate_map_figure(table, scene, args.wall)
-            write_bytes(out / "plate_map.png", figure_bytes(fig, "png"))
-            write_bytes(out / "plate_map.svg", figure_bytes(fig, "svg"))
+            write_figure(fig, out, "plate_map")
         print(f"wrote {out / 'plate_map.csv'}, plate_map.png, plate_map.svg")
     return 0
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from chatterbench.comparisons.outputs.atomic import write_bytes, write_frame, write_text
+from chatterbench.comparisons.outputs.atomic import write_frame, write_text
 from chatterbench.comparisons.pipeline.budget import check_engine_run, check_reference
 from chatterbench.comparisons.studies.tune import engine_space, tune
 from chatterbench.reference.scene import load_scene
@@ -52,7 +52,7 @@ def cmd_tune(args: argparse.Namespace) -> int:
     if args.out:
         out = Path(args.out)
         # draws and reruns the chosen settings (the ladder, R(v)): only when files are asked for
-        from chatterbench.comparisons.outputs.figures import figure_bytes
+        from chatterbench.comparisons.outputs.figures import write_figure
         from chatterbench.comparisons.outputs.guide import FIGURE_FILES, guide_figures, guide_html, guide_markdown, guide_section_html
         from chatterbench.comparisons.studies.tune_evidence import evidence
 
@@ -63,8 +63,7 @@ def cmd_tune(args: argparse.Namespace) -> int:
             write_text(out / "guide_section.html", guide_section_html(result, figures))  # for `report --tune DIR`
             write_frame(out / "candidates.csv", result.table)
             for name, fig in figures.items():
-                for fmt in ("png", "svg"):
-                    write_bytes(out / f"{FIGURE_FILES[name]}.{fmt}", figure_bytes(fig, fmt))
+                write_figure(fig, out, FIGURE_FILES[name])
         print(f"wrote {out / 'guide.md'}, guide.html, guide_section.html, candidates.csv, "
               + ", ".join(f"{FIGURE_FILES[n]}.png/.svg" for n in figures))
     return 0 if result.best is not None else 1

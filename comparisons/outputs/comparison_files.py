@@ -34,9 +34,9 @@ from pathlib import Path
 
 from chatterbench.comparisons.pipeline.conformance import conformance, same_model_pairs
 
-from .atomic import write_bytes, write_frame, write_text
+from .atomic import write_frame, write_text
 from .episode_errors import episode_errors_figure
-from .figures import figure_bytes
+from .figures import write_figure
 from .ladder import ladder_figure
 from .timeseries import timeseries_figure
 
@@ -68,6 +68,5 @@ def write_comparison(comparison, out: Path, figures: bool = True) -> list[Path]:
     if figures:
         for stem, fig in (("timeseries", timeseries_figure(comparison)), ("ladder", ladder_figure(comparison)),
                           ("episode_errors", episode_errors_figure(comparison))):
-            paths.append(write_bytes(out / f"{stem}.png", figure_bytes(fig, "png")))
-            paths.append(write_bytes(out / f"{stem}.svg", figure_bytes(fig, "svg")))
+            paths.extend(write_figure(fig, out, stem))
     return paths

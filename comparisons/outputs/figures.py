@@ -13,10 +13,14 @@ the non-interactive backend once, at start-up (``cli.main``).
 from __future__ import annotations
 
 import io
+from pathlib import Path
 
 from matplotlib.figure import Figure
 
+from .atomic import write_bytes
+
 DPI = 120  # PNG resolution: readable at report width
+FORMATS = ("png", "svg")  # every figure a command writes: a picture to look at, a vector file to edit
 
 
 def figure_bytes(fig: Figure, fmt: str) -> bytes:
@@ -24,3 +28,8 @@ def figure_bytes(fig: Figure, fmt: str) -> bytes:
     buf = io.BytesIO()
     fig.savefig(buf, format=fmt, dpi=DPI)
     return buf.getvalue()
+
+
+def write_figure(fig: Figure, out: Path, stem: str) -> list[Path]:
+    """Write ``fig`` as ``out/STEM.png`` and ``out/STEM.svg`` (each atomically); returns the paths."""
+    return [write_bytes(Path(out) / f"{stem}.{fmt}", figure_bytes(fig, fmt)) for fmt in FORMATS]
