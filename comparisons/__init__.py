@@ -1,5 +1,6 @@
 """Comparisons of engine trajectories with the reference: events, episodes, verdicts, reports.
 
+    >>> from chatterbench.reference.scene import load_scene
     >>> from chatterbench.comparisons import compare, reference_trajectory
     >>> scene = load_scene("bouncing-ball")
     >>> known = reference_trajectory(scene, dt=1e-3)              # the exact answer, sampled
@@ -17,6 +18,7 @@ import importlib
 _PUBLIC = {
     "Comparison": "pipeline.compare", "compare": "pipeline.compare",
     "reference_trajectory": "pipeline.sampling", "Tolerances": "pipeline.tolerances",
+    "judge_trajectory": "pipeline.trajectory_file", "trajectory_table": "pipeline.trajectory_file",
 }
 __all__ = sorted(_PUBLIC)
 

@@ -1,19 +1,24 @@
-"""Engine adapters: MuJoCo and PyBullet run the reference's scenes with Newton restitution R.
+"""Engine adapters: every engine of the table (built in: MuJoCo, PyBullet, Drake, MuJoCo Warp; plugins too) runs the scenes.
 
     >>> from chatterbench.engines import make_settings, run_engine
+    >>> from chatterbench.reference.scene import load_scene
     >>> traj = run_engine("mujoco", load_scene("bouncing-ball"), make_settings("mujoco", dt=1e-4))
     >>> traj.status
     'ok'
 
 Each adapter builds a minimal 1-D model (slide/prismatic joints, no friction, no rotation)
-from a ``Scene`` and returns a ``Trajectory``, behind one contract (``base.EngineAdapter``).
-To add an engine: a package beside ``mujoco_engine`` with its settings dataclass and an
-``EngineAdapter`` subclass, and one line in ``registry._ADAPTERS``.
+from a ``Scene`` and returns a ``Trajectory``, behind one contract (``base.EngineAdapter``):
+the base owns the run (settings record, failure classes, divergence, recording, benchmark),
+the adapter builds its world and steps it. The engines are one table (``registry.ENGINES``).
+To add an engine: a package with a frozen settings dataclass (a ``dt`` field) and an
+``EngineAdapter`` subclass, declared in the entry-point group ``chatterbench.engines`` of its
+own ``pyproject.toml``; ``examples/engine_plugin`` is such a package, complete.
 """
 
-from .base import EngineAdapter, n_steps, sample_times
-from .registry import DEFAULT_ENGINES, ENGINE_NAMES, adapter, engine_version, make_settings, run_engine, run_engine_batch
+from .base import BenchmarkResult, EngineAdapter, Recording, Status, n_steps, sample_times
+from .registry import DEFAULT_ENGINES, ENGINE_NAMES, ENGINES, adapter, engine_version, make_settings, run_engine, run_engine_batch
 from .trajectory import Trajectory
 
-__all__ = ["DEFAULT_ENGINES", "ENGINE_NAMES", "EngineAdapter", "Trajectory", "adapter", "engine_version", "make_settings", "n_steps",
-           "run_engine", "run_engine_batch", "sample_times"]
+__all__ = ["DEFAULT_ENGINES", "ENGINES", "ENGINE_NAMES", "BenchmarkResult", "EngineAdapter", "Recording", "Status",
+           "Trajectory", "adapter", "engine_version", "make_settings", "n_steps", "run_engine", "run_engine_batch",
+           "sample_times"]

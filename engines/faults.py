@@ -1,5 +1,7 @@
 """Test-only fault injection: make an engine run crash, hang or raise on purpose.
 
+    >>> from chatterbench.reference.scene import load_scene
+    >>> from chatterbench.engines.faults import planned_fault
     >>> import os
     >>> os.environ["CHATTERBENCH_FAULT"] = "raise:mujoco:restitution=0.3"
     >>> planned_fault("mujoco", load_scene("bouncing-ball", ["restitution=0.3"]))

@@ -1,5 +1,6 @@
 """Run one function call in a forked child under a wall-clock limit; a crash or a hang becomes a result.
 
+    >>> from chatterbench.engines.isolate import run_isolated
     >>> outcome = run_isolated(sum, [1, 2, 3], timeout=10.0)
     >>> outcome.status, outcome.value, outcome.message
     ('ok', 6, '')

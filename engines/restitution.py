@@ -1,6 +1,7 @@
 """Exact restitution of a force-only (unilateral) linear spring-damper contact, and its inverse.
 
-    >>> from chatterbench.engines.restitution import damping_ratio_from_restitution
+    >>> from chatterbench.engines.restitution import (
+    ...     damping_ratio_from_restitution, restitution_from_damping_ratio, contact_duration)
     >>> zeta = damping_ratio_from_restitution(0.5)
     >>> round(zeta, 4), round(restitution_from_damping_ratio(zeta), 12), round(contact_duration(zeta, w0=1000.0), 6)
     (0.2553, 0.5, 0.002715)

@@ -1,5 +1,6 @@
 """Engine settings from dotted overrides: ``--set mujoco.w0_dt=0.05`` onto a frozen dataclass.
 
+    >>> from chatterbench.engines.mujoco_engine import MujocoSettings
     >>> from chatterbench.engines.settings import settings_with_overrides
     >>> settings_with_overrides(MujocoSettings(), ["mujoco.w0_dt=0.05"], prefix="mujoco").w0_dt
     0.05

@@ -1,5 +1,6 @@
 """What an engine run returns: sampled states, per-wall contact, the cost of stepping, the contact's own scales.
 
+    >>> from chatterbench.reference.scene import load_scene
     >>> from chatterbench.engines.registry import make_settings, run_engine
     >>> traj = run_engine("pybullet", load_scene("bouncing-ball"), make_settings("pybullet", dt=1e-3))
     >>> traj.y.shape, traj.contact["lower"].dtype, traj.status
@@ -9,7 +10,8 @@ Arrays all have shape ``(n,)``, one entry per sample; sample 0 is the initial st
 sample k is the state after k engine steps (``t[k] = t0 + k dt``; ``base.sample_times``).
 Units: s, m, m/s, N. ``normal_force[wall]`` is the magnitude of the wall's contact force on
 body 2 (>= 0) and ``contact[wall]`` says where it is on. ``status`` is ``"ok"`` or a failure
-class (``"diverged"``, ``"error"``, ``"timeout"``); a failed run keeps every sample it finished.
+class (``"diverged"``, ``"error"``, ``"timeout"``, ``"crashed"``: ``base.Status`` and its
+message table); a failed run keeps every sample it finished.
 
 A long run comes *compact* (``window.py``): only the samples the judge needs, ``index[i]``
 the step number of sample i (``t[i] = t0 + index[i] dt``) and ``step`` the median spacing of
@@ -29,7 +31,7 @@ import numpy as np
 class Trajectory:
     """A sampled engine (or reference) trajectory; see the module docstring for shapes."""
 
-    engine: str  # "mujoco", "pybullet" or "reference"
+    engine: str  # the engine's registry name (``registry.ENGINE_NAMES``), or "reference"
     t: np.ndarray  # [s]
     x1: np.ndarray  # [m]
     x2: np.ndarray  # [m]
@@ -39,7 +41,7 @@ class Trajectory:
     normal_force: dict[str, np.ndarray]  # wall -> contact force magnitude [N]
     wall_time: float  # seconds of wall clock spent stepping the engine
     settings: dict[str, Any] = field(default_factory=dict)  # the settings used, by the engine's own names
-    status: str = "ok"  # "ok" or a failure class
+    status: str = "ok"  # "ok" or a failure class (``base.Status``, which equals its string)
     message: str = ""  # what went wrong, when status != "ok"
     contact_time: float = 0.0  # [s] duration of one bounce of the engine's contact law at these settings (0: rigid)
     contact_frequency: float = math.inf  # [rad/s] natural frequency of a compliant contact (inf: rigid)

@@ -1,5 +1,8 @@
 """Compact trajectories: an engine run's samples near the walls and the few others the judge reads, taken chunk by chunk.
 
+    >>> import numpy as np
+    >>> from chatterbench.reference.scene import load_scene
+    >>> from chatterbench.engines.window import compact
     >>> from chatterbench.engines.registry import make_settings, run_engine
     >>> scene = load_scene("bouncing-ball")
     >>> full = run_engine("pybullet", scene, make_settings("pybullet", dt=1e-4))
@@ -37,7 +40,7 @@ is kept whole: the judge's penetration windows may end anywhere inside one). The
 skips the steps between kept samples that are not neighbours (``index``), the judge counts
 a window holding only left-out samples as 0 penetration, and both give the same impacts,
 episodes, verdicts and metrics as on the full run, to the last bit
-(``tests/engines/test_window.py``: every built-in scene, both engines, a wrong R too). Rule 1
+(``tests/engines/test_window.py``: every built-in scene, MuJoCo, PyBullet and Drake, a wrong R too). Rule 1
 holds for the extraction's default ``jump_factor`` 2 (``REACH_FACTOR`` 2 covers >= 1.5).
 
 An engine opts in by creating ``Recorder(scene, n_samples)`` before stepping, calling

@@ -1,5 +1,8 @@
 """Follow one strike's impact sequence to its end, compiled: does it slide or leave?
 
+    >>> import numpy as np
+    >>> from chatterbench.reference.scene import load_scene
+    >>> from chatterbench.reference.chatter import strike_fates
     >>> fate = strike_fates(load_scene("feigin-pair"), "lower", t=np.array([2.0, 2.5]), v=np.array([-0.05, -0.05]))
     >>> fate.slides, fate.t_stick.round(4), fate.n_impacts
     (array([ True,  True]), array([2.1121, 2.6831]), array([26, 26]))

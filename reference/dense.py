@@ -1,5 +1,7 @@
 """A dense trajectory sampled at any times from a scene and its event log.
 
+    >>> import numpy as np
+    >>> from chatterbench.reference.dense import sample
     >>> from chatterbench.reference import load_scene, simulate
     >>> scene = load_scene("feigin-pair")
     >>> traj = sample(scene, simulate(scene).log, np.linspace(0.0, scene.t_end, 2001))

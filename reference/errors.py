@@ -34,6 +34,7 @@ def did_you_mean(name: str, allowed: Sequence[str]) -> str:
 def shown(value: Any, limit: int = 40) -> str:
     """``repr(value)`` for a message, shortened in the middle past ``limit`` characters.
 
+    >>> from chatterbench.reference.errors import shown
     >>> shown(10**60)
     '1000000000000...00000000 (61 characters)'
     """

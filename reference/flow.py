@@ -1,5 +1,8 @@
 """Exact propagation of s' = A s by local Taylor expansion of the matrix exponential.
 
+    >>> import numpy as np
+    >>> from chatterbench.reference.scene import load_scene
+    >>> from chatterbench.reference.flow import Flow
     >>> from chatterbench.reference.linear import LinearSystem
     >>> system = LinearSystem.from_scene(load_scene("feigin-pair"))
     >>> flow = Flow(system.free, horizon=2 * np.pi)
@@ -49,8 +52,9 @@ class Flow:
         n = self.A.shape[0]
         powers = np.empty((order + 1, n, n))
         powers[0] = np.eye(n)
-        for k in range(1, order + 1):
-            powers[k] = powers[k - 1] @ self.A / k  # A^k / k!
+        with np.errstate(over="ignore", invalid="ignore"):  # absurd scales overflow: caught just below
+            for k in range(1, order + 1):
+                powers[k] = powers[k - 1] @ self.A / k  # A^k / k!
         self.powers = powers
         self._flat = np.ascontiguousarray(powers.reshape((order + 1) * n, n))  # one GEMV per expansion
         # ||A^k||^(1/k) tends to the spectral radius and does not depend on the units of
@@ -61,6 +65,10 @@ class Flow:
             norm = np.abs(powers[k]).sum(axis=1).max() * math.factorial(k)
             if norm > 0.0:
                 growth = max(growth, norm ** (1.0 / k))
+        if not np.isfinite(powers).all():  # A^k overflowed (a stiffness of 1e300 N/m, say): the series is
+            # unusable; ||A||_inf bounds the spectral radius, so the step it gives is honest and tiny, and
+            # the simulator's step budget refuses the run ("stalled") instead of walking NaN states
+            growth = max(growth, float(np.abs(self.A).sum(axis=1).max()))
         self.growth = growth  # [1/s]
         self.step = horizon if growth == 0.0 else min(horizon, 1.5 / growth)
         self.step_matrix = self.matrix(self.step)  # expm(A step)

@@ -1,5 +1,6 @@
 """The scene's force model, written once: F1, F2, F12 of Feigin (1967), (1.1), as stiffness, damping and time terms.
 
+    >>> from chatterbench.reference.scene import load_scene
     >>> from chatterbench.reference.forces import ForceModel, evaluate_forces
     >>> model = ForceModel.from_scene(load_scene("impact-damper"))
     >>> model.body1.stiffness, model.body1.damping           # the primary's spring and damper

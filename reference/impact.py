@@ -1,5 +1,6 @@
 """Newton's impact law between the two masses, Feigin (1967), (1.3), in SI units.
 
+    >>> from chatterbench.reference.impact import impact
     >>> impact(vy=-1.0, v1=0.0, restitution=0.5, mass1=1.0, mass2=1.0)
     Impact(vy=0.5, v1=-0.75)
 

@@ -1,5 +1,7 @@
 """The scene as a homogeneous linear system on an augmented state, for free and constrained motion.
 
+    >>> from chatterbench.reference.scene import load_scene
+    >>> from chatterbench.reference.linear import LinearSystem
     >>> system = LinearSystem.from_scene(load_scene("feigin-pair"))
     >>> s0 = system.state(t=0.0, x1=0.0, v1=0.0, y=0.0, vy=0.0)
     >>> system.free.shape, system.stuck.shape        # (n, n) matrices with s' = A s

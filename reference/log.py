@@ -1,5 +1,6 @@
 """The event log and the episode table: the vocabulary every simulator in the suite speaks.
 
+    >>> from chatterbench.reference.log import EventLog, episodes
     >>> log = EventLog()
     >>> log.add(0.45, "impact", "lower", v_minus=-4.43, v_plus=2.21, x1=0.0, v1=0.0)
     >>> log.add(0.9, "stick", "lower", v_minus=0.0, v_plus=0.0, x1=0.0, v1=0.0, rule="zeno")
@@ -25,7 +26,8 @@ rule       what started a ``stick``: ``plate`` (strike inside Feigin's Pi_2, (2.
 =========  =================================================================================
 
 Episodes (one per visit to a wall that ends in sticking; a visit starts at the first
-impact after an exit, after an impact on the other wall, or at the start of the run):
+impact after an exit, after an impact on the other wall, or at the start of the run; an
+exit closes only a stick on its own wall, so an episode never takes another wall's exit):
 
 =================  =========================================================================
 wall               ``lower`` or ``upper``
@@ -89,7 +91,7 @@ def episodes(log: pd.DataFrame) -> pd.DataFrame:
     """Derive the episode table (``EPISODE_COLUMNS``) from an event log."""
     out = []
     visit = None  # the open visit: dict of episode fields
-    stuck = False
+    stuck = ""  # the wall the masses are stuck on ("" while free)
     for t, kind, wall in zip(log["t"].tolist(), log["kind"].tolist(), log["wall"].tolist()):
         if kind == "impact":
             if stuck:
@@ -109,11 +111,12 @@ def episodes(log: pd.DataFrame) -> pd.DataFrame:
             visit["t_exit"] = math.nan
             visit["stick_rule"] = ""
             out.append(visit)
-            stuck = True
+            stuck = wall
         elif kind == "exit":
-            if out and stuck:
-                out[-1]["t_exit"] = t
-            stuck = False
+            if stuck != wall:
+                continue  # an exit closes only a stick on its own wall
+            out[-1]["t_exit"] = t
+            stuck = ""
             visit = None
     rules = log.loc[log["kind"] == "stick", "rule"].tolist()
     for ep, rule in zip(out, rules):

@@ -1,5 +1,6 @@
 """Feigin's sliding plate Pi_2: the sufficient conditions (2.1)-(2.2) for a strike to slide.
 
+    >>> from chatterbench.reference.plate import plate_conditions
     >>> plate_conditions(restitution=0.5, v=-0.01, acc=-0.8, jerk_min=0.6, jerk_max=1.0, window=1.0)
     PlateVerdict(inside=True, failed='')
 

@@ -1,5 +1,6 @@
 """The first root of a local Taylor polynomial on a step: where the next impact or exit happens.
 
+    >>> from chatterbench.reference.roots import first_root
     >>> h = first_root([0.0, 0.2, -4.905], deflate=1, hmax=1.0)   # y = 0.2 h - g/2 h^2
     >>> round(h, 12)
     0.040774719674

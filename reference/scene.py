@@ -42,7 +42,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from .errors import InputError, check_number, did_you_mean
-from .tables import read_toml
+from .tables import TooDeep, loads, printable, read_toml
 
 BODIES = ("body1", "body2", "coupling")
 FORCE_KINDS = ("constant", "harmonic", "spring", "damper")
@@ -322,7 +322,7 @@ def _section(name: str, cls: type, data: Any) -> Any:
     for k in data:
         if k not in _SECTION_KEYS[name]:
             raise SceneError(
-                f"{name}.{k}: unknown key; allowed: {', '.join(_SECTION_KEYS[name])}"
+                f"{name}.{printable(k)}: unknown key; allowed: {', '.join(_SECTION_KEYS[name])}"
                 + did_you_mean(str(k), _SECTION_KEYS[name])
             )
     try:
@@ -344,7 +344,7 @@ def _force(i: int, data: Any) -> Force:
     for k in data:
         if k not in allowed:
             raise SceneError(
-                f"{where}.{k}: unknown key for a {kind} force; allowed: {', '.join(allowed)}" + did_you_mean(str(k), allowed)
+                f"{where}.{printable(k)}: unknown key for a {kind} force; allowed: {', '.join(allowed)}" + did_you_mean(str(k), allowed)
             )
     if "on" not in data:
         raise SceneError(f"{where}.on: missing; must be one of {', '.join(BODIES)}")
@@ -366,7 +366,7 @@ def scene_from_dict(data: Mapping[str, Any]) -> Scene:
         raise SceneError(f"scene must be a table, got {type(data).__name__}")
     for k in data:
         if k not in _TOP_KEYS:
-            raise SceneError(f"{k}: unknown key; allowed: {', '.join(_TOP_KEYS)}" + did_you_mean(str(k), _TOP_KEYS))
+            raise SceneError(f"{printable(k)}: unknown key; allowed: {', '.join(_TOP_KEYS)}" + did_you_mean(str(k), _TOP_KEYS))
     for k in ("mass1", "mass2", "restitution", "gap"):
         if k not in data:
             raise SceneError(f"{k}: missing (required fields: mass1, mass2, restitution, gap)")
@@ -387,15 +387,24 @@ def scene_from_dict(data: Mapping[str, Any]) -> Scene:
         prescribed=None if prescribed is None else _section("prescribed", Prescribed, prescribed),
         initial=_section("initial", Initial, data.get("initial", {})),
         duration=data.get("duration", 1.0),
-        description=str(data.get("description", "")),
+        description=_text("description", data.get("description", "")),
     )
+
+
+def _text(key: str, value: Any) -> str:
+    """A text field as given; anything else refused (``description = [1, 2]`` is no description)."""
+    if not isinstance(value, str):
+        raise SceneError(f"{key} = {value!r}: must be a string")
+    return value
 
 
 def parse_value(text: str) -> Any:
     """Parse the right-hand side of ``--set key=value`` as a TOML value (bare words stay strings)."""
     text = text.strip()
     try:
-        table = tomllib.loads(f"v = {text}")
+        table = loads(f"v = {text}")
+    except TooDeep:  # not a bare word: split_assignment names the key
+        raise
     except (tomllib.TOMLDecodeError, ValueError):  # ValueError: an integer past Python's 4300 digits
         return text
     return table["v"] if len(table) == 1 else text
@@ -411,7 +420,10 @@ def split_assignment(item: str) -> tuple[str, Any]:
     key = key.strip()
     if not key:
         raise SceneError(f"--set {item!r}: empty key")
-    return key, parse_value(value)
+    try:
+        return key, parse_value(value)
+    except TooDeep as exc:
+        raise SceneError(f"--set {key}: {exc}") from None
 
 
 def apply_overrides(data: Mapping[str, Any], overrides: Sequence[str] | Mapping[str, Any]) -> dict[str, Any]:

@@ -1,5 +1,7 @@
 """A scene as a commented TOML file to start from: every field, its unit and its sign convention.
 
+    >>> from chatterbench.reference.scene import load_scene
+    >>> from chatterbench.reference.scene_toml import scene_toml
     >>> text = scene_toml(load_scene("bouncing-ball"))
     >>> print(text.splitlines()[0])
     # bouncing-ball: 1 kg ball dropped from 1 m on a fixed floor under gravity; Zeno point t1 (1+R)/(1-R) (edit and run: chatterbench run FILE)

@@ -1,7 +1,10 @@
 """Motion in kinematic constraint (1.4) until the exit, compiled: the sliding stretch's end.
 
+    >>> import numpy as np
     >>> from chatterbench.reference.flow import Flow
     >>> from chatterbench.reference.linear import LinearSystem
+    >>> from chatterbench.reference.scene import load_scene
+    >>> from chatterbench.reference.stuck import EXITED, walk
     >>> scene = load_scene("feigin-pair")                      # stuck on the lower wall at t = 2
     >>> system = LinearSystem.from_scene(scene)
     >>> stuck = Flow(system.stuck, horizon=scene.time_scale / 4)

@@ -22,6 +22,7 @@ import os
 import subprocess
 import sys
 import tempfile
+import time
 from contextlib import contextmanager, redirect_stderr, redirect_stdout
 from pathlib import Path
 
@@ -31,6 +32,7 @@ from chatterbench.comparisons.cli.main import main
 
 FILE = "bad.toml"  # argv placeholder for the case's scene file
 AFILE, ADIR = "afile", "adir"  # in every scratch directory: a file where a directory is wanted, and the reverse
+APIPE = "apipe"  # and a named pipe where a file is wanted
 CSV = "bad.csv"  # argv placeholder for a case's dataset (chart, report --sweep)
 ROWS = "engine,dt,verdict,cost_per_sim_s,restitution\nmujoco,0.0001,match,0.02,0.5\npybullet,0.0001,late,0.2,0.5\n"
 
@@ -148,6 +150,10 @@ CASES: list[tuple[str, str, list[str], str | None, tuple[str, ...]]] = [
     # absurd but finite values: the reference refuses a run it cannot finish (before this guard: a hang)
     ("omega-absurd", "forcing frequency of 1e300 rad/s (a flow step of 1.6e-300 s)",
      ["run", "feigin-pair", "--set", "forces.0.omega=1e300"], None, ("stalled", "max_steps")),
+    ("stiffness-absurd", "a coupling spring of 1e300 N/m (before: the flow overflowed to NaN with numpy warnings, "
+     "the engines diverged and the time-series figure raised a matplotlib traceback)",
+     ["compare", "spring-pair", "--engines", "pybullet", "--set", "forces.0.stiffness=1e300", "--out", "o"], None,
+     ("stalled", "max_steps", "stiffnesses")),
     ("amplitude-absurd", "force of 1e100 N, compared against the engines (no engine starts)",
      ["compare", "feigin-pair", "--set", "forces.0.amplitude=1e100"], None, ("stalled", "max_steps")),
     # sweep specs (chatterbench sweep SPEC.toml): checked whole before any engine starts
@@ -261,6 +267,10 @@ CASES: list[tuple[str, str, list[str], str | None, tuple[str, ...]]] = [
     ("run-dt-reference", "--dt on a reference run", ["run", "feigin-pair", "--dt", "1e-3"], None, ("--dt", "--engines")),
     ("run-export-reference", "--export-model on a reference run", ["run", "feigin-pair", "--export-model", "m.xml"], None,
      ("--export-model", "--engines")),
+    ("run-export-drake", "--export-model for an engine that cannot export", ["run", "bouncing-ball", "--engine", "drake",
+     "--export-model", "m.xml"], None, ("--export-model", "mujoco, pybullet")),
+    ("run-export-suffix", "--export-model naming a file of another kind", ["run", "bouncing-ball", "--engine", "pybullet",
+     "--export-model", "m.xml"], None, ("--export-model m.xml", ".py")),
     ("run-chatter-engine", "--chatter on an engine run", ["run", "feigin-pair", "--engine", "pybullet", "--chatter", "exhaustive"],
      None, ("--chatter",)),
     ("engines-repeated", "the same engine twice", ["compare", "feigin-pair", "--engines", "pybullet,pybullet"], None,
@@ -298,6 +308,78 @@ CASES: list[tuple[str, str, list[str], str | None, tuple[str, ...]]] = [
      '[[check]]\nscene = "bouncing-ball"\nengine = "pybullet"\nlimits = ["verdict == match"]\n', ("--baseline", "not JSON")),
     ("gate-unclosed-list", "a verdict list without its closing bracket", ["gate", FILE],
      '[[check]]\nscene = "bouncing-ball"\nengine = "pybullet"\nlimits = ["verdict in [match"]\n', ("bracketed list",)),
+    # issue 25: every input file checked for type and size before it is read; nesting bounded everywhere
+    ("run /dev/zero", "a device for a scene file (before: read until memory ran out)", ["run", "/dev/zero"], None,
+     ("/dev/zero", "not a regular file")),
+    ("run /dev/urandom", "a random device for a scene file", ["run", "/dev/urandom"], None, ("/dev/urandom", "not a regular file")),
+    ("run apipe", "a named pipe for a scene file (before: blocked forever)", ["run", APIPE], None, ("apipe", "not a regular file")),
+    ("run adir", "a directory for a scene file", ["run", ADIR], None, ("adir", "is a directory")),
+    ("sweep scene=/dev/zero", "a sweep of a device", ["sweep", FILE], 'scene = "/dev/zero"\n[grid]\ndt = [1e-3]\n',
+     ("/dev/zero", "not a regular file")),
+    ("sweep-big", "a sweep spec past 10 MiB", ["sweep", FILE], 'scene = "bouncing-ball"\n[grid]\ndt = [1e-3]\n' + "#" * 11_000_000,
+     ("bad.toml", "10 MiB")),
+    ("toml-deep-arrays", "arrays nested 5000 deep (before: RecursionError)", ["run", FILE], "a = " + "[" * 5000 + "]" * 5000,
+     ("bad.toml", "nested", "32")),
+    ("toml-deep-tables", "inline tables nested 3000 deep", ["run", FILE], "a = " + "{b = " * 3000 + "1" + "}" * 3000,
+     ("bad.toml", "nested", "32")),
+    ("toml-deep-key", "a dotted key 20000 deep (before: RecursionError after 4 s)", ["run", FILE], "a" + ".a" * 20000 + " = 1",
+     ("bad.toml", "nested", "32")),
+    ("toml-deep-quoted-key", "a dotted key of quoted parts 20000 deep", ["run", FILE], "'a'" + ".'a'" * 20000 + " = 1",
+     ("bad.toml", "nested", "32")),
+    ("set-deep", "a --set value nested 3000 deep", ["run", "feigin-pair", "--set", "gap.lower=" + "[" * 3000 + "]" * 3000],
+     None, ("--set gap.lower", "nested", "32")),
+    ("sweep-deep-grid", "a sweep grid nested 4000 deep", ["sweep", FILE],
+     'scene = "bouncing-ball"\n[grid]\ndt = ' + "[" * 4000 + "]" * 4000 + "\n", ("bad.toml", "nested", "32")),
+    ("gate-deep", "a gate file nested 4000 deep", ["gate", FILE], "check = " + "[" * 4000 + "]" * 4000 + "\n",
+     ("bad.toml", "nested", "32")),
+    ("gate --baseline /dev/zero", "a device for a baseline (before: read until memory ran out)", ["gate", FILE, "--baseline",
+     "/dev/zero"], '[[check]]\nscene = "bouncing-ball"\nengine = "pybullet"\nlimits = ["verdict == match"]\n',
+     ("--baseline /dev/zero", "not a regular file")),
+    # issue 25: messages safe for a terminal
+    ("set-escape", "a terminal escape sequence in a --set key (before: echoed raw)", ["run", "feigin-pair", "--set", "\x1b[2J\x1b[31mred=1"],
+     None, ("\\x1b[2J\\x1b[31mred", "unknown")),
+    ("set-long-key", "a 10,000-character key (before: echoed whole)", ["run", "feigin-pair", "--set", "k" * 10_000 + "=1"], None,
+     ("kkk...kkk", "(10000 characters)")),
+    # issue 25: no setting silently ignored or overwritten (before: each was accepted, exit 0)
+    ("set-engine-not-run", "a setting of an engine that is not run", ["compare", "feigin-pair", "--engines", "pybullet", "--set",
+     "mujoco.w0_dt=0.05"], None, ("--set mujoco.w0_dt=0.05", "mujoco is not run", "--engines pybullet")),
+    ("set-drake-not-run", "a Drake setting, Drake not among the engines", ["compare", "feigin-pair", "--set", "drake.accuracy=1e-3"],
+     None, ("drake.accuracy", "drake is not run")),
+    ("run-set-warp-not-run", "a mujoco_warp setting on a PyBullet run", ["run", "feigin-pair", "--engines", "pybullet", "--set",
+     "mujoco_warp.worlds=4"], None, ("mujoco_warp.worlds=4", "mujoco_warp is not run")),
+    ("dt-twice", "--dt and ENGINE.dt both given", ["run", "feigin-pair", "--engines", "pybullet", "--dt", "1e-4", "--set",
+     "pybullet.dt=1e-3"], None, ("--dt 0.0001", "--set pybullet.dt=1e-3", "give one")),
+    ("set-repeated", "one --set key twice, two values", ["run", "feigin-pair", "--set", "restitution=0.3", "--set",
+     "restitution=0.5"], None, ("--set restitution=0.3", "--set restitution=0.5", "once")),
+    ("tolerance-repeated", "one --tolerance key twice, two values", ["compare", "bouncing-ball", "--tolerance", "stick=0.1",
+     "--tolerance", "stick=0.2"], None, ("--tolerance stick=0.1", "--tolerance stick=0.2", "once")),
+    ("option-repeated", "an option given twice with two values", ["run", "feigin-pair", "--engines", "mujoco", "--dt", "1e-3",
+     "--dt", "2e-3"], None, ("--dt", "0.001 and 0.002", "once")),
+    ("scenes-toml-twice", "scenes --toml given two scenes", ["scenes", "--toml", "feigin-pair", "--toml", "bouncing-ball"], None,
+     ("--toml", "'feigin-pair'", "'bouncing-ball'", "once")),
+    ("description-list", "a description that is not a string (before: made one)", ["run", FILE],
+     _file(**{'name = "pair"': 'name = "pair"\ndescription = [1, 2]'}), ("description = [1, 2]", "string")),
+    # issue 25: every limit kept by every command, every count bounded, refused up front
+    ("platemap-max-steps", "--max-steps on a plate map's engine runs (before: ignored, ran 120 s)",
+     ["platemap", "feigin-pair", "--engines", "pybullet", "--max-steps", "1"], None, ("one strike's", "--max-steps 1")),
+    ("platemap-dt=1e-9", "a plate map at dt = 1e-9 (before: started the runs)", ["platemap", "feigin-pair", "--engines", "mujoco",
+     "--dt", "1e-9"], None, ("dt = 1e-09", "--max-steps")),
+    ("platemap-amplitude-absurd", "a plate map of a 1e300 N force (before: hung in the strike kernel, killed after 10 min)",
+     ["platemap", "feigin-pair", "--set", "forces.0.amplitude=1e300"], None, ("feigin-pair", "flow steps", "max_steps")),
+    ("bench-points=1e9", "a billion points for a benchmark that takes none (before: accepted)", ["bench", "reference", "--points",
+     "1000000000"], None, ("--points", "[2, 10000]")),
+    ("bench-option-elsewhere", "an option of another benchmark (before: ignored)", ["bench", "reference", "--strikes", "10"],
+     None, ("--strikes", "applies to bench platemap")),
+    ("bench-repeats=1e9", "a billion repeats", ["bench", "engines", "--repeats", "1000000000"], None, ("--repeats", "[1, 100]")),
+    ("sweep-last-of-90000", "a 300 x 300 grid whose one run over the budget is its last point (before: refused after 16 s)",
+     ["sweep", FILE], 'scene = "bouncing-ball"\nengines = ["mujoco"]\n[grid]\ndt = [%s]\nduration = [%s]\n' % (
+         ", ".join(repr(1e-3 - i * (1e-3 - 2e-6) / 299) for i in range(300)), ", ".join(repr(0.5 + i * 199.5 / 299) for i in range(300))),
+     ("grid point", "duration = 200.0", "--max-steps")),
+    # issue 25: a report's sections and figures are found by scene name (before: the first scene showed the second's figures)
+    ("report-same-scene-twice", "one scene twice in a report", ["report", "bouncing-ball", "bouncing-ball"], None,
+     ("'bouncing-ball'", "more than once")),
+    ("report-same-name", "two scene files of one name", ["report", "feigin-pair", FILE], _file(**{'name = "pair"': 'name = "feigin-pair"'}),
+     ("'feigin-pair'", "more than once", "name")),
 ]
 
 
@@ -308,6 +390,7 @@ def _scratch(content: str | None, name: str = FILE):
     with tempfile.TemporaryDirectory() as tmp:
         Path(tmp, AFILE).write_text("a file\n")
         Path(tmp, ADIR).mkdir()
+        os.mkfifo(Path(tmp, APIPE))
         if content is not None:
             Path(tmp, name).write_text(content)
         os.chdir(tmp)
@@ -352,13 +435,19 @@ def message(err: str) -> str:
 @pytest.mark.parametrize("case", CASES, ids=[c[0] for c in CASES])
 def test_bad_input_is_refused(case):
     _, _, argv, content, words = case
+    t0 = time.monotonic()
     code, err = run_cli(argv, content)
+    took = time.monotonic() - t0
     assert code == 2, (code, err)
+    assert took < 2, f"issue 25: every refusal within 2 s; this one took {took:.1f} s"
     assert "Traceback" not in err, err
     msg = message(err)
     assert "error:" in msg, err
     for word in words:
         assert word in msg, (word, msg)
+    # issue 25: no control character reaches the terminal, no word of more than 120 characters is echoed whole
+    assert not [c for c in msg if (c < " " and c != "\n") or "\x7f" <= c <= "\x9f"], repr(msg)
+    assert max(map(len, msg.split())) < 200, msg[:300]
 
 
 def test_case_ids_are_unique():
@@ -392,6 +481,15 @@ def test_newline_in_a_key_stays_one_line(argv, content):
     assert "rest\\nitution" in err  # shown escaped
 
 
+def test_bench_of_warp_without_its_extra_is_refused():
+    # before: "not measured", exit 0; the extra is hidden the way Python hides a module (sys.modules[name] = None)
+    code = ("import sys; sys.modules['mujoco_warp'] = None\n"
+            "from chatterbench.comparisons.cli.main import main; sys.exit(main(['bench', 'sweep', '--only', 'warp']))")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.startswith("chatterbench: error: --only warp: nothing to time") and proc.stderr.count("\n") == 1
+
+
 def test_pybullet_refusal_is_one_line_in_a_process():
     # importing pybullet writes "pybullet build time: ..." from C; the adapter silences it
     proc = subprocess.run([sys.executable, "-m", "chatterbench.comparisons.cli", "run", "feigin-pair", "--engine", "pybullet",
@@ -411,8 +509,10 @@ def describe_file(content: str) -> str:
     if len(set(good) & set(lines)) >= 5:
         added = [ln for ln in lines if ln not in good]
         removed = [ln for ln in good if ln not in lines]
-        return "; ".join([*(f"+ {ln}" for ln in added), *(f"- {ln}" for ln in removed)])
-    return repr(content) if content else "(empty file)"
+        shown = "; ".join([*(f"+ {ln}" for ln in added), *(f"- {ln}" for ln in removed)])
+    else:
+        shown = repr(content) if content else "(empty file)"
+    return shown if len(shown) <= 200 else f"{shown[:120]}... ({len(content)} characters)"
 
 
 def markdown() -> str:
@@ -424,7 +524,8 @@ def markdown() -> str:
         "`tests/test_bad_inputs.py`, which checks each one: exit code 2, no traceback, a message that",
         "names the field. A file case runs on `bad.toml`: either the content shown, or a valid two-mass",
         "scene (`GOOD_FILE` in the test module) with the lines shown added (+) or removed (-). Messages from",
-        "argparse (`--dt`, `--chatter`, `--engine`) name the subcommand and point to its `--help`.",
+        "argparse (`--dt`, `--chatter`, `--engine`) name the subcommand and point to its `--help`. The scratch",
+        "directory also holds `afile`, `adir/` and a named pipe `apipe`. Every refusal takes under 2 s (checked).",
         "",
         "| case | what is wrong | command | `bad.toml` or `bad.csv` | message (exit code) |",
         "|---|---|---|---|---|",
@@ -440,8 +541,9 @@ def markdown() -> str:
     out += ["", "## Output destinations", "",
             "From `tests/test_bad_outputs.py`: every output option given a place it cannot write, refused",
             "before any work. Its scratch directory holds `afile`, `adir/`, a named pipe `apipe`, a broken link",
-            "`alink`; the permission cases (`rodir/`, `rofile`) are left out here, their message depends on the",
-            "user (root writes through them).", "",
+            "`alink`, and two sweep output directories with a link inside: `linkedrows/rows -> ../elsewhere` and",
+            "`linkedlock/.lock -> ../victim`; the permission cases (`rodir/`, `rofile`) are left out here, their",
+            "message depends on the user (root writes through them).", "",
             "| case | what is wrong | command | file | message (exit code) |", "|---|---|---|---|---|"]
     for cid, what, argv, content, _ in outputs.CASES:
         if cid in outputs.PERMISSION:

@@ -17,12 +17,11 @@ writes through a mode 555 directory).
 
 from __future__ import annotations
 
-import io
 import os
 import stat
 import subprocess
 import tempfile
-from contextlib import contextmanager, redirect_stderr, redirect_stdout
+from contextlib import contextmanager
 from pathlib import Path
 from typing import NamedTuple
 
@@ -30,6 +29,8 @@ import pytest
 
 from chatterbench.comparisons.cli.main import main
 from chatterbench.comparisons.outputs.atomic import write_text
+
+from helpers import cli
 
 FILE, CSV = "bad.toml", "bad.csv"  # argv placeholders for a case's file (gate file, sweep spec; dataset)
 AFILE, ADIR, APIPE, ALINK, RODIR, ROFILE = "afile", "adir", "apipe", "alink", "rodir", "rofile"
@@ -87,6 +88,12 @@ CASES: list[tuple[str, str, list[str], str | None, tuple[str, ...]]] = [
      ("--events rofile: cannot be overwritten (permission denied)",)),
     ("--junit rodir/g.xml", "--junit in a directory this user may not write", ["gate", FILE, "--junit", RODIR + "/g.xml"],
      GATE, ("--junit rodir/g.xml: cannot write in rodir (permission denied)",)),
+    # issue 25: nothing written or removed outside --out through a link under it
+    ("sweep rows->elsewhere", "a sweep --out whose rows/ links to another directory (before: parts written there, "
+     "its .precious.abcdefgh.tmp deleted)", ["sweep", FILE, "--out", "linkedrows"], SPEC,
+     ("--out linkedrows: linkedrows/rows is a symbolic link (-> ../elsewhere)",)),
+    ("sweep .lock->victim", "a sweep --out whose .lock links to a file (before: the file overwritten with the lock's JSON)",
+     ["sweep", FILE, "--out", "linkedlock"], SPEC, ("linkedlock/.lock is a symbolic link (-> ../victim)",)),
 ]
 PERMISSION = {"--out rodir/sub", "--events rofile", "--junit rodir/g.xml"}  # refused by permissions, which root passes
 
@@ -96,7 +103,7 @@ class Outcome(NamedTuple):
     code: int
     stdout: str
     stderr: str
-    changed: set[tuple[str, int]]
+    changed: set[tuple[str, int, int]]
 
 
 @contextmanager
@@ -112,6 +119,13 @@ def scratch(content: str | None = None, name: str = FILE):
         (root / RODIR).mkdir(mode=0o555)
         (root / ROFILE).write_text("read-only\n")
         (root / ROFILE).chmod(0o444)
+        (root / "elsewhere").mkdir()  # a directory outside any --out, and a file, linked from two sweep --outs
+        (root / "elsewhere" / ".precious.abcdefgh.tmp").write_text("the user's\n")
+        (root / "victim").write_text("the user's\n")
+        (root / "linkedrows").mkdir()
+        (root / "linkedrows" / "rows").symlink_to("../elsewhere")
+        (root / "linkedlock").mkdir()
+        (root / "linkedlock" / ".lock").symlink_to("../victim")
         if content is not None:
             (root / name).write_text(content)
         os.chdir(root)
@@ -123,21 +137,18 @@ def scratch(content: str | None = None, name: str = FILE):
 
 
 def _tree(root: Path) -> set[tuple[str, int]]:
-    """Every entry under ``root``: (path, file type), so a pipe replaced by a file counts as a change."""
-    return {(str(p.relative_to(root)), stat.S_IFMT(p.lstat().st_mode)) for p in root.rglob("*")}
+    """Every entry under ``root`` (links not followed): (path, file type, size), so a pipe replaced by a file, or a
+    file overwritten through a link, counts as a change."""
+    return {(str(p.relative_to(root)), stat.S_IFMT(p.lstat().st_mode), p.lstat().st_size) for p in root.rglob("*")}
 
 
 def run_cli(argv: list[str], content: str | None) -> Outcome:
     """Run the CLI in-process in a ``scratch`` directory."""
-    out, err = io.StringIO(), io.StringIO()
-    with scratch(content, CSV if CSV in argv else FILE) as root, redirect_stdout(out), redirect_stderr(err):
+    with scratch(content, CSV if CSV in argv else FILE) as root:
         before = _tree(root)
-        try:
-            code = main(list(argv))
-        except SystemExit as exc:  # argparse's refusals
-            code = exc.code
+        done = cli(argv)
         changed = _tree(root) ^ before
-    return Outcome(code, out.getvalue(), err.getvalue(), changed)
+    return Outcome(done.code, done.out, done.err, changed)
 
 
 def _root_writes_through_permissions() -> bool:
@@ -226,7 +237,7 @@ FULL_CASES = [
     _full("chart --out", ["chart", CSV, "--kind", "work-precision", "--out", "full/ch"],
           "--out full/ch: cannot write work_precision.png: No space left on device"),
     _full("tune --out", ["tune", "bouncing-ball", "--engine", "pybullet", "--set", "duration=0.2", "--out", "full/tune"],
-          "--out full/tune: cannot write guide.md: No space left on device"),
+          "--out full/tune: cannot write recommended.json: No space left on device"),
 ]
 
 

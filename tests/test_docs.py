@@ -1,9 +1,15 @@
-"""The docs that name verdicts and tolerances come from the code that defines them."""
+"""The docs that name verdicts, words and tolerances come from the code that defines them; the tour names every module."""
 
+import ast
+import pkgutil
+import re
 from pathlib import Path
 
+import chatterbench.comparisons
+import chatterbench.engines
+import chatterbench.reference
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
-from chatterbench.comparisons.pipeline.vocabulary import NAMES, document, markdown_table
+from chatterbench.comparisons.pipeline.vocabulary import GLOSSARY, NAMES, document, glossary_markdown, markdown_table
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -12,6 +18,16 @@ def test_readme_verdict_list_is_the_vocabulary():
     text = (ROOT / "README.md").read_text(encoding="utf-8")
     block = text.split("<!-- verdicts:begin -->\n", 1)[1].split("\n<!-- verdicts:end -->", 1)[0]
     assert block == markdown_table()
+
+
+def test_readme_glossary_is_the_vocabularys():
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    block = text.split("<!-- words:begin -->\n", 1)[1].split("\n<!-- words:end -->", 1)[0]
+    assert block == glossary_markdown()
+    # every word of the issue's list is defined, once
+    words = [w for w, _ in GLOSSARY]
+    assert len(set(words)) == len(words)
+    assert {"episode", "visit", "impact", "strike", "stick", "sliding", "exit", "plate entry", "Zeno point"} <= set(words)
 
 
 def test_verdict_doc_is_current():
@@ -30,3 +46,57 @@ def test_gate_doc_points_at_the_vocabulary():
 
     assert "docs/verdicts.md" in gate.__doc__
     assert gate.TEXT_METRICS["verdict"] == NAMES
+
+
+def _tour() -> dict[str, str]:
+    """The README's tour as {folder: its text}: a folder starts a line (indented by 2: inside the folder above)."""
+    block = (ROOT / "README.md").read_text(encoding="utf-8").split("## A short tour", 1)[1].split("```\n", 2)[1]
+    sections, outer, current = {}, "", None
+    for line in block.splitlines():
+        indent = len(line) - len(line.lstrip())
+        word, _, rest = line.strip().partition(" ")
+        if indent <= 2 and word.endswith("/"):
+            current = outer + word if indent else word
+            outer = outer if indent else word
+            sections[current] = rest
+        elif current:
+            sections[current] += " " + line.strip()
+    return sections
+
+
+def test_readme_tour_names_every_module():
+    sections = _tour()
+    missing = []
+    for pkg in (chatterbench.reference, chatterbench.engines, chatterbench.comparisons):
+        top = pkg.__name__.split(".", 1)[1]
+        for info in pkgutil.walk_packages(pkg.__path__, prefix=pkg.__name__ + "."):
+            parts = info.name.split(".")[1:]
+            if parts[-1] == "__main__":
+                continue
+            if info.ispkg:  # a package is a folder of the tour, or named in its parent's
+                folder = "/".join(parts) + "/"
+                parent = sections.get("/".join(parts[:-1]) + "/", "")
+                if folder not in sections and not re.search(rf"(?<![\w/]){parts[-1]}/", parent):
+                    missing.append(info.name)
+                continue
+            text = sections.get("/".join(parts[:-1]) + "/", "")
+            if not re.search(rf"(?<![\w/]){parts[-1]}(?![\w/])", text):
+                missing.append(info.name)
+        assert top + "/" in sections or any(k.startswith(top + "/") for k in sections)
+    assert not missing, f"modules the README tour does not name (one line each under their folder): {missing}"
+
+
+def test_one_spelling_of_colour_in_the_codes_own_names():
+    # the glossary's "colour": module-level names, functions, classes and fields say colour; "color" is matplotlib's
+    found = []
+    for path in [*ROOT.joinpath("reference").rglob("*.py"), *ROOT.joinpath("engines").rglob("*.py"),
+                 *ROOT.joinpath("comparisons").rglob("*.py")]:
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        scopes = [tree, *(n for n in ast.walk(tree) if isinstance(n, ast.ClassDef))]
+        names = [n.name for n in ast.walk(tree) if isinstance(n, (ast.FunctionDef, ast.ClassDef))]
+        for scope in scopes:
+            for node in scope.body:
+                targets = node.targets if isinstance(node, ast.Assign) else [getattr(node, "target", None)]
+                names += [t.id for t in targets if isinstance(t, ast.Name)]
+        found += [f"{path.relative_to(ROOT)}: {n}" for n in names if "color" in n.lower()]
+    assert not found, found

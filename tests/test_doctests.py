@@ -1,15 +1,13 @@
-"""Every module example (``>>>``) runs, as a doctest, with the names a reader would have at hand."""
+"""Every module example (``>>>``) runs, as a doctest, with no names given to it: each imports what it uses."""
 
 from __future__ import annotations
 
 import doctest
 import importlib
 import pkgutil
-import tempfile
+import types
 from pathlib import Path
 
-import numpy as np
-import pandas as pd
 import pytest
 
 import chatterbench.comparisons
@@ -32,22 +30,39 @@ def _modules() -> list[str]:
     return sorted(names)
 
 
-def _namespace(tmp: Path) -> dict:
-    from chatterbench.engines.mujoco_engine import MujocoSettings
-    from chatterbench.engines.pybullet_engine import PybulletSettings
-    from chatterbench.reference import load_scene
+def _run_examples(module: types.ModuleType) -> doctest.TestResults:
+    # globs={}: no names are handed to the examples, not even the module's own (doctest's default
+    # hands them the module's globals); an example sees only what it imports, as a reader who pastes it
+    return doctest.testmod(module, globs={}, report=True, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
 
-    return {"np": np, "pd": pd, "Path": Path, "tmp": tmp, "load_scene": load_scene,
-            "MujocoSettings": MujocoSettings, "PybulletSettings": PybulletSettings}
+
+def test_an_example_gets_no_names_it_does_not_import():
+    from chatterbench.reference.scene import load_scene
+
+    module = types.ModuleType("pasted", '>>> load_scene("bouncing-ball").name\n\'bouncing-ball\'\n')
+    module.load_scene = load_scene  # a name of the module itself: still not the example's
+    assert _run_examples(module).failed == 1
+    module.__doc__ = ">>> from chatterbench.reference.scene import load_scene\n" + module.__doc__
+    assert _run_examples(module) == (0, 2)
+
+
+# the tests' own shared modules with examples (helpers, synthetic trajectories): the same rule
+TEST_MODULES = sorted(p for p in (ROOT / "tests").rglob("*.py")
+                      if not p.name.startswith(("test_", "conftest")) and ">>>" in p.read_text(encoding="utf-8"))
+
+
+@pytest.mark.parametrize("path", TEST_MODULES, ids=[p.stem for p in TEST_MODULES])
+def test_test_module_examples_run(path, monkeypatch):
+    monkeypatch.syspath_prepend(str(path.parent))  # as pytest imports them: from their own folder
+    result = _run_examples(importlib.import_module(path.stem))
+    assert result.failed == 0 and result.attempted > 0, f"{result} in {path} (printed above)"
 
 
 @pytest.mark.parametrize("name", _modules())
 def test_module_examples_run(name, monkeypatch):
     monkeypatch.chdir(ROOT)  # examples name repository files: gates/default.toml, examples/sweeps/...
     module = importlib.import_module(name)
-    with tempfile.TemporaryDirectory() as tmp:
-        result = doctest.testmod(module, extraglobs=_namespace(Path(tmp)), report=True,
-                                 optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
+    result = _run_examples(module)
     assert result.failed == 0, f"{result.failed} of {result.attempted} examples of {name} failed (printed above)"
     if module.__doc__ and ">>>" in module.__doc__:
         assert result.attempted > 0

@@ -17,13 +17,14 @@ if not _REGISTERED:
 
 @pytest.mark.slow
 def test_default_gate_passes(tmp_path, capsys):
-    junit = tmp_path / "gate.xml"
-    code = main(["gate", str(GATES), "--junit", str(junit)])
+    junit, summary = tmp_path / "gate.xml", tmp_path / "summary.md"
+    code = main(["gate", str(GATES), "--junit", str(junit), "--summary", str(summary)])
     out = capsys.readouterr().out
     assert code == 0, out  # the failing checks' numbers are in the output
     suite = ET.parse(junit).getroot().find("testsuite")
-    assert suite.get("failures") == "0"
+    assert suite.get("failures") == "0" and not list(suite.iter("failure"))
     assert int(suite.get("tests")) == 7
+    assert summary.read_text().splitlines()[0].endswith(": PASS")
 
 
 def test_chatter_gate_fixture(chatter_gate):

@@ -25,21 +25,18 @@ reference cannot finish are refused at run time (``test_bad_inputs.py``).
 from __future__ import annotations
 
 import copy
-import io
 import json
 import math
 import re
-import subprocess
-import sys
-from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 
 import pytest
 from hypothesis import given, strategies as st
 
-from chatterbench.comparisons.cli.main import main
 from chatterbench.reference.catalogue import CATALOGUE
 from chatterbench.reference.scene import Scene, SceneError, load_scene
+
+from helpers import cli, cli_process
 
 REPO = Path(__file__).resolve().parents[1]
 SWEEP_EXAMPLES = sorted((REPO / "examples" / "sweeps").glob("*.toml"))
@@ -120,17 +117,6 @@ def test_writer_round_trips_the_catalogue(tmp_path):
 @pytest.fixture(scope="module")
 def workdir(tmp_path_factory) -> Path:
     return tmp_path_factory.mktemp("fuzz")
-
-
-def cli(argv: list[str]) -> tuple[int, str, str]:
-    """Run the CLI in-process; returns (exit code, stdout, stderr). Any exception escapes."""
-    out, err = io.StringIO(), io.StringIO()
-    with redirect_stdout(out), redirect_stderr(err):
-        try:
-            code = main(argv)
-        except SystemExit as exc:  # argparse's own refusals
-            code = exc.code
-    return code, out.getvalue(), err.getvalue()
 
 
 def assert_clean_refusal(code: int, err: str) -> None:
@@ -475,7 +461,6 @@ def test_gate_file_not_utf8(tmp_path):
 def test_cli_subprocess_refuses_cleanly(tmp_path, content):
     path = tmp_path / "bad.toml"
     path.write_bytes(content)
-    proc = subprocess.run([sys.executable, "-m", "chatterbench.comparisons.cli", "run", str(path)],
-                          capture_output=True, text=True, timeout=120)
+    proc = cli_process("run", str(path), timeout=120)
     assert_clean_refusal(proc.returncode, proc.stderr)
     assert proc.stdout == ""

@@ -19,13 +19,14 @@ import math
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any
+from typing import Any, Mapping
 
 from chatterbench.comparisons.outputs.atomic import write_text
 from chatterbench.comparisons.pipeline.summary import METRIC_COLUMNS
-from chatterbench.reference.errors import InputError, check_number
+from chatterbench.reference.errors import InputError, check_number, shown
+from chatterbench.reference.tables import TooDeep, check_depth, printable, read_text
 
-from .checks import GateResult, fmt_value
+from .checks import GateResult
 
 BAND = 0.1  # relative growth allowed before a metric counts as a regression
 FLOOR = 1e-12
@@ -38,13 +39,22 @@ class BaselineError(InputError):
 
 @dataclass(frozen=True)
 class Regression:
-    """One metric of one check that grew beyond the band (or cannot be compared)."""
+    """One metric of one check that fails against the baseline: it grew beyond the band, or it was
+    measured in one run only; ``metric`` is "" when the check is not in the baseline at all."""
 
     check: str
-    metric: str
-    base: float
-    now: float
-    message: str
+    metric: str  # one of METRIC_COLUMNS, or "" (the check is not in the baseline)
+    base: float  # the baseline's value [the metric's unit]; NaN: not measured then
+    now: float  # this run's value; NaN: not measured now
+    allowed: float  # the ceiling base * (1 + band) + FLOOR; NaN when there is nothing to compare
+    band: float
+
+    @property
+    def why(self) -> str:
+        """``missing`` (check not in the baseline), ``one run`` (measured in one run only) or ``grew``."""
+        if not self.metric:
+            return "missing"
+        return "one run" if math.isnan(self.base) or math.isnan(self.now) else "grew"
 
 
 def _number(v: Any) -> float:
@@ -68,39 +78,62 @@ def save_baseline(result: GateResult, path: str | Path) -> Path:
 
 
 def load_baseline(path: str | Path) -> dict[str, Any]:
-    """Read a baseline file; ``BaselineError`` naming the file when it is not one."""
+    """Read a baseline file, validated whole (before any run); ``BaselineError`` naming the file and the field.
+
+    A regular file of at most ``tables.MAX_FILE_BYTES``, nested at most ``tables.MAX_DEPTH``
+    deep; ``versions`` a table of strings, ``checks`` a table of tables whose metrics are
+    numbers or null and whose ``verdict`` is a string.
+    """
+    where = f"--baseline {path}"
+    text = read_text(path, where, BaselineError, kind="JSON")
     try:
-        data = json.loads(Path(path).read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise BaselineError(f"--baseline {path}: cannot be read ({exc.strerror or exc})") from None
-    except (ValueError, UnicodeDecodeError) as exc:
-        raise BaselineError(f"--baseline {path}: not JSON ({exc})") from None
+        data = check_depth(json.loads(text))
+    except (RecursionError, TooDeep):
+        raise BaselineError(f"{where}: {TooDeep()}") from None
+    except ValueError as exc:
+        raise BaselineError(f"{where}: not JSON ({exc})") from None
     if not isinstance(data, dict) or data.get("format") != FORMAT or not isinstance(data.get("checks"), dict):
-        raise BaselineError(f"--baseline {path}: not a chatterbench gate baseline (write one with --save-baseline)")
+        raise BaselineError(f"{where}: not a chatterbench gate baseline (write one with --save-baseline)")
+    _check_fields(where, data)
     return data
 
 
-def regressions(result: GateResult, base: dict[str, Any], band: float = BAND) -> list[Regression]:
-    """Every error metric of ``result`` beyond ``base`` by more than ``band`` (module docstring)."""
+def _check_fields(where: str, data: Mapping[str, Any]) -> None:
+    """The fields the comparison and its messages read, each of its type."""
+    versions = data.get("versions", {})
+    if not isinstance(versions, dict) or not all(isinstance(v, str) for v in versions.values()):
+        raise BaselineError(f"{where}: versions = {shown(versions)}: must be a table of engine = \"version\"")
+    for name, check in data["checks"].items():
+        if not isinstance(check, dict):
+            raise BaselineError(f"{where}: checks.{printable(name)} = {shown(check)}: must be a table of metric = value")
+        for key, value in check.items():
+            ok = isinstance(value, str) if key == "verdict" else (value is None or (isinstance(value, (int, float))
+                                                                                  and not isinstance(value, bool)))
+            if not ok:
+                want = "a string" if key == "verdict" else "a number or null"
+                raise BaselineError(f"{where}: checks.{printable(name)}.{printable(key)} = {shown(value)}: must be {want}")
+
+
+def check_regressions(name: str, row: Mapping[str, Any], base: Mapping[str, Any], band: float = BAND) -> list[Regression]:
+    """Every error metric of one check's summary ``row`` beyond ``base`` by more than ``band``
+    (module docstring); one ``missing`` Regression when the check is not in the baseline."""
     band = check_number("--band", band, lo=0.0, error=BaselineError)
-    versions = (f"engines now {', '.join(f'{e} {v}' for e, v in sorted(result.versions.items()))}; baseline "
-                f"{', '.join(f'{e} {v}' for e, v in sorted(base.get('versions', {}).items()))}")
+    then = base["checks"].get(name)
+    if then is None:
+        return [Regression(name, "", math.nan, math.nan, math.nan, band)]
     out = []
-    for r in result.results:
-        then = base["checks"].get(r.check.name)
-        if then is None:
-            out.append(Regression(r.check.name, "", math.nan, math.nan,
-                                  f"{r.check.name}: not in the baseline ({versions})"))
+    for metric in METRIC_COLUMNS:
+        now, was = _number(row.get(metric)), _number(then.get(metric))
+        if math.isnan(now) and math.isnan(was):
             continue
-        for metric in METRIC_COLUMNS:
-            now, was = _number(r.row.get(metric)), _number(then.get(metric))
-            if math.isnan(now) and math.isnan(was):
-                continue
-            if math.isnan(was) != math.isnan(now):
-                out.append(Regression(r.check.name, metric, was, now, f"{r.check.name}: {metric} = {fmt_value(now)}, "
-                                      f"baseline {fmt_value(was)}: measured in one run only ({versions})"))
-            elif now > was * (1.0 + band) + FLOOR:
-                out.append(Regression(r.check.name, metric, was, now, f"{r.check.name}: {metric} = {fmt_value(now)}, "
-                                      f"baseline {fmt_value(was)}: grew {now / was - 1 if was else math.inf:.0%} "
-                                      f"(band {band:.0%}) ({versions})"))
+        allowed = was * (1.0 + band) + FLOOR
+        if math.isnan(was) or math.isnan(now) or now > allowed:
+            out.append(Regression(name, metric, was, now, allowed, band))
     return out
+
+
+def versions_note(now: Mapping[str, str], base: Mapping[str, Any]) -> str:
+    """Both runs' engine versions, for every message about the baseline."""
+    def listed(versions: Mapping[str, Any]) -> str:
+        return ", ".join(f"{e} {v}" for e, v in sorted(versions.items())) or "none recorded"
+    return f"engines now {listed(now)}; baseline {listed(base.get('versions') or {})}"

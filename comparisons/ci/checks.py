@@ -1,14 +1,16 @@
 """Running a gate: each check's comparison (shared between checks that ask for the same run), each limit's outcome.
 
+    >>> from chatterbench.comparisons.ci.checks import run_gate
     >>> from chatterbench.comparisons.ci.gate import parse_gate
     >>> gate = parse_gate({"defaults": {"dt": 1e-3}, "check": [
     ...     {"scene": "bouncing-ball", "engine": "pybullet", "limits": ["verdict == match", "stick_error_rel_max <= 0.05"]}]})
     >>> result = run_gate(gate)
-    >>> result.passed, result.table()["result"].tolist()        # one row per (check, limit)
-    (True, ['pass', 'pass'])
+    >>> [(str(o.limit), o.passed) for o in result.results[0].outcomes]      # each limit's outcome
+    [('verdict == match', True), ('stick_error_rel_max <= 0.05', True)]
 
 A failure never passes by omission (``CheckResult.outcomes_for``): a run whose verdict is a
-failure class fails its check unless a limit names that class.
+failure class fails its check unless a limit names that class. Whether the gate passes is
+decided once, in ``decision.py`` (limits, the baseline, failed runs), for every writer.
 """
 
 from __future__ import annotations
@@ -17,8 +19,6 @@ import math
 import time
 from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping
-
-import pandas as pd
 
 from chatterbench.comparisons.pipeline.budget import Budget, check_comparison
 from chatterbench.comparisons.pipeline.compare import compare
@@ -47,6 +47,7 @@ class CheckResult:
 
     @property
     def passed(self) -> bool:
+        """Every limit holds (the gate's decision adds the baseline: ``decision.decide_check``)."""
         return all(o.passed for o in self.outcomes)
 
     @staticmethod
@@ -60,22 +61,6 @@ class CheckResult:
             outcomes.append(LimitOutcome(implicit, verdict, False))
         return tuple(outcomes)
 
-    def failure_message(self) -> str:
-        """Readable account: measured against the limit, per limit, with the run's context."""
-        c = self.check
-        head = (f"chatter gate {c.name!r} {'passed' if self.passed else 'failed'}: {c.scene.name} on {c.engine}, "
-                f"dt = {fmt_value(self.row.get('dt'))} s"
-                + (f", settings {dict(c.settings)}" if c.settings else "")
-                + (f", scene {dict(c.scene_overrides)}" if c.scene_overrides else ""))
-        width = max(len(str(o.limit)) for o in self.outcomes)
-        lines = [head]
-        for o in self.outcomes:
-            lines.append(f"  {str(o.limit):<{width}}  measured {fmt_value(o.measured):>12}  {'ok' if o.passed else 'FAIL'}")
-        lines.append(f"  episodes {self.row.get('n_episodes')}, matched {self.row.get('n_match')}, "
-                     f"engine run {self.row.get('status')}"
-                     + (f": {str(self.row.get('message')).splitlines()[0]}" if self.row.get("message") else ""))
-        return "\n".join(lines)
-
 
 @dataclass(frozen=True)
 class GateResult:
@@ -86,16 +71,6 @@ class GateResult:
     wall_s: float  # [s]
     versions: Mapping[str, str] = field(default_factory=dict)  # engine -> version
 
-    @property
-    def passed(self) -> bool:
-        return all(r.passed for r in self.results)
-
-    def table(self) -> pd.DataFrame:
-        """One row per (check, limit): check, limit, measured, result (``pass`` / ``FAIL``)."""
-        rows = [{"check": r.check.name, "limit": str(o.limit), "measured": fmt_value(o.measured),
-                 "result": "pass" if o.passed else "FAIL"} for r in self.results for o in r.outcomes]
-        return pd.DataFrame(rows, columns=["check", "limit", "measured", "result"])
-
 
 def fmt_value(v: Any) -> str:
     if isinstance(v, bool) or v is None:
@@ -105,7 +80,6 @@ def fmt_value(v: Any) -> str:
     if isinstance(v, float):
         return "NaN (not measured)" if math.isnan(v) else f"{v:.4g}"
     return str(v)
-
 
 
 def run_check(check: Check, cache: dict[str, tuple[dict, str]] | None = None,
@@ -128,10 +102,12 @@ def run_check(check: Check, cache: dict[str, tuple[dict, str]] | None = None,
     return CheckResult(check=check, row=row, outcomes=CheckResult.outcomes_for(check, row), wall_s=time.perf_counter() - start)
 
 
-def run_gate(gate: Gate, progress: Callable[[str], None] | None = None, timeout: float | None = None,
+def run_gate(gate: Gate, on_check: Callable[[int, CheckResult], None] | None = None, timeout: float | None = None,
              budget: Budget | None = None) -> GateResult:
     """Run every check of a validated gate, in order; checks needing the same run share it.
 
+    ``on_check(i, result)`` is called as each check's run ends (``i`` from 1): the CLI decides
+    the check there (``decision.decide_check``) and prints its progress line.
     ``timeout`` [s]: each engine run is isolated in a child with this limit (``run_check``).
     ``budget``: every check's runs are estimated against it before the first one starts.
     """
@@ -145,7 +121,7 @@ def run_gate(gate: Gate, progress: Callable[[str], None] | None = None, timeout:
     for i, check in enumerate(gate.checks, 1):
         result = run_check(check, cache, timeout)
         results.append(result)
-        if progress:
-            progress(f"[{i}/{len(gate.checks)}] {check.name}: {'pass' if result.passed else 'FAIL'} ({result.wall_s:.1f} s)")
+        if on_check:
+            on_check(i, result)
     versions = {r.check.engine: str(r.row.get("engine_version", "")) for r in results}
     return GateResult(gate=gate, results=tuple(results), wall_s=time.perf_counter() - start, versions=versions)

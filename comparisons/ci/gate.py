@@ -1,12 +1,14 @@
 """Accuracy gates for CI: the gate file, its checks and their limits, validated in full before anything runs.
 
+    >>> from chatterbench.comparisons.ci.gate import load_gate, parse_limit
     >>> gate = load_gate("gates/default.toml")
     >>> len(gate.checks), str(gate.checks[0].limits[0])
     (7, 'verdict == match')
     >>> parse_limit("exit_error_max <= 2e-3").holds(1e-3)
     True
 
-``checks.py`` runs a gate, ``junit.py`` writes its JUnit XML.
+``checks.py`` runs a gate, ``decision.py`` decides it once (limits, baseline, failed runs), and
+``junit.py`` and ``job_outputs.py`` render that decision.
 
 Gate file format (TOML)::
 
@@ -18,7 +20,7 @@ Gate file format (TOML)::
     [[check]]
     name = "feigin-pair/mujoco"                      # optional, default "SCENE/ENGINE"; unique in the file
     scene = "feigin-pair"                            # built-in scene, or a scene TOML path (relative to this file)
-    engine = "mujoco"                                # mujoco | pybullet
+    engine = "mujoco"                                # any engine of the table (registry.ENGINE_NAMES)
     dt = 1e-4                                        # engine timestep [s]; default: the engine's default
     settings = { w0_dt = 0.03 }                      # engine settings by the engine's own names (no prefix)
     scene_overrides = { duration = 20.0, "initial.vy" = 0.0 }   # scene fields by dotted key
@@ -149,13 +151,14 @@ class Check:
 
     name: str
     scene: Scene
-    engine: str  # "mujoco" or "pybullet"
+    engine: str  # an engine's registry name (``registry.ENGINE_NAMES``)
     dt: float | None  # [s]; None: the engine's default
     settings: Mapping[str, Any]  # engine settings by the engine's own names
     scene_overrides: Mapping[str, Any]  # dotted scene keys -> values (already applied to ``scene``)
     tolerances: Tolerances
     limits: tuple[Limit, ...]
     source: str = ""  # "FILE, check N" for messages
+    scene_source: str = ""  # the scene as the gate names it: a built-in name or a TOML path (resolved against the file)
 
     def run_key(self) -> str:
         """Identity of the run this check needs (checks with equal keys share one run)."""
@@ -318,7 +321,8 @@ def make_check(
         raise GateError("\n".join(problems))
     return Check(name=name or f"{scene_obj.name}/{engine}", scene=scene_obj, engine=engine,
                  dt=None if dt is None else float(dt), settings=settings, scene_overrides=overrides,
-                 tolerances=tol, limits=tuple(limits), source=source)
+                 tolerances=tol, limits=tuple(limits), source=source,
+                 scene_source=_scene_source(scene, base_dir) if isinstance(scene, str) else "")
 
 
 def parse_gate(data: Mapping[str, Any], path: str = "<gate>", base_dir: Path | None = None,

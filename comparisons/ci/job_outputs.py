@@ -1,24 +1,30 @@
-"""A gate's result for a CI job: a Markdown job summary, GitHub annotations, a benchmark JSON.
+"""A gate's decision for a CI job: a Markdown job summary, GitHub annotations, a benchmark JSON.
 
+    >>> from chatterbench.comparisons.ci.job_outputs import annotations, benchmark_entries
     >>> from chatterbench.comparisons.ci.checks import run_gate
+    >>> from chatterbench.comparisons.ci.decision import decide
     >>> from chatterbench.comparisons.ci.gate import parse_gate
     >>> gate = parse_gate({"check": [{"scene": "bouncing-ball", "engine": "pybullet", "dt": 1e-3,
     ...                               "limits": ["verdict == none"]}]})
-    >>> result = run_gate(gate)
-    >>> print(annotations(result)[0][:60])
+    >>> decision = decide(run_gate(gate))
+    >>> print(annotations(decision)[0][:60])
     ::error title=chatter gate bouncing-ball/pybullet::verdict =
-    >>> entries = benchmark_entries(result)
-    >>> entries[0]["name"], entries[0]["unit"]
-    ('bouncing-ball/pybullet: stick_error_max', 's')
+    >>> entries = benchmark_entries(decision)
+    >>> entries[0]["name"], entries[0]["unit"], entries[0]["extra"][:9]
+    ('bouncing-ball/pybullet: stick_error_max', 's', 'gate FAIL')
+
+Each renders ``decision.Decision`` and decides nothing:
 
 - ``job_summary``: Markdown for ``$GITHUB_STEP_SUMMARY`` (GitHub shows it on the run's page):
-  pass/fail, each check's limits with the measured values, the engine versions.
-- ``annotations``: one ``::error title=...::message`` workflow command per failed check, which
-  GitHub Actions turns into an annotation on the run (printed when ``GITHUB_ACTIONS=true``).
+  PASS or FAIL, a row per failure (measured, limit, baseline), the commands to run next,
+  every item of every check, the engine versions.
+- ``annotations``: one ``::error title=...::message`` workflow command per failed check (its
+  failures), and a ``::notice`` with the commands to run next, which GitHub Actions turns into
+  annotations on the run (printed when ``GITHUB_ACTIONS=true``).
 - ``benchmark_entries``: every measured number metric of every check in the
   ``customSmallerIsBetter`` format of github-action-benchmark (a JSON list of ``{"name",
   "unit", "value", "extra"}``): errors and cost, all smaller-is-better; NaN (not measured)
-  left out.
+  left out; ``extra`` says whether the check passed, and for a regressed metric its baseline.
 """
 
 from __future__ import annotations
@@ -29,7 +35,8 @@ from typing import Any
 
 from chatterbench.comparisons.pipeline.summary import METRIC_COLUMNS
 
-from .checks import GateResult, fmt_value
+from .checks import fmt_value
+from .decision import Decision
 
 # the unit of each number metric written to the benchmark JSON
 UNITS = {m: ("1" if m.endswith("_rel_max") or m == "restitution_error_max" else "m" if m == "penetration_max" else "s")
@@ -43,47 +50,67 @@ def _escape(text: str, property_: bool = False) -> str:
     return text.replace(":", "%3A").replace(",", "%2C") if property_ else text
 
 
-def annotations(result: GateResult) -> list[str]:
-    """One ``::error`` workflow command per failed check: the failing limits with their measured values."""
+def annotations(decision: Decision) -> list[str]:
+    """One ``::error`` workflow command per failed check (its failures), then one ``::notice`` with what to run next."""
     out = []
-    for r in result.results:
-        if r.passed:
-            continue
-        bad = "; ".join(f"{o.limit.metric} = {fmt_value(o.measured)}, limit {o.limit}" for o in r.outcomes if not o.passed)
-        title = _escape(f"chatter gate {r.check.name}", property_=True)
-        out.append(f"::error title={title}::{_escape(bad)}")
+    for c in decision.checks:
+        if not c.passed:
+            title = _escape(f"chatter gate {c.name}", property_=True)
+            out.append(f"::error title={title}::{_escape('; '.join(i.message() for i in c.failures))}")
+    steps = decision.next_steps()
+    if steps:
+        out.append(f"::notice title={_escape('chatter gate: what to run next', property_=True)}::{_escape(chr(10).join(steps))}")
     return out
 
 
-def job_summary(result: GateResult, extra: str = "") -> str:
-    """The gate as Markdown: verdict line, one table row per limit, engine versions; ``extra`` appended."""
-    n_ok = sum(r.passed for r in result.results)
-    lines = [f"## chatterbench gate `{result.gate.path}`: {'PASS' if result.passed else 'FAIL'}", "",
-             f"{n_ok} of {len(result.results)} checks passed in {result.wall_s:.1f} s.", "",
-             "| check | limit | measured | result |", "|---|---|---:|---|"]
-    for r in result.results:
-        for o in r.outcomes:
-            lines.append(f"| {r.check.name} | `{o.limit}` | {fmt_value(o.measured)} | "
-                         f"{'pass' if o.passed else '**FAIL**'} |")
+def _cell(text: str) -> str:
+    return text.replace("|", "\\|").replace("\n", " ")
+
+
+def job_summary(decision: Decision) -> str:
+    """The decision as Markdown: PASS/FAIL heading, a row per failure, what to run next, every item, the versions."""
+    result = decision.result
+    lines = [f"## chatterbench gate `{result.gate.path}`: {'PASS' if decision.passed else 'FAIL'}", "",
+             f"{decision.n_passed} of {len(decision.checks)} checks passed (their runs took {result.wall_s:.1f} s)"
+             + (f"; {decision.n_regressed} metric(s) regressed against `{decision.baseline}` (band {decision.band:.0%})"
+                if decision.baseline else "") + ".", ""]
+    if not decision.passed:
+        lines += ["### Failures", "", "| check | failure | measured | limit | baseline | note |", "|---|---|---:|---|---:|---|"]
+        for c in decision.checks:
+            for i in c.failures:
+                base = "" if i.baseline is None else fmt_value(i.baseline)
+                lines.append(f"| {_cell(c.name)} | {i.kind} | {_cell(fmt_value(i.measured))} | `{_cell(i.limit)}` | {base} | "
+                             f"{_cell(i.note)} |")
+        steps = decision.next_steps()
+        lines += ["", "### What to run next", "", steps[0], "", "```sh", *steps[1:], "```", ""]
+    lines += ["### Every check", "", "| check | limit | measured | result |", "|---|---|---:|---|"]
+    for c in decision.checks:
+        for i in c.items:
+            lines.append(f"| {_cell(c.name)} | `{_cell(i.limit)}` | {_cell(fmt_value(i.measured))} | "
+                         f"{'pass' if i.passed else '**FAIL**'} |")
     lines += ["", "Engines: " + ", ".join(f"{e} {v}" for e, v in sorted(result.versions.items()))]
-    if extra:
-        lines += ["", extra]
+    if decision.baseline:
+        lines += ["", f"Baseline `{decision.baseline}`: {decision.versions}."]
     return "\n".join(lines) + "\n"
 
 
-def benchmark_entries(result: GateResult) -> list[dict[str, Any]]:
+def benchmark_entries(decision: Decision) -> list[dict[str, Any]]:
     """Every measured number metric as a ``customSmallerIsBetter`` entry (module docstring)."""
     entries = []
-    for r in result.results:
+    for c in decision.checks:
+        row = c.result.row
+        regressed = {i.metric: i for i in c.failures if i.kind == "regressed"}
         for metric, unit in UNITS.items():
-            value = r.row.get(metric)
+            value = row.get(metric)
             if isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value):
-                entries.append({"name": f"{r.check.name}: {metric}", "unit": unit, "value": float(value),
-                                "extra": f"verdict {r.row.get('verdict')}; {r.check.engine} "
-                                         f"{r.row.get('engine_version', '')}; dt {fmt_value(r.row.get('dt'))} s"})
+                extra = (f"gate {'pass' if c.passed else 'FAIL'}; verdict {row.get('verdict')}; {c.result.check.engine} "
+                         f"{row.get('engine_version', '')}; dt {fmt_value(row.get('dt'))} s")
+                if metric in regressed:
+                    extra += f"; regressed: {regressed[metric].message()}"
+                entries.append({"name": f"{c.name}: {metric}", "unit": unit, "value": float(value), "extra": extra})
     return entries
 
 
-def benchmark_json(result: GateResult) -> str:
+def benchmark_json(decision: Decision) -> str:
     """``benchmark_entries`` as the JSON text the benchmark action reads."""
-    return json.dumps(benchmark_entries(result), indent=1) + "\n"
+    return json.dumps(benchmark_entries(decision), indent=1) + "\n"

@@ -1,15 +1,22 @@
-"""A gate's result as JUnit XML, the report every CI system reads: one testcase per check.
+"""A gate's decision as JUnit XML, the report every CI system reads: a testcase per check and per regressed metric.
 
+    >>> from chatterbench.comparisons.ci.junit import junit_xml
     >>> from chatterbench.comparisons.ci.checks import run_gate
+    >>> from chatterbench.comparisons.ci.decision import decide
     >>> from chatterbench.comparisons.ci.gate import parse_gate
     >>> gate = parse_gate({"check": [{"scene": "bouncing-ball", "engine": "pybullet", "dt": 1e-3,
     ...                               "limits": ["verdict == none"]}]})
-    >>> xml = junit_xml(run_gate(gate))                # the ball slides: "none" fails, with the numbers
+    >>> xml = junit_xml(decide(run_gate(gate)))       # the ball slides: "none" fails, with the numbers
     >>> 'tests="1" failures="1"' in xml, "verdict = match, limit verdict == none" in xml
     (True, True)
 
-A failing check carries a ``<failure>`` with the measured values against their limits; every
-testcase carries the check's summary row (JSON) in ``<system-out>``.
+Renders ``decision.Decision`` and decides nothing: a check's testcase fails when the decision
+fails the check (its limits, a failed run, its regressions, a missing baseline entry), with a
+``<failure>`` whose message lists each failure's measured value against its limit and whose
+text is the check's account and the commands to run next; each regressed metric has its own
+testcase (``CHECK: METRIC against the baseline``) whose ``<failure>`` carries the measured
+value, the limit and the baseline's value. Every check's testcase carries its summary row
+(JSON) in ``<system-out>``; ``failures`` counts the failing testcases.
 """
 
 from __future__ import annotations
@@ -25,32 +32,51 @@ from xml.etree import ElementTree as ET
 from chatterbench.comparisons.outputs.atomic import write_text
 from chatterbench.comparisons.pipeline.summary import METRIC_COLUMNS
 
-from .checks import GateResult, fmt_value
+from .decision import Decision
 
 
-def junit_xml(result: GateResult) -> str:
-    """The result as JUnit XML: one testcase per check; a failing one carries a <failure> with the numbers."""
-    failures = sum(not r.passed for r in result.results)
+def _cases(decision: Decision) -> list[tuple[str, float, tuple[str, str, str] | None, str | None]]:
+    """(name, time [s], failure (message, type, text) or None, system-out or None) per testcase."""
+    out = []
+    for c in decision.checks:
+        failure = None
+        if not c.passed:
+            text = c.account() + (f"\nbaseline {decision.baseline}: {decision.versions}" if decision.baseline else "")
+            failure = ("; ".join(i.message() for i in c.failures), "GateFailure", text)
+        row = c.result.row
+        system_out = json.dumps({k: _json_value(row.get(k)) for k in ("scene", "engine", "dt", "status", "verdict",
+                                 "n_episodes", "n_match", *METRIC_COLUMNS, "cost_per_sim_s", "engine_version")}, default=str)
+        out.append((c.name, c.result.wall_s, failure, system_out))
+        for i in c.failures:
+            if i.kind == "regressed":
+                text = f"{c.name}: {i.message()}\nbaseline {decision.baseline}: {decision.versions}"
+                out.append((f"{c.name}: {i.metric} against the baseline", 0.0, (i.message(), "GateRegression", text), None))
+    return out
+
+
+def junit_xml(decision: Decision) -> str:
+    """The decision as JUnit XML (module docstring)."""
+    result, cases = decision.result, _cases(decision)
+    failures = str(sum(f is not None for _, _, f, _ in cases))
     stem = Path(result.gate.path).stem
-    suites = ET.Element("testsuites", name="chatterbench gate", tests=str(len(result.results)),
-                        failures=str(failures), errors="0", time=f"{result.wall_s:.3f}")
-    suite = ET.SubElement(suites, "testsuite", name=result.gate.path, tests=str(len(result.results)),
-                          failures=str(failures), errors="0", skipped="0", time=f"{result.wall_s:.3f}",
+    suites = ET.Element("testsuites", name="chatterbench gate", tests=str(len(cases)),
+                        failures=failures, errors="0", time=f"{result.wall_s:.3f}")
+    suite = ET.SubElement(suites, "testsuite", name=result.gate.path, tests=str(len(cases)),
+                          failures=failures, errors="0", skipped="0", time=f"{result.wall_s:.3f}",
                           timestamp=datetime.now(timezone.utc).isoformat(timespec="seconds"), hostname=socket.gethostname())
     props = ET.SubElement(suite, "properties")
     for engine, version in sorted(result.versions.items()):
         ET.SubElement(props, "property", name=f"{engine}.version", value=version)
-    for r in result.results:
-        case = ET.SubElement(suite, "testcase", classname=f"chatterbench.gate.{stem}", name=r.check.name, time=f"{r.wall_s:.3f}")
-        if not r.passed:
-            bad = [o for o in r.outcomes if not o.passed]
-            message = "; ".join(f"{o.limit.metric} = {fmt_value(o.measured)}, limit {o.limit}" for o in bad)
-            failure = ET.SubElement(case, "failure", message=message, type="GateFailure")
-            failure.text = r.failure_message()
-        out = ET.SubElement(case, "system-out")
-        out.text = json.dumps({k: _json_value(r.row[k]) for k in ("scene", "engine", "dt", "status", "verdict", "n_episodes",
-                                                                 "n_match", *METRIC_COLUMNS, "cost_per_sim_s", "engine_version")},
-                              default=str)
+    if decision.baseline:
+        ET.SubElement(props, "property", name="baseline", value=decision.baseline)
+        ET.SubElement(props, "property", name="band", value=f"{decision.band:g}")
+    for name, wall, failure, system_out in cases:
+        case = ET.SubElement(suite, "testcase", classname=f"chatterbench.gate.{stem}", name=name, time=f"{wall:.3f}")
+        if failure is not None:
+            message, kind, text = failure
+            ET.SubElement(case, "failure", message=message, type=kind).text = text
+        if system_out is not None:
+            ET.SubElement(case, "system-out").text = system_out
     ET.indent(suites)
     return '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(suites, encoding="unicode") + "\n"
 
@@ -59,6 +85,6 @@ def _json_value(v: Any) -> Any:
     return None if isinstance(v, float) and math.isnan(v) else v
 
 
-def write_junit(result: GateResult, path: str | Path) -> Path:
-    """Write ``junit_xml(result)`` to ``path`` atomically."""
-    return write_text(Path(path), junit_xml(result))
+def write_junit(decision: Decision, path: str | Path) -> Path:
+    """Write ``junit_xml(decision)`` to ``path`` atomically."""
+    return write_text(Path(path), junit_xml(decision))

@@ -1,4 +1,4 @@
-"""pytest plugin: the ``chatter_gate`` fixture, an accuracy gate written as a test.
+"""pytest plugin: the ``chatter_gate`` fixture, an accuracy gate written as a test (and ``chatter_judge``, for any trajectory).
 
     def test_mujoco_slides_on_time(chatter_gate):
         chatter_gate.check("feigin-pair", engine="mujoco", dt=1e-4, verdict=["match", "rebound"],
@@ -12,6 +12,7 @@ usual bound (errors and cost ``<=``, ``n_match >=``, ``verdict ==``; ``gate.DEFA
 a list of verdicts means ``in``, and ``(op, value)`` names the operator. A failing limit
 fails the test with one line per limit, measured against the limit; a check that cannot
 run as written (unknown metric, scene key, setting) fails it with the gate file's message.
+The failure ends with the ``chatterbench compare`` and ``tune`` commands to run next.
 
 Promises: nothing heavy is imported until a test asks for the fixture; runs are shared
 within the session between checks that ask for the same run.
@@ -48,6 +49,7 @@ class ChatterGate:
         from chatterbench.reference.errors import InputError
 
         from .checks import run_check
+        from .decision import decide_check
         from .gate import limits_from_keywords, make_check
 
         refused = ""
@@ -59,8 +61,9 @@ class ChatterGate:
         if refused:
             pytest.fail(refused, pytrace=False)
         result = run_check(check, self._cache)
-        if not result.passed:
-            pytest.fail(result.failure_message(), pytrace=False)
+        decision = decide_check(result)
+        if not decision.passed:
+            pytest.fail(decision.account(), pytrace=False)
         return result
 
 
@@ -74,3 +77,32 @@ def _chatter_gate_runs() -> dict:
 def chatter_gate(_chatter_gate_runs: dict) -> ChatterGate:
     """Accuracy checks against the reference: ``chatter_gate.check(scene, engine=..., dt=..., METRIC=LIMIT, ...)``."""
     return ChatterGate(_chatter_gate_runs)
+
+
+@pytest.fixture
+def chatter_judge():
+    """Judge your own engine's trajectory in its own CI: ``chatter_judge(scene, table_or_path, engine=..., verdict=...)``.
+
+    ``scene`` is a Scene, a built-in name or a TOML path; the trajectory a DataFrame or a CSV or
+    Parquet file (``pipeline/trajectory_file.py``). Fails the test, with the episode table, unless
+    every episode's verdict is in ``verdict`` (default ``match`` or ``none``); returns the Comparison.
+    """
+    def judge(scene: Any, trajectory: Any, engine: str = "engine", verdict=("match", "none"),
+              tolerances: Mapping[str, Any] | None = None):
+        from chatterbench.comparisons.pipeline.tolerances import make_tolerances
+        from chatterbench.comparisons.pipeline.trajectory_file import judge_trajectory
+        from chatterbench.reference.errors import InputError
+
+        try:
+            result = judge_trajectory(scene, trajectory, engine=engine, tol=make_tolerances(tolerances))
+        except InputError as exc:
+            pytest.fail(f"chatter_judge: {exc}", pytrace=False)
+        allowed = (verdict,) if isinstance(verdict, str) else tuple(verdict)
+        bad = result.table[~result.table["verdict"].isin(allowed)]
+        if len(bad):
+            shown = bad[["wall", "ref_t_stick", "t_stick", "stick_error_rel", "ref_t_exit", "t_exit", "verdict"]]
+            pytest.fail(f"{engine} on {result.scene.name}: {len(bad)} of {len(result.table)} episodes not in "
+                        f"{', '.join(allowed)}:\n{shown.to_string(index=False)}", pytrace=False)
+        return result
+
+    return judge

@@ -5,6 +5,7 @@
     $ chatterbench bench platemap
     $ chatterbench bench sweep --points 40 --workers 2
     $ chatterbench bench sweep --only refine --refine examples/sweeps/feigin-pair-refine.toml
+    $ chatterbench bench tune --workers 2
 
 Each prints its figures, what one repeat is, and ``PASS``/``FAIL`` per goal (``GOALS``);
 the exit code is 1 when a goal fails, so a benchmark can gate a performance job.
@@ -17,10 +18,11 @@ import argparse
 import pandas as pd
 
 from chatterbench.comparisons.studies.bench import bench_engines, bench_platemap, bench_reference, bench_refine, bench_sweep, \
-    bench_warp
+    bench_tune, bench_warp
 from chatterbench.engines.registry import unavailable_reason
 
-from .common import positive_int, print_table
+from .common import UsageError, integer_type, local_workers, positive_int, print_table
+from .progress import Progress
 
 
 # each benchmark's goals: (figure, "<=" or ">=", bound, what it means)
@@ -34,6 +36,7 @@ GOALS = {
               ("refine_speedup", ">=", 1.5, "adaptive map's cells per minute against the full fine grid's")],
     "platemap": [("seconds", "<=", 30.0 * 1e-5, "seconds per strike (100,000 strikes in under 30 s)")],
     "engines": [("ratio", ">=", 0.8, "adapter steps/s against the raw engine loop, each engine")],
+    "tune": [("wall_s", "<=", 300.0, "seconds one tune of one scene and engine takes, each case (a few minutes)")],
 }
 REPEAT = {  # what one repeat is, and which counts
     "reference": "one repeat = one run of each chatter mode over --periods; the best of --repeats counts",
@@ -41,6 +44,8 @@ REPEAT = {  # what one repeat is, and which counts
     "platemap": "one repeat = the whole grid of --strikes strikes; the best of --repeats counts (time of one repeat)",
     "sweep": "one sweep of --points points x 2 engines, once with --workers and once with 1 worker; the adaptive map "
              "of --refine and its full fine grid, once each with --workers (no repeats)",
+    "tune": "one tune per case of the tuning issue's grid, with --workers and at most --max-runs runs, timed from the "
+            "reference to the answer (no repeats)",
 }
 
 
@@ -62,7 +67,10 @@ def goal_lines(what: str, figures: dict[str, float] | pd.DataFrame, strikes: int
 
 def _world_counts(text: str) -> tuple[int, ...]:
     """argparse type of ``--worlds``: comma-separated integers > 0."""
-    return tuple(positive_int(w) for w in text.split(",") if w.strip())
+    return tuple(_world_count(w) for w in text.split(",") if w.strip())
+
+
+_world_count = integer_type(1, 65_536)
 
 
 def _print_warp(worlds: tuple[int, ...]) -> None:
@@ -76,7 +84,41 @@ def _print_warp(worlds: tuple[int, ...]) -> None:
                                f"({figures['precision'].iloc[0]}), feigin-pair, dt = 1e-3, against MuJoCo C (1 thread):")
 
 
+# each option: the benchmarks it applies to and its default; given to another benchmark it is refused, not ignored
+OPTIONS = {"points": (("sweep",), 200), "workers": (("sweep", "tune"), 2), "max_runs": (("tune",), None), "refine": (("sweep",), None),
+           "only": (("sweep",), None), "worlds": (("sweep",), (1, 16, 256)), "strikes": (("platemap",), 100_000),
+           "periods": (("reference",), 100), "steps": (("engines",), 200_000),
+           "repeats": (("reference", "engines", "platemap"), 5)}
+
+
+def check_options(args: argparse.Namespace) -> None:
+    """Fill each option's default; refuse one given to a benchmark it does not apply to, and a part that cannot run."""
+    for name, (applies, default) in OPTIONS.items():
+        if getattr(args, name) is None:
+            setattr(args, name, default)
+        elif args.what not in applies:
+            raise UsageError(f"--{name.replace('_', '-')}: applies to {' and '.join(f'bench {a}' for a in applies)}, "
+                             f"not bench {args.what}")
+    if args.what in ("sweep", "tune"):
+        args.workers = local_workers(args.workers)
+    if args.only == "warp" and unavailable_reason("mujoco_warp"):
+        raise UsageError(f"--only warp: nothing to time: {unavailable_reason('mujoco_warp')}")
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
+    check_options(args)
+    parts = [p for p in ("overhead", "refine", "warp") if args.only in (None, p)] if args.what == "sweep" else [args.what]
+    with Progress(len(parts), f"bench {args.what}", unit="part") as bar:  # minutes of timing: say what runs
+        figures = _run_bench(args, bar)
+    print(REPEAT[args.what])
+    lines, ok = goal_lines(args.what, figures, strikes=args.strikes)
+    print("\n".join(lines))
+    return 0 if ok else 1
+
+
+def _run_bench(args: argparse.Namespace, bar: Progress):
+    first = {None: "overhead", "overhead": "overhead", "refine": "refine", "warp": "mujoco_warp"}[args.only]
+    bar.stage(first if args.what == "sweep" else "timing")
     if args.what == "reference":
         figures = bench_reference(periods=args.periods, repeats=args.repeats)
         print_table(pd.DataFrame([figures]), title="reference on feigin-pair (best of repeats, one core):")
@@ -87,42 +129,55 @@ def cmd_bench(args: argparse.Namespace) -> int:
             print_table(pd.DataFrame([figures]).T.reset_index().rename(columns={"index": "figure", 0: "value"}),
                         title="sweep overhead: feigin-pair, both engines, 3 periods, dt = 1e-4")
         if args.only in (None, "refine"):
+            if args.only is None:
+                bar.stage("refine")
             refined, per_engine = bench_refine(args.refine, workers=args.workers)
             print_table(pd.DataFrame([refined]).T.reset_index().rename(columns={"index": "figure", 0: "value"}),
                         title=f"adaptive map against the full fine grid ({args.refine or 'feigin-pair, 1 period, dt x R, depth 2'}):")
             print_table(per_engine, title="fine cells per engine whose verdict the adaptive map gets right:")
             figures.update({f"refine_{k}": v for k, v in refined.items()})
         if args.only in (None, "warp"):
+            if args.only is None:
+                bar.stage("mujoco_warp")
             _print_warp(args.worlds)
+    elif args.what == "tune":
+        figures = bench_tune(workers=args.workers, max_runs=args.max_runs)
+        print_table(figures, title="tune per case (runs, and wall time from the reference to the answer):")
     elif args.what == "platemap":
         figures = bench_platemap(strikes=args.strikes, repeats=args.repeats)
         print_table(pd.DataFrame([figures]), title="plate map, feigin-pair lower wall, reference exhaustive mode (best of repeats):")
     else:
         figures = bench_engines(steps=args.steps, repeats=args.repeats)
         print_table(figures, title="engines on feigin-pair (steps per second, best of repeats):")
-    print(REPEAT[args.what])
-    lines, ok = goal_lines(args.what, figures, strikes=args.strikes)
-    print("\n".join(lines))
-    return 0 if ok else 1
+    return figures
 
 
 def register(sub, formatter) -> None:
     """Add ``bench`` to the ``chatterbench`` subparsers."""
-    p = sub.add_parser("bench", help="benchmarks: reference speed, engine steps per second, plate map, sweeps",
+    p = sub.add_parser("bench", help="benchmarks: reference speed, engine steps per second, plate map, sweeps, tune",
                        formatter_class=formatter)
-    p.add_argument("what", choices=("reference", "engines", "platemap", "sweep"), help="what to time")
-    p.add_argument("--points", type=positive_int, default=200, help="comparison points for `bench sweep`")
-    p.add_argument("--workers", type=positive_int, default=2, help="workers for `bench sweep`")
+    p.add_argument("what", choices=("reference", "engines", "platemap", "sweep", "tune"), help="what to time")
+    p.add_argument("--max-runs", type=positive_int, default=None,
+                   help="`bench tune`: runs each tune makes at most; None: tune's default")
+    p.add_argument("--points", type=integer_type(2, 10_000), default=None, help="comparison points for `bench sweep`, "
+                   "in [2, 10000]; None: 200")
+    p.add_argument("--workers", type=positive_int, default=None,
+                   help="workers for `bench sweep` and `bench tune`, at most one per core; None: 2")
     p.add_argument("--refine", metavar="SPEC.toml", default=None,
                    help="`bench sweep`: the adaptive map (a spec with [refine]) timed against its full fine grid; "
                         "None: feigin-pair, 1 forcing period, dt x R 5 x 5, depth 2")
     p.add_argument("--only", choices=("overhead", "refine", "warp"), default=None,
                    help="`bench sweep`: only the sweep overhead (--points), or only the adaptive map (--refine), or only "
-                        "mujoco_warp's world-steps per second (--worlds); None: all")
-    p.add_argument("--worlds", type=_world_counts, default=(1, 16, 256), metavar="N[,N...]",
-                   help="`bench sweep`: worlds per mujoco_warp batch, timed on the device warp finds (cuda, else cpu)")
-    p.add_argument("--strikes", type=positive_int, default=100_000, help="strikes for `bench platemap`")
-    p.add_argument("--periods", type=positive_int, default=100, help="forcing periods for `bench reference`")
-    p.add_argument("--steps", type=positive_int, default=200_000, help="engine steps for `bench engines`")
-    p.add_argument("--repeats", type=positive_int, default=5, help="repeats; the best counts")
+                        "mujoco_warp's world-steps per second (--worlds; needs the warp extra); None: all")
+    p.add_argument("--worlds", type=_world_counts, default=None, metavar="N[,N...]",
+                   help="`bench sweep`: worlds per mujoco_warp batch, each in [1, 65536], timed on the device warp finds "
+                        "(cuda, else cpu); None: 1,16,256")
+    p.add_argument("--strikes", type=integer_type(1, 10**7), default=None,
+                   help="strikes for `bench platemap`, in [1, 1e7]; None: 100000")
+    p.add_argument("--periods", type=integer_type(1, 100_000), default=None,
+                   help="forcing periods for `bench reference`, in [1, 100000]; None: 100")
+    p.add_argument("--steps", type=integer_type(1, 10**8), default=None,
+                   help="engine steps for `bench engines`, in [1, 1e8]; None: 200000")
+    p.add_argument("--repeats", type=integer_type(1, 100), default=None,
+                   help="repeats of `bench reference`, `engines`, `platemap`, in [1, 100]; the best counts; None: 5")
     p.set_defaults(func=cmd_bench)

@@ -3,12 +3,16 @@
     $ chatterbench calibrate mujoco pybullet --restitution 0.5 --out out/calibrate
     $ chatterbench calibrate mujoco --gravity 9.81 --speeds 0.01,10 --points 25 --set mujoco.w0_dt=0.1
 
-Prints two tables: e at each speed (one strike per speed, one column per engine:
-``studies/restitution_curve.py``), and the restitution of the first ``--impacts`` resolved
-impacts of ``--scene`` (the bouncing ball by default) per engine, from the judge's paired
-impacts. ``--out`` writes calibration.csv (the first table, one row per engine and speed,
-``CURVE_COLUMNS``), impacts.csv (the second, ``IMPACT_COLUMNS``) and restitution_curve.png/.svg
-(every engine in one picture). ``--restitution`` sets R for both (default: the scene's).
+Prints three tables: e at each speed (one strike per speed, one column per engine:
+``studies/restitution_curve.py``), e under ``--scene``'s own forces at the speeds it reaches
+(a strike from the reference's state before each impact the judge resolves:
+``studies/scene_restitution.py``), and the restitution of the first ``--impacts`` resolved
+impacts of the scene's run per engine, from the judge's paired impacts, with its worst impact
+(the one the report's restitution error is) added when it is not among them. ``--out``
+writes calibration.csv (the first two tables, one row per engine and strike,
+``CURVE_COLUMNS``; ``forces`` tells them apart), impacts.csv (every resolved impact,
+``IMPACT_COLUMNS``) and restitution_curve.png/.svg (every engine in one picture, with the
+restitution tolerance). ``--restitution`` sets R for all (default: the scene's).
 """
 
 from __future__ import annotations
@@ -21,9 +25,11 @@ import pandas as pd
 from chatterbench.comparisons.outputs.atomic import write_frame
 from chatterbench.comparisons.pipeline.budget import check_comparison
 from chatterbench.comparisons.pipeline.solution import solve
+from chatterbench.comparisons.pipeline.tolerances import Tolerances
 from chatterbench.comparisons.studies.restitution_curve import (ABOVE, DEFAULT_POINTS, DECADES_BELOW, MAX_POINTS, default_speeds,
                                                                impact_restitutions, log_speeds, pinned_settings,
                                                                restitution_curve)
+from chatterbench.comparisons.studies.scene_restitution import scene_restitution
 from chatterbench.engines.registry import ENGINE_NAMES, make_settings, run_engine
 from chatterbench.reference.scene import load_scene
 
@@ -83,8 +89,9 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     speeds = log_speeds(*args.speeds, args.points) if args.speeds else default_speeds(scene, args.points)
     # one run of the whole scene per engine: its impacts, and the contact it makes for the scene, which every strike meets
     runs = {name: run_engine(name, scene, s) for name, s in settings.items()}
-    curve = pd.concat([restitution_curve(n, pinned_settings(s, runs[n].settings), scene.restitution, speeds, scene,
-                                         args.gravity) for n, s in settings.items()], ignore_index=True)
+    pinned = {n: pinned_settings(s, runs[n].settings) for n, s in settings.items()}
+    curve = pd.concat([restitution_curve(n, s, scene.restitution, speeds, scene, args.gravity) for n, s in pinned.items()],
+                      ignore_index=True)
     wide = curve.pivot(index="speed", columns="engine", values="restitution_effective")[list(engines)].round(4).reset_index()
     wide["speed"] = [float(f"{v:.4g}") for v in wide["speed"]]
     forces = f"under gravity g = {args.gravity:g} m/s^2" if args.gravity else "no other forces"
@@ -92,23 +99,36 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
                             f"{forces}; nominal R = {scene.restitution:g} (0: no rebound)")
     for row in curve[curve["status"] != "ok"].itertuples():
         print(f"{row.engine} at {row.speed:.4g} m/s: {row.status}: {row.message}")
-    impacts = pd.DataFrame()
+    impacts, strikes, tol = pd.DataFrame(), pd.DataFrame(), Tolerances()
     if args.impacts:
         ref = solve(scene)
-        impacts = pd.concat([impact_restitutions(n, s, scene, ref, trajectory=runs[n]).head(args.impacts)
-                             for n, s in settings.items()], ignore_index=True)
-        print_table(impacts[["engine", "impact", "speed", "restitution_effective", "restitution_error",
+        strikes = pd.concat([scene_restitution(n, s, ref, tol.resolved_steps) for n, s in pinned.items()],
+                            ignore_index=True)
+        print_table(strikes[["engine", "impact", "wall", "speed", "restitution_effective", "restitution_error",
                              "restitution_uncertainty"]].round(4),
-                    title=f"{scene.name}: the first {args.impacts} resolved impacts per engine (the judge's pairs; "
-                          "speed: incoming [m/s]; error e/R - 1)")
+                    title=f"{scene.name}'s own forces: one strike from the reference's state before each impact the "
+                          f"judge resolves (speed [m/s]; error e/R - 1; the judge holds a run to R where the "
+                          f"uncertainty u <= {tol.restitution:g})")
+        impacts = pd.concat([impact_restitutions(n, s, scene, ref, tol, trajectory=runs[n]) for n, s in settings.items()],
+                            ignore_index=True)
+        shown = impacts[(impacts.groupby("engine").cumcount() < args.impacts) | impacts["worst"]]
+        print_table(shown[["engine", "impact", "speed", "restitution_effective", "restitution_error",
+                           "restitution_uncertainty", "worst"]].round(4),
+                    title=f"{scene.name}'s run: the first {args.impacts} resolved impacts per engine and the worst "
+                          "(the judge's pairs; speed: incoming [m/s]; error e/R - 1; worst: the report's restitution error)")
+        for row in impacts[impacts["worst"]].itertuples():
+            print(f"{row.engine}: worst impact {row.impact} of {int((impacts['engine'] == row.engine).sum())} at "
+                  f"{row.speed:.3g} m/s: e = {row.restitution_effective:.4f}, error {100 * row.restitution_error:+.1f}% "
+                  f"(uncertainty {100 * row.restitution_uncertainty:.1f}%)")
     if args.out:
         out = Path(args.out)
         from chatterbench.comparisons.outputs.figures import write_figure  # draws: loads matplotlib (0.7 s), so only when asked
         from chatterbench.comparisons.outputs.restitution_curve import restitution_curve_figure
 
-        fig = restitution_curve_figure(curve, impacts if len(impacts) else None, scene.name)
+        fig = restitution_curve_figure(curve, impacts if len(impacts) else None, scene.name,
+                                       strikes if len(strikes) else None, tol.restitution)
         with writing("--out", out):
-            write_frame(out / "calibration.csv", curve)
+            write_frame(out / "calibration.csv", pd.concat([curve, strikes], ignore_index=True) if len(strikes) else curve)
             if len(impacts):
                 write_frame(out / "impacts.csv", impacts)
             write_figure(fig, out, "restitution_curve")
@@ -136,7 +156,8 @@ def register(sub, formatter) -> None:
                    help="whose bodies strike (masses, lower wall, R), whose contact every strike meets (an engine "
                         "that makes it from the scene, Drake, runs the scene once) and whose resolved impacts are listed")
     p.add_argument("--impacts", type=impacts_value, default=5, metavar="N",
-                   help="list the first N resolved impacts of --scene per engine (judged against the reference); 0: none")
+                   help="list the first N resolved impacts of --scene's run per engine and its worst (judged against the "
+                        "reference), and strike under the scene's own forces at its impacts; 0: none of these")
     add_dt(p)
     add_set(p)
     add_out(p, what="write calibration.csv, impacts.csv and restitution_curve.png/.svg under DIR")

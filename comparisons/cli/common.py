@@ -1,5 +1,8 @@
 """What every subcommand shares: the refusal format, tables, and the options named the same everywhere.
 
+    >>> from chatterbench.comparisons.cli.common import (
+    ...     Parser, add_engines, engine_list, HelpFormatter, add_dt, add_set, add_tolerance,
+    ...     add_out, parse_tolerances)
     >>> parser = Parser(prog="chatterbench demo", formatter_class=HelpFormatter)
     >>> add_engines(parser); add_dt(parser); add_set(parser); add_tolerance(parser); add_out(parser)
     >>> args = parser.parse_args(["--engines", "pybullet", "--tolerance", "stick=0.1"])
@@ -16,7 +19,10 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import sys
+import warnings
+from contextlib import contextmanager
 
 import pandas as pd
 
@@ -26,6 +32,7 @@ from chatterbench.comparisons.studies.sweep.spec import MAX_TIMEOUT
 from chatterbench.engines.registry import DEFAULT_ENGINES, ENGINE_NAMES, check_engine
 from chatterbench.reference.errors import InputError
 from chatterbench.reference.scene import split_assignment
+from chatterbench.reference.tables import printable
 
 
 class UsageError(InputError):
@@ -42,6 +49,11 @@ class Parser(argparse.ArgumentParser):
     (argparse's own prints the usage first; the usage is one ``--help`` away.)
     """
 
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self.register("action", None, _StoreOnce)
+        self.register("action", "store", _StoreOnce)
+
     def error(self, message: str):  # type: ignore[override]
         sub = self.prog.split(" ", 1)[1] if " " in self.prog else ""
         print(f"chatterbench: error: {sub + ': ' if sub else ''}{one_line(message)} (see {self.prog} --help)",
@@ -49,9 +61,76 @@ class Parser(argparse.ArgumentParser):
         sys.exit(2)
 
 
+SHOWN = 120  # characters of one word (a key, a value, a path) a message shows whole; a longer one is shortened
+_LONG_WORD = re.compile(r"[^\s:;,'\"]{%d,}" % (SHOWN + 1))  # a word, less the punctuation around it
+
+
+class _StoreOnce(argparse._StoreAction):
+    """An option given once: given again with another value it is refused (argparse would keep the last one)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        given = namespace.__dict__.setdefault("_given_once", {})
+        if self.dest in given and given[self.dest] != values:
+            shown = [repr(v) if isinstance(v, str) else f"{v}" for v in (given[self.dest], values)]
+            raise argparse.ArgumentError(self, f"given twice with different values ({shown[0]} and {shown[1]}); give it once")
+        given[self.dest] = values
+        setattr(namespace, self.dest, values)
+
+
+def check_settings(args: argparse.Namespace) -> None:
+    """Refuse settings that would be ignored or overwritten without a word (``UsageError``).
+
+    The same ``--set`` or ``--tolerance`` key twice with two values; an engine setting
+    (``mujoco.w0_dt``) for an engine the command does not run; ``--dt`` together with
+    ``--set ENGINE.dt``. Options given once are argparse's (``_StoreOnce``).
+    """
+    args.__dict__.pop("_given_once", None)
+    for option in ("set", "tolerance"):
+        seen: dict[str, str] = {}
+        for item in getattr(args, option, None) or []:
+            if "=" not in item:
+                continue  # refused by the command, with its own message
+            key, value = (part.strip() for part in item.split("=", 1))
+            if key in seen and seen[key] != value:
+                raise UsageError(f"--{option} {key}={seen[key]} and --{option} {key}={value}: {key} given twice "
+                                 "with different values; give it once")
+            seen.setdefault(key, value)
+    engine_items = [(item, item.split("=", 1)[0].strip()) for item in getattr(args, "set", None) or [] if "=" in item]
+    engine_items = [(item, key) for item, key in engine_items if key.split(".")[0] in ENGINE_NAMES]
+    given = getattr(args, "engines", None) or getattr(args, "engine", None)
+    names = [n.strip() for n in (",".join(given) if isinstance(given, list) else given or "").split(",") if n.strip()]
+    if names and names != ["reference"]:
+        for item, key in engine_items:
+            owner = key.split(".")[0]
+            if owner not in names:
+                raise UsageError(f"--set {item}: {owner} is not run here (--engines {','.join(names)}); add it to "
+                                 "--engines or leave the setting out")
+    if getattr(args, "dt", None) is not None:
+        for item, key in engine_items:
+            if key.split(".", 1)[1:] == ["dt"]:
+                raise UsageError(f"--dt {args.dt:g} and --set {item}: two ways of giving the timestep; give one")
+
+
+class _Held(list):
+    keep = True  # set False to drop them
+
+
+@contextmanager
+def held_warnings():
+    """Hold the warnings raised inside (numpy's ``overflow encountered``, ...) and issue them at the end, unless
+    ``.keep`` was set False: a refused command's one error line is then all it prints."""
+    held = _Held()
+    with warnings.catch_warnings(record=True) as caught:
+        yield held
+    if held.keep:
+        for w in caught:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno, source=w.source)
+
+
 def one_line(message: str) -> str:
-    """A message on one line: newlines (from a key or value the user typed) shown as \\n."""
-    return message.replace("\r", "\\r").replace("\n", "\\n")
+    """A message on one line, safe for a terminal: control characters (a newline, an escape sequence typed into a
+    key) shown escaped (``\\n``, ``\\x1b``); a word longer than ``SHOWN`` characters shortened with an ellipsis."""
+    return _LONG_WORD.sub(lambda m: f"{m[0][:60]}...{m[0][-20:]} ({len(m[0])} characters)", printable(message))
 
 
 def print_table(frame: pd.DataFrame, title: str | None = None, file=None) -> None:
@@ -128,7 +207,7 @@ def add_scene(p: argparse.ArgumentParser) -> None:
 
 
 def add_engines(p: argparse.ArgumentParser, default: str = ",".join(DEFAULT_ENGINES), what: str = "engines to run") -> None:
-    p.add_argument("--engines", default=default, metavar="E[,E...]", help=f"comma-separated {what}")
+    p.add_argument("--engines", default=default, metavar="E[,E...]", help=f"comma-separated {what}, of: {', '.join(ENGINE_NAMES)}")
 
 
 def add_dt(p: argparse.ArgumentParser) -> None:

@@ -5,7 +5,7 @@
 
 Prints the episode table and the summary (the columns ``report``, ``tune``, ``sweep`` and
 ``gate`` use: ``pipeline/summary.py``); ``--out`` writes the files of
-``outputs/comparison_files.py``.
+``outputs/comparison_files.py``. A progress bar on stderr (on a terminal) says which run is going.
 """
 
 from __future__ import annotations
@@ -21,6 +21,7 @@ from chatterbench.reference.scene import load_scene
 from .common import add_judging, add_out, add_scene, budget_of, engine_list, parse_tolerances, print_table, \
     split_overrides
 from .paths import check_dir, writing
+from .progress import Progress
 
 EPISODE_SHOW = ["engine", "wall", "ref_t_stick", "t_stick", "stick_error_zeno", "stick_error_rel", "ref_t_exit", "t_exit",
                 "exit_error", "exit_error_steps", "restitution_error", "resolved_impacts", "ref_resolved_impacts",
@@ -36,8 +37,10 @@ def cmd_compare(args: argparse.Namespace) -> int:
     scene_over, engine_over = split_overrides(args.set)
     scene = load_scene(args.scene, scene_over)
     tol = parse_tolerances(args.tolerance)
-    result = compare(scene, engines=engine_list(args.engines), dt=args.dt, overrides=engine_over, tol=tol,
-                     timeout=args.timeout, budget=budget_of(args))
+    engines = engine_list(args.engines)
+    with Progress(1 + len(engines), f"compare {scene.name}", unit="run") as bar:
+        result = compare(scene, engines=engines, dt=args.dt, overrides=engine_over, tol=tol,
+                         timeout=args.timeout, budget=budget_of(args), progress=bar.stage)
     print_table(result.table[EPISODE_SHOW],
                 title=f"{scene.name}: engine episodes against the reference (errors in s; _rel: fraction of the "
                       f"episode's scale; _steps: in timesteps); {tol.describe()}")

@@ -6,8 +6,11 @@
     $ chatterbench gate gates/default.toml --baseline baseline.json           # on a pull request
 
 Validates the whole file first (format: ``ci/gate.py`` docstring; ``--tolerance KEY=VALUE``
-sets the tolerances every check's own ``tolerances`` table starts from), runs every check, prints one
-line per limit (measured value, limit, pass/FAIL) and writes what a CI job reads: JUnit XML
+sets the tolerances every check's own ``tolerances`` table starts from), runs every check and
+decides each once (``ci/decision.py``: its limits, a failed run, its regressions against
+``--baseline``), prints one line per limit and regressed metric (measured value, limit,
+pass/FAIL), ends a failing run with the commands to run next for the worst check (its
+``compare ... --out`` with figures, then ``tune``), and writes what a CI job reads: JUnit XML
 (``--junit``), a Markdown job summary (``--summary``, appended to ``$GITHUB_STEP_SUMMARY`` when
 that is set), ``::error`` annotations on stdout when ``GITHUB_ACTIONS=true``, a benchmark JSON
 (``--json``, ``customSmallerIsBetter``), a baseline to compare later runs with
@@ -23,10 +26,11 @@ import os
 import sys
 from pathlib import Path
 
-from chatterbench.comparisons.ci.baseline import BAND, load_baseline, regressions, save_baseline
+from chatterbench.comparisons.ci.baseline import BAND, load_baseline, save_baseline
 from chatterbench.comparisons.ci.checks import run_gate
+from chatterbench.comparisons.ci.decision import decide, decide_check
 from chatterbench.comparisons.ci.gate import load_gate
-from chatterbench.comparisons.ci.job_outputs import _escape, annotations, benchmark_json, job_summary
+from chatterbench.comparisons.ci.job_outputs import annotations, benchmark_json, job_summary
 from chatterbench.comparisons.ci.junit import write_junit
 from chatterbench.comparisons.outputs.atomic import write_text
 
@@ -34,6 +38,7 @@ from chatterbench.reference.errors import check_number
 
 from .common import UsageError, add_budget, add_timeout, add_tolerance, budget_of, parse_tolerances, print_table
 from .paths import check_file, writing
+from .progress import waited_s
 
 
 def cmd_gate(args: argparse.Namespace) -> int:
@@ -43,22 +48,24 @@ def cmd_gate(args: argparse.Namespace) -> int:
     base = load_baseline(args.baseline) if args.baseline else None  # a bad baseline costs no run
     gate = load_gate(args.gates, base_tolerances=parse_tolerances(args.tolerance))
     print(f"{gate.path}: {len(gate.checks)} checks" + (f" ({gate.description})" if gate.description else ""), file=sys.stderr)
-    result = run_gate(gate, progress=lambda line: print(line, file=sys.stderr, flush=True), timeout=args.timeout,
-                      budget=budget_of(args))
-    print_table(result.table(), title=f"{gate.path}: {len(result.results)} checks in {result.wall_s:.1f} s")
-    failed = [r for r in result.results if not r.passed]
-    for r in failed:
-        print("\n" + r.failure_message())
-    grown = regressions(result, base, args.band) if base is not None else []
-    for g in grown:
-        print(f"REGRESSION: {g.message}")
+    decided = []
+
+    def on_check(i: int, result) -> None:  # each check is decided once, as its run ends
+        decided.append(decide_check(result, base, args.band))
+        print(decided[-1].progress_line(i, len(gate.checks)), file=sys.stderr, flush=True)
+
+    result = run_gate(gate, on_check=on_check, timeout=args.timeout, budget=budget_of(args))
+    decision = decide(result, base, args.band, args.baseline, checks=tuple(decided))
+    print_table(decision.table(), title=f"{gate.path}: {len(result.results)} checks")
+    for c in decision.checks:
+        if not c.passed:
+            print("\n" + c.account())
+    if decision.baseline:
+        print(f"\nbaseline {decision.baseline}: {decision.versions}")
     if os.environ.get("GITHUB_ACTIONS") == "true":  # workflow commands: annotations on the run's page
-        for line in annotations(result):
+        for line in annotations(decision):
             print(line)
-        for g in grown:
-            print(f"::error title={_escape('chatter gate regression ' + g.check, property_=True)}::{_escape(g.message)}")
-    extra = "\n".join(["### Regressions against the baseline", ""] + [f"- {g.message}" for g in grown]) if grown else ""
-    summary = job_summary(result, extra)
+    summary = job_summary(decision)
     if args.summary:
         with writing("--summary", args.summary):
             write_text(Path(args.summary), summary)
@@ -67,20 +74,23 @@ def cmd_gate(args: argparse.Namespace) -> int:
             f.write(summary)
     if args.json:
         with writing("--json", args.json):
-            write_text(Path(args.json), benchmark_json(result))
+            write_text(Path(args.json), benchmark_json(decision))
     if args.save_baseline:
         with writing("--save-baseline", args.save_baseline):
             save_baseline(result, args.save_baseline)
     if args.junit:
         with writing("--junit", args.junit):
-            write_junit(result, args.junit)
+            write_junit(decision, args.junit)
     written = [p for p in (args.junit, args.summary, args.json, args.save_baseline) if p]
     if written:
         print(f"wrote {', '.join(written)}")
-    ok = not failed and not grown
-    print(f"{'PASS' if ok else 'FAIL'}: {len(result.results) - len(failed)} of {len(result.results)} checks passed"
-          + (f"; {len(grown)} metric(s) regressed against {args.baseline}" if base is not None else ""))
-    return 0 if ok else 1
+    print(f"gate: {len(result.results)} checks in {waited_s():.1f} s since the command started (their runs "
+          f"{result.wall_s:.1f} s)")
+    print(decision.headline())
+    steps = decision.next_steps()
+    if steps:
+        print(steps[0] + "\n" + "\n".join(f"  {line}" for line in steps[1:]))
+    return decision.exit_code
 
 
 def register(sub, formatter) -> None:
@@ -88,7 +98,8 @@ def register(sub, formatter) -> None:
     p = sub.add_parser("gate", help="run accuracy checks from a gate file; exit 1 if any fails (for CI)",
                        formatter_class=formatter)
     p.add_argument("gates", metavar="GATES.toml", help="gate file (format: chatterbench.comparisons.ci.gate docstring)")
-    p.add_argument("--junit", metavar="PATH", default=None, help="write JUnit XML here (one testcase per check)")
+    p.add_argument("--junit", metavar="PATH", default=None,
+                   help="write JUnit XML here (one testcase per check and per regressed metric)")
     p.add_argument("--summary", metavar="PATH", default=None,
                    help="write the Markdown job summary here (it is also appended to $GITHUB_STEP_SUMMARY when set)")
     p.add_argument("--json", metavar="PATH", default=None,

@@ -1,5 +1,6 @@
 """The ``chatterbench`` command: one entry point, one module per subcommand (``cli/*.py``), all over ``common``.
 
+    >>> from chatterbench.comparisons.cli.main import main
     >>> main(["scenes"])  # doctest: +ELLIPSIS
             scene   R ...
     0
@@ -17,18 +18,20 @@ import sys
 
 from chatterbench.reference.errors import InputError
 
+from . import interrupt, quiet_interrupts
 from . import bench, calibrate, chart, compare, gate, platemap, report, run, scenes, sweep, tune
-from .common import HelpFormatter, Parser, UsageError, one_line
+from . import judge
+from .common import HelpFormatter, Parser, UsageError, check_settings, held_warnings, one_line
 from .paths import write_error
 
 # in the order ``chatterbench --help`` lists them
-SUBCOMMANDS = (scenes, run, compare, report, gate, platemap, tune, calibrate, sweep, chart, bench)
+SUBCOMMANDS = (scenes, run, compare, judge, report, gate, platemap, tune, calibrate, sweep, chart, bench)
 
 
 def build_parser() -> Parser:
     """The argument parser with every subcommand registered."""
     parser = Parser(prog="chatterbench", formatter_class=HelpFormatter,
-                    description="Cross-validate MuJoCo and PyBullet impact chatter against Feigin's sliding model.")
+                    description="Cross-validate multibody engines' impact chatter against Feigin's sliding model.")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=Parser)
     for module in SUBCOMMANDS:
         module.register(sub, HelpFormatter)
@@ -41,12 +44,27 @@ def main(argv: list[str] | None = None) -> int:
         sys.modules["matplotlib"].use("Agg")
     else:  # read when a command first draws: importing matplotlib now would slow every refusal
         os.environ["MPLBACKEND"] = "Agg"
+    for stream in (sys.stdout, sys.stderr):  # PYTHONIOENCODING=ascii, a C locale: an emoji name is shown as \U0001f3be
+        if hasattr(stream, "reconfigure"):
+            stream.reconfigure(errors="backslashreplace")
     parser = build_parser()
     args = parser.parse_args(argv)
+    with held_warnings() as held:  # numpy's overflow warnings, say: shown after the work, never around an error line
+        held.keep = (code := _run(args)) != 2
+    return code
+
+
+def _run(args) -> int:
+    """The subcommand, its refusals and failures turned into one line and an exit code."""
+    quiet_interrupts(False)
     try:
-        return args.func(args)
+        check_settings(args)
+        code = args.func(args)
+        if interrupt.seen:  # a Ctrl-C whose KeyboardInterrupt a garbage-collection callback swallowed
+            raise KeyboardInterrupt
+        return code
     except (InputError, UsageError) as exc:  # every refusal of user input
-        text = str(exc) if getattr(exc, "multiline", False) else one_line(str(exc))
+        text = "\n".join(map(one_line, str(exc).split("\n"))) if getattr(exc, "multiline", False) else one_line(str(exc))
         print(f"chatterbench: error: {text}", file=sys.stderr)
         return 2
     except OSError as exc:  # writing failed after the checks (a full disk): one line, no temp file left
@@ -58,6 +76,8 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("chatterbench: interrupted", file=sys.stderr)
         return 130
+    finally:
+        quiet_interrupts(True)  # a Ctrl-C while the interpreter shuts down (joining a pool) is one line, exit 130
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,5 +1,9 @@
 """Output destinations, checked before any work: a bad ``--out`` costs nothing, not a whole report.
 
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from chatterbench.comparisons.cli.paths import check_dir, check_file, writing
+    >>> tmp = Path(tempfile.mkdtemp())
     >>> check_dir("--out", tmp / "new" / "deeper")          # creatable: fine (nothing is created)
     >>> (tmp / "afile").write_text("x") and None
     >>> check_dir("--out", tmp / "afile")

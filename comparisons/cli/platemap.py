@@ -7,18 +7,42 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from chatterbench.comparisons.outputs.atomic import write_frame
-from chatterbench.comparisons.pipeline.budget import check_plate_map
+from chatterbench.comparisons.pipeline.budget import BudgetError, check_engine_run, check_plate_map
 from chatterbench.comparisons.studies.plate_map import plate_map
-from chatterbench.reference.scene import load_scene
+from chatterbench.engines.registry import make_settings
+from chatterbench.reference.flow import Flow
+from chatterbench.reference.linear import LinearSystem
+from chatterbench.reference.scene import SceneError, load_scene
+from chatterbench.reference.simulate import Options
 
 from .common import UsageError, add_budget, add_dt, add_engines, add_out, add_scene, add_set, budget_of, engine_list, \
     positive_float, positive_int, print_table, split_overrides
 from .paths import check_dir, writing
+from .progress import Progress
+
+
+# [forcing periods] an engine strike's run without a Zeno point: a lead of 0.02 and a horizon of 0.25 + 0.05
+# (studies/plate_map._engine_sticks); a run with one can be longer, so this is the least a strike takes
+STRIKE_PERIODS = 0.32
+
+
+def _check_strike_steps(scene) -> None:
+    """Refuse a scene whose strikes the reference cannot follow: each is followed up to one time scale in flow steps
+    no longer than the scene's fastest time scale, and the run's own guard (``Options.max_steps``) bounds their count."""
+    with np.errstate(over="ignore", invalid="ignore"):  # absurd scales overflow the flow: refused below
+        step = Flow(LinearSystem.from_scene(scene).free, horizon=scene.time_scale / 4.0).step
+    needed, limit = scene.time_scale / step, Options().max_steps
+    if not needed <= limit:
+        raise SceneError(f"scene {scene.name!r}: a strike needs about {needed:.3g} flow steps of {step:.3g} s (the "
+                         f"scene's fastest time scale), more than max_steps = {limit}; check the forcing amplitudes, "
+                         "frequencies and stiffnesses")
 
 
 def cmd_platemap(args: argparse.Namespace) -> int:
@@ -29,8 +53,20 @@ def cmd_platemap(args: argparse.Namespace) -> int:
     if not engines and (args.dt is not None or engine_over):
         raise UsageError(f"{'--dt' if args.dt is not None else '--set ' + engine_over[0]}: applies to engine runs; "
                          "add --engines mujoco or --engines pybullet")
-    check_plate_map(args.phases, args.speeds, budget_of(args))
-    table = plate_map(scene, args.wall, args.phases, args.speeds, args.max_speed, engines, args.dt, engine_over)
+    budget = budget_of(args)
+    check_plate_map(args.phases, args.speeds, budget)
+    _check_strike_steps(scene)
+    strike = dataclasses.replace(scene, duration=STRIKE_PERIODS * scene.time_scale)
+    for name in engines:  # every strike is one engine run: each is held to --max-steps and --max-memory
+        try:
+            check_engine_run(strike, name, make_settings(name, args.dt, engine_over).dt, budget)
+        except BudgetError as exc:
+            raise BudgetError(f"platemap, one strike's engine run: {exc}") from None
+    # the reference's map takes about a second; each engine runs once per strike: a bar counts them
+    with Progress(args.phases * args.speeds * len(engines), f"platemap {scene.name}", unit="strike",
+                  enabled=None if engines else False, eta=True) as bar:
+        table = plate_map(scene, args.wall, args.phases, args.speeds, args.max_speed, engines, args.dt, engine_over,
+                          progress=lambda name: bar.done())
     cols = ["reference", "feigin", *engines]
     summary = pd.DataFrame({
         "region": cols,

@@ -1,12 +1,12 @@
 """The ``chatterbench report`` subcommand: every scene on every engine, one HTML page and its Markdown twin.
 
-    $ chatterbench report                                   # all built-in scenes, both engines
+    $ chatterbench report                                   # all built-in scenes, the default engines
     $ chatterbench report feigin-pair bouncing-ball --dt 5e-5 --out report-dt5e-5
     $ chatterbench report --sweep out/fp --set duration=20  # add a sweep's charts
 
 Writes ``index.html`` (self-contained: figures embedded, no network) and ``report.md`` under
 ``--out`` (default ``report``), prints the summary table, and reports progress on stderr,
-one line per scene and engine. Exit codes: 0 written (a report is not a check: verdicts
+one line per scene and engine (and a bar, on a terminal). Exit codes: 0 written (a report is not a check: verdicts
 other than ``match`` do not fail it; use ``chatterbench gate`` for that), 2 bad input.
 """
 
@@ -23,6 +23,7 @@ from chatterbench.reference.catalogue import CATALOGUE
 from .common import (ENGINE_TIMEOUT, UsageError, add_judging, add_out, budget_of, engine_list, parse_tolerances,
                      print_table, split_overrides)
 from .paths import check_dir, writing
+from .progress import Progress
 
 
 def _command_line(args: argparse.Namespace) -> str:
@@ -58,16 +59,19 @@ def cmd_report(args: argparse.Namespace) -> int:
         tuning.append(f.read_text(encoding="utf-8"))
     tuning = tuple(tuning)
     sweeps = [SweepSection(str(d), load_rows(d)) for d in args.sweep or ()]  # bad input before any run
-    report = build_report(
-        scenes=args.scenes or tuple(CATALOGUE), engines=engine_list(args.engines), dt=args.dt,
-        scene_overrides=scene_over, engine_overrides=engine_over, tol=tol, sweeps=sweeps,
-        command=_command_line(args), timeout=args.timeout, budget=budget_of(args),
-    )
+    scenes, engines = args.scenes or tuple(CATALOGUE), engine_list(args.engines)
+    with Progress(len(scenes) * (1 + len(engines)) + 1, "report", unit="step") as bar:  # + 1: the figures and pages
+        report = build_report(
+            scenes=scenes, engines=engines, dt=args.dt,
+            scene_overrides=scene_over, engine_overrides=engine_over, tol=tol, sweeps=sweeps,
+            command=_command_line(args), timeout=args.timeout, budget=budget_of(args), progress=bar.write, stage=bar.stage,
+        )
+        if tuning:
+            report = dataclasses.replace(report, tuning=tuning)
+        bar.stage("figures and pages")
+        with writing("--out", args.out):
+            paths = write_report(report, Path(args.out))
     print_table(report.summary[SUMMARY_COLUMNS], title=f"summary ({report.wall_time_s:.1f} s of runs; errors in s):")
-    if tuning:
-        report = dataclasses.replace(report, tuning=tuning)
-    with writing("--out", args.out):
-        paths = write_report(report, Path(args.out))
     print(f"wrote {paths[0]} and {paths[1]}")
     return 0
 

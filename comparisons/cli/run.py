@@ -2,6 +2,13 @@
 
     $ chatterbench run feigin-pair --set restitution=0.8 --chatter exhaustive --events log.csv
     $ chatterbench run bouncing-ball --engines mujoco --dt 1e-4 --export-model ball.xml
+    $ chatterbench run bouncing-ball --engines pybullet --export-model ball.py
+
+The episode table's ``t_stick`` is the sticking start the judge uses (``compare``, ``report``):
+the reference's Zeno point, where its impacts accumulate; a reference run also shows Feigin's
+plate entry, under its own name ``t_plate`` (Feigin's model sticks there, its default chatter
+mode and the event log's ``stick`` events). ``--export-model`` writes the engine's model file
+(``engines.export``: MuJoCo's full MJCF, PyBullet's complete script).
 
 An engine's event log is recovered from its trajectory by ``pipeline/extract.py`` with the
 resolution ``compare`` uses (the tightest sticking tolerance of the scene's reference
@@ -11,6 +18,7 @@ visits), in the reference's format, so the same episode table describes either r
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 from typing import Sequence
@@ -22,16 +30,19 @@ from chatterbench.comparisons.pipeline.budget import Budget, check_engine_run, c
 from chatterbench.comparisons.pipeline.extract import extract_events
 from chatterbench.comparisons.pipeline.solution import solve
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
-from chatterbench.engines.registry import ENGINE_NAMES, adapter, make_settings, run_engine
+from chatterbench.engines.export import EXPORTS, check_exportable, model_file
+from chatterbench.engines.registry import ENGINE_NAMES, make_settings, run_engine
+from chatterbench.engines.settings import SettingsError
 from chatterbench.reference.errors import check_choice
 from chatterbench.reference.log import episodes, log_frame
-from chatterbench.reference.scene import Scene, load_scene
+from chatterbench.reference.scene import Scene, SceneError, load_scene
 from chatterbench.reference.simulate import CHATTER_MODES, simulate
 
 from .common import UsageError, add_budget, add_dt, add_out, add_set, budget_of, one_line, print_table, split_overrides
 from .paths import check_dir, check_file, writing
 
 SIMULATORS = ("reference", *ENGINE_NAMES)
+SHOWN = ["wall", "t_first_impact", "t_plate", "t_stick", "t_exit", "n_impacts", "stick_rule"]  # a reference run's episodes
 
 
 def run_engine_events(scene: Scene, engine: str, dt: float | None, overrides: Sequence[str],
@@ -41,10 +52,8 @@ def run_engine_events(scene: Scene, engine: str, dt: float | None, overrides: Se
     check_engine_run(scene, engine, settings.dt, budget)
     check_reference(scene, budget)  # its sticking resolution is the reference's
     if export_model:
-        if engine != "mujoco":
-            raise UsageError("--export-model: only MuJoCo models can be exported (use --engines mujoco)")
         with writing("--export-model", export_model):
-            write_text(Path(export_model), adapter("mujoco").snippet(scene, settings))
+            write_text(Path(export_model), model_file(engine, scene, settings))
     resolution = solve(scene).stick_tolerance(Tolerances().stick)
     traj = run_engine(engine, scene, settings)
     log = extract_events(traj, scene, resolution) if len(traj.t) > 1 else log_frame([])
@@ -52,8 +61,38 @@ def run_engine_events(scene: Scene, engine: str, dt: float | None, overrides: Se
     summary = (f"{engine} dt={settings.dt:g} s: status {traj.status}{' (' + traj.message + ')' if traj.message else ''}, "
                f"{len(traj.t)} samples, {n_imp} impacts, {traj.wall_time:.3f} s stepping")
     if export_model:
-        summary += f"; MJCF written to {export_model}"
-    return log, episodes(log), summary
+        summary += f"; {'MJCF' if engine == 'mujoco' else 'script'} written to {export_model}"
+    return log, episodes(log).drop(columns="t_plate_entry"), summary  # an engine has no plate (pipeline/extract.py)
+
+
+def _check_export(engine: str, path: str | None) -> None:
+    """--export-model: an engine that exports, and the file suffix of what it writes."""
+    if not path:
+        return
+    try:
+        check_exportable(engine)
+    except SettingsError as exc:
+        raise UsageError(f"--export-model: {exc} (use --engines {' or --engines '.join(EXPORTS)})") from None
+    suffix = EXPORTS[engine][1]
+    if Path(path).suffix != suffix:
+        what = "an MJCF model" if engine == "mujoco" else "a Python script"
+        raise UsageError(f"--export-model {path}: {engine} writes {what}; name a {suffix} file")
+
+
+def judged_episodes(scene: Scene, result) -> pd.DataFrame:
+    """The reference run's episodes with ``t_stick`` the judge's sticking start (the Zeno point,
+    ``pipeline.solution``) and Feigin's plate entry as ``t_plate``. A run that stopped, or a scene
+    whose other chatter mode cannot finish, keeps its own table: ``t_plate`` its plate entries,
+    ``t_stick`` only where it is the Zeno point (exhaustive mode)."""
+    if result.status == "ok":
+        try:
+            return solve(scene).episodes.rename(columns={"t_plate_entry": "t_plate"})[SHOWN]
+        except SceneError:
+            pass
+    eps = result.episodes.rename(columns={"t_plate_entry": "t_plate"})
+    if result.options.chatter != "exhaustive":
+        eps["t_stick"] = math.nan  # Feigin's mode sticks at its plate entry, not at the Zeno point
+    return eps[SHOWN]
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -65,6 +104,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     engine = args.engines
     if engine not in SIMULATORS:
         check_choice("--engines", engine, SIMULATORS, error=UsageError)
+    if engine != "reference":
+        _check_export(engine, args.export_model)
     result = None
     if engine == "reference":
         for given, option in ((engine_over, f"--set {engine_over[0] if engine_over else ''}"),
@@ -73,14 +114,16 @@ def cmd_run(args: argparse.Namespace) -> int:
                 raise UsageError(f"{option}: applies to an engine run; add --engines mujoco or --engines pybullet")
         check_reference(scene, budget_of(args))
         result = simulate(scene, args.chatter or "feigin")
-        log, eps = result.log, result.episodes
+        log = result.log
+        eps = judged_episodes(scene, result)
         summary = f"reference ({result.options.chatter} mode): {len(log)} events, {result.n_impacts} impacts, {result.wall_time * 1e3:.2f} ms"
     else:
         if args.chatter is not None:
             raise UsageError(f"--chatter {args.chatter}: chooses the reference's chatter model; an engine run has none")
         log, eps, summary = run_engine_events(scene, engine, args.dt, engine_over, args.export_model, budget_of(args))
     print(f"{scene.name}: {summary}")
-    print_table(eps, title="episodes:")
+    print_table(eps, title="episodes:" if engine != "reference" else
+                "episodes (t_stick: the Zeno point, the sticking start the judge uses; t_plate: Feigin's plate entry):")
     if args.events:
         with writing("--events", args.events):
             write_frame(Path(args.events), log)
@@ -109,7 +152,9 @@ def register(sub, formatter) -> None:
                    help="reference chatter model: feigin (plate entry -> inelastic impact) or exhaustive (every impact); "
                         "None: feigin")
     p.add_argument("--events", metavar="PATH", default=None, help="write the event log (CSV) here")
-    p.add_argument("--export-model", metavar="PATH", default=None, help="MuJoCo: write the generated MJCF here")
+    p.add_argument("--export-model", metavar="PATH", default=None,
+                   help="write the scene as a file that runs in the engine alone: MuJoCo a full MJCF (.xml), PyBullet a "
+                        "complete script (.py)")
     add_out(p, what="write events.csv and episodes.csv under DIR")
     add_budget(p)
     p.set_defaults(func=cmd_run)

@@ -28,7 +28,17 @@ from .common import UsageError, add_budget, add_out, add_tolerance, budget_of, l
 from .paths import check_dir, writing
 
 
+def _spec_path(args: argparse.Namespace) -> str:
+    """The spec from the positional SPEC.toml or ``--spec`` (one of them; the same file if both)."""
+    if args.spec is None and args.spec_option is None:
+        raise UsageError("sweep: no spec; give SPEC.toml (or --spec SPEC.toml with --resume)")
+    if args.spec is not None and args.spec_option is not None and Path(args.spec).resolve() != Path(args.spec_option).resolve():
+        raise UsageError(f"sweep: two specs, SPEC.toml {args.spec!r} and --spec {args.spec_option!r}; give one")
+    return args.spec if args.spec is not None else args.spec_option
+
+
 def cmd_sweep(args: argparse.Namespace) -> int:
+    args.spec = _spec_path(args)
     out = Path(args.out) if args.out else Path(f"sweep-{Path(args.spec).stem}")
     check_dir("--out", out)
     budget = budget_of(args)
@@ -73,7 +83,11 @@ def register(sub, formatter) -> None:
     """Add ``sweep`` to the ``chatterbench`` subparsers."""
     p = sub.add_parser("sweep", help="run a grid of scene fields and engine settings; one row per engine and point",
                        formatter_class=formatter)
-    p.add_argument("spec", metavar="SPEC.toml", help="sweep spec (format: chatterbench.comparisons.sweep docstring)")
+    p.add_argument("spec", metavar="SPEC.toml", nargs="?", default=None,
+                   help="sweep spec (format: chatterbench.comparisons.sweep docstring)")
+    p.add_argument("--spec", dest="spec_option", metavar="SPEC.toml", default=None,
+                   help="the spec, as an option: `--out DIR --resume --spec SPEC.toml` resumes a directory whose "
+                        "sweep.toml is damaged, if SPEC.toml wrote its rows (another spec is refused)")
     add_out(p, what="output directory; None: ./sweep-SPEC_STEM")
     p.add_argument("--resume", action="store_true", help="finish the sweep already under --out; skip its finished runs")
     p.add_argument("--workers", type=positive_int, default=None,
@@ -87,7 +101,7 @@ def register(sub, formatter) -> None:
                    help="with --dask, after --dask-wait s without a worker: wait for one, or stop (finished rows "
                         "kept; finish with --resume)")
     p.add_argument("--batch", type=positive_int, default=None,
-                   help="runs per isolated unit of work, MuJoCo's in one mujoco.rollout call; None: automatic, 1: each run alone")
+                   help="runs per isolated unit of work, MuJoCo's batched through mujoco.rollout (one call per chunk); None: automatic, 1: each run alone")
     p.add_argument("--timeout", type=timeout_seconds, default=None, metavar="SECONDS",
                    help="wall-clock limit of one run [s], in (0, 86400]; None: the spec's")
     add_tolerance(p)

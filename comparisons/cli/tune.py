@@ -1,26 +1,36 @@
-"""``chatterbench tune``: the cheapest settings of one engine whose episodes all match, and a guide to paste them.
+"""``chatterbench tune``: the cheapest robust settings of one engine whose episodes all match, and a guide to paste them.
 
     $ chatterbench tune feigin-pair --engines mujoco --tolerance 0.05 --out out/tune-fp
 
-Exit codes: 0 a candidate met the tolerances, 1 none did (the guide says the best reachable), 2 bad input.
+Exit codes: 0 a robust candidate met the tolerances (its neighbourhood too), 1 none did (the guide and
+recommended.json say the best reachable), 2 bad input.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import math
+import os
+import time
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 from chatterbench.comparisons.outputs.atomic import write_frame, write_text
 from chatterbench.comparisons.pipeline.budget import check_engine_run, check_reference
-from chatterbench.comparisons.studies.tune import engine_space, tune
+from chatterbench.comparisons.outputs.engine_files import write_engine_files
+from chatterbench.comparisons.studies.tune import MAX_RUNS, recommended, search_space, searched_text, tune
 from chatterbench.reference.scene import load_scene
 
 from .common import (UsageError, add_budget, add_out, add_scene, add_set, add_tolerance, budget_of, local_workers,
                      engine_list, parse_tolerances, positive_int, print_table, split_overrides)
 from .paths import check_dir, writing
+from .progress import CountingExecutor, Progress
 
-SHOW = ["stage", "settings", "verdict", "n_match", "n_episodes", "worst_ratio", "failed", "steps_per_sim_s",
+_IMPORTED = time.perf_counter()
+SHOW = ["stage", "settings", "verdict", "robust", "neighbourhood", "worst_ratio", "failed", "steps_per_sim_s",
         "cost_per_sim_s"]
+SHOW_CHECKED = 12  # rows of the terminal's table
 
 
 def cmd_tune(args: argparse.Namespace) -> int:
@@ -34,39 +44,83 @@ def cmd_tune(args: argparse.Namespace) -> int:
     engine = engines[0]
     scene = load_scene(args.scene, scene_over)
     tol = parse_tolerances(args.tolerance)
-    space = engine_space(engine, scene)
-    budget = budget_of(args)  # the finest candidate and the reference, before any run
-    check_engine_run(scene, engine, min(space["dt"]), budget)
+    budget = budget_of(args)  # the reference, then the finest candidate, before any run
     check_reference(scene, budget)
-    result = tune(scene, engine, tol, space=space, workers=local_workers(args.workers, budget.max_memory),
-                  repeats=args.repeats)
-    print_table(result.table[SHOW], title=f"tune {engine} on {scene.name}; {tol.describe()}:")
-    c = result.chosen
-    if result.best is None:
-        print("no candidate passes" + (f"; best reachable: {c['settings']} ({c['n_match']}/{c['n_episodes']} match; "
-                                       f"fails: {c['failed']})" if c else ""))
-    else:
-        print(f"recommended: {c['settings']} ({c['steps_per_sim_s']:.3g} steps and {c['cost_per_sim_s']:.3g} s per "
-              f"simulated s); {len(result.cheaper())} cheaper candidates fail")
-    print(f"tune took {result.extra['wall_time_s']:.1f} s")
+    space = search_space(engine, scene, tol)
+    check_engine_run(scene, engine, min(space["dt"]), budget)
+    with Progress(None, f"tune {engine} on {scene.name}", unit="candidate") as bar, \
+            ProcessPoolExecutor(max_workers=local_workers(args.workers, budget.max_memory)) as pool:
+        result = tune(scene, engine, tol, space=space, executor=CountingExecutor(pool, bar), repeats=args.repeats,
+                      max_runs=args.max_runs)
+    checked = result.table[result.table["robust"].notna()].head(SHOW_CHECKED)
+    if len(checked):
+        print_table(checked[SHOW], title=f"tune {engine} on {scene.name}; {tol.describe()}; the passes whose "
+                                         f"neighbourhood was run, cheapest first (every run: --out DIR/candidates.csv):")
+    print(f"searched: {searched_text(result)}")
+    for line in answer_lines(result):
+        print(line)
     if args.out:
         out = Path(args.out)
         # draws and reruns the chosen settings (the ladder, R(v)): only when files are asked for
         from chatterbench.comparisons.outputs.figures import write_figure
         from chatterbench.comparisons.outputs.guide import FIGURE_FILES, guide_figures, guide_html, guide_markdown, guide_section_html
-        from chatterbench.comparisons.studies.tune_evidence import evidence
+        from chatterbench.comparisons.studies.tune_evidence import evidence, settings_of
 
+        rec = recommended(result)
         figures = guide_figures(result, evidence(result))
         with writing("--out", out):
+            if rec is not None:  # first: the guide's files are written from what it says
+                write_text(out / "recommended.json", json.dumps(rec, indent=2) + "\n")
             write_text(out / "guide.md", guide_markdown(result, figures))
             write_text(out / "guide.html", guide_html(result, figures))
             write_text(out / "guide_section.html", guide_section_html(result, figures))  # for `report --tune DIR`
             write_frame(out / "candidates.csv", result.table)
             for name, fig in figures.items():
                 write_figure(fig, out, FIGURE_FILES[name])
-        print(f"wrote {out / 'guide.md'}, guide.html, guide_section.html, candidates.csv, "
-              + ", ".join(f"{FIGURE_FILES[n]}.png/.svg" for n in figures))
+            exported = write_engine_files(result, out, settings_of(json.loads((out / "recommended.json").read_text()))
+                                          if rec is not None else None)
+        print(f"wrote {out / 'guide.md'}, " + ("recommended.json, " if rec else "") + "guide.html, guide_section.html, "
+              "candidates.csv, " + ", ".join([*(f"{FIGURE_FILES[n]}.png/.svg" for n in figures), *exported]))
+    print(f"tune took {waited_s():.1f} s since the command started (the search {result.extra['wall_time_s']:.1f} s)")
     return 0 if result.best is not None else 1
+
+
+def answer_lines(result) -> list[str]:
+    """The answer as the terminal says it: the robust setting and its margin, the fragile pass beside it, or none."""
+    c, f = result.chosen, result.fragile
+    if c is None:
+        return ["no candidate ran: every one was refused"]
+    cost = f"{c['steps_per_sim_s']:.4g} steps and {c['cost_per_sim_s']:.3g} s per simulated s"
+    if result.best is not None:
+        lines = [f"recommended (robust: passes at dt x0.8, x1.25 and the knobs' neighbours): {c['settings']} ({cost}); "
+                 + (f"margin {result.margin:.3g} (worst error / tolerance of the judge's checks; restitution under the scene's "
+                    f"forces {c['scene_restitution_ratio']:.3g})" if math.isfinite(result.margin)
+                    else "no error to measure (no episode)")]
+    else:
+        lines = [f"no robust setting in the searched space; best reachable: {c['settings']} ({cost}; "
+                 f"{c['n_match']}/{c['n_episodes']} match; "
+                 + (f"its neighbours fail: {c['neighbourhood']}" if c.get("neighbourhood") else f"fails: {c['failed']}") + ")"]
+    if f is not None and f["settings"] != c["settings"]:
+        lines.append(f"fragile (an isolated pass: its neighbours fail): {f['settings']} ({f['steps_per_sim_s']:.4g} "
+                     f"steps per simulated s); fails at {f['neighbourhood']}")
+    lines.append(f"{len(result.cheaper())} cheaper or as cheap candidates fail; {len(result.cheaper(fragile=True))} "
+                 "cheaper or as cheap ones pass but are fragile")
+    return lines
+
+
+def waited_s() -> float:
+    """Seconds since this process started [s]: what the user waited for, imports and files included.
+
+    From the kernel's start time of the process (Linux ``/proc``), else since this module was imported.
+    """
+    try:
+        with open("/proc/self/stat", encoding="ascii") as f:
+            start_ticks = float(f.read().rsplit(")", 1)[1].split()[19])  # field 22, starttime, after "pid (comm)"
+        with open("/proc/uptime", encoding="ascii") as f:
+            uptime = float(f.read().split()[0])
+        return uptime - start_ticks / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        return time.perf_counter() - _IMPORTED
 
 
 def register(sub, formatter) -> None:
@@ -78,9 +132,12 @@ def register(sub, formatter) -> None:
     add_tolerance(p)
     p.set_defaults(tolerance=None)
     p.add_argument("--workers", type=positive_int, default=None, help="parallel candidate runs; None: all cores")
+    p.add_argument("--max-runs", type=positive_int, default=MAX_RUNS,
+                   help="the search's budget: runs of up to 100,000 engine steps, a longer run counting as its steps / "
+                        "100,000 (a neighbourhood once begun is completed)")
     p.add_argument("--repeats", type=positive_int, default=3,
                    help="timed runs of the candidates the choice is between; the least wall time counts")
     add_set(p)
-    add_out(p, what="write guide.md, guide.html, candidates.csv and the figures (tradeoff, ladder, restitution_curve) under DIR")
+    add_out(p, what="write recommended.json, guide.md, guide.html, candidates.csv and the figures (tradeoff, ladder, restitution_curve) under DIR")
     add_budget(p)
     p.set_defaults(func=cmd_tune)

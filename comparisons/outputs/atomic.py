@@ -1,5 +1,10 @@
 """Atomic file output: write to a temporary file beside the target, then rename over it.
 
+    >>> import pandas as pd
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> tmp = Path(tempfile.mkdtemp())
+    >>> from chatterbench.comparisons.outputs.atomic import write_text, write_frame
     >>> write_text(tmp / "out" / "report.md", "# report").read_text()
     '# report'
     >>> write_frame(tmp / "out" / "episodes.csv", pd.DataFrame({"t": [0.5]})).name
@@ -8,8 +13,11 @@
 A crash at any point leaves either the old file or the new one, never a torn file
 (``os.replace`` is atomic on POSIX within one filesystem). A write that fails in any way
 (a full disk, a permission, an exception of the writer, Ctrl-C) removes its temp file
-``.NAME.XXXXXXXX.tmp``; an ``OSError`` is raised again naming the target path. Only a kill
-(SIGKILL, power loss) can leave a temp file, which ``studies/sweep/directory.py`` cleans.
+``.NAME.TTTTTTTTXXXXXXXX.tmp``; an ``OSError`` is raised again naming the target path. Only a
+kill (SIGKILL, power loss) can leave a temp file. Its name starts with this process's tag
+``TTTTTTTT`` (``temp_tag``: 8 random characters, new in every process and forked child), so a
+cleaner can prove a temp file was this tool's: ``studies/sweep/directory.py`` records a sweep's
+tag in ``OUT/.lock`` and the next sweep removes only the temp files bearing it.
 """
 
 from __future__ import annotations
@@ -17,15 +25,38 @@ from __future__ import annotations
 import contextlib
 import errno
 import os
+import re
 import secrets
 from pathlib import Path
 from typing import Callable
 
 import pandas as pd
 
-_TEMP_CHARS = "abcdefghijklmnopqrstuvwxyz0123456789_"  # tempfile's: 8 of them, as mkstemp draws
-TEMP_NAME_EXTRA = len("..XXXXXXXX.tmp")  # bytes a temp file's name adds to its target's (a 255-byte limit applies)
+_TEMP_CHARS = "abcdefghijklmnopqrstuvwxyz0123456789_"  # tempfile's, as mkstemp draws
+TEMP_NAME_EXTRA = len("..TTTTTTTTXXXXXXXX.tmp")  # bytes a temp file's name adds to its target's (a 255-byte limit applies)
+# a temp file's name: group "tag" is the writing process's temp_tag()
+TEMP_PATTERN = re.compile(r"\..+\.(?P<tag>[a-z0-9_]{8})[a-z0-9_]{8}\.tmp")
 _TRIES = 100  # names drawn before giving up (a collision is 1 in 37**8 per existing temp file)
+
+
+def _draw(n: int) -> str:
+    return "".join(secrets.choice(_TEMP_CHARS) for _ in range(n))
+
+
+_TAG = _draw(8)
+
+
+def _new_tag() -> None:
+    global _TAG
+    _TAG = _draw(8)
+
+
+os.register_at_fork(after_in_child=_new_tag)
+
+
+def temp_tag() -> str:
+    """This process's tag, the first 8 characters after ``.NAME.`` of every temp file it makes."""
+    return _TAG
 
 
 def write_with(path: Path, writer: Callable[[Path], None]) -> Path:
@@ -40,7 +71,7 @@ def write_with(path: Path, writer: Callable[[Path], None]) -> Path:
         path.parent.mkdir(parents=True, exist_ok=True)
         for _ in range(_TRIES):
             # named before it exists, so an interrupt at any point below still finds it to remove
-            tmp = path.with_name(f".{path.name}.{''.join(secrets.choice(_TEMP_CHARS) for _ in range(8))}.tmp")
+            tmp = path.with_name(f".{path.name}.{_TAG}{_draw(8)}.tmp")
             try:
                 os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
                 break

@@ -1,5 +1,10 @@
 """Files written for a comparison under ``--out DIR`` (all atomic).
 
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> tmp = Path(tempfile.mkdtemp())
+    >>> from chatterbench.reference.scene import load_scene
+    >>> from chatterbench.comparisons.outputs.comparison_files import write_comparison
     >>> from chatterbench.comparisons import compare
     >>> paths = write_comparison(compare(load_scene("bouncing-ball"), engines=("pybullet",), dt=1e-3), tmp / "cmp")
     >>> sorted(p.name for p in paths if p.suffix == ".png")

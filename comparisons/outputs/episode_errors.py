@@ -1,5 +1,7 @@
 """The per-episode error figure: each episode's sticking, exit and restitution error per engine, against its tolerance.
 
+    >>> from chatterbench.reference.scene import load_scene
+    >>> from chatterbench.comparisons.outputs.episode_errors import episode_errors_figure
     >>> from chatterbench.comparisons import compare
     >>> fig = episode_errors_figure(compare(load_scene("bouncing-ball"), engines=("pybullet",), dt=1e-3))
     >>> [ax.get_gid() for ax in fig.axes]
@@ -11,16 +13,21 @@ as a band around zero (``Comparison.tolerances``):
 
 - ``stick_error_rel``: sticking start - Zeno point, over the visit's chatter duration (``stick``);
 - ``exit_error_rel``: exit error over the sliding duration (``exit``);
-- ``restitution_error``: e / R - 1 of the visit's worst resolved impact (``restitution``; the
-  judge adds each impact's measurement uncertainty to the band).
+- ``restitution_error``: e / R - 1 of the visit's worst resolved impact the step measures to the
+  tolerance (``restitution``; its speeds where the body crosses the wall's surface). The band
+  is the tolerance itself: the judge never widens it; an impact whose measurement uncertainty
+  exceeds it is unmeasured, and a visit with only such impacts (verdict ``unmeasured``) has no
+  value and sits in the "not measured" strip.
 
 x is the reference's visit to a wall, numbered in time (an engine episode the reference does
 not have, ``spurious``, sits between its neighbours). One marker per engine and episode, in
 the engine's colour; a point past ``CLIP`` tolerances is drawn on the panel's edge with its
 value written beside it; an episode the engine has but cannot measure (it missed the sliding,
-diverged, ...) is a cross at zero labelled with its verdict. A panel with nothing to show says
+diverged, ...) is a cross labelled with its verdict in a "not measured" strip above the
+panel's values, outside the tolerance band (the strip's name is its tick label, left of the
+axis, clear of the crosses). A panel with nothing to show says
 why. Artists carry ids (``get_gid``): the axes by column, ``points:COLUMN:ENGINE`` (x, value),
-``clipped:COLUMN:ENGINE``, ``unmeasured:COLUMN:ENGINE``, ``band:COLUMN``.
+``clipped:COLUMN:ENGINE``, ``unmeasured:COLUMN:ENGINE``, ``band:COLUMN``, ``unmeasured-strip:COLUMN``.
 """
 
 from __future__ import annotations
@@ -35,10 +42,12 @@ from matplotlib.patches import Patch
 
 from chatterbench.comparisons.pipeline.vocabulary import PASSING
 
-from .style import ENGINE_COLORS
+from .style import ENGINE_COLOURS
 
 CLIP = 8.0  # a panel spans at most this many tolerances either side of zero; past it, points sit on the edge
 SPREAD = 0.12  # horizontal offset between engines at one episode [episode numbers]
+STRIP = 0.45  # height of the "not measured" strip above a panel's values [fractions of its half-range]
+STRIP_COLOUR = "#f7e3e3"
 # (column, tolerance field, what it is a fraction of, why a panel can be empty)
 PANELS = (
     ("stick_error_rel", "stick", "sticking start - Zeno point\n/ chatter duration",
@@ -71,8 +80,9 @@ def _panel(ax, comparison, column: str, field: str, label: str, why: str) -> boo
     biggest = float(np.abs(finite).max()) if len(finite) else 0.0
     limit = max(2.5 * tol, min(1.2 * biggest, CLIP * tol))
     engines = list(comparison.runs)
+    unmeasured = []  # (engine, colour, x, verdicts) of episodes this error could not be measured for
     for k, name in enumerate(engines):
-        color = ENGINE_COLORS.get(name, f"C{k + 2}")
+        color = ENGINE_COLOURS.get(name, f"C{k + 2}")
         mine = table[table["engine"] == name]
         x = _episode_x(mine, comparison.reference) + SPREAD * (k - (len(engines) - 1) / 2.0)
         v = pd.to_numeric(mine[column], errors="coerce").to_numpy(float)
@@ -96,14 +106,27 @@ def _panel(ax, comparison, column: str, field: str, label: str, why: str) -> boo
                    "restitution_error": mine["ref_resolved_impacts"] > 0}[column].to_numpy(bool)
         lost = ~np.isfinite(v) & np.isfinite(x) & has_ref & ~mine["verdict"].isin((*PASSING, "none")).to_numpy()
         if lost.any():
-            ax.plot(x[lost], np.zeros(lost.sum()), ls="none", marker="x", ms=7, mew=1.6, color=color, zorder=3,
-                    gid=f"unmeasured:{column}:{name}")
-            for xi, verdict in zip(x[lost], mine["verdict"].to_numpy()[lost]):
-                ax.annotate(verdict, (xi, 0.0), xytext=(0, 6), textcoords="offset points", fontsize=6.5, color=color,
-                            ha="center", rotation=90, va="bottom")
+            unmeasured.append((name, color, x[lost], mine["verdict"].to_numpy()[lost]))
     ax.axhspan(-tol, tol, color="0.85", lw=0, zorder=0, gid=f"band:{column}")
     ax.axhline(0.0, color="0.5", lw=0.7, zorder=1)
     ax.set_ylim(-limit, limit)
+    if unmeasured:  # in a strip of their own above the values: a cross at zero would sit in the band, like a pass
+        ticks = [t for t in ax.get_yticks() if -limit <= t <= limit]
+        top = limit * (1.0 + STRIP)
+        ax.axhspan(limit, top, color=STRIP_COLOUR, lw=0, zorder=0, gid=f"unmeasured-strip:{column}")
+        ax.axhline(limit, color="0.6", lw=0.6, zorder=1)
+        y = limit * (1.0 + STRIP / 2)
+        for name, color, xs, verdicts in unmeasured:
+            ax.plot(xs, np.full(len(xs), y), ls="none", marker="x", ms=7, mew=1.6, color=color, zorder=3,
+                    gid=f"unmeasured:{column}:{name}")
+            for xi, verdict in zip(xs, verdicts):
+                ax.annotate(verdict, (xi, y), xytext=(6, 0), textcoords="offset points", fontsize=7, color=color,
+                            ha="left", va="center")
+        ax.set_ylim(-limit, top)
+        # the strip is named by a tick label left of the axis: inside it, the name would cover the first cross
+        ax.set_yticks([*ticks, y], labels=[f"{t:.3g}" for t in ticks] + ["not\nmeasured"])
+        ax.get_yticklabels()[-1].set(fontsize=7, color="0.35")
+        ax.get_yticklines()[-2].set_visible(False)
     ax.set_ylabel(label, fontsize=8.5)
     ax.set_gid(column)
     ax.grid(True, axis="y", color="0.92", lw=0.6)
@@ -129,16 +152,18 @@ def episode_errors_figure(comparison) -> Figure:
     last.set_xticks(ticks, labels=[f"{i}\n{ref['wall'].iloc[i - 1]}" if len(ref) else str(i) for i in ticks], fontsize=8)
     last.set_xlabel("reference visit to a wall, in time (an unpaired engine episode sits between two)")
     tol = comparison.tolerances
-    handles = [Line2D([], [], ls="none", marker="o", ms=6, color=ENGINE_COLORS.get(name, f"C{k + 2}"), label=name)
+    handles = [Line2D([], [], ls="none", marker="o", ms=6, color=ENGINE_COLOURS.get(name, f"C{k + 2}"), label=name)
                for k, name in enumerate(comparison.runs)]
-    handles.append(Patch(color="0.85", label=f"tolerance: stick {tol.stick:g}, exit {tol.exit:g}, restitution "
-                                             f"{tol.restitution:g} (+ measurement uncertainty)"))
+    # the judge never widens a band: an impact the step cannot measure to it is unmeasured (the top strip)
+    handles.append(Patch(color="0.85", label=f"tolerance, never widened: stick {tol.stick:g}, exit {tol.exit:g}, "
+                                             f"restitution {tol.restitution:g}"))
     if "clipped" in drawn:
         handles.append(Line2D([], [], ls="none", marker="^", ms=7, color="0.4", label=f"past {CLIP:g} tolerances (value written)"))
     if "unmeasured" in drawn:
         handles.append(Line2D([], [], ls="none", marker="x", ms=7, mew=1.6, color="0.4",
-                              label="not measured (the verdict says why)"))
-    fig.legend(handles=handles, loc="outside lower center", ncol=min(3, len(handles)), fontsize=8, frameon=False)
+                              label="not measured: in the top strip, with its verdict"))
+    # two columns: the tolerance's label is long, three cut the legend at the figure's edge
+    fig.legend(handles=handles, loc="outside lower center", ncol=min(2, len(handles)), fontsize=8, frameon=False)
     fig.suptitle(f"{comparison.scene.name}: each episode's errors, engine minus reference, as fractions of its scales",
                  fontsize=11)
     return fig

@@ -1,5 +1,6 @@
 """Figures to bytes: every chart is a matplotlib ``Figure`` built without pyplot, rendered here for files.
 
+    >>> from chatterbench.comparisons.outputs.figures import figure_bytes
     >>> from matplotlib.figure import Figure
     >>> fig = Figure(figsize=(2, 1))
     >>> figure_bytes(fig, "png")[:8] == b"\\x89PNG\\r\\n\\x1a\\n"

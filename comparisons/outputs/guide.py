@@ -1,5 +1,7 @@
 """The tuning guide: the calibration answer for a scene and tolerances, the settings to paste, and the evidence.
 
+    >>> from chatterbench.reference.scene import load_scene
+    >>> from chatterbench.comparisons.outputs.guide import guide_markdown, guide_html
     >>> from chatterbench.comparisons.studies.tune import tune
     >>> result = tune(load_scene("bouncing-ball"), "pybullet", 0.05, space={"dt": (1e-3,)}, workers=1, refine_steps=0)
     >>> text = guide_markdown(result)             # Markdown: answer, snippet, cheaper failures, every candidate
@@ -30,8 +32,9 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from chatterbench.comparisons.pipeline.vocabulary import COLOURS, text_colour
-from chatterbench.comparisons.studies.tune import short_label
+from chatterbench.comparisons.studies.tune import passing, searched_text, short_label
 from chatterbench.comparisons.studies.tune_checks import CHECKS
+from chatterbench.engines.export import export_files_names, measurement
 from chatterbench.engines.registry import adapter
 
 from .figures import figure_bytes
@@ -43,14 +46,18 @@ from .tradeoff import tradeoff_figure
 FIGURE_FILES = {"tradeoff": "tradeoff", "ladder": "ladder", "restitution_curve": "restitution_curve"}
 BESIDE_SNIPPET = ("restitution_curve",)  # what the pasted settings do at every impact speed, drawn right after them
 CAPTIONS = {
-    "tradeoff": "Every candidate: cost (steps per simulated second) against its worst error over its tolerance; "
-                "colour the verdict, shape the check that failed worst, the chosen one circled.",
+    "tradeoff": "The searched region as a map: dt (cost = 1 / dt) against the main knob, one panel per combination of "
+                "the other settings; each run owns its lattice cell (coarse runs large, refined ones small), coloured by "
+                "its verdict; the answer circled, fragile passes (isolated: a neighbour fails) crossed.",
     "ladder": "The chosen settings on the scene: each impact's incoming speed per wall visit, the reference's "
               "geometric ladder to its Zeno point and the engine's impacts over it, where each starts sticking.",
-    "restitution_curve": "The chosen settings' effective restitution against impact speed: one strike per speed "
-                         "(the contact law alone, line) and the scene's resolved impacts (numbered markers).",
+    "restitution_curve": "The chosen settings' effective restitution against impact speed: one strike per speed with "
+                         "no force (the contact law alone, line), one strike under the scene's own forces at each impact "
+                         "the judge resolves (filled markers, labelled with e), the run's resolved impacts (open markers, "
+                         "numbered) and the restitution tolerance around R (grey band).",
 }
 CANDIDATE_COLUMNS = {"stage": "stage", "settings": "settings (dt; what differs from the defaults)", "verdict": "verdict", "matches": "matches",
+                     "robust": "robust", "neighbourhood": "neighbours that fail",
                      "worst_ratio": "worst error / tolerance", "failed": "what failed",
                      "steps_per_sim_s": "steps per simulated s", "cost_per_sim_s": "wall s per simulated s",
                      "cost_repeats": "timed runs"}
@@ -70,13 +77,28 @@ def snippet(result) -> str:
     return "" if settings is None else adapter(result.engine).snippet(result.scene, settings)
 
 
+def _check_text(engine: str) -> str:
+    """What the measurement checks, and the files beside the guide that run the whole scene."""
+    files = " and ".join(f"`{engine}/{name}`" for name in export_files_names(engine))
+    return ("With the placeholders filled as above, these lines measure one impact's e = -v_out / v_in; it should be "
+            "the R(v) figure's value at that impact speed (R within the restitution tolerance where the figure says so). "
+            f"{files} beside this guide run the whole scene at these settings and print every impact the same way.")
+
+
+def _check_markdown(result) -> list[str]:
+    """The measurement that checks the pasted settings in the user's own model (``engines.export.measurement``)."""
+    check = measurement(result.engine)
+    return ["## Check it in your own model", "", _check_text(result.engine), "", "```python", check.rstrip(), "```", ""] if check else []
+
+
 def guide_figures(result, ev=None) -> dict[str, Figure]:
     """The guide's figures by name (``FIGURE_FILES``): the trade-off, and with the evidence ``ev`` the ladder and R(v)."""
     figs = {"tradeoff": tradeoff_figure(result)}
     if ev is not None:
         figs["ladder"] = ladder_figure(ev.comparison)
         if ev.curve is not None:
-            figs["restitution_curve"] = restitution_curve_figure(ev.curve, ev.impacts, result.scene.name)
+            figs["restitution_curve"] = restitution_curve_figure(ev.curve, ev.impacts, result.scene.name, ev.strikes,
+                                                                 result.tolerance.restitution)
     return figs
 
 
@@ -85,6 +107,8 @@ def _candidates(frame: pd.DataFrame, defaults: dict) -> pd.DataFrame:
     out = frame.assign(matches=[f"{m}/{n}" for m, n in zip(frame["n_match"], frame["n_episodes"])],
                        settings=[short_label(r, defaults) for _, r in frame.iterrows()])
     out["failed"] = out["failed"].replace("", "-")
+    out["robust"] = out["robust"].map({True: "yes", False: "fragile"}).fillna("-") if "robust" in out else "-"
+    out["neighbourhood"] = out["neighbourhood"].replace("", "-") if "neighbourhood" in out else "-"
     return out[list(CANDIDATE_COLUMNS)]
 
 
@@ -96,24 +120,71 @@ def _answer(result) -> list[str]:
     cost = (f"{_fmt(c['steps_per_sim_s'])} steps per simulated second, {_fmt(c['cost_per_sim_s'])} s of wall clock "
             f"per simulated second (the least of {int(c['cost_repeats'])} timed run{'s' if c['cost_repeats'] != 1 else ''})")
     if result.best is not None:
-        head = [f"**Recommended:** `{c['settings']}`: all {c['n_episodes']} episodes pass ({c['verdict']}); cost {cost}."]
+        head = [f"**Recommended (robust):** `{c['settings']}`: all {c['n_episodes']} episodes pass ({c['verdict']}), and "
+                "so do they at dt x 0.8 and x 1.25 and at the neighbouring values of each continuous knob (the map's knob: "
+                "its adjacent searched values; every other real-valued knob: half-way to its adjacent searched values); "
+                f"margin {_fmt(result.margin)} (its worst error over its tolerance among the judge's checks); cost {cost}."]
+        n_fragile = len(result.cheaper(fragile=True))
+        if n_fragile:
+            head.append(f"{n_fragile} cheaper or as cheap candidates pass but are fragile (a neighbour fails): see the "
+                        "table of every candidate, column \"neighbours that fail\".")
     else:
-        head = ["**No candidate passes these tolerances.**",
-                f"Best reachable (most matching episodes, then the smallest worst error over its tolerance): `{c['settings']}`, "
-                f"{c['n_match']} of {c['n_episodes']} episodes match, verdict {c['verdict']}; it fails: {c['failed']}; cost {cost}."]
+        why = (f"its neighbours fail: {c['neighbourhood']}" if c.get("neighbourhood") else f"it fails: {c['failed']}")
+        head = ["**No robust setting passes these tolerances in the searched space.**",
+                f"Best reachable: `{c['settings']}`, {c['n_match']} of {c['n_episodes']} episodes match, verdict "
+                f"{c['verdict']}; {why}; cost {cost}."]
+    f = result.fragile
+    if f is not None and f["settings"] != c["settings"]:
+        head.append(f"**Fragile (cheaper, but an isolated pass):** `{f['settings']}` passes at "
+                    f"{_fmt(f['steps_per_sim_s'])} steps per simulated second, but its neighbours fail ({f['neighbourhood']}): "
+                    "a small change of the model can land on a failure.")
     ratios = ", ".join(f"{short} {_fmt(c.get(f'{name}_ratio', math.nan))}" for name, (*_, short) in CHECKS.items())
-    return head + [f"Each check's worst error over its tolerance (1 = at the tolerance): {ratios}."]
+    return head + [f"Each check's worst error over its tolerance (1 = at the tolerance): {ratios}."] + _restitution_claim(result)
+
+
+def _restitution_claim(result) -> list[str]:
+    """Where the chosen settings give R under the scene's own forces, with the numbers where they miss (Markdown)."""
+    c = result.chosen
+    if not isinstance(c.get("r_struck"), str) or not c["r_struck"]:
+        return []
+    tol, holds, held = result.tolerance.restitution, c["r_holds_from"], c["r_held_from"]
+    where = (f"Struck under the scene's own forces from the reference's state before each impact the judge resolves "
+             f"({c['r_struck']}), these settings give")
+    if holds == 0.0:
+        return [f"**Restitution under the scene's forces:** {where} e within {100 * tol:g}% of R = "
+                f"{result.scene.restitution:g} at every one."]
+    span = (f"at {holds:.3g} m/s and faster; slower, they miss: {c['r_misses']}" if math.isfinite(holds)
+            else f"at none of them: {c['r_misses']}")
+    held_text = (f"The judge holds a time-stepper at dt = {c['dt']:g} s to R at {held:.3g} m/s and faster (there its "
+                 "sampling uncertainty is within the tolerance)")
+    if not math.isfinite(held):
+        counted = (f"At dt = {c['dt']:g} s the judge's sampling uncertainty exceeds the tolerance at every one of these "
+                   "impacts, so none counts against a candidate.")
+    elif c.get("scene_restitution_ratio", math.nan) > 1.0:
+        n_ok = table_meets_r(result.table)
+        counted = (f"{held_text}, and there these settings miss: that counts against a candidate, and "
+                   + (f"{n_ok} passing candidates tried meet R there." if n_ok else
+                      "none of the passing candidates tried meets R there."))
+    else:
+        counted = f"{held_text}, and there these settings meet R; the misses are at slower impacts."
+    return [f"**Restitution under the scene's forces:** {where} e within {100 * tol:g}% of R = "
+            f"{result.scene.restitution:g} {span}. {counted}"]
+
+
+def table_meets_r(table: pd.DataFrame) -> int:
+    """How many passing candidates of a tune table also meet R under the scene's forces where the judge holds them."""
+    return int((passing(table["verdict"]) & ~(table["scene_restitution_ratio"] > 1.0)).sum())
 
 
 def guide_markdown(result, figures: dict | None = None) -> str:
     """The guide as Markdown (module docstring); ``figures``: names of the figure files written beside it."""
     x = result.extra
-    space = x.get("space", {})
-    searched = "; ".join(f"{k} in ({', '.join(f'{v:.6g}' if isinstance(v, float) else str(v) for v in vals)})"
-                         for k, vals in space.items())
+    searched = searched_text(result) if "searched" in x else f"{len(result.table)} candidates"
     lines = [f"# Tuning {result.engine} for {result.scene.name}", "",
              f"Tolerances: {result.tolerance.describe()}; every episode must pass.", "",
-             f"Searched: {searched}; {len(result.table)} candidates in {_fmt(x.get('wall_time_s', math.nan))} s. Cost is "
+             f"Searched: {searched}; the search took {_fmt(x.get('wall_time_s', math.nan))} s (reference, runs and "
+             "timing). The answer is the cheapest robust "
+             "setting among these runs, not beyond them. Cost is "
              f"steps per simulated second (1 / dt); steps within {100 * x.get('tie_band', 0.1):g}% are a tie, broken by the "
              "fewest settings away from the engine's defaults, then the larger dt, then the wall-clock time (reported, "
              "never deciding by itself: on a busy machine it follows the load).", "", "## Answer", ""]
@@ -122,6 +193,7 @@ def guide_markdown(result, figures: dict | None = None) -> str:
     if text:
         lang = "xml" if text.lstrip().startswith("<") else "python"
         lines += ["## Paste", "", "```" + lang, text.rstrip(), "```", ""]
+        lines += _check_markdown(result)
     figures = list(figures or ())
     md_figure = lambda name: [f"![{name}]({FIGURE_FILES[name]}.png)", "", f"*{CAPTIONS[name]}*", ""]  # noqa: E731
     for name in (n for n in figures if n in BESIDE_SNIPPET):
@@ -176,20 +248,27 @@ def guide_section_html(result, figures: dict[str, Figure] | None = None) -> str:
     anchor = f"tuning-{esc(result.engine)}-{esc(result.scene.name)}"
     parts = [f'<h2 id="{anchor}">Tuning {esc(result.engine)} for {esc(result.scene.name)}</h2>',
              f'<p class="note">Tolerances: {esc(result.tolerance.describe())}; every episode must pass.</p>']
+    if "searched" in result.extra:
+        parts.append(f'<p class="note">Searched: {esc(searched_text(result))}; the answer is the cheapest robust setting '
+                     "among these runs, not beyond them.</p>")
     parts += [f"<p>{_inline(s)}</p>" for s in _answer(result)]
     figures = figures if figures is not None else {"tradeoff": tradeoff_figure(result)}
 
     def html_figure(name: str) -> str:
         png = base64.b64encode(figure_bytes(figures[name], "png")).decode()
-        return (f'<figure><img alt="{esc(name)}" src="data:image/png;base64,{png}">'
+        wide = ' style="width: 100%"' if name in BESIDE_SNIPPET else ""  # the R(v) figure at the page's full width
+        return (f'<figure><img alt="{esc(name)}"{wide} src="data:image/png;base64,{png}">'
                 f"<figcaption>{esc(CAPTIONS[name])}</figcaption></figure>")
 
     text = snippet(result)
-    if text:  # the snippet and, beside it, what those settings do at every impact speed
-        beside = "".join(f'<div style="flex: 1 1 45%; min-width: 0">{html_figure(n)}</div>' for n in figures if n in BESIDE_SNIPPET)
-        parts += ["<h3>Paste</h3>", '<div style="display: flex; gap: 1.5em; align-items: flex-start">'
-                  f'<pre style="flex: 1 1 55%; white-space: pre-wrap; background: #f6f6f6; padding: 0.6em"><code>{esc(text)}</code></pre>'
-                  f"{beside}</div>"]
+    if text:  # the snippet and, under it at the page's full width, what those settings do at every impact speed
+        parts += ["<h3>Paste</h3>",
+                  f'<pre style="white-space: pre-wrap; background: #f6f6f6; padding: 0.6em"><code>{esc(text)}</code></pre>']
+        parts += [html_figure(n) for n in figures if n in BESIDE_SNIPPET]
+        check = measurement(result.engine)
+        if check:
+            parts += ["<h3>Check it in your own model</h3>", f"<p>{_inline(_check_text(result.engine))}</p>",
+                      f'<pre style="white-space: pre-wrap; background: #f6f6f6; padding: 0.6em"><code>{esc(check)}</code></pre>']
     cheaper = result.cheaper()
     parts.append(f"<h3>Cheaper or as cheap candidates that fail ({len(cheaper)})</h3>")
     parts.append(_html_table(_candidates(cheaper, result.extra.get("defaults", {}))) if len(cheaper) else "<p>None: nothing cheaper was tried and failed.</p>")

@@ -1,5 +1,7 @@
 """The chatter ladder: each impact's incoming speed against time, per wall visit, reference and engines.
 
+    >>> from chatterbench.reference.scene import load_scene
+    >>> from chatterbench.comparisons.outputs.ladder import ladder_figure
     >>> from chatterbench.comparisons import compare
     >>> c = compare(load_scene("bouncing-ball", ["duration=1.6"]), engines=("pybullet",), dt=1e-3)
     >>> fig = ladder_figure(c)
@@ -14,7 +16,8 @@ impacts in the visit (hollow: micro-bounces a time-stepper cannot resolve), and 
 engine starts sticking (a vertical line in its colour). So the figure shows where a velocity
 threshold cuts the ladder, where a soft contact's rebound drifts off R, and how late or early
 sticking starts. One panel per visit, the first ``MAX_VISITS`` of the run with chatter (a
-visit that starts at rest on the wall has one impact at speed 0 and no ladder).
+visit that starts at rest on the wall has one impact at speed 0 and no ladder); the title
+says how many of how many ("the first 3 of 13 visits with chatter").
 
 Signs and units: speeds are |y'| just before impact [m/s]; time [s].
 """
@@ -26,7 +29,7 @@ import math
 import numpy as np
 from matplotlib.figure import Figure
 
-from .style import ENGINE_COLORS, STICK_COLOR
+from .style import ENGINE_COLOURS, STICK_COLOUR
 
 MAX_VISITS = 3
 MARGIN = 0.15  # of the visit's chatter duration, drawn after its Zeno point (late sticking shows)
@@ -41,7 +44,8 @@ def ladder_figure(comparison) -> Figure:
     """The ladder of the first ``MAX_VISITS`` reference visits (module docstring); an empty note when none."""
     ref = comparison.reference.reset_index(drop=True)
     # real chatter only: a visit that starts at rest on the wall (one impact at speed 0) has no ladder
-    visits = ref[(ref.n_impacts > 1) & (ref.chatter_duration > 0)].head(MAX_VISITS)
+    chatter = ref[(ref.n_impacts > 1) & (ref.chatter_duration > 0)]
+    visits = chatter.head(MAX_VISITS)
     fig = Figure(figsize=(max(9.0, 4.6 * len(visits) + 0.6), 4.4 if len(visits) > 1 else 5.2), layout="constrained")
     if visits.empty:
         ax = fig.subplots()
@@ -57,11 +61,11 @@ def ladder_figure(comparison) -> Figure:
         lo, hi = _window(row)
         mine = strikes[(strikes.wall == row.wall) & (strikes.t >= lo) & (strikes.t <= row.t_stick)]
         speed = mine.v_minus.abs()
-        ax.plot(mine.t, speed, "-o", color=ENGINE_COLORS["reference"], ms=3, lw=1, gid="reference",
+        ax.plot(mine.t, speed, "-o", color=ENGINE_COLOURS["reference"], ms=3, lw=1, gid="reference",
                 label=f"reference (R = {comparison.scene.restitution:g})")
-        ax.axvline(row.t_stick, color=STICK_COLOR, ls="--", lw=1.2, label="reference Zeno point (sticks)")
+        ax.axvline(row.t_stick, color=STICK_COLOUR, ls="--", lw=1.2, label="reference Zeno point (sticks)")
         for name, run in comparison.runs.items():
-            color = ENGINE_COLORS.get(name, "grey")
+            color = ENGINE_COLOURS.get(name, "grey")
             paired = comparison.impacts[(comparison.impacts.engine == name) & (comparison.impacts.episode == i)]
             found = run.found.impacts
             # the touches of a body already resting on the wall (``stuck``) are not impacts of the ladder
@@ -82,5 +86,9 @@ def ladder_figure(comparison) -> Figure:
     axes[0].set_ylabel("incoming speed |y'| before impact [m/s]")
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncol=3 if len(visits) > 1 else 2, fontsize=8, frameon=False)
-    fig.suptitle(f"{comparison.scene.name}: chatter ladder, each impact's incoming speed per wall visit", fontsize=11)
+    shown = ("its one visit with chatter" if len(chatter) == 1 else f"all {len(chatter)} visits with chatter"
+             if len(visits) == len(chatter)
+             else f"the first {len(visits)} of {len(chatter)} visits with chatter")
+    fig.suptitle(f"{comparison.scene.name}: chatter ladder, each impact's incoming speed per wall visit; {shown}",
+                 fontsize=11)
     return fig

@@ -1,5 +1,7 @@
 """The sliding-plate map as a figure: the true sliding region filled, Feigin's sufficient plate hatched, engines as contours.
 
+    >>> from chatterbench.reference.scene import load_scene
+    >>> from chatterbench.comparisons.outputs.plate_map_figure import plate_map_figure
     >>> from chatterbench.comparisons.studies.plate_map import plate_map
     >>> scene = load_scene("feigin-pair")
     >>> fig = plate_map_figure(plate_map(scene, "lower", n_phase=12, n_speed=8), scene)
@@ -19,7 +21,7 @@ from matplotlib.patches import Rectangle
 
 from chatterbench.reference.scene import Scene
 
-from .style import ENGINE_COLORS
+from .style import ENGINE_COLOURS
 
 
 def plate_map_figure(table: pd.DataFrame, scene: Scene, wall: str = "lower") -> Figure:
@@ -30,10 +32,10 @@ def plate_map_figure(table: pd.DataFrame, scene: Scene, wall: str = "lower") -> 
     order = table.sort_values(["phase", "speed"])
     P = order["phase"].to_numpy().reshape(shape)
     V = order["speed"].to_numpy().reshape(shape)
-    fig = Figure(figsize=(9, 5.5), layout="constrained")
+    fig = Figure(figsize=(9, 6.0), layout="constrained")
     ax = fig.subplots()
     ref = order["reference"].to_numpy().reshape(shape).astype(float)
-    ax.contourf(P, V, ref, levels=[0.5, 1.5], colors=["#c7e9c0"])
+    ax.contourf(P, V, ref, levels=[0.5, 1.5], colors=["#c7e9c0"]).set_gid("reference-region")
     ax.contour(P, V, ref, levels=[0.5], colors=["black"], linewidths=1.5)
     fe = order["feigin"].to_numpy().reshape(shape).astype(float)
     ax.contourf(P, V, fe, levels=[0.5, 1.5], colors="none", hatches=["///"])
@@ -55,11 +57,12 @@ def plate_map_figure(table: pd.DataFrame, scene: Scene, wall: str = "lower") -> 
         grid = order[name].to_numpy().reshape(shape).astype(float)
         if grid.min() == grid.max():
             continue
-        ax.contour(P, V, grid, levels=[0.5], colors=[ENGINE_COLORS.get(name, "gray")], linewidths=1.6)
-        handles.append(Line2D([], [], color=ENGINE_COLORS.get(name, "gray"), lw=1.6, label=f"{name}: edge of its sliding region"))
+        ax.contour(P, V, grid, levels=[0.5], colors=[ENGINE_COLOURS.get(name, "gray")], linewidths=1.6)
+        handles.append(Line2D([], [], color=ENGINE_COLOURS.get(name, "gray"), lw=1.6, label=f"{name}: edge of its sliding region"))
     ax.set_xlabel("strike phase omega t mod 2 pi [rad]")
     ax.set_ylabel("incoming speed |y'| [m/s]")
     ax.set_xlim(0, 2 * math.pi)
     ax.set_title(f"{scene.name}, {wall} wall, R = {scene.restitution:g}: which strikes end in sliding")
-    ax.legend(handles=handles, loc="upper right", fontsize=8, framealpha=0.9)
+    # below the axes: the sliding region reaches every corner of the map, a legend inside would cover it
+    fig.legend(handles=handles, loc="outside lower center", ncol=2, fontsize=8, frameon=False)
     return fig

@@ -1,5 +1,6 @@
 """The comparison report: every scene on every engine, in one self-contained HTML page and a Markdown twin.
 
+    >>> from chatterbench.comparisons.outputs.report import build_report
     >>> report = build_report(["bouncing-ball"], engines=("pybullet",), dt=1e-3, progress=None)
     >>> report.summary[["scene", "engine", "verdict"]].values.tolist()
     [['bouncing-ball', 'pybullet', 'match']]
@@ -16,7 +17,9 @@ Promises: ``index.html`` is one file that needs nothing else: figures are base64
 ``data:`` URIs, the style sheet is inline, there is no script and no network address.
 ``report.md`` carries the same tables (no figures) for pasting into issues and pull
 requests. The summary's columns are the sweep rows' (``pipeline.summary``), so a number in
-the report is the number a gate (``ci/gate.py``) checks.
+the report is the number a gate (``ci/gate.py``) checks; its errors are signed
+(``summary.SIGNED_COLUMNS``: the worst by magnitude, with its sign, whose magnitude is the
+gate's ``_max`` metric), so early is told from late.
 """
 
 from __future__ import annotations
@@ -30,14 +33,14 @@ from typing import Any, Callable, Sequence
 
 import pandas as pd
 
-from chatterbench.engines.registry import make_settings
+from chatterbench.engines.registry import DEFAULT_ENGINES, make_settings
 from chatterbench.reference.catalogue import CATALOGUE
-from chatterbench.reference.scene import load_scene
+from chatterbench.reference.scene import SceneError, load_scene
 
 from chatterbench.comparisons.pipeline.budget import Budget, check_comparison
 from chatterbench.comparisons.pipeline.compare import Comparison, compare
-from chatterbench.comparisons.pipeline.summary import summarize
-from chatterbench.comparisons.pipeline.tolerances import Tolerances
+from chatterbench.comparisons.pipeline.summary import signed_worst, summarize
+from chatterbench.comparisons.pipeline.tolerances import Tolerances, explain
 
 from .episode_errors import episode_errors_figure
 from .figures import figure_bytes
@@ -47,8 +50,9 @@ from .ladder import ladder_figure
 from .timeseries import timeseries_figure
 from .work_precision import work_precision_figure
 
-SUMMARY_COLUMNS = ["scene", "engine", "verdict", "n_match", "n_episodes", "stick_error_max", "stick_error_rel_max",
-                   "exit_error_max", "exit_error_rel_max", "restitution_error_max", "penetration_max", "cost_per_sim_s",
+# the errors are signed (summary.SIGNED_COLUMNS: the worst by magnitude, with its sign; its magnitude is the gate's _max)
+SUMMARY_COLUMNS = ["scene", "engine", "verdict", "n_match", "n_episodes", "stick_error_worst", "stick_error_rel_worst",
+                   "exit_error_worst", "exit_error_rel_worst", "restitution_error_worst", "penetration_max", "cost_per_sim_s",
                    "status"]
 EPISODE_COLUMNS = ["engine", "wall", "ref_t_stick", "t_stick", "stick_error_zeno", "stick_error_rel", "ref_t_exit", "t_exit",
                    "exit_error", "exit_error_rel", "exit_error_steps", "restitution_error", "resolved_impacts",
@@ -59,6 +63,9 @@ HEADERS = {
     "exit_error_max": "worst exit error [ms]", "stick_error_max": "worst sticking error [ms]",
     "exit_error_rel_max": "worst exit error / sliding", "stick_error_rel_max": "worst sticking error / chatter",
     "restitution_error_max": "worst restitution error", "penetration_max": "deepest penetration [mm]",
+    "exit_error_worst": "worst exit error [ms]", "stick_error_worst": "worst sticking error [ms]",
+    "exit_error_rel_worst": "worst exit error / sliding", "stick_error_rel_worst": "worst sticking error / chatter",
+    "restitution_error_worst": "worst restitution error",
     "stick_error_rel": "/ chatter", "exit_error_rel": "/ sliding", "exit_error_steps": "exit error [steps]",
     "restitution_error": "restitution error", "resolved_impacts": "resolved", "ref_resolved_impacts": "ref. resolved",
     "cost_per_sim_s": "cost [s per sim. s]", "status": "run", "wall": "wall",
@@ -66,9 +73,11 @@ HEADERS = {
     "ref_t_exit": "ref. exits [s]", "t_exit": "exits [s]", "exit_error": "exit error [ms]",
     "n_impacts": "impacts", "ref_n_impacts": "ref. impacts",
 }
-MS_COLUMNS = {"exit_error_max", "stick_error_max", "stick_error_zeno", "exit_error", "penetration_max"}
+MS_COLUMNS = {"exit_error_max", "stick_error_max", "stick_error_zeno", "exit_error", "penetration_max", "exit_error_worst",
+              "stick_error_worst"}
 FRACTION_COLUMNS = {"stick_error_rel_max", "exit_error_rel_max", "restitution_error_max", "stick_error_rel", "exit_error_rel",
-                    "restitution_error", "exit_error_steps"}
+                    "restitution_error", "exit_error_steps", "stick_error_rel_worst", "exit_error_rel_worst",
+                    "restitution_error_worst"}
 TIME_COLUMNS = {"ref_t_stick", "t_stick", "ref_t_exit", "t_exit"}
 
 Progress = Callable[[str], None]
@@ -87,7 +96,7 @@ class Report:
     """What ``build_report`` ran: one comparison per scene and the summary over them."""
 
     comparisons: tuple[Comparison, ...]
-    summary: pd.DataFrame  # one row per (scene, engine): summary.summarize columns
+    summary: pd.DataFrame  # one row per (scene, engine): summary.summarize columns and summary.SIGNED_COLUMNS
     engines: tuple[str, ...]
     dt: float | None  # [s] the timestep asked for; None: each engine's default
     overrides: tuple[str, ...]  # the KEY=VALUE items applied to every scene and engine
@@ -104,7 +113,7 @@ def _stderr(line: str) -> None:
 
 def build_report(
     scenes: Sequence[str] = tuple(CATALOGUE),
-    engines: Sequence[str] = ("mujoco", "pybullet"),
+    engines: Sequence[str] = DEFAULT_ENGINES,
     dt: float | None = None,
     scene_overrides: Sequence[str] = (),
     engine_overrides: Sequence[str] = (),
@@ -114,6 +123,7 @@ def build_report(
     command: str = "",
     timeout: float | None = None,
     budget: Budget | None = None,
+    stage: Progress | None = None,
 ) -> Report:
     """Compare every scene on every engine; the scenes are all loaded (validated) before any run.
 
@@ -127,9 +137,15 @@ def build_report(
     timeout : wall-clock limit [s] of each engine run, run isolated in a child (``compare``);
         a crash or hang is that engine's failure verdict and the report goes on. None: in-process.
     budget : every scene's reference and engine runs are checked against it before the first run.
+    stage : called with ``SCENE: reference`` and ``SCENE: ENGINE`` as each run starts (a progress bar).
     """
     say = progress or (lambda line: None)
     loaded = [load_scene(s, list(scene_overrides)) for s in scenes]
+    names = [scene.name for scene in loaded]  # sections and figures are found by scene name: one section each
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise SceneError(f"scenes: {', '.join(map(repr, twice))} given more than once (by name or by a file's name = "
+                         "...); a report has one section per scene name: give each once, or rename one")
     if budget is not None:
         settings = {name: make_settings(name, dt, list(engine_overrides)) for name in engines}
         for scene in loaded:
@@ -139,10 +155,12 @@ def build_report(
     for i, scene in enumerate(loaded, 1):
         say(f"[{i}/{len(loaded)}] {scene.name}: reference and {', '.join(engines)} ...")
         t0 = time.perf_counter()
-        c = compare(scene, engines=tuple(engines), dt=dt, overrides=list(engine_overrides), tol=tol, timeout=timeout)
+        on = (lambda what, name=scene.name: stage(f"{name}: {what}")) if stage is not None else None
+        c = compare(scene, engines=tuple(engines), dt=dt, overrides=list(engine_overrides), tol=tol, timeout=timeout,
+                    progress=on)
         comparisons.append(c)
         for name, run in c.runs.items():
-            row = summarize(c, name, {})
+            row = {**summarize(c, name, {}), **signed_worst(c.table[c.table["engine"] == name])}
             rows.append(row)
             say(f"      {scene.name} / {name}: {row['verdict']} ({row['n_match']}/{row['n_episodes']} episodes match), "
                 f"{run.wall_time:.2f} s stepping")
@@ -227,8 +245,7 @@ def provenance_items(report: Report) -> list[tuple[str, str]]:
          + " (feigin: plate entry then sliding; exhaustive: every impact up to the Zeno point)"),
         ("timestep", "each engine's default" if report.dt is None else f"{report.dt:g} s"),
         ("overrides", ", ".join(report.overrides) if report.overrides else "none"),
-        ("tolerances", ", ".join(f"{k} = {v}" for k, v in first.get("tolerances", {}).items())
-         + " (fractions of the scene's time scale T; energy_gain relative)"),
+        ("tolerances", explain(report.comparisons[0].tolerances if report.comparisons else Tolerances())),
         ("wall time", f"{report.wall_time_s:.1f} s for {plural(len(report.comparisons), 'scene')}"),
     ]
     return items

@@ -1,5 +1,9 @@
 """The report as files: one self-contained HTML page (figures inline, no script, no network) and its Markdown twin.
 
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> tmp = Path(tempfile.mkdtemp())
+    >>> from chatterbench.comparisons.outputs.report_page import build_report, write_report
     >>> report = build_report(["bouncing-ball"], engines=("pybullet",), dt=1e-3, progress=None)
     >>> [p.name for p in write_report(report, tmp / "report")]
     ['index.html', 'report.md']
@@ -76,7 +80,8 @@ def report_html(report: Report) -> str:
         "<h1>chatterbench report</h1>",
         f'<p class="note">{plural(len(report.comparisons), "scene")} on {", ".join(report.engines)} against the exact '
         f"event-driven reference (Feigin 1967), {html.escape(report.created)}. Errors are engine minus reference; "
-        "worst = largest magnitude over the scene's episodes.</p>",
+        "worst = the largest in magnitude over the scene's episodes, with its sign (negative: the engine sticks, exits or "
+        "first hits early, or keeps less than R of its speed).</p>",
         '<h2 id="summary">Summary</h2>',
         _html_table(summary_frame(report), SUMMARY_COLUMNS, link_scene=True),
         _verdict_legend(),
@@ -135,7 +140,8 @@ def report_markdown(report: Report) -> str:
     """The report's tables in Markdown (GitHub flavour), for issues and pull requests."""
     out = ["# chatterbench report", "",
            f"{plural(len(report.comparisons), 'scene')} on {', '.join(report.engines)} against the exact reference. "
-           "Errors are engine minus reference, worst = largest magnitude over the scene's episodes.", "",
+           "Errors are engine minus reference, worst = the largest in magnitude over the scene's episodes, with its sign "
+           "(negative: the engine sticks, exits or first hits early, or keeps less than R of its speed).", "",
            "## Summary", "", _md_table(summary_frame(report), SUMMARY_COLUMNS), ""]
     for c in report.comparisons:
         out += [f"## {c.scene.name}", "", f"{tolerance_line(c)}.", "", _md_table(c.table, EPISODE_COLUMNS), ""]

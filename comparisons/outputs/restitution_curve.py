@@ -1,18 +1,22 @@
-"""The calibration chart: each engine's effective restitution against impact speed, all engines in one picture.
+"""The calibration chart: each engine's effective restitution against impact speed, force-free and under the scene's forces.
 
+    >>> from chatterbench.comparisons.outputs.restitution_curve import restitution_curve_figure
     >>> from chatterbench.comparisons.studies.restitution_curve import restitution_curve
     >>> from chatterbench.engines.registry import make_settings
     >>> fig = restitution_curve_figure(restitution_curve("pybullet", make_settings("pybullet", dt=1e-4), 0.5, [0.1, 1.0]))
     >>> fig.axes[0].get_xscale(), fig.axes[0].get_ylabel()
     ('log', "effective restitution e = -y'+ / y'- [-]")
 
-One line per engine (``studies/restitution_curve.py``: one strike per speed), the nominal
-R as a black horizontal line, an engine's calibration speed (where its settings name one)
-as a star on that line and a thin vertical line in its colour, and, when given, the resolved impacts of a whole
-scene (``impact_restitutions``: the bouncing ball's k-th impact at its own incoming speed)
-as large open markers of the same colour and shape, numbered 1, 2, ... from the first. Speeds without a
-rebound sit at e = 0; failed runs (NaN) leave a gap. The e axis spans the values and R with
-a margin (at least ``MIN_PAD``), so a drift of a few percent is visible.
+Per engine (``studies/restitution_curve.py``, ``studies/scene_restitution.py``), in its
+colour: one strike per speed with no force (the contact law alone) or under a constant
+gravity, a line; the strikes under the scene's own forces at the speeds the scene reaches,
+filled markers on a thin dashed line, each labelled with its e; and, when given, the resolved
+impacts of the whole run (``impact_restitutions``) as large open markers numbered 1, 2, ...
+(every one). The nominal R is a black line, the restitution tolerance a grey band around it
+(R (1 +- tolerance)), an engine's calibration speed (where its settings name one) a star on
+R. Labels are placed where they overlap neither another label nor a marker
+(``place_labels``). Speeds without a rebound sit at e = 0; failed strikes leave a gap. The
+e axis spans the values, R and the band with a margin (at least ``MIN_PAD``).
 """
 
 from __future__ import annotations
@@ -21,23 +25,69 @@ import math
 
 import numpy as np
 import pandas as pd
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from .style import ENGINE_COLORS
+from .style import ENGINE_COLOURS
 
-MIN_PAD = 0.02  # [-] the e axis reaches at least this far beyond the values and R
+MIN_PAD = 0.02  # [-] the e axis reaches at least this far beyond the values, R and the band
 # engines that agree would hide one another: each gets its own line style and marker as well as its colour
 _LINES = ("-", "--", ":", "-.")
 _MARKERS = ("o", "^", "s", "D", "v")
-_MORE_COLORS = ("#9467bd", "#ff7f0e", "#8c564b", "#17becf", "#e377c2")  # engines without a colour in style.py
+_MORE_COLOURS = ("#9467bd", "#ff7f0e", "#8c564b", "#17becf", "#e377c2")  # engines without a colour in style.py
+# where a label may sit around its marker [points], tried in order: beside first, then further out
+_OFFSETS = [(dx * r, dy * r) for r in (1.0, 1.9, 2.8, 3.7) for dx, dy in
+            ((7, 6), (7, -13), (-7, 6), (-7, -13), (0, 11), (0, -18), (12, -3), (-12, -3))]
+FORCE_FREE = ("none", "gravity")  # the ``forces`` of restitution_curve's strikes; "scene" for scene_restitution's
 
 
-def _colors(names) -> dict[str, str]:
-    spare = iter(_MORE_COLORS)
-    return {n: ENGINE_COLORS.get(n) or next(spare, "gray") for n in names}
+def _colours(names) -> dict[str, str]:
+    spare = iter(_MORE_COLOURS)
+    return {n: ENGINE_COLOURS.get(n) or next(spare, "gray") for n in names}
 
 
-def restitution_curve_figure(curve: pd.DataFrame, impacts: pd.DataFrame | None = None, scene_name: str = "") -> Figure:
+def place_labels(fig: Figure, ax, labels: list[tuple[float, float, str, str]], fontsize: float = 7.5) -> None:
+    """Annotate each (x, y, text, colour) next to its point where it overlaps no other label and no marker.
+
+    Lays the figure out once, then fixes that layout (so the points stay where they were
+    measured) and, label by label, takes the first offset (``_OFFSETS``) whose box is free;
+    with none free, the one that overlaps least.
+    """
+    canvas = fig.canvas if isinstance(fig.canvas, FigureCanvasAgg) else FigureCanvasAgg(fig)
+    canvas.draw()
+    fig.set_layout_engine("none")  # the axes keep the place the labels are measured against
+    renderer = canvas.get_renderer()
+    pts = ax.transData.transform(np.array([(x, y) for x, y, _, _ in labels], dtype=float).reshape(-1, 2))
+    r = 5.0 * fig.dpi / 72.0  # a marker's half width [pixels]
+    taken = [(px - r, py - r, px + r, py + r) for px, py in pts]
+    inside = ax.get_window_extent(renderer)
+
+    def overlap(box) -> float:
+        area = sum(max(0.0, min(box[2], b[2]) - max(box[0], b[0])) * max(0.0, min(box[3], b[3]) - max(box[1], b[1]))
+                   for b in taken)
+        outside = (box[0] < inside.x0) or (box[2] > inside.x1) or (box[1] < inside.y0) or (box[3] > inside.y1)
+        return area + (1e9 if outside else 0.0)
+
+    for (x, y, text, color), _ in zip(labels, pts):
+        best = None
+        for dx, dy in _OFFSETS:
+            ann = ax.annotate(text, (x, y), textcoords="offset points", xytext=(dx, dy), fontsize=fontsize, color=color)
+            bb = ann.get_window_extent(renderer)
+            box = (bb.x0 - 1, bb.y0 - 1, bb.x1 + 1, bb.y1 + 1)
+            cost = overlap(box)
+            if best is None or cost < best[0]:
+                if best is not None:
+                    best[1].remove()
+                best = (cost, ann, box)
+            else:
+                ann.remove()
+            if cost == 0.0:
+                break
+        taken.append(best[2])
+
+
+def restitution_curve_figure(curve: pd.DataFrame, impacts: pd.DataFrame | None = None, scene_name: str = "",
+                             strikes: pd.DataFrame | None = None, tolerance: float | None = None) -> Figure:
     """e against log impact speed, per engine (module docstring).
 
     Parameters
@@ -47,46 +97,66 @@ def restitution_curve_figure(curve: pd.DataFrame, impacts: pd.DataFrame | None =
     impacts : DataFrame, optional
         ``IMPACT_COLUMNS`` of ``impact_restitutions`` for the same engines.
     scene_name : str
-        The scene the impacts come from, for the legend.
+        The scene the impacts and strikes come from, for the legend.
+    strikes : DataFrame, optional
+        ``CURVE_COLUMNS`` of ``scene_restitution``: under the scene's forces at its own impacts.
+    tolerance : float, optional
+        The restitution tolerance (relative): the grey band R (1 +- tolerance).
     """
-    engines = list(dict.fromkeys([*curve["engine"], *([] if impacts is None else impacts["engine"])]))
-    colors = _colors(engines)
+    parts = [f for f in (curve, strikes) if f is not None and len(f)]
+    engines = list(dict.fromkeys([*(e for f in parts for e in f["engine"]),
+                                  *([] if impacts is None else impacts["engine"])]))
+    colours = _colours(engines)
     fig = Figure(figsize=(9, 6.5), layout="constrained")
     ax = fig.subplots()
-    R = float(curve["restitution"].iloc[0]) if len(curve) else math.nan
+    R = float(parts[0]["restitution"].iloc[0]) if parts else math.nan
     ax.axhline(R, color="black", lw=1.2, label=f"nominal R = {R:g}")
+    if tolerance is not None and np.isfinite(R):
+        ax.axhspan(R * (1 - tolerance), R * (1 + tolerance), color="0.85", zorder=0,
+                   label=f"R within the restitution tolerance ({100 * tolerance:g}%)")
+    labels: list[tuple[float, float, str, str]] = []
+    gravity = float(curve["gravity"].iloc[0]) if len(curve) else 0.0
+    free = "under gravity g = %g m/s^2 alone" % gravity if gravity > 0 else "no force: the contact law alone"
     for name, rows in curve.groupby("engine", sort=False):
         rows = rows.sort_values("speed")
-        dt = rows["dt"].iloc[0]
         i = engines.index(name)
-        ax.plot(rows["speed"], rows["restitution_effective"], ls=_LINES[i % len(_LINES)], marker=_MARKERS[i % len(_MARKERS)],
-                ms=4, lw=1.6, color=colors[name], label=f"{name} (dt = {dt:g} s): one strike per speed")
+        ax.plot(rows["speed"], rows["restitution_effective"], ls=_LINES[i % len(_LINES)], lw=1.6, color=colours[name],
+                label=f"{name} (dt = {rows['dt'].iloc[0]:g} s): one strike per speed, {free}")
         v_cal = rows["calibration_speed"].dropna()
         if len(v_cal):  # where the engine's law was tuned to give R: a star on the R line, and its speed
             v = float(v_cal.iloc[0])
-            ax.axvline(v, color=colors[name], lw=0.8, alpha=0.6)
-            ax.plot([v], [R], ls="none", marker="*", ms=15, color=colors[name], mec="black",
+            ax.axvline(v, color=colours[name], lw=0.8, alpha=0.6)
+            ax.plot([v], [R], ls="none", marker="*", ms=15, color=colours[name], mec="black",
                     label=f"{name}: calibrated to R at {v:.3g} m/s")
-    if impacts is not None and len(impacts):
-        for name, rows in impacts.groupby("engine", sort=False):
-            marker = _MARKERS[engines.index(name) % len(_MARKERS)]
-            ax.plot(rows["speed"], rows["restitution_effective"], ls="none", marker=marker, ms=9, mfc="none", mew=1.4,
-                    color=colors[name],
-                    label=f"{name}: {scene_name + ' ' if scene_name else ''}impacts 1..{len(rows)} (judged pairs)")
-            for k, v, e in zip(rows["impact"], rows["speed"], rows["restitution_effective"]):
-                if k <= 5 and np.isfinite(e):  # the first few, where the ladder's speeds are far apart
-                    ax.annotate(str(k), (v, e), textcoords="offset points", xytext=(5, 5), fontsize=7, color=colors[name])
-    gravity = float(curve["gravity"].iloc[0]) if len(curve) else 0.0
-    forces = f"under gravity g = {gravity:g} m/s^2" if gravity > 0 else "no other forces: the contact law alone"
+    for name, rows in ([] if strikes is None else strikes.groupby("engine", sort=False)):
+        rows = rows.sort_values("speed")
+        marker = _MARKERS[engines.index(name) % len(_MARKERS)]
+        ax.plot(rows["speed"], rows["restitution_effective"], ls="--", lw=0.9, marker=marker, ms=6, color=colours[name],
+                label=f"{name}: under {scene_name or 'the scene'}'s own forces, at its impacts (struck from the reference)")
+        labels += [(v, e, f"{e:.3f}", colours[name]) for v, e in zip(rows["speed"], rows["restitution_effective"])
+                   if np.isfinite(e)]
+    for name, rows in ([] if impacts is None else impacts.groupby("engine", sort=False)):
+        marker = _MARKERS[engines.index(name) % len(_MARKERS)]
+        ax.plot(rows["speed"], rows["restitution_effective"], ls="none", marker=marker, ms=10, mfc="none", mew=1.3,
+                color=colours[name], alpha=0.8,
+                label=f"{name}: {scene_name + ' ' if scene_name else ''}run's impacts 1..{len(rows)} (judged pairs, numbered)")
+        labels += [(v, e, f"#{k}", colours[name]) for k, v, e in zip(rows["impact"], rows["speed"], rows["restitution_effective"])
+                   if np.isfinite(e)]
     ax.set_xscale("log")
     ax.set_xlabel("impact speed |y'-| [m/s]")
     ax.set_ylabel("effective restitution e = -y'+ / y'- [-]")
-    values = pd.concat([curve["restitution_effective"], *([] if impacts is None else [impacts["restitution_effective"]])])
+    values = pd.concat([f["restitution_effective"] for f in parts]
+                       + ([] if impacts is None else [impacts["restitution_effective"]]))
     values = values[np.isfinite(values.to_numpy(dtype=float))]
-    lo, hi = min(R, float(values.min()) if len(values) else R), max(R, float(values.max()) if len(values) else R)
-    pad = max(0.1 * (hi - lo), MIN_PAD)  # zoom onto the spread: a drift of a few percent must show
+    band = (tolerance or 0.0) * R
+    lo = min(R - band, float(values.min()) if len(values) else R)
+    hi = max(R + band, float(values.max()) if len(values) else R)
+    pad = max(0.12 * (hi - lo), MIN_PAD)  # zoom onto the spread: a drift of a few percent must show; room for labels
     ax.set_ylim(lo - pad, hi + pad)
-    ax.set_title(f"Effective restitution against impact speed ({forces})")
+    ax.set_title("Effective restitution against impact speed"
+                 + (": force-free and under the scene's own forces" if strikes is not None and len(strikes) else f" ({free})"))
     ax.grid(True, which="both", alpha=0.3)
-    fig.legend(loc="outside lower center", ncols=2, fontsize=8, frameon=False)  # below the axes: no curve hidden
+    fig.legend(loc="outside lower center", ncols=1, fontsize=8, frameon=False)  # below the axes: no curve hidden
+    if labels:
+        place_labels(fig, ax, labels)
     return fig

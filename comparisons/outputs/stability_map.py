@@ -1,5 +1,8 @@
 """The stability map of a sweep: the verdict of every grid cell over two parameters, one panel per engine.
 
+    >>> from chatterbench.reference.scene import load_scene
+    >>> import pandas as pd
+    >>> from chatterbench.comparisons.outputs.stability_map import stability_map_figure
     >>> from chatterbench.comparisons import compare
     >>> from chatterbench.comparisons.pipeline.summary import summarize
     >>> rows = pd.DataFrame([summarize(compare(load_scene("bouncing-ball", [f"restitution={r}"]), engines=("pybullet",),
@@ -10,7 +13,7 @@
     1
 
 ``stability_map_figure``: the verdict of every grid cell over two parameters, one panel per
-engine, one colour per verdict class (``VERDICT_COLORS``), worst verdict where other
+engine, one colour per verdict class (``VERDICT_COLOURS``), worst verdict where other
 parameters vary within a cell.
 
 A refined sweep's rows (``refine_level``, ``studies/sweep/refine.py``) are drawn at their
@@ -34,7 +37,7 @@ from matplotlib.patches import Patch
 
 from chatterbench.comparisons.pipeline.vocabulary import combine, text_colour
 
-from .sweep_data import (REFINE_LEVEL, VERDICT_ABBREV, VERDICT_COLORS, VERDICT_MEANING, VERDICT_ORDER, ChartError,
+from .sweep_data import (REFINE_LEVEL, VERDICT_ABBREV, VERDICT_COLOURS, VERDICT_MEANING, VERDICT_ORDER, ChartError,
                          axis_scale, check_columns, engines_of, fmt, folded_parameters, parameter_columns, suptitle)
 
 ANNOTATE_MAX_CELLS = 150  # write the verdict in the cells up to this many per panel
@@ -180,7 +183,7 @@ def stability_map_figure(rows: pd.DataFrame, x: str, y: str, engine: str | None 
         raise ChartError(f"no rows{' of ' + engine if engine else ''} have values of both {x!r} and {y!r}"
                          " (an engine's settings apply to that engine only)")
     codes = {v: i for i, v in enumerate(VERDICT_ORDER)}
-    cmap = ListedColormap([VERDICT_COLORS[v] for v in VERDICT_ORDER]).with_extremes(bad="white")  # no run: blank
+    cmap = ListedColormap([VERDICT_COLOURS[v] for v in VERDICT_ORDER]).with_extremes(bad="white")  # no run: blank
     norm = BoundaryNorm(np.arange(len(VERDICT_ORDER) + 1) - 0.5, len(VERDICT_ORDER))
     n = len(grids)
     widths = [_width(rows[rows["engine"] == e], x, g) for e, g in grids.items()]
@@ -210,7 +213,7 @@ def stability_map_figure(rows: pd.DataFrame, x: str, y: str, engine: str | None 
                         ax.text(xv, yv, VERDICT_ABBREV.get(v, v), ha="center", va="center", fontsize=8,
                                 color=text_colour(v))
         _titles(ax, rows, sub, x, y, eng)
-    handles = [Patch(facecolor=VERDICT_COLORS[v], edgecolor="0.5", label=f"{VERDICT_ABBREV[v]}  {v}: {VERDICT_MEANING[v]}")
+    handles = [Patch(facecolor=VERDICT_COLOURS[v], edgecolor="0.5", label=f"{VERDICT_ABBREV[v]}  {v}: {VERDICT_MEANING[v]}")
                for v in VERDICT_ORDER if v in seen]
     ncol = max(1, min(3, len(handles), int(fig.get_figwidth() // 3.6)))
     fig.legend(handles=handles, loc="outside lower center", ncol=ncol, fontsize=8, frameon=False)

@@ -1,7 +1,7 @@
 """How every chart and page looks: one colour per engine and the reference, one for sliding, one style sheet.
 
-    >>> from chatterbench.comparisons.outputs.style import ENGINE_COLORS
-    >>> ENGINE_COLORS["reference"]
+    >>> from chatterbench.comparisons.outputs.style import ENGINE_COLOURS
+    >>> ENGINE_COLOURS["reference"]
     'black'
 
 Verdict colours are the vocabulary's (``pipeline/vocabulary.py``), not repeated here.
@@ -9,10 +9,10 @@ Verdict colours are the vocabulary's (``pipeline/vocabulary.py``), not repeated 
 guide), so they look alike.
 """
 
-ENGINE_COLORS = {"reference": "black", "mujoco": "#1f77b4", "pybullet": "#d62728", "drake": "#ff7f0e",
+ENGINE_COLOURS = {"reference": "black", "mujoco": "#1f77b4", "pybullet": "#d62728", "drake": "#ff7f0e",
                  "mujoco_warp": "#17becf"}
-STICK_COLOR = "#2ca02c"  # the reference's sliding: shading, plate entry, Zeno point
-EXIT_COLOR = "#9467bd"  # exits from sliding: the reference's exit marker
+STICK_COLOUR = "#2ca02c"  # the reference's sliding: shading, plate entry, Zeno point
+EXIT_COLOUR = "#9467bd"  # exits from sliding: the reference's exit marker
 
 # the style sheet of every HTML page the suite writes (the report, the tuning guide): one look, inline, no network
 PAGE_CSS = """

@@ -1,5 +1,8 @@
 """What the sweep charts share: the dataset's parameters, the slices a chart draws, and their refusals.
 
+    >>> from chatterbench.reference.scene import load_scene
+    >>> import pandas as pd
+    >>> from chatterbench.comparisons.outputs.sweep_data import parameter_columns, at_defaults
     >>> from chatterbench.comparisons import compare
     >>> from chatterbench.comparisons.pipeline.summary import summarize
     >>> rows = pd.DataFrame([summarize(compare(load_scene("bouncing-ball", [f"restitution={r}"]), engines=("pybullet",),
@@ -40,7 +43,7 @@ if TYPE_CHECKING:  # annotations only: importing this module loads no matplotlib
 # verdict names, colours, abbreviations and meanings: the one vocabulary (pipeline/vocabulary.py)
 VERDICT_ORDER = NAMES  # best first, "none" first of all: nothing to judge
 PASSING = PASSING_VERDICTS  # the run reproduced the episodes; only their timing or impacts may be off
-VERDICT_COLORS = COLOURS
+VERDICT_COLOURS = COLOURS
 VERDICT_ABBREV = ABBREVIATIONS
 VERDICT_MEANING = MEANINGS
 # hollow markers of the failure classes on the work-precision chart
@@ -82,6 +85,7 @@ def axis_scale(values: Sequence) -> str:
     smallest), else ``category`` (equal cells in value order, like strings: 0, 0.1, 1, 10
     would otherwise squeeze the small values into slivers).
 
+    >>> from chatterbench.comparisons.outputs.sweep_data import axis_scale
     >>> axis_scale([1e-4, 1e-3, 1e-2]), axis_scale([0.1, 0.5, 0.9]), axis_scale([0, 0.1, 1, 10])
     ('log', 'linear', 'category')
     """

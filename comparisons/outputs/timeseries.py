@@ -1,5 +1,7 @@
 """The time-series chart of a comparison: y(t) of the reference and every engine, where each sticks and exits.
 
+    >>> from chatterbench.reference.scene import load_scene
+    >>> from chatterbench.comparisons.outputs.timeseries import timeseries_figure
     >>> from chatterbench.comparisons import compare
     >>> fig = timeseries_figure(compare(load_scene("bouncing-ball"), engines=("pybullet",), dt=1e-3))
     >>> [ax.get_gid() for ax in fig.axes]   # the run and a zoom on the end of the first chatter sequence
@@ -43,7 +45,7 @@ from matplotlib.patches import Patch
 
 from chatterbench.reference.dense import sample
 
-from .style import ENGINE_COLORS, EXIT_COLOR, STICK_COLOR
+from .style import ENGINE_COLOURS, EXIT_COLOUR, STICK_COLOUR
 
 MAX_VISITS = 4  # reference visits drawn on the main panel; every one is in the episode error figure
 LANE = 0.22  # of the axis margin (the penetration allowance): the spacing of the engines' marker lanes
@@ -120,17 +122,17 @@ def _draw_run(ax, comparison, t_hi: float) -> list:
     # the judge's penetration allowance: an engine past it is ``penetrated`` (or worse), so clipping hides no pass
     pad = comparison.tolerances.penetration * comparison.solution.length_scale
     ylo, yhi = lo - pad, hi + pad
-    handles = [Line2D([], [], color=ENGINE_COLORS["reference"], lw=3.5, alpha=0.3, label="reference (Feigin, exact)")]
+    handles = [Line2D([], [], color=ENGINE_COLOURS["reference"], lw=3.5, alpha=0.3, label="reference (Feigin, exact)")]
     shown = ref[ref["t_stick"] < t_hi]
     for r in shown.itertuples():
-        ax.axvspan(r.t_stick, min(t_hi, r.t_exit) if math.isfinite(r.t_exit) else t_hi, color=STICK_COLOR, alpha=0.12, lw=0)
+        ax.axvspan(r.t_stick, min(t_hi, r.t_exit) if math.isfinite(r.t_exit) else t_hi, color=STICK_COLOUR, alpha=0.12, lw=0)
     if len(shown):
         ends = "to exit" if np.isfinite(shown["t_exit"]).any() else "on: it never exits"
-        handles.append(Patch(color=STICK_COLOR, alpha=0.25, label=f"reference sliding (Zeno point {ends})"))
-    ax.plot(dense["t"], dense["y"], color=ENGINE_COLORS["reference"], lw=3.5, alpha=0.3, zorder=2, solid_capstyle="butt")
+        handles.append(Patch(color=STICK_COLOUR, alpha=0.25, label=f"reference sliding (Zeno point {ends})"))
+    ax.plot(dense["t"], dense["y"], color=ENGINE_COLOURS["reference"], lw=3.5, alpha=0.3, zorder=2, solid_capstyle="butt")
     notes, marked = [], set()
     for k, (name, run) in enumerate(comparison.runs.items()):
-        tr, color = run.trajectory, ENGINE_COLORS.get(name, f"C{k + 2}")
+        tr, color = run.trajectory, ENGINE_COLOURS.get(name, f"C{k + 2}")
         sel = tr.t <= t_hi
         if sel.sum() >= 2:
             t, y = _thin(tr.t[sel], tr.y[sel])
@@ -150,21 +152,21 @@ def _draw_run(ax, comparison, t_hi: float) -> list:
             marked.add(gid)
             ax.plot(ev[col], [_lane(scene, w, k, pad) for w in ev["wall"]], ls="none", marker=marker, ms=5.5,
                     color=color, mec="white", mew=0.5, zorder=5, clip_on=False, gid=f"{gid}:{name}")
-    ax.plot(shown["t_stick"], shown["wall"].map(scene.gap.position), "o", mfc="white", mec=STICK_COLOR, mew=1.6, ms=8,
+    ax.plot(shown["t_stick"], shown["wall"].map(scene.gap.position), "o", mfc="white", mec=STICK_COLOUR, mew=1.6, ms=8,
             zorder=4, gid="reference-zeno")
     if len(shown):
-        handles.append(Line2D([], [], ls="none", marker="o", mfc="white", mec=STICK_COLOR, mew=1.6, ms=8,
+        handles.append(Line2D([], [], ls="none", marker="o", mfc="white", mec=STICK_COLOUR, mew=1.6, ms=8,
                               label="reference Zeno point (starts sticking)"))
     exits = shown[np.isfinite(shown["t_exit"].astype(float)) & (shown["t_exit"].astype(float) <= t_hi)]
-    ax.plot(exits["t_exit"], exits["wall"].map(scene.gap.position), "^", color=EXIT_COLOR, ms=8, zorder=4,
+    ax.plot(exits["t_exit"], exits["wall"].map(scene.gap.position), "^", color=EXIT_COLOUR, ms=8, zorder=4,
             gid="reference-exit")
     if len(exits):
-        handles.append(Line2D([], [], ls="none", marker="^", color=EXIT_COLOR, ms=8, label="reference exit"))
+        handles.append(Line2D([], [], ls="none", marker="^", color=EXIT_COLOUR, ms=8, label="reference exit"))
     plate = shown[np.isfinite(shown["t_plate_entry"].astype(float))]
     if len(plate):
-        ax.plot(plate["t_plate_entry"], plate["wall"].map(scene.gap.position), "v", color=STICK_COLOR, ms=7, zorder=4,
+        ax.plot(plate["t_plate_entry"], plate["wall"].map(scene.gap.position), "v", color=STICK_COLOUR, ms=7, zorder=4,
                 gid="plate-entry")
-        handles.append(Line2D([], [], ls="none", marker="v", color=STICK_COLOR, ms=7, label="plate entry (Feigin)"))
+        handles.append(Line2D([], [], ls="none", marker="v", color=STICK_COLOUR, ms=7, label="plate entry (Feigin)"))
     if "stick" in marked:
         handles.append(Line2D([], [], ls="none", marker="o", color="0.45", ms=5.5,
                               label="engine starts sticking (its colour, beside the wall)"))
@@ -206,13 +208,13 @@ def _draw_zoom(ax, comparison, r) -> tuple[float, float, float, float]:
     ref_mm = 1e3 * side * (dz["y"].to_numpy() - wall)
     amp = float(np.nanmax(np.abs(ref_mm)))
     amp = amp if amp > 0 else 1e-3  # no bounce left in the window: a thin band around the wall
-    ax.plot(dz["t"], ref_mm, color=ENGINE_COLORS["reference"], lw=3.5, alpha=0.3, solid_capstyle="butt")
-    ax.axvline(r["t_stick"], color=STICK_COLOR, ls="--", lw=1.4, zorder=4, gid="reference-zeno")  # over a close engine
+    ax.plot(dz["t"], ref_mm, color=ENGINE_COLOURS["reference"], lw=3.5, alpha=0.3, solid_capstyle="butt")
+    ax.axvline(r["t_stick"], color=STICK_COLOUR, ls="--", lw=1.4, zorder=4, gid="reference-zeno")  # over a close engine
     ax.text(r["t_stick"], 0.02, "Zeno point ", transform=ax.get_xaxis_transform(), ha="right", va="bottom", fontsize=7.5,
-            color=STICK_COLOR)
+            color=STICK_COLOUR)
     box = dict(fc="white", ec="none", alpha=0.85, pad=1.0)
     for k, (name, run) in enumerate(comparison.runs.items()):
-        tr, color = run.trajectory, ENGINE_COLORS.get(name, f"C{k + 2}")
+        tr, color = run.trajectory, ENGINE_COLOURS.get(name, f"C{k + 2}")
         m = (tr.t >= lo) & (tr.t <= hi)
         ax.plot(tr.t[m], 1e3 * side * (tr.y[m] - wall), color=color, lw=1.0)
         if name in starts:

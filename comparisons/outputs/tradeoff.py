@@ -1,100 +1,106 @@
-"""The tuning trade-off: every candidate's cost against its worst error over its tolerance, marked by verdict and failed check.
+"""The tuning map: the searched region, dt against the main knob, each run's cell coloured by its verdict, the answer circled.
 
+    >>> from chatterbench.reference.scene import load_scene
+    >>> from chatterbench.comparisons.outputs.tradeoff import tradeoff_figure
     >>> from chatterbench.comparisons.studies.tune import tune
     >>> result = tune(load_scene("bouncing-ball"), "pybullet", 0.05, space={"dt": (1e-3, 3e-4)}, workers=1, refine_steps=0)
-    >>> ax = tradeoff_figure(result).axes[0]
-    >>> ax.get_xscale(), ax.get_ylabel()
-    ('log', 'worst error / its tolerance (over every check)')
+    >>> fig = tradeoff_figure(result)
+    >>> len(fig.axes), fig.axes[0].get_xlabel().startswith("dt")
+    (1, True)
 
-x: engine steps per simulated second (1 / dt, or the steps an engine reports), the search's
-cost (wall time where an engine reports no steps); y: ``worst_ratio``, the
-largest of the judge's checks (sticking, first impact, exit, restitution beyond its
-uncertainty, resolved-impact count, penetration) each over its tolerance
-(``studies.tune_checks``), so the dashed line at 1 is the tolerance of every check at once
-and a candidate above it failed the check its marker names. Colour: the verdict
-(``pipeline.vocabulary``). A candidate with an episode that has no error to measure
-(``missed``, ``endless``, ``spurious``, a failure) or whose settings were refused sits on the
-top band, labelled. Candidates at one dt are spread sideways a little so none hides another;
-the chosen one is circled and named.
+One panel per slice (a combination of the settings other than dt and the main knob:
+``tune_search.Grid``); x: dt on the search's lattice, coarse (cheap, 1 / dt steps per simulated
+second) on the left, fine on the right, ticks at the coarse grid's values; y: the main knob's
+lattice, ticks at its coarse values. Both axes are the lattice's index (equal cells, as the
+sweep's adaptive maps are drawn): a run of refinement level k owns the cell of its level's
+spacing centred on it (``sweep.refine.fill``'s rule: coarse runs large, refined ones and
+neighbourhood runs small, finer ones drawn over coarser ones), coloured by its verdict
+(``pipeline.vocabulary``; refused runs grey). Marks: the chosen candidate (the answer, or the
+best reachable) circled; fragile passes (a neighbour fails) crossed; robust passes dotted.
+Runs off the lattice (a neighbour half-way between two searched values of a slice's knob)
+are in the table, not on the map.
 """
 
 from __future__ import annotations
 
 import math
 
-import numpy as np
 from matplotlib.figure import Figure
+from matplotlib.patches import Rectangle
 
 from chatterbench.comparisons.pipeline.vocabulary import COLOURS, rank
 
-from chatterbench.comparisons.studies.tune import cost_key, short_label
-from chatterbench.comparisons.studies.tune_checks import CHECKS
+from chatterbench.comparisons.studies.tune import short_label
 
 REFUSED_COLOUR = "#bdbdbd"  # a candidate whose settings the scene cannot run (not a verdict)
-MARKERS = {"pass": "o", "stick": "s", "first_impact": "^", "exit": "D", "restitution": "v", "impact_count": "P",
-           "penetration": "X", "unmeasured": "*"}
-SPREAD = 0.06  # [-] relative sideways offset between candidates at one dt (log axis)
+MAX_PANELS = 12  # slices drawn at most (the rest are in the table)
 
 
-def worst_check(row) -> str:
-    """The marker key of a candidate: the check with the largest ratio above 1, "unmeasured", or "pass"."""
-    if math.isinf(row["worst_ratio"]) or math.isnan(row["worst_ratio"]):
-        return "unmeasured"
-    ratios = {name: row.get(f"{name}_ratio", math.nan) for name in CHECKS}
-    failed = {k: v for k, v in ratios.items() if not math.isnan(v) and v > 1.0}
-    return max(failed, key=failed.get) if failed else "pass"
+def _label(key: str, value) -> str:
+    return f"{key.split('.', 1)[-1]}={value:g}" if isinstance(value, float) else f"{key.split('.', 1)[-1]}={value}"
 
 
 def tradeoff_figure(result) -> Figure:
-    """Steps per simulated second against the worst error over its tolerance, every candidate (module docstring)."""
-    table = result.table.copy()
-    fig = Figure(figsize=(9, 5.5), layout="constrained")
-    ax = fig.subplots()
-    finite = table["worst_ratio"].replace([np.inf, -np.inf], np.nan)
-    low = float(np.nanmin(finite)) if finite.notna().any() else 0.1
-    top = max(float(np.nanmax(finite)) if finite.notna().any() else 1.0, 1.0) * 3.0
-    table["y"] = finite.fillna(top).clip(lower=min(low, 0.5) / 2 if low > 0 else 1e-3)
-    key = cost_key(table[table["verdict"] != "refused"]) if (table["verdict"] != "refused").any() else "steps_per_sim_s"
-    table["x"] = table[key]
-    for _, grp in table.groupby("dt"):  # spread the candidates of one dt sideways
-        n = len(grp)
-        table.loc[grp.index, "x"] = grp["x"] * (1.0 + SPREAD) ** (np.arange(n) - (n - 1) / 2)
-    table["check"] = [worst_check(r) for _, r in table.iterrows()]
-    for verdict, grp in sorted(table.groupby("verdict"), key=lambda g: rank(g[0])):
-        for check, sub in grp.groupby("check"):
-            ax.scatter(sub["x"], sub["y"], s=40, marker=MARKERS[check], color=COLOURS.get(verdict, REFUSED_COLOUR),
-                       edgecolors="black", linewidths=0.4, zorder=3)
-    ax.axhline(1.0, color="0.3", ls="--", lw=1)
-    ax.text(1.0, 1.0, "tolerance ", transform=ax.get_yaxis_transform(), va="bottom", ha="right", fontsize=8, color="0.3")
-    if (table["check"] == "unmeasured").any():
-        ax.axhspan(top / 1.6, top * 1.6, color="0.93", zorder=0)
-        ax.text(0.01, top * 1.25, "no error to measure: missed, endless, spurious, failed or refused",
-                transform=ax.get_yaxis_transform(), va="bottom", fontsize=8, color="0.3")
+    """The searched region as a map (module docstring)."""
+    grid = result.extra["grid"]
+    table = result.table
+    n = min(len(grid.slices), MAX_PANELS)
+    ncols = min(3, n)
+    nrows = math.ceil(n / ncols)
+    fig = Figure(figsize=(4.2 * ncols + 1.0, 3.4 * nrows + 1.6), layout="constrained")
+    axes = fig.subplots(nrows, ncols, squeeze=False).ravel()
+    for ax in axes[n:]:
+        ax.set_visible(False)
     chosen = result.chosen
+    seen_verdicts: set[str] = set()
+    keys = ["dt", *([grid.knob] if grid.knob else []), *grid.others]
+    for s, ax in enumerate(axes[:n]):
+        cells = []
+        for _, row in table.iterrows():
+            where = grid.place({k: row[k] for k in keys})
+            if where is None or where[0] != s:
+                continue
+            level = row["level"] if not (isinstance(row["level"], float) and math.isnan(row["level"])) else grid.depth
+            cells.append((int(level), where[1], where[2], row))
+        for level, i, j, row in sorted(cells, key=lambda c: (c[0], c[1], c[2])):
+            side = 2 ** (grid.depth - level) if len(grid.dt) > 1 else 1
+            h_i = side / 2 if len(grid.dt) > 1 else 0.5
+            h_j = side / 2 if len(grid.knob_values) > 1 else 0.5
+            colour = COLOURS.get(row["verdict"], REFUSED_COLOUR)
+            seen_verdicts.add(row["verdict"])
+            ax.add_patch(Rectangle((i - h_i, j - h_j), 2 * h_i, 2 * h_j, facecolor=colour, edgecolor="white",
+                                   linewidth=0.3, zorder=1 + level, gid="cell"))
+            if row.get("robust") is True:
+                ax.plot(i, j, "o", ms=3, color="black", zorder=10, gid="robust")
+            elif row.get("robust") is False:
+                ax.plot(i, j, "x", ms=6, mew=1.5, color="black", zorder=10, gid="fragile")
+            if chosen is not None and row["settings"] == chosen["settings"]:
+                ax.plot(i, j, "o", ms=16, mfc="none", mec="black", mew=2, zorder=11, gid="chosen")
+        coarse_i = grid.coarse(grid.dt)
+        ax.set_xticks(coarse_i, [f"{grid.dt[i]:.2g}" for i in coarse_i], rotation=45, fontsize=7)
+        edge = (2 ** grid.depth) / 2 if len(grid.dt) > 1 else 0.0  # the coarse end cells reach past the axis's ends
+        ax.set_xlim(-0.5 - edge, len(grid.dt) - 0.5 + edge)
+        coarse_j = grid.coarse(grid.knob_values)
+        ax.set_yticks(coarse_j, [f"{grid.knob_values[j]:.3g}" if grid.knob else "-" for j in coarse_j], fontsize=7)
+        pad = (2 ** grid.depth) / 2 if len(grid.knob_values) > 1 else 0.5
+        ax.set_ylim(-pad, len(grid.knob_values) - 1 + pad)
+        ax.set_title(", ".join(_label(k, v) for k, v in grid.slices[s].items()) or "every run", fontsize=8)
+        ax.set_xlabel("dt [s]: coarse, cheap  \u2192  fine, costly", fontsize=8)
+        ax.set_ylabel(grid.knob.split(".", 1)[-1] if grid.knob else "", fontsize=8)
+    handles = [axes[0].scatter([], [], s=60, marker="s", color=COLOURS.get(v, REFUSED_COLOUR), label=f"verdict {v}")
+               for v in sorted(seen_verdicts, key=rank)]
+    handles += [axes[0].plot([], [], "o", ms=3, color="black", ls="none", label="robust pass (its neighbours pass)")[0],
+                axes[0].plot([], [], "x", ms=6, mew=1.5, color="black", ls="none", label="fragile pass (a neighbour fails)")[0]]
     if chosen is not None:
-        row = table[table["settings"] == chosen["settings"]].iloc[0]
-        ax.scatter([row["x"]], [row["y"]], s=260, facecolors="none", edgecolors="black", linewidths=2, zorder=4)
         word = "recommended" if result.best is not None else "best reachable"
-        ax.annotate(f"{word}: {short_label(chosen, result.extra.get('defaults', {}))}", (row["x"], row["y"]),
-                    xytext=(0.5, 0.04), textcoords="axes fraction", ha="center", fontsize=8,
-                    bbox={"boxstyle": "round", "fc": "white", "ec": "0.6"}, arrowprops={"arrowstyle": "-", "color": "0.4"})
-    # one legend below: colour = verdict, shape = the check that failed worst
-    verdicts = sorted(table["verdict"].unique(), key=rank)
-    handles = [ax.scatter([], [], s=40, marker="o", color=COLOURS.get(v, REFUSED_COLOUR), edgecolors="black",
-                          linewidths=0.4, label=f"verdict {v}") for v in verdicts]
-    names = {"pass": "passes every check", "unmeasured": "no error to measure",
-             **{k: f"fails: {short}" for k, (*_, short) in CHECKS.items()}}
-    handles += [ax.scatter([], [], s=40, marker=MARKERS[c], color="white", edgecolors="black", label=names[c])
-                for c in MARKERS if c in set(table["check"])]
-    fig.legend(handles=handles, loc="outside lower center", ncol=4, fontsize=8, frameon=False)
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_ylim(min(float(table["y"].min()), 0.5) / 1.5, top * 2)  # the tolerance line always in view
-    ax.set_xlabel("cost: engine steps per simulated second" if key == "steps_per_sim_s"
-                  else "cost: wall-clock s per simulated s (the engine reports no step count)")
-    ax.set_ylabel("worst error / its tolerance (over every check)")
+        handles.append(axes[0].plot([], [], "o", ms=12, mfc="none", mec="black", mew=2, ls="none",
+                                    label=f"{word}: {short_label(chosen, result.extra.get('defaults', {}))}")[0])
     tol = result.tolerance
-    ax.set_title(f"tune {result.engine} on {result.scene.name}: {len(table)} candidates (stick {tol.stick:g}, exit "
-                 f"{tol.exit:g}, first impact {tol.first_impact:g}, restitution {tol.restitution:g})", fontsize=10)
-    ax.grid(True, which="major", alpha=0.3)
+    handles.append(axes[0].scatter([], [], s=60, marker="s", color="white", edgecolors="0.6",
+                                   label="not run (costlier than the answer, or past the budget)"))
+    fig.suptitle(f"tune {result.engine} on {result.scene.name}: {len(table)} runs (stick {tol.stick:g}, exit {tol.exit:g}, "
+                 f"first impact {tol.first_impact:g}, restitution {tol.restitution:g})\none panel per "
+                 + (", ".join(k.split(".", 1)[-1] for k in grid.others) or "search") + "; cells: a run's lattice cell",
+                 fontsize=10)
+    fig.legend(handles=handles, loc="outside lower center", ncol=3, fontsize=8, frameon=False)
     return fig

@@ -1,5 +1,8 @@
 """The work-precision chart of a sweep: error against cost, per engine and setting, the Pareto front marked.
 
+    >>> from chatterbench.reference.scene import load_scene
+    >>> import pandas as pd
+    >>> from chatterbench.comparisons.outputs.work_precision import work_precision_figure
     >>> from chatterbench.comparisons import compare
     >>> from chatterbench.comparisons.pipeline.summary import summarize
     >>> rows = pd.DataFrame([summarize(compare(load_scene("bouncing-ball", [f"restitution={r}"]), engines=("pybullet",),
@@ -19,7 +22,8 @@ error-controlled one, a dotted column such as ``drake.accuracy``), each point la
 it (``dt=0.001``); where labels of coinciding points would pile up, one is written. A metric
 no row measured (the ball never leaves its floor: no exit) gives its panel to the next one
 the rows have (``FALLBACK``: sticking start, then restitution), and the title says why in a
-sentence; with nothing measured at all, the one panel says why. Swept scene parameters
+sentence (metrics that share a reason share it); with nothing measured at all, the one panel
+says why, once. Swept scene parameters
 (``restitution``, ``mass2``, ...) are folded into each point as the worst case: largest
 error, worst verdict, median cost. Points whose verdict is a failure (not match/early/late)
 are hollow, one marker per class; failures with no measured error sit on a strip at the top
@@ -46,10 +50,11 @@ from matplotlib.transforms import blended_transform_factory
 
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
 from chatterbench.comparisons.pipeline.vocabulary import combine, rank
+from chatterbench.engines.registry import ENGINE_NAMES
 from chatterbench.reference.errors import InputError
 
-from .style import ENGINE_COLORS
-from .sweep_data import (COST, FAIL_MARKERS, METRIC_LABELS, PASSING, VERDICT_COLORS, VERDICT_MEANING, VERDICT_ORDER,
+from .style import ENGINE_COLOURS
+from .sweep_data import (COST, FAIL_MARKERS, METRIC_LABELS, PASSING, VERDICT_COLOURS, VERDICT_MEANING, VERDICT_ORDER,
                          ChartError, check_columns, fmt, folded_parameters, parameter_columns, suptitle, varying)
 
 ROOT_PRECISION = 1e-12  # [s] the reference's event times: its root finder's tolerance
@@ -60,6 +65,7 @@ FALLBACK = {"rel": ("exit_error_rel_max", "stick_error_rel_max", "restitution_er
             "s": ("exit_error_max", "stick_error_max", "first_impact_error_max")}
 # the tolerance (``Tolerances`` field) each relative metric is judged against
 TOLERANCE_OF = {"exit_error_rel_max": "exit", "stick_error_rel_max": "stick", "restitution_error_max": "restitution"}
+LEGEND_CHARS = 44  # a legend entry's line, in characters: two columns of them fit a 6.4 in panel at 8 pt
 LABEL_BOX = (0.0115, 0.04)  # [axes fraction] a label character's width and a label's height on a 6.4 x 5.6 in panel
 
 
@@ -149,21 +155,29 @@ def _point(engine: str, lever: str, column: str, sett: dict, value: Any, grp: pd
     return point
 
 
-def _why_empty(rows: pd.DataFrame, metric: str) -> str:
-    """One sentence: why no row measured ``metric``."""
-    label = METRIC_LABELS.get(metric, metric).split(" (")[0]
+def _why_empty(rows: pd.DataFrame, metrics: str | Sequence[str]) -> str:
+    """One sentence: why no row measured ``metrics`` (one metric, or several that share the reason)."""
+    metrics = [metrics] if isinstance(metrics, str) else list(metrics)
+    label = " or ".join(METRIC_LABELS.get(m, m).split(" (")[0] for m in metrics)
+    return f"no {label} measured: {_reason(rows, metrics[0])}"
+
+
+def _reason(rows: pd.DataFrame, metric: str) -> str:
     verdicts = rows["verdict"].astype(str)
+    counts = verdicts.value_counts()
+    listed = ", ".join(f"{counts[v]} {v}" for v in sorted(counts.index, key=rank))
     if verdicts.eq("none").all():
-        return f"no {label} measured: neither the reference nor the engines slide in these runs"
+        return "neither the reference nor the engines slide in these runs"
     if not verdicts.isin(PASSING).any():
-        counts = verdicts.value_counts()
-        return (f"no {label} measured: no run reproduced the episodes ("
-                + ", ".join(f"{counts[v]} {v}" for v in sorted(counts.index, key=rank)) + ")")
+        if verdicts.eq("none").any():  # "none" is no failure: there was no episode to reproduce
+            return (f"no episode to judge ({listed}; none: neither the reference nor the engine sticks within the "
+                    "run's duration)")
+        return f"no run reproduced the episodes ({listed})"
     if metric.startswith("exit"):
-        return f"no {label} measured: the reference never leaves the wall in these runs"
+        return "the reference never leaves the wall in these runs"
     if metric.startswith("restitution"):
-        return f"no {label} measured: no engine flight lasted long enough after an impact to measure its rebound"
-    return f"no {label} measured in these runs"
+        return "no engine flight lasted long enough after an impact to measure its rebound"
+    return "none in these runs"
 
 
 def default_error(rows: pd.DataFrame) -> str:
@@ -184,7 +198,11 @@ def panel_metrics(rows: pd.DataFrame, error: str | None = None) -> tuple[list[st
     unit = "s" if error in FALLBACK["s"] or error == "stick_error_plate_max" else "rel"
     asked = list(dict.fromkeys([error, "stick_error_rel_max" if unit == "rel" else "stick_error_max"]))
     has = {m: m in rows and np.isfinite(pd.to_numeric(rows[m], errors="coerce")).any() for m in {*asked, *FALLBACK[unit]}}
-    chosen, notes = [m for m in asked if has[m]], [_why_empty(rows, m) for m in asked if not has[m]]
+    chosen, missing = [m for m in asked if has[m]], [m for m in asked if not has[m]]
+    reasons: dict[str, list[str]] = {}  # metrics that share a reason get one sentence
+    for m in missing:
+        reasons.setdefault(_reason(rows, m), []).append(m)
+    notes = [_why_empty(rows, ms) for ms in reasons.values()]
     for m in FALLBACK[unit]:
         if len(chosen) < len(asked) and m not in chosen and has[m]:
             chosen.append(m)
@@ -229,18 +247,24 @@ def _curve_styles(points: pd.DataFrame) -> dict[str, dict]:
     styles = {}
     for engine, grp in points.groupby("engine", sort=True):
         for k, curve in enumerate(dict.fromkeys(grp["curve"])):
-            styles[curve] = {"color": ENGINE_COLORS.get(engine, f"C{len(styles)}"),
+            styles[curve] = {"color": ENGINE_COLOURS.get(engine, f"C{len(styles)}"),
                              "ls": ("-", "--", ":", "-.")[k % 4], "marker": ("o", "s", "D", "^")[k % 4]}
     return styles
 
 
 def _folded_note(rows: pd.DataFrame) -> str:
-    engines = set(rows["engine"].astype(str)) | {"mujoco", "pybullet"}
+    engines = set(rows["engine"].astype(str)) | set(ENGINE_NAMES)
     scene_params = [c for c in parameter_columns(rows) if c.split(".")[0] not in engines]
     varied = folded_parameters(rows, ["dt"], scene_params)
     if not varied:
         return ""
     return "worst case over " + ", ".join(f"{c} ({rows[c].dropna().nunique()} values)" for c in varied)
+
+
+def _reference_error(metric: str, error: float) -> str:
+    """The reference's error on ``metric``'s panel in the metric's unit: seconds for a time metric; "exact" for a
+    dimensionless one (relative, restitution: Newton's R holds exactly; ``error`` [s] is a time)."""
+    return f"error {error:.0e} s" if metric in FALLBACK["s"] or metric == "stick_error_plate_max" else "exact"
 
 
 def measured_reference_cost(rows: pd.DataFrame) -> float | None:
@@ -299,7 +323,7 @@ def work_precision_figure(rows: pd.DataFrame, error: str | None = None, referenc
             ok = g[passing.loc[g.index]]
             ax.plot(ok[COST], ok[metric], ls="none", marker=st["marker"], color=st["color"], ms=6, zorder=3)
             for v, gv in ok[ok["verdict"] != "match"].groupby("verdict"):  # timing or impacts outside tolerance: a rim
-                ax.plot(gv[COST], gv[metric], ls="none", marker=st["marker"], color=st["color"], mec=VERDICT_COLORS[v],
+                ax.plot(gv[COST], gv[metric], ls="none", marker=st["marker"], color=st["color"], mec=VERDICT_COLOURS[v],
                         mew=2.2, ms=8, zorder=3)
             for v, gv in g[~passing.loc[g.index]].groupby("verdict"):
                 classes_seen.add(v)
@@ -335,11 +359,12 @@ def work_precision_figure(rows: pd.DataFrame, error: str | None = None, referenc
                     # many decades below the engines: drawn on the panel's foot so their curves stay readable
                     foot = blended_transform_factory(ax.transData, ax.transAxes)
                     ax.plot([reference_cost], [0.04], transform=foot, ls="none", marker="*", ms=16,
-                            color=ENGINE_COLORS["reference"], zorder=5, clip_on=False, gid="reference")
-                    ax.annotate(f"reference: error {ref_err:.0e} s (off scale)", (reference_cost, 0.04), xycoords=foot,
+                            color=ENGINE_COLOURS["reference"], zorder=5, clip_on=False, gid="reference")
+                    ax.annotate(f"reference: {_reference_error(metric, ref_err)} (off scale)", (reference_cost, 0.04),
+                                xycoords=foot,
                                 xytext=(9, 0), textcoords="offset points", fontsize=8, va="center")
                 else:
-                    ax.plot([reference_cost], [ref_err], ls="none", marker="*", ms=16, color=ENGINE_COLORS["reference"], zorder=5,
+                    ax.plot([reference_cost], [ref_err], ls="none", marker="*", ms=16, color=ENGINE_COLOURS["reference"], zorder=5,
                             gid="reference")
                     name = "reference (exact)" if reference_error is None else f"reference (error {ref_err:.0e})"
                     ax.annotate(name, (reference_cost, ref_err), xytext=(9, 0), textcoords="offset points", fontsize=8,
@@ -348,7 +373,8 @@ def work_precision_figure(rows: pd.DataFrame, error: str | None = None, referenc
                 if reference_error is not None:
                     ax.axhline(reference_error, color="black", lw=0.8, ls="--")
                 ax.add_patch(Rectangle((0, 0), 1, 0.04, transform=ax.transAxes, color="0.85", lw=0, zorder=0))
-                ax.text(0.01, 0.02, "reference (exact): root precision ~1e-12 s, far below this axis", transform=ax.transAxes,
+                note = "reference (exact): " + _reference_error(metric, ROOT_PRECISION).replace("exact", "no error")
+                ax.text(0.01, 0.02, f"{note}, far below this axis", transform=ax.transAxes,
                         fontsize=7, va="center", color="0.25")
             lo, hi = ax.get_ylim()
             ax.set_ylim(lo / 2.5, hi * 2.5)  # room for the dt labels, the reference band and the failure strip
@@ -356,8 +382,8 @@ def work_precision_figure(rows: pd.DataFrame, error: str | None = None, referenc
             costs = points[COST][np.isfinite(points[COST]) & (points[COST] > 0)]
             ax.set_xlim(*((costs.min() / 2.0, costs.max() * 2.0) if len(costs) else (1e-3, 1.0)))
             ax.set_ylim(1e-6, 1.0)  # any decades: nothing to scale to, and a log axis needs positive limits
-            ax.text(0.5, 0.5, textwrap.fill(_why_empty(rows, metric), 48), transform=ax.transAxes, ha="center",
-                    va="center", color="0.3")
+            ax.text(0.5, 0.5, textwrap.fill(empty[0] if empty else _why_empty(rows, metric), 48), transform=ax.transAxes,
+                    ha="center", va="center", color="0.3", gid="why-empty")
         if (~has & ~points["verdict"].isin(PASSING + ("none",))).any():
             ax.plot([0, 1], [0.93, 0.93], transform=ax.transAxes, color="0.6", lw=0.6, ls=":")
             ax.text(0.99, 0.965, "failed, no error measured", transform=ax.transAxes, fontsize=7, va="center", ha="right",
@@ -386,13 +412,16 @@ def work_precision_figure(rows: pd.DataFrame, error: str | None = None, referenc
                               label=f"{v}: {VERDICT_MEANING.get(v, '')}"))
     for v in (p for p in PASSING if p != "match"):  # rims: the run reproduced the episodes, not within tolerance
         if points["verdict"].eq(v).any():
-            handles.append(Line2D([], [], ls="none", marker="o", color="0.5", mec=VERDICT_COLORS[v], mew=2.2, ms=8,
+            handles.append(Line2D([], [], ls="none", marker="o", color="0.5", mec=VERDICT_COLOURS[v], mew=2.2, ms=8,
                                   label=f"{v}: {VERDICT_MEANING[v]}"))
     levers = ", ".join(f"{lv} [s]" if lv == "dt" else lv for lv in dict.fromkeys(points["lever"]))
     handles.append(Line2D([], [], ls="none", label=f"labels: {levers}; hollow: the run failed"))
-    fig.legend(handles=handles, loc="outside lower center", ncol=3, fontsize=8, frameon=False)
+    for h in handles:  # long meanings wrapped, and as many columns as the figure's width holds: none is cut
+        h.set_label(textwrap.fill(h.get_label(), LEGEND_CHARS))
+    fig.legend(handles=handles, loc="outside lower center", ncol=2 if len(metrics) == 1 else 3, fontsize=8, frameon=False)
     scene = ", ".join(sorted(rows["scene"].astype(str).unique())) if "scene" in rows else ""
-    notes = [_folded_note(rows), *empty]
+    measured = any(np.isfinite(points[m]).any() for m in metrics)
+    notes = [_folded_note(rows), *(empty if measured else [])]  # nothing measured: the panel says why, once
     uncosted = rows[~np.isfinite(pd.to_numeric(rows[COST], errors="coerce"))]
     if len(uncosted):  # crashed, timed out or refused before any step: nothing to place on a cost axis
         counts = uncosted["verdict"].astype(str).value_counts()

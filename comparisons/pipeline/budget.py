@@ -1,5 +1,7 @@
 """What a run will cost, estimated from its inputs before it starts; refused when over budget.
 
+    >>> from chatterbench.comparisons.pipeline.budget import Budget, check_engine_run, engine_estimate
+    >>> from chatterbench.reference.scene import load_scene
     >>> budget = Budget()                                   # 5e7 steps per engine run, 4 GiB
     >>> scene = load_scene("feigin-pair")
     >>> engine_estimate(scene, "mujoco", 1e-4).steps        # 40.2 s at 1e-4 s
@@ -13,7 +15,7 @@ Estimates, each from a measurement on this code (2-core machine, ``/usr/bin/time
 of ``chatterbench run feigin-pair --engine E --dt D`` at 4e6 and 8e6 or 1.2e7 steps):
 - an engine run: ``duration / dt`` steps (``engines.base.n_steps``); its memory is
   ``EngineAdapter.bytes_per_step`` per step (MuJoCo 69 B, PyBullet 88 B measured, stated
-  with a margin) over the ``BASE_MEMORY`` of a process with both engines loaded. A run that
+  with a margin) over the ``BASE_MEMORY`` of a process with the default engines loaded. A run that
   long is handed on compact (``engines/window.py``: the samples near the walls, about a third
   of feigin-pair's), so the figure follows the time the scene spends near its walls; a scene
   in contact most of the time keeps more (spring-pair: 72 % of its samples);
@@ -43,7 +45,7 @@ from chatterbench.reference.simulate import simulate
 GIB = 2.0**30
 MAX_STEPS = 5e7  # engine steps per run: MuJoCo about 100 s, PyBullet about 15 min on this machine
 MAX_MEMORY = 4.0 * GIB  # [B] per process: a 2-core, 24 GiB machine runs two at once with room to spare
-BASE_MEMORY = 0.3 * GIB  # [B] a process with numpy, pandas, both engines and numba kernels loaded
+BASE_MEMORY = 0.3 * GIB  # [B] a process with numpy, pandas, the default engines and numba kernels loaded
 BYTES_PER_EVENT = 1500.0  # [B] one reference event, both the log row and its episode bookkeeping
 BYTES_PER_STRIKE = 200.0  # [B] one plate-map strike: grid, fates, table columns
 LONG_PERIODS = 200  # reference runs longer than this many forcing periods get a pilot estimate

@@ -1,5 +1,6 @@
 """One call, one table: run the reference and the engines on a scene and judge every episode.
 
+    >>> from chatterbench.reference.scene import load_scene
     >>> from chatterbench.comparisons import compare
     >>> result = compare(load_scene("bouncing-ball"), engines=("mujoco", "pybullet"), dt=1e-4)
     >>> result.table[["engine", "wall", "verdict"]].values.tolist()
@@ -21,13 +22,13 @@ import math
 import platform
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
-from typing import Any, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import pandas as pd
 
 from chatterbench.engines.base import failed_trajectory
-from chatterbench.engines.registry import (check_engine, engine_version, make_settings, run_engine, run_engine_isolated,
-                                           settings_dict)
+from chatterbench.engines.registry import (DEFAULT_ENGINES, check_engine, engine_version, make_settings, run_engine,
+                                           run_engine_isolated, settings_dict)
 from chatterbench.engines.trajectory import Trajectory
 from chatterbench.reference.scene import Scene
 from chatterbench.reference.simulate import Result
@@ -139,7 +140,7 @@ def judge_run(ref: ReferenceSolution, name: str, settings: Any, tol: Tolerances,
 
 def compare(
     scene: Scene,
-    engines: Sequence[str] = ("mujoco", "pybullet"),
+    engines: Sequence[str] = DEFAULT_ENGINES,
     dt: float | None = None,
     overrides: Sequence[str] = (),
     tol: Tolerances | None = None,
@@ -148,12 +149,13 @@ def compare(
     options: ExtractionOptions | None = None,
     timeout: float | None = None,
     budget: Budget | None = None,
+    progress: Callable[[str], None] | None = None,
 ) -> Comparison:
     """Run the reference (both chatter modes) and each engine on ``scene``; judge every episode.
 
     Parameters
     ----------
-    engines : sequence of {"mujoco", "pybullet"}
+    engines : sequence of names of ``engines.registry.ENGINE_NAMES`` (default ``DEFAULT_ENGINES``)
     dt : float, optional
         Engine timestep [s]; default: each engine's default settings.
     overrides : sequence of str
@@ -175,15 +177,22 @@ def compare(
     budget : Budget, optional
         Refuse (``BudgetError``) before any run when the reference or an engine run is estimated
         over it (``budget.py``); None: no estimate.
+    progress : callable, optional
+        Called with ``"reference"`` before the reference is solved and with each engine's name
+        before that engine runs (the command line's progress bar).
     """
     tol = tol or Tolerances()
     settings = {name: make_settings(check_engine(name), dt, overrides) for name in engines}  # validate all first
     if budget is not None:
         check_comparison(scene, {n: s for n, s in settings.items() if n not in (trajectories or {})}, budget,
                          reference=solution is None)
+    say = progress or (lambda what: None)
+    if solution is None:
+        say("reference")
     ref = solution if solution is not None else solve(scene)
     runs, tables, impact_tables = {}, [], []
     for name in engines:
+        say(name)
         run, table, impacts = judge_run(ref, name, settings[name], tol, (trajectories or {}).get(name), options, timeout)
         runs[name] = run
         step = run.trajectory.dt if len(run.trajectory.t) > 1 else getattr(settings[name], "dt", math.nan)

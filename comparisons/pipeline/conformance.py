@@ -1,5 +1,7 @@
 """Conformance of two engines that run the same model: where their chatter verdicts and times part, and by how much.
 
+    >>> from chatterbench.reference.scene import load_scene
+    >>> from chatterbench.comparisons.pipeline.conformance import conformance
     >>> from chatterbench.comparisons import compare, reference_trajectory
     >>> scene = load_scene("bouncing-ball")
     >>> exact = reference_trajectory(scene, dt=1e-3)

@@ -1,5 +1,7 @@
 """Recover impacts, sticking and exits from any sampled trajectory, by one rule for every engine.
 
+    >>> from chatterbench.reference.scene import load_scene
+    >>> from chatterbench.comparisons.pipeline.extract import extract
     >>> from chatterbench.comparisons import reference_trajectory
     >>> scene = load_scene("bouncing-ball")
     >>> found = extract(reference_trajectory(scene, dt=1e-3), scene, stick_tolerance=0.045)   # or an engine's
@@ -21,13 +23,26 @@ velocity u = n y' and the free acceleration a = n y''_free; a < 0 presses into t
    d <= 0 where a trajectory carries no flag. A contact is a run of contact samples.
 2. **Impacts**: the onset of each contact, and every step between two free samples whose
    velocity jump J = u[k+1] - u[k] - (a[k] + a[k+1]) dt / 2 exceeds
-   max(``jump_atol``, ``jump_factor`` |a| dt) with the wall within one step's travel (an
+   max(``jump_atol``, min(``jump_factor``, ``floor_steps``) |a| dt) (a jump of k |a| dt is a
+   flight of k steps: one the samples resolve is never hidden) with the wall within one step's travel (an
    impact between two samples, as the exact reference has them). Each impact has its
-   incoming and rebound speeds (``v_minus``, ``v_plus``; for a soft contact, at contact
-   entry and exit), its release (the contact force's zero, interpolated linearly from the
+   incoming and rebound speeds (``v_minus``, ``v_plus``; for a contact, where the body
+   crosses the wall's undeformed surface, d = 0, on its way in and out: the free flight of
+   the last free sample before and the first after, from two samples' positions where the
+   step between them is free, carried to d = 0 (``surface.py``); a soft contact lets go
+   below the surface and the free motion still slows the body before it crosses, so the
+   speed at release is optimistic; where the free motion does not press at the release, an
+   exit pulling the body out of a resting penetration, the speed at release), its release (the contact force's zero, interpolated linearly from the
    last two force samples, else the middle of the step after the last contact sample; the
    impact time itself for an impact between samples) and the highest point of the flight
-   after it, ``apex`` [m], the largest sampled d until the next impact on the wall.
+   after it, ``apex`` [m], the largest sampled d until the next impact on the wall. Its
+   ``flight`` runs from the release to the next impact on the wall; ``flight_seen`` is that
+   flight as both its ends see it, no longer than the free flight the rebound speed and the
+   next impact's incoming speed each imply (2 |v| / |a| while a < 0): a "flight" that spans
+   bounces the samples cannot see is short. ``v_error`` [m/s] bounds the error of its speeds:
+   |a[k+1] - a[k]| dt where the free parabola carries a sample to the wall, |a| dt where it
+   cannot and for a contact (which takes an unknown part of the steps it starts and ends in,
+   and may hold the body above the surface there: a margin).
 3. **Sticking is where bounces stop mattering.** A bounce matters when the chatter it can
    still make is long against the sticking tolerance: with Feigin's geometric ladder, a
    rebound whose flight lasts f is followed by f / (1 - R) of chatter, so bounces whose
@@ -44,11 +59,21 @@ velocity u = n y' and the free acceleration a = n y''_free; a < 0 presses into t
    / 2 with the onset's a), is a stick too: perfectly inelastic, or a soft contact that
    never rebounds. So is a contact the data start in. What the end of the data cuts short (a
    flight, a contact) continues a stuck stretch but starts one only where the bodies are
-   already at rest in a contact (|y'| <= |a| f_min / 2).
-4. **Times.** The sticking start is the onset impact plus the chatter its rebound would
-   still make in Feigin's model, 2 v+ / ((1 - R) |a|) (0 for a single contact): exact for a
-   trajectory that follows R, and off by at most f_min / (1 - R) for one that does not.
-   The exit is the release of the last contact of the stuck stretch.
+   already at rest in a contact (|y'| <= |a| f_min / 2). A stretch whose bodies part less
+   than f_min after its sticking start (rule 4) is no stick: they never came to rest, its
+   impacts are bounces (an engine that keeps kicking off after each Zeno point chatters).
+4. **Times.** The sticking start comes from the engine's own ladder (``sticking_start``):
+   from the onset, the bounces (a contact shorter than the flight after it) whose flights
+   keep shrinking, i .. K, down to the last the samples see (flights of about two steps:
+   rule 2's jump); when they shrank by more than a step, their mean ratio rho =
+   (f_K / f_i)^(1 / (K - i)) extrapolates the rest: t_release[K] + f_K / (1 - rho). This is
+   exact for a geometric ladder under constant a, whatever its ratio (an engine whose slow
+   bounces are nearly elastic is seen to stick late); for one that is not, it is off by at
+   most f_K rho / (1 - rho) (the extrapolated part) plus the chatter of bounces too short
+   to see. Otherwise (one bounce, or flights that did not shrink by a step) the onset's
+   rebound is extrapolated with Feigin's ladder, 2 v+ / ((1 - R) |a|) (0 for a single
+   contact): exact for a trajectory that follows R, off by at most f_min / (1 - R) for one
+   that does not. The exit is the release of the last contact of the stuck stretch.
 
 Estimator errors (exact samples, step dt; an engine adds its own): impact time
 O(|a'| dt^3 / |u|) (the smallest root of the free parabola from the last free sample;
@@ -57,7 +82,7 @@ O(|a'| dt^2); exit O(dt^2) where the force decays linearly, else <= dt; sticking
 O(f_min^2 |a'| / |a|) from the ladder's changing |a|.
 
 Promises: the log is sorted by time (at one time: exit, impact, stick); every stick is
-followed by an exit unless the data end stuck; impacts inside a stuck stretch (the
+followed by an exit on its own wall, f_min or more later, unless the data end stuck; impacts inside a stuck stretch (the
 unresolved micro-bounces) are in ``impacts`` (``stuck`` true) but not in the log.
 """
 
@@ -76,13 +101,14 @@ from chatterbench.reference.scene import Scene
 
 from chatterbench.reference.errors import check_number
 
+from .surface import surface_speed, surface_velocity
 from .tolerances import ToleranceError
 
 STICK_RULE = "contact"  # the ``rule`` of an extracted stick
 _KIND_ORDER = {"exit": 0, "impact": 1, "stick": 2}  # at one time: leave, strike, then stick
 _STEP_BLOCK = 1 << 16  # steps examined at once for impacts between samples (memory, not results)
-IMPACT_COLUMNS = ["t", "wall", "v_minus", "v_plus", "t_release", "flight", "apex", "pressing", "slow", "stuck", "onset",
-                  "exits", "x1", "v1"]
+IMPACT_COLUMNS = ["t", "wall", "v_minus", "v_plus", "t_release", "flight", "flight_seen", "apex", "pressing", "v_error",
+                  "slow", "stuck", "onset", "exits", "x1", "v1"]
 
 
 @dataclass(frozen=True)
@@ -107,8 +133,9 @@ class Extraction:
 
     ``impacts``: t [s], wall, v_minus and v_plus (y' before and after [m/s]), t_release [s],
     flight (release to the next impact, on the same wall [s]; NaN when the next is on the
-    other wall, there is none, or the release is an exit), apex [m], pressing (-n y''_free
-    at the release [m/s^2], > 0 into the wall), slow, stuck (a micro-bounce inside a stuck
+    other wall, there is none, or the release is an exit), flight_seen [s] (rule 2), apex
+    [m], pressing (-n y''_free at the release [m/s^2], > 0 into the wall), v_error [m/s]
+    (rule 2), slow, stuck (a micro-bounce inside a stuck
     stretch), onset (the impact a stuck stretch starts with), exits (its release ends a stuck
     stretch), x1 [m], v1 [m/s] after it.
     """
@@ -198,15 +225,27 @@ def _wall_impacts(traj: Trajectory, scene: Scene, wall: str, acc: np.ndarray, op
     k = np.maximum(starts - 1, 0)
     s_in = _first_root(d[k], u[k], a[k], t[starts] - t[k])
     t_in = np.where(np.isnan(s_in), t[starts], t[k] + np.nan_to_num(s_in))
-    v_in = u[k] + a[k] * (t_in - t[k])
+    # the speeds where the body crosses the undeformed surface (surface.py): a soft contact lets go below it
+    j_in = _free_neighbour(t, u, a, contact, k, -1, options)
+    v_in = np.where(surface_velocity(t, d, u, a, k, j_in) < 0.0, -surface_speed(t, d, u, a, k, j_in),
+                    u[k] + a[k] * (t_in - t[k]))
     at_start = starts == 0
     t_in, v_in = np.where(at_start, t[0], t_in), np.where(at_start, u[0], v_in)
     released = stops < n_s
-    e = np.minimum(stops, n_s - 1)  # the first free sample after, carried back to where it left the wall
-    s_out = np.nan_to_num(_first_root(d[e], -u[e], a[e], t[e] - t[np.maximum(e - 1, 0)]))
-    v_out = np.where(released, u[e] - a[e] * s_out, np.nan)
+    e = np.minimum(stops, n_s - 1)  # the first free sample after, carried to where it crosses the surface
+    j_out = _free_neighbour(t, u, a, contact, e, 1, options)
+    s_out = _first_root(d[e], -u[e], a[e], t[e] - t[np.maximum(e - 1, 0)])
+    # a rebound (the free motion presses); at an exit (a >= 0) the free motion pulls the body out of a
+    # resting penetration: no rebound to measure, its speed at release
+    rebound = (surface_velocity(t, d, u, a, e, j_out) > 0.0) & (a[e] < 0.0)
+    v_out = np.where(rebound, surface_speed(t, d, u, a, e, j_out), u[e] - a[e] * np.nan_to_num(s_out))
+    v_out = np.where(released, v_out, np.nan)
+    # a contact takes an unknown part of the steps it starts and ends in: each speed is known to |a| h there
+    err = np.maximum(_speed_error(t, a, k, starts, np.full(len(starts), np.nan)),
+                     _speed_error(t, a, np.maximum(e - 1, 0), e, np.full(len(starts), np.nan)))
     onset = {"t": t_in, "v_minus": v_in, "v_plus": v_out, "t_release": _release_times(t, force, starts, stops),
-             "first": starts, "begin": np.where(released, stops, n_s), "contact": np.ones(len(starts), bool)}
+             "first": starts, "begin": np.where(released, stops, n_s), "contact": np.ones(len(starts), bool),
+             "v_error": np.where(at_start, np.nan, err)}
 
     # (ii) impacts between two free samples: a velocity jump the free motion cannot make
     ks = np.concatenate([np.empty(0, dtype=np.int64),
@@ -217,7 +256,8 @@ def _wall_impacts(traj: Trajectory, scene: Scene, wall: str, acc: np.ndarray, op
     s_bwd = _first_root(d[ks + 1], -u[ks + 1], a[ks + 1], h)
     t_j = np.where(~np.isnan(s_fwd), t[ks] + s_fwd, np.where(~np.isnan(s_bwd), t[ks + 1] - s_bwd, t[ks + 1]))
     between = {"t": t_j, "v_minus": u[ks] + a[ks] * (t_j - t[ks]), "v_plus": u[ks + 1] - a[ks + 1] * (t[ks + 1] - t_j),
-               "t_release": t_j, "first": ks + 1, "begin": ks + 1, "contact": np.zeros(len(ks), bool)}
+               "t_release": t_j, "first": ks + 1, "begin": ks + 1, "contact": np.zeros(len(ks), bool),
+               "v_error": _speed_error(t, a, ks, ks + 1, s_fwd) + _speed_error(t, a, ks, ks + 1, s_bwd)}
 
     imp = {key: np.concatenate((onset[key], between[key])) for key in onset}
     order = np.argsort(imp["first"], kind="stable")
@@ -233,9 +273,37 @@ def _wall_impacts(traj: Trajectory, scene: Scene, wall: str, acc: np.ndarray, op
         apex[has] = _segment_max(d, idx, nxt[has])
     a_rel = a[np.minimum(begin, n_s - 1)]
     flight = np.append(imp["t"][1:], np.nan) - imp["t_release"]  # to the next impact on this wall
-    imp.update(apex=apex, a_release=a_rel, flight=flight, a_onset=a[np.maximum(imp["first"] - 1, 0)],
+    # the flight as its two ends see it: the rebound speed and the next impact's incoming speed each
+    # imply a free flight of 2 |v| / |a|; a "flight" spanning bounces the samples cannot see is shorter
+    with np.errstate(invalid="ignore", divide="ignore"):
+        press = np.where(a_rel < 0.0, -a_rel, np.nan)
+        seen = np.fmin(2.0 * imp["v_plus"] / press, 2.0 * np.abs(np.append(imp["v_minus"][1:], np.nan)) / press)
+    flight_seen = np.where(np.isnan(press), flight, np.fmin(flight, seen))
+    imp.update(apex=apex, a_release=a_rel, flight=flight, flight_seen=np.where(np.isnan(flight), np.nan, flight_seen), a_onset=a[np.maximum(imp["first"] - 1, 0)],
                n_samples=n_s, u_last=u[n_s - 1], next_first=nxt)  # not d, a, u: per sample, they are the memory
     return imp
+
+
+def _free_neighbour(t, u, a, contact, k: np.ndarray, step: int, options: ExtractionOptions) -> np.ndarray:
+    """k + ``step`` where that sample is free and the step between it and k is free flight (no velocity
+    jump, rule 2's threshold), so that the two positions give the velocity (``surface.py``); else -1."""
+    j = k + step
+    ok = (j >= 0) & (j < len(t))
+    jj = np.where(ok, j, k)
+    h = np.abs(t[jj] - t[k])
+    jump = np.abs(u[jj] - u[k] - 0.5 * (a[k] + a[jj]) * (t[jj] - t[k]))
+    a_max = np.maximum(np.abs(a[k]), np.abs(a[jj]))
+    limit = np.maximum(options.jump_atol, min(options.jump_factor, options.floor_steps) * a_max * h)
+    return np.where(ok & ~contact[jj] & ~contact[k] & (jj != k) & (jump <= limit), jj, -1)
+
+
+def _speed_error(t: np.ndarray, a: np.ndarray, k: np.ndarray, k1: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """Bound on the error of a speed carried from sample ``k`` (or back from ``k1``) to the wall over ``s``
+    [m/s]: the change of y'' over the step times the step, |a[k1] - a[k]| h, where the free parabola
+    reaches the wall (``s`` finite), else |a| h (the impact is somewhere in the step)."""
+    k, k1 = np.asarray(k, dtype=np.int64), np.asarray(k1, dtype=np.int64)
+    h = t[k1] - t[k]
+    return np.where(np.isnan(s), np.maximum(np.abs(a[k]), np.abs(a[k1])), np.abs(a[k1] - a[k])) * h
 
 
 def _jump_steps(t, d, u, a, contact, index, options: ExtractionOptions, lo: int) -> np.ndarray:
@@ -249,7 +317,8 @@ def _jump_steps(t, d, u, a, contact, index, options: ExtractionOptions, lo: int)
         free_step &= index[k1] - index[k] == 1
     jump = u[k1] - u[k] - 0.5 * (a[k] + a[k1]) * dt
     a_max = np.maximum(np.abs(a[k]), np.abs(a[k1]))
-    threshold = np.maximum(options.jump_atol, options.jump_factor * a_max * dt)
+    # a jump of k |a| dt is a flight of k steps: one the samples resolve (floor_steps) is never hidden
+    threshold = np.maximum(options.jump_atol, min(options.jump_factor, options.floor_steps) * a_max * dt)
     reach = np.maximum(np.abs(u[k]), np.abs(u[k1])) * dt + a_max * dt * dt
     near = np.minimum(d[k], d[k1]) <= reach
     return lo + np.flatnonzero(free_step & (jump > threshold) & near)
@@ -299,6 +368,29 @@ def _stuck_stretches(imp: dict, band: np.ndarray, held: np.ndarray, f_min: float
     return out
 
 
+def sticking_start(imp: dict, i: int, j: int, restitution: float, dt: float) -> float:
+    """When the stuck stretch of impacts ``i`` .. ``j`` (one wall) starts sticking [s] (module docstring, rule 4).
+
+    The engine's own ladder: from the onset, the run of bounces (a contact shorter than the
+    flight after it) whose flights keep shrinking, i .. K. When it shrank by more than a step (what a flight is measured to), its mean ratio
+    rho = (f_K / f_i)^(1 / (K - i)) extrapolates the rest: t_release[K] + f_K / (1 - rho).
+    Otherwise Feigin's ladder from the onset: t_i + 2 v+ / ((1 - R) |a|) (0 for a held contact).
+    """
+    t_on = float(imp["t"][i])
+    flight = imp["flight"]
+    k = i
+    bounce = imp["t_release"] - imp["t"] <= flight  # a contact as long as the flight after it is a rest, not a bounce
+    while k < j and np.isfinite(flight[k + 1]) and 0.0 < flight[k + 1] < flight[k] and bounce[k + 1]:
+        k += 1
+    if k > i and np.isfinite(flight[i]) and flight[i] - flight[k] > dt:
+        rho = (flight[k] / flight[i]) ** (1.0 / (k - i))
+        return max(t_on, float(imp["t_release"][k]) + float(flight[k]) / (1.0 - rho))
+    v_plus, a = imp["v_plus"][i], imp["a_release"][i]
+    if j > i and a < 0.0 and np.isfinite(v_plus) and v_plus > 0 and restitution < 1:
+        return t_on + 2.0 * float(v_plus) / ((1.0 - restitution) * float(-a))
+    return t_on
+
+
 def extract(traj: Trajectory, scene: Scene, stick_tolerance: float = math.nan,
             options: ExtractionOptions | None = None) -> Extraction:
     """Impacts, event log and episodes of a sampled trajectory (module docstring).
@@ -337,11 +429,17 @@ def extract(traj: Trajectory, scene: Scene, stick_tolerance: float = math.nan,
         band = np.where(pressing, -imp["a_release"], 0.0) * f_min**2 / 8.0
         held = imp["begin"] >= len(t)  # the data end in this contact
         slow = (pressing & (imp["apex"] <= band)) | held
-        stretches = _stuck_stretches(imp, band, held, f_min)
+        stretches = []
+        for i, j, released in _stuck_stretches(imp, band, held, f_min):
+            end = float(imp["t_release"][j]) if released else float(t[-1])
+            t_stick = sticking_start(imp, i, j, R, dt)
+            if released and end - t_stick < f_min:
+                continue  # the bodies part before they could have come to rest: bounces, not a stick
+            stretches.append((i, j, released, min(t_stick, end), end))
         stuck = np.zeros(len(slow), bool)
         onset = np.zeros(len(slow), bool)
         exits = np.zeros(len(slow), bool)
-        for i, j, released in stretches:
+        for i, j, released, _, _ in stretches:
             stuck[i:j + 1] = True
             onset[i] = True
             exits[j] = released
@@ -349,18 +447,13 @@ def extract(traj: Trajectory, scene: Scene, stick_tolerance: float = math.nan,
         # the IMPACT_COLUMNS as columns (a row of Python objects per impact would be ~0.4 kB each)
         impact_rows.append({"t": imp["t"], "wall": np.full(len(slow), wall, dtype=object), "v_minus": nrm * imp["v_minus"],
                             "v_plus": nrm * imp["v_plus"], "t_release": imp["t_release"], "flight": imp["flight"],
-                            "apex": imp["apex"], "pressing": -imp["a_release"], "slow": slow, "stuck": stuck & ~onset,
+                            "flight_seen": imp["flight_seen"], "apex": imp["apex"], "pressing": -imp["a_release"],
+                            "v_error": imp["v_error"], "slow": slow, "stuck": stuck & ~onset,
                             "onset": onset, "exits": exits, "x1": x1[after], "v1": v1[after]})
         for i in np.flatnonzero(~stuck | onset):
                 rows.append((float(imp["t"][i]), "impact", wall, nrm * float(imp["v_minus"][i]), nrm * float(imp["v_plus"][i]),
                              float(x1[after[i]]), float(v1[after[i]]), ""))
-        for i, j, released in stretches:
-            t_on = float(imp["t"][i])
-            end = float(imp["t_release"][j]) if released else float(t[-1])
-            rest = 0.0
-            if j > i and pressing[i] and np.isfinite(imp["v_plus"][i]) and imp["v_plus"][i] > 0 and R < 1:
-                rest = 2.0 * float(imp["v_plus"][i]) / ((1.0 - R) * float(-imp["a_release"][i]))
-            t_stick = min(t_on + rest, max(end, t_on))
+        for i, j, released, t_stick, end in stretches:
             k = int(min(imp["first"][i], len(t) - 1))
             rows.append((t_stick, "stick", wall, float(traj.vy[k]), float(traj.vy[k]),
                          float(x1[k]), float(v1[k]), STICK_RULE))
@@ -374,7 +467,7 @@ def extract(traj: Trajectory, scene: Scene, stick_tolerance: float = math.nan,
     impacts = impacts.sort_values("t", kind="stable").reset_index(drop=True)
     # a flight that ends on the other wall, or that an exit starts, is no bounce's flight
     crossing = impacts["wall"].ne(impacts["wall"].shift(-1)) & impacts.index.to_series().lt(len(impacts) - 1)
-    impacts.loc[crossing | impacts["exits"], "flight"] = np.nan
+    impacts.loc[crossing | impacts["exits"], ["flight", "flight_seen"]] = np.nan
     return Extraction(impacts=impacts, log=log, episodes=episodes(log), flight_min=f_min)
 
 

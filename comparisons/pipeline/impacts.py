@@ -1,5 +1,7 @@
 """The impacts themselves: pair the resolvable impacts of a visit and measure each engine impact's restitution.
 
+    >>> from chatterbench.reference.scene import load_scene
+    >>> from chatterbench.comparisons.pipeline.impacts import pair_impacts, reference_flights
     >>> from chatterbench.comparisons import reference_trajectory
     >>> from chatterbench.comparisons.pipeline.extract import extract
     >>> from chatterbench.comparisons.pipeline.solution import solve
@@ -8,26 +10,36 @@
     >>> visit = ref.episodes.iloc[0]
     >>> ref_visit = ref.visit_impacts(visit)
     >>> pairs = pair_impacts(ref_visit, reference_flights(ref_visit, visit.t_stick), found.impacts, dt=1e-3,
-    ...                      resolved_steps=10, restitution=0.5)
-    >>> pairs.resolved, pairs.ref_resolved, abs(pairs.worst_error) < 1e-6
-    (6, 6, True)
+    ...                      resolved_steps=10, restitution=0.5, tolerance=0.05)
+    >>> pairs.resolved, pairs.ref_resolved, pairs.measured, abs(pairs.worst_error) < 1e-6
+    (6, 6, 6, True)
 
 A time-stepper at step dt cannot resolve an impact whose flight is a few steps long, so
 only the *resolved* impacts are judged: those whose flight after the impact (to the next
 impact on the same wall; for a soft contact, from the contact's release) lasts at least
-``resolved_steps`` x dt. Feigin's ladder is geometric, so the resolved impacts are the
-first ones of each visit, on both sides. The k-th resolved impact of the engine's visit is
-paired with the k-th of the reference's, in time order.
+``resolved_steps`` x dt as the samples see it on both sides: measured between the two
+impacts, and as long as the rebound speed and the next impact's incoming speed each imply
+(2 |v| / |y''|, ``extract.py``'s ``flight_seen``). A "flight" that spans bounces too short
+for the samples to see (the tail of a ladder summed up between two samples) is not one.
+The reference's flights come from its exact events. Feigin's ladder is geometric, so the
+resolved impacts are the first ones of each visit, on both sides. The k-th resolved impact
+of the engine's visit is paired with the k-th of the reference's, in time order.
 
 Effective restitution of an engine impact: e = -v+ / v- (the rebound over the incoming
-relative speed; for a soft contact, at contact exit over contact entry). Its error is
-relative to the scene's R: e / R - 1 (for R = 0, e itself). Samples a step apart cannot
-place the impact within the step, so the measured e of a time-stepper is uncertain by the
-velocity the free acceleration changes in one step, before and after the impact:
-u = (1 + R) |y''| dt / (R |v-|) relative (``restitution_uncertainty``). An engine impact
-departs from R when |e / R - 1| > tolerance + u; ``excess`` = |e / R - 1| - u. The visit's
-``worst_error`` is the signed error of the pair with the largest excess (negative: the
-engine loses more than R says).
+relative speed; for a contact, where the body crosses the wall's undeformed surface on its
+way out over on its way in, ``surface.py``: what the flights before and after see). Its error is
+relative to the scene's R: e / R - 1 (for R = 0, e itself). Each speed is known to within
+``v_error`` (``extract.py``): for an impact between two free samples, located by the free
+parabola, the change of y'' over the step times the step; for a contact, which takes an
+unknown part of the steps it starts and ends in, |y''| dt. So e is known to within
+u = (1 + e) v_error / (R |v-|)
+relative (``restitution_uncertainty``). The allowance is the tolerance itself, never widened
+by u: an impact with u <= tolerance is *measurable* and departs from R when |e / R - 1| >
+tolerance; one with u > tolerance is *unmeasured*: the step cannot tell whether it follows
+R, so it is counted (``unmeasured``) and neither passes nor fails. ``excess`` = |e / R - 1|
+of a measurable pair (NaN for an unmeasured one); the visit's ``worst_error`` is the signed
+error of the measurable pair with the largest (negative: the engine loses more than R says);
+``measured`` and ``unmeasured`` count the pairs of each kind.
 """
 
 from __future__ import annotations
@@ -39,7 +51,7 @@ import numpy as np
 import pandas as pd
 
 PAIR_COLUMNS = ["k", "ref_t", "t", "ref_v_minus", "v_minus", "ref_restitution", "restitution", "restitution_error",
-                "restitution_uncertainty", "excess"]
+                "restitution_uncertainty", "measurable", "excess"]
 
 
 @dataclass(frozen=True)
@@ -49,8 +61,10 @@ class ImpactPairs:
     table: pd.DataFrame  # one row per pair: k, times [s], incoming speeds [m/s] (> 0), restitutions [-], error [-]
     resolved: int  # resolved engine impacts of the visit
     ref_resolved: int  # resolved reference impacts of the visit
-    worst_error: float  # signed relative restitution error of the pair with the largest excess (NaN: no pair)
-    worst_excess: float  # |error| - uncertainty of that pair [-] (NaN: no pair)
+    worst_error: float  # signed relative restitution error of the measurable pair with the largest |error| (NaN: none)
+    worst_excess: float  # |error| of that pair [-] (NaN: no measurable pair)
+    unmeasured: int = 0  # paired engine impacts whose uncertainty exceeds the tolerance
+    measured: int = 0  # paired engine impacts measurable to the tolerance
 
 
 def reference_flights(impacts: pd.DataFrame, t_end: float) -> np.ndarray:
@@ -65,7 +79,7 @@ def restitution_error(e: np.ndarray, restitution: float) -> np.ndarray:
 
 
 def pair_impacts(ref_impacts: pd.DataFrame, ref_flights: np.ndarray, eng_impacts: pd.DataFrame, dt: float,
-                 resolved_steps: float, restitution: float) -> ImpactPairs:
+                 resolved_steps: float, restitution: float, tolerance: float) -> ImpactPairs:
     """Pair the resolved impacts of one visit (module docstring).
 
     Parameters
@@ -76,13 +90,15 @@ def pair_impacts(ref_impacts: pd.DataFrame, ref_flights: np.ndarray, eng_impacts
         Flight after each of them [s] (``reference_flights``).
     eng_impacts : DataFrame
         The engine's impacts of the visit (``extract.IMPACT_COLUMNS``: ``t``, ``v_minus``,
-        ``v_plus``, ``flight``, ``pressing``), by time.
+        ``v_plus``, ``flight_seen``, ``v_error``), by time.
     dt : float
         The engine's timestep [s].
+    tolerance : float
+        The restitution tolerance [-]: the allowance, and the largest uncertainty an impact may have to be measured.
     """
     need = resolved_steps * dt
     ref = ref_impacts[np.asarray(ref_flights) >= need]
-    flights = eng_impacts["flight"].to_numpy(dtype=float) if len(eng_impacts) else np.empty(0)
+    flights = eng_impacts["flight_seen"].to_numpy(dtype=float) if len(eng_impacts) else np.empty(0)
     eng = eng_impacts[np.nan_to_num(flights, nan=-1.0) >= need]
     n = min(len(ref), len(eng))
     rows = []
@@ -94,12 +110,15 @@ def pair_impacts(ref_impacts: pd.DataFrame, ref_flights: np.ndarray, eng_impacts
         err = restitution_error(e_eng, restitution)
         v_in = np.abs(e["v_minus"].to_numpy(float))
         with np.errstate(divide="ignore", invalid="ignore"):
-            unc = (1.0 + restitution) * np.abs(e["pressing"].to_numpy(float)) * dt / (max(restitution, 1e-300) * v_in)
+            # e / R - 1 moves by de / R (by de itself for R = 0, where the error is e)
+            unc = (1.0 + np.abs(e_eng)) * e["v_error"].to_numpy(float) / ((restitution if restitution > 0 else 1.0) * v_in)
         unc = np.where(np.isfinite(unc), unc, np.inf)
+        measurable = unc <= tolerance
         rows = {"k": np.arange(n), "ref_t": r["t"].to_numpy(float), "t": e["t"].to_numpy(float),
                 "ref_v_minus": np.abs(r["v_minus"].to_numpy(float)), "v_minus": v_in,
                 "ref_restitution": e_ref, "restitution": e_eng, "restitution_error": err,
-                "restitution_uncertainty": unc, "excess": np.abs(err) - unc}
+                "restitution_uncertainty": unc, "measurable": measurable,
+                "excess": np.where(measurable, np.abs(err), np.nan)}
     table = pd.DataFrame(rows, columns=PAIR_COLUMNS)
     excess = table["excess"].to_numpy(float)
     ok = np.isfinite(excess)
@@ -108,4 +127,6 @@ def pair_impacts(ref_impacts: pd.DataFrame, ref_flights: np.ndarray, eng_impacts
         worst, worst_excess = float(table["restitution_error"].iloc[k]), float(excess[k])
     else:
         worst, worst_excess = math.nan, math.nan
-    return ImpactPairs(table=table, resolved=len(eng), ref_resolved=len(ref), worst_error=worst, worst_excess=worst_excess)
+    measured = int(table["measurable"].astype(bool).sum()) if len(table) else 0
+    return ImpactPairs(table=table, resolved=len(eng), ref_resolved=len(ref), worst_error=worst, worst_excess=worst_excess,
+                       unmeasured=len(table) - measured, measured=measured)

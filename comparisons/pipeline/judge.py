@@ -1,5 +1,7 @@
 """Pair an engine's episodes with the reference's and give each a verdict from the physics of that visit.
 
+    >>> from chatterbench.comparisons.pipeline.judge import Tolerances, judge
+    >>> from chatterbench.reference.scene import load_scene
     >>> from chatterbench.comparisons import reference_trajectory
     >>> from chatterbench.comparisons.pipeline.extract import extract
     >>> from chatterbench.comparisons.pipeline.solution import solve
@@ -18,9 +20,9 @@ and in timesteps (``_steps``):
 - ``stick_error_zeno``: sticking start against the Zeno point (the true start; judged);
   ``stick_error_plate`` against Feigin's plate entry (the idealised model; reported);
 - ``exit_error``: separation; ``first_impact_error``: the visit's first impact;
-- ``restitution_error``: the relative error of the visit's worst resolved impact, the one
-  that exceeds its measurement uncertainty the most (``impacts.py``), with
-  ``resolved_impacts`` and ``ref_resolved_impacts``;
+- ``restitution_error``: the relative error of the visit's worst measurable resolved impact
+  (``impacts.py``), with ``resolved_impacts``, ``ref_resolved_impacts`` and
+  ``unmeasured_impacts`` (paired resolved impacts the step cannot measure to the tolerance);
 - ``penetration_max`` [m]: the deepest penetration of any wall from the end of the
   previous reference visit to this one's exit.
 
@@ -36,13 +38,17 @@ Verdicts (``vocabulary.py``), the first that applies:
 5. ``early`` / ``late``: |stick_error_rel| > ``stick``, |first_impact_error_rel| >
    ``first_impact``, |exit_error_rel| > ``exit``, or one of the two stays stuck to the end
    of the run and the other does not (the sign says which);
-6. ``rebound``: timing within tolerance, but a resolved impact's |e / R - 1| exceeds
-   ``restitution`` + its measurement uncertainty, or the resolved impact counts differ by
-   more than ``impact_count``;
-7. ``match``.
+6. ``rebound``: timing within tolerance, but a measurable resolved impact's |e / R - 1|
+   exceeds ``restitution`` (the allowance is the tolerance, whatever the step), or the
+   resolved impact counts differ by more than ``impact_count``;
+7. ``unmeasured``: all of the above holds, but the visit's paired resolved impacts are all
+   unmeasured (their uncertainty exceeds ``restitution``: ``impacts.py``), so nothing says
+   whether they follow R; unmeasured impacts beside measured ones are counted, not judged;
+8. ``match``.
 
 A failure never agrees: when the run failed (status, divergence, penetration) and no
-episode row says so, a run row (wall "") carries the failure verdict.
+episode row says so, a run row (wall "") carries the failure verdict. Engine episodes that
+start after the run diverged are not rows: a diverged run's later samples are no evidence.
 """
 
 from __future__ import annotations
@@ -68,7 +74,7 @@ TABLE_COLUMNS = [
     "wall", "ref_t_first_impact", "ref_t_plate_entry", "ref_t_stick", "ref_t_exit", "t_first_impact", "t_stick", "t_exit",
     "n_impacts", "ref_n_impacts", "resolved_impacts", "ref_resolved_impacts",
     "chatter_duration", "sliding_duration", "ref_v_first_impact",
-    *ERROR_COLUMNS, "restitution_error", "penetration_max", "verdict",
+    *ERROR_COLUMNS, "restitution_error", "unmeasured_impacts", "penetration_max", "verdict",
 ]
 IMPACT_PAIR_COLUMNS = ["episode", "wall", *PAIR_COLUMNS]
 
@@ -190,31 +196,37 @@ def judge(ref: ReferenceSolution, found: Extraction, traj: Trajectory, tol: Tole
             visit = _visit(imps, r.wall, r.t_first_impact, r.t_exit)
         ref_visit = ref.visit_impacts(r)
         pairs = pair_impacts(ref_visit, reference_flights(ref_visit, r.t_stick), visit, dt, tol.resolved_steps,
-                             scene.restitution)
+                             scene.restitution, tol.restitution)
         row.update(resolved_impacts=pairs.resolved, ref_resolved_impacts=pairs.ref_resolved,
-                   restitution_error=pairs.worst_error, restitution_excess=pairs.worst_excess)
+                   restitution_error=pairs.worst_error, restitution_excess=pairs.worst_excess,
+                   unmeasured_impacts=pairs.unmeasured, measured_impacts=pairs.measured)
         pair_tables.append((len(rows), r.wall, pairs.table))
         rows.append(row)
         windows.append((prev_end, r.t_exit))
         prev_end = r.t_stick if math.isnan(r.t_exit) else r.t_exit
     used = set(paired.values())
+    t_div = time_diverged(ref, traj, tol)
     for j, e in enumerate(eng_eps.itertuples()):
-        if j in used:
+        start = e.t_first_impact if not math.isnan(e.t_first_impact) else e.t_stick
+        if j in used or start >= t_div:  # what a diverged run makes afterwards is no episode (its run row says so)
             continue
         rows.append({"wall": e.wall, "ref_t_first_impact": math.nan, "ref_t_plate_entry": math.nan, "ref_t_stick": math.nan,
                      "ref_t_exit": math.nan, "ref_n_impacts": 0, "chatter_duration": math.nan, "sliding_duration": math.nan,
                      "ref_v_first_impact": math.nan, "stick_scale": math.nan, "t_first_impact": e.t_first_impact,
                      "t_stick": e.t_stick, "t_exit": e.t_exit, "n_impacts": int(e.n_impacts), "resolved_impacts": 0,
-                     "ref_resolved_impacts": 0, "restitution_error": math.nan, "restitution_excess": math.nan})
+                     "ref_resolved_impacts": 0, "restitution_error": math.nan, "restitution_excess": math.nan,
+                     "unmeasured_impacts": 0, "measured_impacts": 0})
         windows.append((e.t_first_impact if not math.isnan(e.t_first_impact) else e.t_stick, e.t_exit))
     table = pd.DataFrame(rows)
     if table.empty:
         table = pd.DataFrame(columns=[*TABLE_COLUMNS, "stick_scale", "restitution_excess"])
+    for c in ("unmeasured_impacts", "measured_impacts"):
+        table[c] = table[c].fillna(0) if c in table else 0
     table["penetration_max"] = [_window_max(t, pen, w0, w1, traj.index) for w0, w1 in windows]
     errors(table, dt)
 
     beyond = pen > allowance
-    facts = RunFacts(status=traj.status, t_end=t_end, t_diverged=time_diverged(ref, traj, tol),
+    facts = RunFacts(status=traj.status, t_end=t_end, t_diverged=t_div,
                      t_penetrated=float(t[np.argmax(beyond)]) if beyond.any() else math.nan,
                      penetration_allowance=allowance, inside_impacts=lambda w, t0, t1: _count(imps, w, t0, t1))
     table = assign_verdicts(table, tol, facts, float(pen.max()) if len(pen) else math.nan)
@@ -224,7 +236,7 @@ def judge(ref: ReferenceSolution, found: Extraction, traj: Trajectory, tol: Tole
     renumber = {int(old): new for new, old in enumerate(order)}
     frames = [p.assign(episode=renumber[k], wall=w) for k, w, p in pair_tables if len(p)]
     impacts = pd.concat(frames, ignore_index=True)[IMPACT_PAIR_COLUMNS] if frames else pd.DataFrame(columns=IMPACT_PAIR_COLUMNS)
-    for c in ("n_impacts", "ref_n_impacts", "resolved_impacts", "ref_resolved_impacts"):
+    for c in ("n_impacts", "ref_n_impacts", "resolved_impacts", "ref_resolved_impacts", "unmeasured_impacts"):
         table[c] = table[c].fillna(0).astype(int)
     return Judgement(table=table[TABLE_COLUMNS], impacts=impacts, t_diverged=facts.t_diverged,
                      t_penetrated=facts.t_penetrated, penetration_allowance=allowance)
@@ -238,7 +250,7 @@ def assign_verdicts(table: pd.DataFrame, tol: Tolerances, run: RunFacts, penetra
     failure = run_failure(run)
     if failure and rank(failure) < rank(combine(table["verdict"])):
         row = {c: math.nan for c in TABLE_COLUMNS}
-        row.update(wall="", n_impacts=0, ref_n_impacts=0, resolved_impacts=0, ref_resolved_impacts=0,
+        row.update(wall="", n_impacts=0, ref_n_impacts=0, resolved_impacts=0, ref_resolved_impacts=0, unmeasured_impacts=0,
                    penetration_max=penetration_max, verdict=failure)
         table = pd.concat([table, pd.DataFrame([row])], ignore_index=True) if len(table) else pd.DataFrame([row])
     return table
@@ -314,4 +326,6 @@ def verdict(r, tol: Tolerances, run: RunFacts) -> str:
         return "early" if r.exit_error_rel < 0 else "late"
     if (not math.isnan(r.restitution_excess) and r.restitution_excess > tol.restitution) or abs(r.resolved_impacts - r.ref_resolved_impacts) > tol.impact_count:
         return "rebound"
+    if getattr(r, "unmeasured_impacts", 0) > 0 and getattr(r, "measured_impacts", 0) == 0:
+        return "unmeasured"  # resolved impacts to judge, none the step measures to the tolerance
     return "match"

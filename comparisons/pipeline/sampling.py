@@ -1,5 +1,6 @@
 """The exact reference as a sampled trajectory on an engine's time grid, with contact flags and forces.
 
+    >>> from chatterbench.reference.scene import load_scene
     >>> from chatterbench.comparisons import compare, reference_trajectory
     >>> scene = load_scene("bouncing-ball")
     >>> traj = reference_trajectory(scene, dt=1e-3)
@@ -44,18 +45,20 @@ def sample_grid(scene: Scene, dt: float) -> np.ndarray:
     return sample_times(scene, check_number("dt", dt, lo=0.0, lo_open=True, unit=" [s]", error=SceneError))
 
 
-def reference_trajectory(scene: Scene, dt: float, result: Result | None = None) -> Trajectory:
+def reference_trajectory(scene: Scene, dt: float, result: Result | None = None,
+                         times: np.ndarray | None = None) -> Trajectory:
     """The exact reference sampled every ``dt`` [s] as a ``Trajectory`` (engine ``"reference"``).
 
     ``result`` is a reference run of ``scene`` to sample (default: ``simulate(scene,
     "exhaustive")``, every impact up to each Zeno point). Arrays have shape (n + 1,) on
-    ``sample_grid(scene, dt)``; when the reference stopped early (``result.status != "ok"``)
-    the grid ends at its last event and the status and message are passed on.
+    ``sample_grid(scene, dt)``, or on ``times`` [s] (increasing; any spacing) when given;
+    when the reference stopped early (``result.status != "ok"``) the grid ends at its last
+    event and the status and message are passed on.
     """
     if result is None:
         sample_grid(scene, dt)  # a bad dt is refused before the reference runs
         result = simulate(scene, "exhaustive")
-    times = sample_grid(scene, dt)
+    times = sample_grid(scene, dt) if times is None else np.asarray(times, dtype=float)
     if result.status != "ok" and len(result.log):
         times = times[times <= float(result.log["t"].iloc[-1])]
     state, stuck_y = sample_states(scene, result.log, times)

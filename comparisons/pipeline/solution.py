@@ -1,5 +1,6 @@
 """The reference solution a judge needs: both chatter modes, the visits with their physical scales, and bounds.
 
+    >>> from chatterbench.reference.scene import load_scene
     >>> from chatterbench.comparisons.pipeline.solution import solve
     >>> ref = solve(load_scene("feigin-pair"))
     >>> ref.episodes[["wall", "chatter_duration", "sliding_duration"]].iloc[:2].round(4).values.tolist()

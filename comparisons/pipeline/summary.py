@@ -1,5 +1,7 @@
 """One row per (run, engine): a comparison condensed to numbers and a verdict, with one set of column names.
 
+    >>> from chatterbench.reference.scene import load_scene
+    >>> from chatterbench.comparisons.pipeline.summary import summarize
     >>> from chatterbench.comparisons import compare
     >>> result = compare(load_scene("bouncing-ball"), engines=("pybullet",), dt=1e-3)
     >>> row = summarize(result, "pybullet", params={"dt": 1e-3})
@@ -66,6 +68,17 @@ _SOURCES = {
 }
 
 
+# the report's signed worst errors: the error of largest magnitude, with its sign (engine minus reference:
+# negative = early, or an impact that keeps less than R of its speed). Not row columns: the ``_max`` columns
+# above stay magnitudes (the gate's and the sweeps' smaller-is-better metrics) and a sweep's schema is unchanged;
+# |<name>_worst| == <name>_max always.
+SIGNED_COLUMNS = {
+    "stick_error_worst": "stick_error_zeno", "stick_error_rel_worst": "stick_error_rel", "exit_error_worst": "exit_error",
+    "exit_error_rel_worst": "exit_error_rel", "first_impact_error_worst": "first_impact_error",
+    "restitution_error_worst": "restitution_error",
+}
+
+
 def point_id(scene: str, engine: str, params: Mapping[str, Any]) -> str:
     """Stable 16-hex-digit id of a grid point (same inputs, same id, on any machine)."""
     blob = json.dumps({"scene": scene, "engine": engine, "params": dict(sorted(params.items()))}, sort_keys=True, default=repr)
@@ -80,6 +93,16 @@ def mass_ratio(scene) -> float:
 def _absmax(series) -> float:
     vals = series.abs().dropna()
     return float(vals.max()) if len(vals) else math.nan
+
+
+def _signed_worst(series) -> float:
+    vals = series.astype(float).dropna().to_numpy()
+    return float(vals[abs(vals).argmax()]) if len(vals) else math.nan
+
+
+def signed_worst(table) -> dict[str, float]:
+    """The signed worst errors (``SIGNED_COLUMNS``) of one engine's judged episodes (``judge.TABLE_COLUMNS``)."""
+    return {name: _signed_worst(table[source]) for name, source in SIGNED_COLUMNS.items()}
 
 
 def metrics(table) -> dict[str, Any]:

@@ -79,6 +79,32 @@ class Tolerances:
 
 
 TOLERANCE_KEYS = tuple(f.name for f in dataclasses.fields(Tolerances))
+# what each tolerance bounds, as the judge applies it (judge.py): the provenance of reports reads this
+_MEANINGS = {
+    "stick": "|sticking start - Zeno point| <= {pct} of the episode's chatter duration",
+    "exit": "|exit error| <= {pct} of the episode's sliding duration",
+    "first_impact": "|first impact error| <= {pct} of the episode's chatter duration",
+    "restitution": "|e / R - 1| <= {pct} at every resolved impact measured to {pct} (others: unmeasured, not passed)",
+    "impact_count": "resolved impacts within {v} of the reference's",
+    "penetration": "deepest penetration <= {pct} of the scene's length scale",
+    "resolved_steps": "an impact is resolved when its flight, as the samples see it on both sides, lasts {v} timesteps or more",
+    "energy_gain": "diverged above (1 + {v}) x the reference's largest kinetic energy",
+    "endless_impacts": "{v} engine impacts inside a reference sliding make the episode endless",
+}
+SCALES = ("each reference episode's own chatter duration = Zeno point - first impact of its visit (a visit that starts "
+          "in contact: its sliding duration) and sliding duration = exit - Zeno point of that visit; the scene's length "
+          "scale = the gap width, or for a one-sided gap the reference's largest distance from its wall")
+
+
+def explain(tol: Tolerances) -> str:
+    """Every tolerance with its value and what it bounds, against which scale (the reports' provenance).
+
+    Scales are each reference episode's own (module docstring), never the run's or the scene's duration.
+    """
+    parts = [f"{key} = {getattr(tol, key):g}: " + _MEANINGS[key].format(v=f"{getattr(tol, key):g}",
+                                                                          pct=f"{100 * getattr(tol, key):g}%")
+             for key in TOLERANCE_KEYS]
+    return "; ".join(parts) + f". Scales: {SCALES}"
 TIMING_KEYS = ("stick", "exit", "first_impact")  # what a single ``--tolerance T`` sets (tune)
 
 

@@ -45,12 +45,14 @@ _ALL = (
     Verdict("diverged", "failure", "the state went non-finite or the energy grew past its bound", "#e53935", "div"),
     Verdict("penetrated", "broken", "went through a wall, past the scene's penetration allowance", "#ef9a9a", "pen"),
     Verdict("endless", "physics", "chatters through the reference's sliding and never sticks", "#4a148c", "end"),
-    Verdict("missed", "physics", "no sticking where the reference slides", "#b39ddb", "mis"),
+    Verdict("missed", "physics", "never sticks where the reference slides", "#b39ddb", "mis"),
     Verdict("spurious", "physics", "sticks where the reference does not", "#7e57c2", "spu"),
-    Verdict("late", "timing", "sticks, exits or first strikes too late", "#ff9800", "L"),
-    Verdict("early", "timing", "sticks, exits or first strikes too early", "#ffd54f", "E"),
+    Verdict("late", "timing", "sticks, exits or first impacts too late", "#ff9800", "L"),
+    Verdict("early", "timing", "sticks, exits or first impacts too early", "#ffd54f", "E"),
     Verdict("rebound", "impacts", "timing within tolerance, but the resolved impacts do not follow R", "#4fc3f7", "R"),
-    Verdict("match", "agree", "sticking, exit and resolved impacts within tolerance", "#2ca02c", "ok"),
+    Verdict("unmeasured", "impacts", "timing within tolerance, but the step cannot measure any resolved impact to the "
+            "restitution tolerance", "#b0bec5", "?"),
+    Verdict("match", "agree", "stick, exit and resolved impacts within tolerance", "#2ca02c", "ok"),
     Verdict("none", "agree", "no sliding in the reference nor in the engine: they agree", "#e0e0e0", "none"),
 )
 
@@ -62,6 +64,31 @@ PASSING: tuple[str, ...] = tuple(v.name for v in _ALL if v.group in ("agree", "t
 COLOURS: dict[str, str] = {v.name: v.colour for v in _ALL}
 ABBREVIATIONS: dict[str, str] = {v.name: v.abbrev for v in _ALL}
 MEANINGS: dict[str, str] = {v.name: v.meaning for v in _ALL}
+
+# The words the verdicts, the tables and the docs use, one spelling per thing (docs/verdicts.md, the README).
+GLOSSARY: tuple[tuple[str, str], ...] = (
+    ("impact", "body 2 reaches a wall and rebounds by Newton's law y'+ = -R y'- (Feigin (1.3)); the event ``impact``"),
+    ("strike", "an impact's incoming state (time, wall, y'-), before the law acts: what Feigin's plate and the plate "
+               "map classify (a strike slides or leaves)"),
+    ("visit", "body 2's time at one wall: from the first impact after an exit, after an impact on the other wall or "
+              "from the start of the run, until it leaves that wall"),
+    ("episode", "a visit that ends in a stick, in the reference or in the engine: one row of the episode table, "
+                "one verdict"),
+    ("chatter", "a visit's impacts, shrinking from its first impact to the Zeno point"),
+    ("Zeno point", "where the chatter's impacts accumulate, infinitely many in finite time: t + 2 v+ / ((1 - R) |y''|)"
+                   " for an impact at t with rebound speed v+ under a constant y''"),
+    ("plate entry", "the visit's first strike inside Feigin's sliding plate Pi_2 ((2.1)-(2.2)): sliding is certain "
+                    "from there, and Feigin's model sticks at once (event ``plate_entry``)"),
+    ("stick", "the event that starts sliding (``stick``, at ``t_stick``): at the Zeno point, at the plate entry in "
+              "Feigin's model, at the impact itself when R = 0 (``stick_rule`` says which); \"sticks\" and "
+              "\"sticking\" are its verb"),
+    ("sliding", "motion in kinematic constraint (Feigin (1.4)): body 2 rides on the wall, y = 0, from the stick to "
+                "the exit (the code's ``stuck``: ``reference/stuck.py``)"),
+    ("exit", "the end of sliding: the free relative acceleration (3.1) turns away from the wall and the bodies part "
+             "(event ``exit``, at ``t_exit``)"),
+    ("colour", "the spelling of this code's names and texts (``COLOURS``, ``ENGINE_COLOURS``); ``color`` only "
+               "where matplotlib spells it (its keyword, and the values handed to it)"),
+)
 
 
 def rank(verdict: str) -> int:
@@ -98,6 +125,11 @@ def text_colour(verdict: str) -> str:
     return "#000000" if 0.299 * r + 0.587 * g + 0.114 * b > 140 else "#ffffff"
 
 
+def glossary_markdown() -> str:
+    """The glossary as a Markdown list (README, docs/verdicts.md)."""
+    return "\n".join(f"- **{word}**: {meaning.replace('``', '`')}." for word, meaning in GLOSSARY)
+
+
 def document() -> str:
     """docs/verdicts.md: the verdicts, how they combine, and the table (``python -m`` this module writes it)."""
     order = " > ".join(f"`{n}`" for n in SEVERITY)
@@ -117,6 +149,10 @@ def document() -> str:
         " judge (`none` is what agreement on nothing gives, never what a failed run gets).",
         "",
         markdown_table(),
+        "",
+        "## Words",
+        "",
+        glossary_markdown(),
         "",
     ])
 

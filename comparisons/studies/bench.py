@@ -1,5 +1,6 @@
 """Benchmarks run from the command line (``chatterbench bench ...``), never as timed tests.
 
+    >>> from chatterbench.comparisons.studies.bench import bench_reference
     >>> figures = bench_reference(periods=10, repeats=1)
     >>> sorted(figures)
     ['exhaustive_impacts', 'exhaustive_ms', 'exhaustive_us_per_impact', 'feigin_events', 'feigin_ms_per_100_periods',
@@ -67,7 +68,7 @@ def bench_engines(steps: int = 200_000, repeats: int = 3):
     rows = []
     for name in available_engines():
         figures = adapter(name).benchmark(scene, make_settings(name), steps, repeats)
-        ours, raw = figures["adapter_steps_per_s"], figures["raw_steps_per_s"]
+        ours, raw = figures.adapter_steps_per_s, figures.raw_steps_per_s
         rows.append({"engine": name, "steps": steps, "adapter_steps_per_s": ours, "raw_steps_per_s": raw,
                      "ratio": ours / raw})
     return pd.DataFrame(rows)
@@ -97,7 +98,7 @@ def bench_platemap(strikes: int = 100_000, repeats: int = 3) -> dict[str, float]
 def bench_sweep(points: int = 200, workers: int = 2, out_dir: str | Path | None = None) -> dict[str, float]:
     """Time a sweep of feigin-pair comparisons: how much the machinery adds, how it scales.
 
-    ``points`` initial phases (``initial.t`` over one forcing period), both engines, 3 forcing
+    ``points`` initial phases (``initial.t`` over one forcing period), the default engines, 3 forcing
     periods, dt = 1e-4, run with 1 and with ``workers`` local processes.
 
     Returns
@@ -112,7 +113,7 @@ def bench_sweep(points: int = 200, workers: int = 2, out_dir: str | Path | None 
     import tempfile
 
     period = 2.0 * math.pi  # feigin-pair forcing: omega = 1 rad/s
-    sweep = Sweep(scene="feigin-pair", engines=("mujoco", "pybullet"), fixed={"dt": 1e-4, "duration": 3.0 * period},
+    sweep = Sweep(scene="feigin-pair", fixed={"dt": 1e-4, "duration": 3.0 * period},
                   grid={"initial.t": tuple(period * i / points for i in range(points))}, timeout=600.0)
     figures: dict[str, float] = {"points": points, "workers": workers}
     with tempfile.TemporaryDirectory(dir=out_dir) as tmp:
@@ -130,11 +131,11 @@ def bench_sweep(points: int = 200, workers: int = 2, out_dir: str | Path | None 
 
 
 def refine_bench_sweep() -> Sweep:
-    """The adaptive map `bench sweep` times by default: feigin-pair over one forcing period, dt x R, both engines.
+    """The adaptive map `bench sweep` times by default: feigin-pair over one forcing period, dt x R, the default engines.
 
     Depth 2 on a 5 x 5 grid, standing for 17 x 17 (578 runs of the fine grid, a couple of minutes on 2 cores).
     """
-    return Sweep(scene="feigin-pair", engines=("mujoco", "pybullet"), fixed={"duration": 2.0 * math.pi},
+    return Sweep(scene="feigin-pair", fixed={"duration": 2.0 * math.pi},
                  grid={"dt": (1e-4, 10 ** -3.5, 1e-3, 10 ** -2.5, 1e-2), "restitution": (0.1, 0.3, 0.5, 0.7, 0.9)},
                  timeout=600.0, refine={"axes": ["dt", "restitution"], "depth": 2})
 
@@ -211,4 +212,34 @@ def bench_warp(worlds: tuple[int, ...] = (1, 16, 256), steps: int = 500, repeats
                      "nworld": n, "steps": steps, "warp_world_steps_per_s": warp_rate,
                      "warp_bare_world_steps_per_s": bare["world_steps_per_s"], "mujoco_world_steps_per_s": c_rate,
                      "warp_over_mujoco": warp_rate / c_rate, "warmup_s": warp[0].settings.get("warmup_s", math.nan)})
+    return pd.DataFrame(rows)
+
+
+# the cases of the tuning issue's brute-force grid: (scene, engine, tolerance T for stick, exit and first impact)
+TUNE_CASES = (("bouncing-ball", "mujoco", 0.05), ("feigin-pair", "mujoco", 0.05), ("feigin-pair", "pybullet", 0.05),
+              ("spring-pair", "mujoco", 0.1))
+
+
+def bench_tune(cases=TUNE_CASES, workers: int = 2, max_runs: int | None = None):
+    """One ``tune`` per case, timed as a user waits for it (the reference, the search, the repeats' timing).
+
+    Returns a DataFrame, one row per case: scene, engine, tolerance, answer (the chosen settings),
+    robust, margin (worst error / tolerance of the judge's checks), steps_per_sim_s, runs, wall_s, fragile (the cheapest
+    isolated pass, if cheaper).
+    """
+    import pandas as pd
+
+    from .tune import MAX_RUNS, tune
+
+    rows = []
+    for scene_name, engine, tol in cases:
+        start = time.perf_counter()
+        result = tune(load_scene(scene_name), engine, tol, workers=workers, max_runs=max_runs or MAX_RUNS, repeats=3)
+        wall = time.perf_counter() - start
+        c, f = result.chosen, result.fragile
+        rows.append({"scene": scene_name, "engine": engine, "tolerance": tol, "answer": c["settings"] if c else "",
+                     "robust": result.best is not None, "margin": result.margin,
+                     "steps_per_sim_s": c["steps_per_sim_s"] if c else math.nan, "runs": len(result.table),
+                     "wall_s": wall,
+                     "fragile": f["settings"] if f is not None and c is not None and f["settings"] != c["settings"] else ""})
     return pd.DataFrame(rows)

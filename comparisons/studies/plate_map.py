@@ -1,5 +1,7 @@
 """The sliding-plate map: which strikes on a wall end in sliding, by strike phase and speed.
 
+    >>> from chatterbench.reference.scene import load_scene
+    >>> from chatterbench.comparisons.studies.plate_map import plate_map
     >>> table = plate_map(load_scene("feigin-pair"), "lower", n_phase=12, n_speed=8)
     >>> int(table["reference"].sum()) > 0, bool((table["feigin"] <= table["reference"]).all())
     (True, True)
@@ -23,7 +25,7 @@ reference, feigin, and each engine (bool).
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 import pandas as pd
@@ -92,8 +94,12 @@ def plate_map(
     dt: float | None = None,
     overrides: Sequence[str] = (),
     lead: float | None = None,
+    progress: Callable[[str], None] | None = None,
 ) -> pd.DataFrame:
-    """Map which strikes on ``wall`` end in sliding (module docstring); one row per strike."""
+    """Map which strikes on ``wall`` end in sliding (module docstring); one row per strike.
+
+    ``progress``, when given, is called with the engine's name after each engine strike is run.
+    """
     if wall not in scene.gap.walls:
         raise SceneError(f"wall = {wall!r}: must be one of {', '.join(scene.gap.walls)}")
     if not scene.forcing_omegas:  # strikes are placed by the phase of a forcing period
@@ -112,8 +118,10 @@ def plate_map(
     lead = lead if lead is not None else 0.02 * scene.time_scale
     for name in engines:
         settings = make_settings(name, dt, overrides)
-        table[name] = [
-            _engine_sticks(scene, wall, name, settings, float(t), sign * float(v), lead, float(tz))
-            for t, v, tz in zip(T.ravel(), S.ravel(), fates.t_stick.ravel())
-        ]
+        sticks = []
+        for t, v, tz in zip(T.ravel(), S.ravel(), fates.t_stick.ravel()):
+            sticks.append(_engine_sticks(scene, wall, name, settings, float(t), sign * float(v), lead, float(tz)))
+            if progress is not None:
+                progress(name)
+        table[name] = sticks
     return table

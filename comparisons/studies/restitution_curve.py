@@ -1,5 +1,6 @@
 """Effective restitution against impact speed, per engine: one single impact per speed, measured from the engine's samples.
 
+    >>> from chatterbench.comparisons.studies.restitution_curve import restitution_curve
     >>> from chatterbench.engines.registry import make_settings
     >>> curve = restitution_curve("pybullet", make_settings("pybullet", dt=1e-4), 0.5, [0.1, 1.0])
     >>> curve[["speed", "restitution_effective", "rebound"]].round(6).values.tolist()   # a Newton law: R at every speed
@@ -22,11 +23,15 @@ where, for any engine of the registry with any settings:
   ball's case), started ``APPROACH_STEPS`` timesteps of free flight away with the velocity
   that makes them strike at exactly ``speed``; without gravity this is the contact law
   alone, with it the ball dropped so that it arrives at that speed;
-- **measured by the judge's own extraction** (``pipeline/extract.py``): the first impact on
-  the lower wall, e = -v+ / v- (for a soft contact, at contact exit over contact entry); a
-  velocity jump between free samples is an impact only above ``REST_FRACTION`` of the
-  strike speed (the extraction's ``jump_atol``: with no force its floor of 1e-9 m/s would
-  take an integrator's interpolation for an impact);
+- **measured where the body crosses the wall's surface** (``wall_rebound``), both ways:
+  e = -v+ / v- with v- where the body reaches the surface and v+ where it leaves it again,
+  each from the free flight of two samples' positions (``pipeline/surface.py``, the judge's
+  measure too); a soft contact lets go below the
+  surface and gravity still slows the body on its way up, so this, the speed the next
+  flight sees, is less than the speed at release (MuJoCo, dt = 3e-4, w0 dt = 0.1, 0.3 m/s
+  under gravity: 0.457 here, 0.488 at release; a user's own drop measures 0.457,
+  ``tests/.../test_restitution_curve.py``); a velocity jump between free samples is an
+  impact only above ``JUMP_FRACTION`` of the strike speed;
 - **no rebound is e = 0, not NaN**: a run whose bodies stay together after the impact
   (PyBullet under its threshold, a soft contact under gravity too slow to lift off) ends
   in a contact whose relative speed has stayed below ``REST_FRACTION`` of the impact
@@ -52,19 +57,28 @@ at v1 shows which way it goes on both sides), log-spaced. An engine calibrated a
 impact speed names it in its settings as ``calibration_speed`` [m/s] (column
 ``calibration_speed``, NaN where the settings have none: MuJoCo's law holds at every speed).
 
-Columns of the curve (``CURVE_COLUMNS``): engine, speed (the incoming relative speed set
-[m/s], > 0), restitution (nominal R), restitution_effective (e = -v+ / v- [-]; 0 when no
-rebound), restitution_error (e / R - 1), v_minus and v_plus (the measured relative
-velocities before and after [m/s], the wall's normal pointing out of it), rebound (the
-bodies part after the impact, faster than ``REST_FRACTION`` of the impact speed), gravity
-[m/s^2], dt [s], calibration_speed [m/s], status, message.
+Where in a step an impact falls moves a soft contact's e (MuJoCo at w0 dt = 0.3 and
+1.03 m/s under gravity: 0.454 to 0.530 over the step; at w0 dt = 0.1: 0.471 to 0.496): a
+strike halfway through a step gives the middle of that spread, and the whole run's impacts
+(``impact_restitutions``) scatter over it.
+
+Columns of the curve (``CURVE_COLUMNS``): engine, forces ("none", "gravity", or "scene" for
+``scene_restitution``'s strikes), impact, t [s] and wall (the scene's impact a strike
+repeats; NaN, NaN, "lower" here), speed (the incoming relative speed set [m/s], > 0),
+restitution (nominal R), restitution_effective (e = -v+ / v- [-]; 0 when no rebound),
+restitution_error (e / R - 1), restitution_uncertainty (``sampling_uncertainty``: what a
+run's samples would leave of e at this speed), v_minus and v_plus (the measured relative
+velocities at the surface [m/s], y' before and after), rebound (the bodies part after the
+impact, faster than ``REST_FRACTION`` of the impact speed), gravity [m/s^2], dt [s],
+calibration_speed [m/s], status, message.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Any, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -76,19 +90,21 @@ from chatterbench.reference.scene import Scene, load_scene, scene_from_dict
 from chatterbench.reference.simulate import simulate
 
 from ..pipeline.compare import judge_run
-from ..pipeline.extract import ExtractionOptions, extract
+from ..pipeline.extract import free_relative_acceleration
 from ..pipeline.impacts import restitution_error
+from ..pipeline.surface import surface_speed
 from ..pipeline.solution import ReferenceSolution, solve
 from ..pipeline.tolerances import Tolerances
 
-CURVE_COLUMNS = ["engine", "speed", "restitution", "restitution_effective", "restitution_error", "v_minus", "v_plus",
-                 "rebound", "gravity", "dt", "calibration_speed", "status", "message"]
+CURVE_COLUMNS = ["engine", "forces", "impact", "t", "wall", "speed", "restitution", "restitution_effective",
+                 "restitution_error", "restitution_uncertainty", "v_minus", "v_plus", "rebound", "gravity", "dt", "calibration_speed", "status", "message"]
 IMPACT_COLUMNS = ["engine", "impact", "t", "speed", "ref_speed", "restitution", "restitution_effective",
-                  "restitution_error", "restitution_uncertainty"]
+                  "restitution_error", "restitution_uncertainty", "worst"]
 APPROACH_STEPS = 20  # [steps] free flight sampled before the strike (the extraction carries the last free sample to the wall)
 AFTER_STEPS = 256  # [steps] run after the strike at the first try (MuJoCo's default contact lasts ~105)
 EXTEND = 4  # [-] each further try runs this many times longer after the strike
 TRIES = 4  # [-] runs at most per speed: 256, 1024, 4096, 16384 steps after the strike
+JUMP_FRACTION = 0.1  # [-] of the strike speed: a velocity jump between two free samples this large is an impact
 REST_FRACTION = 1e-3  # [-] of the strike speed: below it a contact is at rest, a parting is no rebound, a jump no impact
 DECADES_BELOW = 2.0  # the default speeds span this many decades below the scene's first impact speed ...
 ABOVE = 2.0  # ... up to this many times it
@@ -155,6 +171,15 @@ def impact_scene(scene: Scene, restitution: float, speed: float, dt: float, grav
     return scene_from_dict(data)
 
 
+def sampling_uncertainty(restitution: float, pressing: float, dt: float, speed: float) -> float:
+    """u = (1 + R) |y''| dt / (R v) [-]: what a time-stepper's samples leave of e at speed v (``pipeline/impacts.py``).
+
+    Where it is within the restitution tolerance, the judge holds a run's impact to R (the
+    strikes of ``scene_restitution`` that count against a setting); slower, the samples cannot.
+    """
+    return (1.0 + restitution) * abs(pressing) * dt / (restitution * speed)
+
+
 def calibration_speed(settings: Any) -> float:
     """The impact speed [m/s] an engine's settings are calibrated at (their ``calibration_speed`` > 0), NaN if none."""
     value = getattr(settings, "calibration_speed", None)
@@ -181,29 +206,79 @@ def pinned_settings(settings: Any, record: Mapping[str, Any]) -> Any:
     return dataclasses.replace(settings, **changes) if changes else settings
 
 
-def _one_impact(engine: str, settings: Any, scene: Scene, restitution: float, speed: float, gravity: float) -> dict:
-    """Strike once at ``speed``, running longer while the contact is still moving at the end (module docstring)."""
+@dataclass(frozen=True)
+class Rebound:
+    """One strike measured at the wall's surface: speeds in the wall's normal [m/s], e = v_plus / -v_minus [-]."""
+
+    v_minus: float  # < 0: the incoming speed where the body reaches the wall's surface
+    v_plus: float  # >= 0: the speed where it leaves the surface again (0: it never left); NaN: not yet known
+    restitution_effective: float  # e = -v_plus / v_minus; NaN: not yet known
+    rebound: bool  # the body left the wall faster than REST_FRACTION of the strike
+    status: str = "ok"  # "ok", "no impact", "unfinished"
+
+
+def wall_rebound(traj: Trajectory, scene: Scene, wall: str, speed: float) -> Rebound:
+    """The first strike of ``traj`` on ``wall``, measured where the body crosses the wall's surface both ways.
+
+    In the wall's normal (d = n (y - y_wall) > 0 free, u = n y', a = n y''_free; n = +1 lower,
+    -1 upper): the strike is the first sample in contact (the engine's flag, else d <= 0) or
+    moving away (u > 0: an impact between two samples); its incoming speed is the free flight
+    of the two samples before it carried to d = 0 (``pipeline/surface.py``, as the judge measures it). The rebound is where
+    the body is next free and outside the wall (d > 0), carried back to d = 0 along the free
+    flight after it: a soft contact lets go below the surface and gravity still slows the
+    body on its way up, so the speed at the surface, the one that sets the flight Newton's
+    y'+ = -R y'- describes, is less than the speed at release. A body still in the wall at the
+    end is held (e = 0) if it has been at rest, |u| <= ``REST_FRACTION`` ``speed``, over the
+    last quarter of its samples since the strike, else ``unfinished``.
+    """
+    n = 1.0 if wall == "lower" else -1.0
+    t = np.asarray(traj.t, dtype=float)
+    d = n * (traj.y - scene.gap.position(wall))
+    u = n * traj.vy
+    a = n * free_relative_acceleration(scene, t, traj.x1, traj.v1, traj.y, traj.vy)
+    flag = traj.contact.get(wall) if traj.contact else None
+    contact = np.asarray(flag, dtype=bool) if flag is not None and len(flag) == len(d) else d <= 0.0
+    free_out = ~contact & (d > 0.0)
+    h = np.diff(t)
+    jump = np.concatenate(([0.0], np.diff(u) - 0.5 * (a[1:] + a[:-1]) * h))  # what the free motion cannot do
+    hit = np.flatnonzero(~free_out | ((u > 0.0) & (jump > JUMP_FRACTION * speed)))
+    if not len(hit) or hit[0] == 0:
+        return Rebound(math.nan, math.nan, math.nan, False, "no impact")
+    p = int(hit[0])
+    v_minus = -float(surface_speed(t, d, u, a, p - 1, p - 2 if p >= 2 else None))
+    out = np.flatnonzero(free_out[p:]) + p
+    if len(out):
+        q = int(out[0])
+        j = q + 1 if q + 1 < len(d) and free_out[q + 1] and u[q + 1] > 0.0 else (q - 1 if not contact[q - 1] else None)
+        v_plus = float(surface_speed(t, d, u, a, q, j))
+        return Rebound(v_minus, v_plus, v_plus / -v_minus, bool(v_plus > REST_FRACTION * speed))
+    tail = np.abs(u[-max(2, (len(u) - p) // 4):])
+    if tail.max() <= REST_FRACTION * speed:  # held, at rest: no rebound
+        return Rebound(v_minus, 0.0, 0.0, False)
+    return Rebound(v_minus, math.nan, math.nan, False, "unfinished")
+
+
+def strike(engine: str, settings: Any, make_scene: Callable[[int], Scene], wall: str, speed: float) -> dict:
+    """Run ``make_scene(after_steps)`` and measure its first strike on ``wall`` (``wall_rebound``), running longer
+    (``EXTEND`` times, ``TRIES`` runs at most) while the body is still in a moving contact at the end.
+
+    Returns the curve's measured columns: v_minus, v_plus (relative velocities in y [m/s]),
+    restitution_effective, rebound, status, message.
+    """
+    n = 1.0 if wall == "lower" else -1.0
     row = {"v_minus": math.nan, "v_plus": math.nan, "restitution_effective": math.nan, "rebound": False,
            "status": "ok", "message": ""}
     for attempt in range(TRIES):
-        start = impact_scene(scene, restitution, speed, settings.dt, gravity, AFTER_STEPS * EXTEND**attempt)
+        start = make_scene(AFTER_STEPS * EXTEND**attempt)
         traj = run_engine(engine, start, settings)
         if traj.status != "ok" or len(traj.t) < 2:
             return {**row, "status": traj.status, "message": traj.message}
-        # with no force, any velocity jump between two free samples over jump_atol would count as an impact:
-        # a jump must be REST_FRACTION of the strike to be one (an integrator's interpolation makes 1e-7 m/s)
-        impacts = extract(traj, start, options=ExtractionOptions(jump_atol=REST_FRACTION * speed)).impacts
-        impacts = impacts[impacts["wall"] == "lower"]
-        if impacts.empty:
-            return {**row, "status": "no impact", "message": f"no impact on the lower wall in {start.duration:.3g} s"}
-        first = impacts.iloc[0]
-        row.update(v_minus=float(first["v_minus"]), v_plus=float(first["v_plus"]))
-        if np.isfinite(first["v_plus"]):  # the contact let go: e = -v+ / v-
-            return {**row, "restitution_effective": -float(first["v_plus"]) / float(first["v_minus"]),
-                    "rebound": bool(first["v_plus"] > REST_FRACTION * speed)}
-        tail = np.abs(np.asarray(traj.vy[-max(2, AFTER_STEPS * EXTEND**attempt // 4):], dtype=float))
-        if tail.max() <= REST_FRACTION * speed:  # held, at rest over the last quarter of the run: no rebound
-            return {**row, "restitution_effective": 0.0}
+        got = wall_rebound(traj, start, wall, speed)
+        if got.status == "no impact":
+            return {**row, "status": "no impact", "message": f"no impact on the {wall} wall in {start.duration:.3g} s"}
+        if got.status == "ok":
+            return {**row, "v_minus": n * got.v_minus, "v_plus": n * got.v_plus,
+                    "restitution_effective": got.restitution_effective, "rebound": got.rebound}
     return {**row, "status": "unfinished",
             "message": f"still in a moving contact {AFTER_STEPS * EXTEND**(TRIES - 1)} steps after the strike"}
 
@@ -237,10 +312,12 @@ def restitution_curve(engine: str, settings: Any, restitution: float, speeds: Se
     scene = scene if scene is not None else load_scene("bouncing-ball")
     rows = []
     for v in speeds:
-        row = _one_impact(engine, settings, scene, restitution, v, gravity)
-        rows.append({"engine": engine, "speed": v, "restitution": restitution,
+        row = strike(engine, settings, lambda steps, v=v: impact_scene(scene, restitution, v, settings.dt, gravity, steps),
+                     "lower", v)
+        rows.append({"engine": engine, "forces": "gravity" if gravity > 0 else "none", "impact": math.nan, "t": math.nan,
+                     "wall": "lower", "speed": v, "restitution": restitution,
                      "restitution_error": float(restitution_error(np.float64(row["restitution_effective"]), restitution)),
-                     "gravity": gravity, "dt": float(settings.dt), "calibration_speed": calibration_speed(settings), **row})
+                     "restitution_uncertainty": sampling_uncertainty(restitution, gravity, settings.dt, v), "gravity": gravity, "dt": float(settings.dt), "calibration_speed": calibration_speed(settings), **row})
     return pd.DataFrame(rows, columns=CURVE_COLUMNS)
 
 
@@ -255,12 +332,21 @@ def impact_restitutions(engine: str, settings: Any, scene: Scene, solution: Refe
     order over every visit), t [s], speed (the engine's incoming speed [m/s]), ref_speed (the
     paired reference impact's), restitution (the scene's R), restitution_effective (e),
     restitution_error (e / R - 1) and restitution_uncertainty (what one step's sampling
-    leaves undetermined, ``pipeline/impacts.py``). A failed run has no rows.
+    leaves undetermined, ``pipeline/impacts.py``) and worst (true for the one impact whose
+    error the judge reports as the run's restitution error: per visit the pair of largest
+    excess over its uncertainty, then the largest of those in magnitude, the report's
+    ``restitution_error_max``). A failed run has no rows.
     """
     ref = solution if solution is not None else solve(scene)
-    _, _, pairs = judge_run(ref, engine, settings, tol or Tolerances(), trajectory)
+    _, table, pairs = judge_run(ref, engine, settings, tol or Tolerances(), trajectory)
     pairs = pairs.sort_values("t", kind="stable").reset_index(drop=True)
+    errors = table["restitution_error"].astype(float).dropna() if "restitution_error" in table else pd.Series(dtype=float)
+    worst = np.zeros(len(pairs), dtype=bool)
+    if len(errors) and len(pairs):
+        hit = np.flatnonzero(pairs["restitution_error"].to_numpy(dtype=float) == errors.loc[errors.abs().idxmax()])
+        worst[hit[:1]] = True
     return pd.DataFrame({"engine": engine, "impact": np.arange(1, len(pairs) + 1), "t": pairs["t"],
                          "speed": pairs["v_minus"], "ref_speed": pairs["ref_v_minus"], "restitution": scene.restitution,
                          "restitution_effective": pairs["restitution"], "restitution_error": pairs["restitution_error"],
-                         "restitution_uncertainty": pairs["restitution_uncertainty"]}, columns=IMPACT_COLUMNS)
+                         "restitution_uncertainty": pairs["restitution_uncertainty"], "worst": worst},
+                        columns=IMPACT_COLUMNS)

@@ -1,22 +1,38 @@
-"""Engine tuning: for a scene and tolerances, the cheapest settings that pass, and every cheaper one with the check it failed.
+"""Engine tuning: for a scene and tolerances, the cheapest robust settings that pass, how far the search looked, and every candidate.
 
+    >>> from chatterbench.reference.scene import load_scene
+    >>> from chatterbench.comparisons.studies.tune import tune, Tolerances
     >>> space = {"dt": (1e-3, 3e-4), "mujoco.w0_dt": (0.1,)}
-    >>> result = tune(load_scene("feigin-pair", ["duration=12.6"]), "mujoco", Tolerances(), space=space, workers=1,
-    ...               refine_steps=0)
-    >>> result.best["settings"]            # the recommended settings (None if nothing passes)
-    'dt=0.0003, mujoco.w0_dt=0.1'
-    >>> result.table.loc[0, "failed"]      # the cheaper candidate, and why it fails
-    'sticking error +0.124 of the chatter > 0.05'
+    >>> result = tune(load_scene("feigin-pair", ["duration=12.6"]), "mujoco", Tolerances(restitution=0.15), space=space,
+    ...               workers=1, refine_steps=0)
+    >>> result.best is None, result.fragile["settings"]      # a pass, but an isolated one: no robust answer here
+    (True, 'dt=0.0003, mujoco.w0_dt=0.1')
+    >>> result.fragile["neighbourhood"]                       # its neighbours fail
+    'dt x0.8: rebound; dt x1.25: late'
+    >>> result.table.loc[0, "failed"]                         # the cheapest candidate, and why it fails
+    'sticking error +0.124 of the chatter > 0.05; resolved impacts differ by 2 > 1'
 
-``outputs/guide.py`` turns the result into the tuning guide.
+``outputs/guide.py`` turns the result into the tuning guide; ``recommended`` into ``recommended.json``.
 
-The search (``tune_search.py``) walks each engine's own space (``EngineAdapter.tuning_space``:
-a dt ladder and, per setting, its values, the default first) one setting at a time, each
-combination down the dt ladder from coarse to fine until a level passes, then bisects dt
-between the cheapest pass and the failure above it. Every candidate is judged by the one
-judge (``pipeline.compare.judge_run``) against one reference solution, condensed to the
-summary row (``pipeline.summary.metrics``) plus each check's error over its tolerance
-(``tune_checks``): ``failed`` names the checks that failed with their measures.
+The space (``search_space``): dt from the scene's own scales (``dt_range``: the coarsest dt
+worth trying is the tightest timing tolerance in seconds, a step that places an event no
+better than the tolerance, or a quarter of the flight time across the gap at the fastest
+strike, whichever is less; the finest needed is ``FINEST`` (1/1000) of that tolerance, but
+never finer than the finest dt the engine declares),
+and each engine's contact knobs as its adapter declares them (``EngineAdapter.tuning_space``).
+The search (``tune_search.py``): a coarse joint grid over dt and every knob, refined where
+verdicts change and around the best candidates, each pass's neighbourhood run (dt x 0.8 and
+x 1.25, the main knob's adjacent values, half-way to the adjacent values of every other
+real-valued knob), within ``max_runs`` runs. Every candidate is judged by the one judge
+(``pipeline.compare.judge_run``) against one reference solution, condensed to the summary row
+(``pipeline.summary.metrics``) plus each check's error over its tolerance (``tune_checks``):
+``failed`` names the checks that failed with their measures. The settings are also struck
+under the scene's own forces at the impacts the judge resolves (``tune_checks.scene_strikes``):
+a robust candidate whose strikes miss R where the judge holds a time-stepper to it
+(``scene_restitution_ratio`` > 1) is recommended only when no robust one meets R there.
+The budget (``max_runs``, default ``MAX_RUNS``) counts runs of up to ``UNIT_STEPS`` steps, a
+longer run as several, so that a scene of long runs searches fewer of them in about the time
+a short scene searches many.
 
 Cost and choice. The cost of a candidate is its steps per simulated second (1 / dt: every
 searched setting makes one force evaluation per step, so this is the work, and it is free
@@ -24,12 +40,17 @@ of timing noise), with the wall-clock stepping time per simulated second beside 
 (``cost_per_sim_s``: the minimum over ``repeats`` runs for the candidates the choice is
 between, interleaved, one run for the others; ``cost_repeats`` says which): reported, never
 deciding, since on a shared machine it follows the load (``TIE_BAND``'s comment). The
-recommendation is the passing candidate (verdicts ``match`` or ``none`` in every episode) of
-fewest steps; those within ``tie_band`` (10%) of it in steps are tied, and the tie goes to the
-simplest: fewest settings away from the engine's defaults, then the larger dt, then the
-smaller wall time. When nothing
-passes, ``best_reachable`` is the candidate with the most matching episodes, then the
-smallest ``worst_ratio`` (its worst error over its tolerance), then the fewest steps.
+recommendation (``best``) is the *robust* passing candidate (verdicts ``match`` or ``none`` in
+every episode, and in every episode of each neighbour) of fewest steps; those within
+``tie_band`` (10%) of it in steps are tied, and the tie goes to the simplest: fewest settings
+away from the engine's defaults, then the larger dt, then the smaller wall time. Beside it,
+``fragile``: the cheapest pass whose neighbourhood fails, when it is cheaper than the answer
+(an isolated point: a small change of the model can land on a failure). The margin is the
+answer's worst error over its tolerance among the judge's checks (restitution under the
+scene's forces beside it). When nothing robust passes, ``best_reachable`` is the
+pass whose neighbourhood fails least (fewest failing neighbours, then the smallest worst ratio
+over the neighbourhood, then the fewest steps), else the candidate with the most matching
+episodes, then the smallest ``worst_ratio``, then the fewest steps.
 """
 
 from __future__ import annotations
@@ -50,12 +71,18 @@ from ..pipeline.compare import judge_run
 from ..pipeline.solution import ReferenceSolution, solve
 from ..pipeline.summary import METRIC_COLUMNS, metrics
 from ..pipeline.tolerances import Tolerances
-from .tune_checks import RATIO_COLUMNS, check_ratios, describe_failures
-from .tune_search import agrees, search
+from .tune_checks import CHECKS, RATIO_COLUMNS, STRIKE_COLUMNS, check_ratios, describe_failures, scene_strikes, strike_summary
+from .tune_search import DT_RATIO, SEARCH_COLUMNS, Grid, agrees, round_dt, search
 
-TUNE_COLUMNS = ["stage", "dt", "settings", "verdict", "n_episodes", "n_match", "failed", *RATIO_COLUMNS,
+TUNE_COLUMNS = ["stage", "dt", "settings", "verdict", "n_episodes", "n_match", "failed", *SEARCH_COLUMNS, *RATIO_COLUMNS,
+                *STRIKE_COLUMNS,
                 *METRIC_COLUMNS, "steps_per_sim_s", "cost_per_sim_s", "cost_repeats", "n_non_default", "status", "message"]
 TIE_BAND = 0.1  # [-] steps per simulated second within 10% of each other are a tie
+FINEST = 1e-3  # [-] the finest dt searched, as a fraction of the coarsest (the tightest timing tolerance in s)
+FLIGHT_STEPS = 4  # the coarsest dt takes at least this many steps across the gap at the fastest strike
+MAX_RUNS = 600  # the search's budget: runs of up to UNIT_STEPS engine steps (a neighbourhood once begun is completed)
+UNIT_STEPS = 100_000  # a run of more steps counts as steps / UNIT_STEPS runs of the budget (its work)
+DEPTH = 2  # refinement levels: the finest dt lattice is DT_RATIO apart, the coarse grid DT_RATIO ** 4
 # Wall time decides nothing: on this shared 2-core machine the least of 3 interleaved timings of PyBullet at
 # dt = 4.05e-4 with 10 and 50 solver iterations (identical trajectories) came out 1.10x apart in one measurement
 # and 2.2x in another (tune feigin-pair --engine pybullet --tolerance 0.01): a choice by it follows the load.
@@ -67,30 +94,46 @@ class TuneError(SceneError):
 
 @dataclass(frozen=True)
 class TuneResult:
-    """Every candidate tried (``table``, cheapest first), the recommendation and the best reachable candidate."""
+    """Every candidate tried (``table``, cheapest first), the recommendation, the fragile pass and the best reachable."""
 
     scene: Scene
     engine: str
     tolerance: Tolerances
     table: pd.DataFrame  # TUNE_COLUMNS plus one column per searched setting
-    best: dict[str, Any] | None  # the recommended candidate (module docstring), None if nothing passes
-    best_reachable: dict[str, Any] | None  # most matches, then smallest worst_ratio, whatever the verdict
-    extra: dict[str, Any] = field(default_factory=dict)  # space, defaults, tie band, repeats, wall time, solution
+    best: dict[str, Any] | None  # the cheapest robust pass (module docstring), None if none
+    best_reachable: dict[str, Any] | None  # when nothing robust passes: the closest (module docstring)
+    extra: dict[str, Any] = field(default_factory=dict)  # space, grid, searched, defaults, tie band, repeats, wall time
+    fragile: dict[str, Any] | None = None  # the cheapest pass whose neighbourhood fails, if cheaper than ``best``
 
     @property
     def chosen(self) -> dict[str, Any] | None:
-        """The recommendation, or when nothing passes the best reachable candidate."""
+        """The recommendation, or when nothing robust passes the best reachable candidate."""
         return self.best if self.best is not None else self.best_reachable
 
-    def cheaper(self) -> pd.DataFrame:
-        """The failing candidates no more expensive than the chosen one (steps within the tie band), cheapest first."""
+    @property
+    def margin(self) -> float:
+        """The chosen candidate's worst error over its tolerance among the judge's checks [-] (<= 1: passes, the
+        smaller the more room; inf: an episode with no error to measure; NaN: none ran). Restitution under the
+        scene's forces, which the judge does not check, is ``scene_restitution_ratio`` beside it."""
+        c = self.chosen
+        if c is None:
+            return math.nan
+        if not math.isfinite(c["worst_ratio"]):
+            return math.inf
+        judged = [c.get(f"{name}_ratio", math.nan) for name in CHECKS if name != "scene_restitution"]
+        return max((float(r) for r in judged if not math.isnan(r)), default=0.0)
+
+    def cheaper(self, fragile: bool = False) -> pd.DataFrame:
+        """The failing candidates no more expensive than the chosen one (steps within the tie band), cheapest first;
+        ``fragile``: the passes among them whose neighbourhood fails instead."""
         c = self.chosen
         if c is None:
             return self.table.iloc[0:0]
         t = self.table
         key = cost_key(t[t["verdict"] != "refused"])
         limit = c[key] * (1.0 + self.extra.get("tie_band", TIE_BAND))
-        return t[(t[key] <= limit) & ~passing(t["verdict"]) & (t["settings"] != c["settings"])]
+        which = (passing(t["verdict"]) & (t["robust"] == False)) if fragile else ~passing(t["verdict"])  # noqa: E712
+        return t[(t[key] <= limit) & which & (t["settings"] != c["settings"])]
 
 
 def passing(verdicts: pd.Series) -> pd.Series:
@@ -118,8 +161,9 @@ def _evaluate(ref: ReferenceSolution, engine: str, params: dict, tol: Tolerances
     """Run one candidate and judge it (runs in a worker process)."""
     settings = make_settings(engine, params["dt"], overrides_of(params))
     run, table, impacts = judge_run(ref, engine, settings, tol)
-    ratios = check_ratios(table, impacts, tol, tol.penetration * ref.length_scale)
-    return {**params, "settings": settings_label(params), **metrics(table), **ratios,
+    strikes = scene_strikes(engine, settings, ref, tol, run.trajectory.settings) if run.status == "ok" else None
+    ratios = check_ratios(table, impacts, tol, tol.penetration * ref.length_scale, strikes)
+    return {**params, "settings": settings_label(params), **metrics(table), **ratios, **strike_summary(strikes, tol),
             "failed": describe_failures(table, ratios, tol), "steps_per_sim_s": steps_per_sim_s(engine, settings, run),
             "cost_per_sim_s": run.cost_per_sim_s, "cost_repeats": 1, "status": run.status, "message": run.trajectory.message}
 
@@ -183,20 +227,73 @@ def _tied(frame: pd.DataFrame, column: str, band: float) -> pd.DataFrame:
 
 
 def choose(table: pd.DataFrame, band: float = TIE_BAND) -> dict[str, Any] | None:
-    """The recommendation among ``table``'s passing candidates (module docstring); None if none passes."""
+    """The recommendation among ``table``'s robust passing candidates (module docstring); None if none.
+
+    Where no neighbourhood was run (``robust`` missing or None everywhere), every pass counts.
+    """
     ok = table[passing(table["verdict"])]
+    if "robust" in ok and ok["robust"].notna().any():
+        ok = ok[ok["robust"] == True]  # noqa: E712 (an object column: True, False or None)
     if ok.empty:
         return None
+    meets_r = ok[~(ok["scene_restitution_ratio"] > 1.0)] if "scene_restitution_ratio" in ok else ok
+    ok = meets_r if len(meets_r) else ok  # R missed under the scene's forces counts against a candidate
     tied = _tied(ok, cost_key(ok), band)
     return tied.sort_values(["n_non_default", "dt", "cost_per_sim_s"], ascending=[True, False, True]).iloc[0].to_dict()
 
 
+def fragile(table: pd.DataFrame, best: dict[str, Any] | None) -> dict[str, Any] | None:
+    """The cheapest pass whose neighbourhood fails, when it is cheaper than ``best`` (or there is no ``best``)."""
+    if "robust" not in table:
+        return None
+    weak = table[passing(table["verdict"]) & (table["robust"] == False)]  # noqa: E712
+    if best is not None:
+        weak = weak[weak["steps_per_sim_s"] < best["steps_per_sim_s"]]
+    return None if weak.empty else weak.sort_values("steps_per_sim_s").iloc[0].to_dict()
+
+
 def reachable(table: pd.DataFrame) -> dict[str, Any] | None:
-    """The best reachable candidate: most matching episodes, then the smallest worst ratio, then the fewest steps."""
+    """The best reachable candidate (module docstring): a fragile pass failing least, else most matching episodes,
+    then the smallest worst ratio, then the fewest steps."""
     ran = table[table["verdict"] != "refused"]
     if ran.empty:
         return None
+    if "robust" in ran:
+        weak = ran[passing(ran["verdict"]) & (ran["robust"] == False)]  # noqa: E712
+        if len(weak):
+            n_fail = weak["neighbourhood"].str.count(";") + 1
+            return (weak.assign(_n=n_fail).sort_values(["_n", "neighbourhood_worst_ratio", "steps_per_sim_s"])
+                    .drop(columns="_n").iloc[0].to_dict())
     return ran.sort_values(["n_match", "worst_ratio", "steps_per_sim_s"], ascending=[False, True, True]).iloc[0].to_dict()
+
+
+def dt_range(solution: ReferenceSolution, tol: Tolerances) -> tuple[float, float]:
+    """The coarsest dt worth trying and the finest needed [s], from the scene's own scales (module docstring).
+
+    The tightest timing tolerance in seconds: each episode's sticking and first-impact tolerance
+    (fractions of its chatter duration, or of its sliding for a visit that starts in contact) and
+    exit tolerance (of its sliding duration); the flight: the length scale at the fastest strike.
+    """
+    eps = solution.episodes
+    limits = [tol.stick * eps["stick_scale"], tol.first_impact * eps["stick_scale"], tol.exit * eps["sliding_duration"]]
+    timing = pd.concat(limits).astype(float)
+    timing = timing[(timing > 0) & timing.map(math.isfinite)]
+    flight = solution.length_scale / solution.v_max if solution.v_max > 0 else math.nan
+    scales = ([float(timing.min())] if len(timing) else []) + ([flight / FLIGHT_STEPS] if math.isfinite(flight) else [])
+    coarse = min(scales, default=solution.scene.time_scale / 100)
+    return coarse * FINEST, coarse
+
+
+def search_space(engine: str, scene: Scene, tol: Tolerances, solution: ReferenceSolution | None = None,
+                 depth: int = DEPTH) -> dict[str, tuple]:
+    """The space ``tune`` searches: coarse dt from ``dt_range`` (DT_RATIO ** 2**depth apart, coarse to fine; never
+    finer than the finest dt the engine declares), the engine's declared knobs (``engine_space``), checked."""
+    fine, coarse = dt_range(solution or solve(scene), tol)
+    declared = engine_space(engine, scene)
+    fine = min(max(fine, min(declared["dt"])), coarse)  # never finer than the engine's own finest declared dt
+    ratio = DT_RATIO ** (2 ** depth)
+    n = math.floor(math.log(coarse / fine) / math.log(ratio) + 1e-9) + 1  # the finest row at or above ``fine``
+    return {"dt": tuple(round_dt(coarse / ratio ** k) for k in range(n)), **{k: v for k, v in declared.items() if k != "dt"}}
 
 
 def engine_space(engine: str, scene: Scene, space: dict[str, Sequence] | None = None) -> dict[str, tuple]:
@@ -224,11 +321,13 @@ def tune(
     space: dict[str, Sequence] | None = None,
     executor: Executor | None = None,
     workers: int | None = None,
-    refine_steps: int = 2,
+    refine_steps: int = DEPTH,
     repeats: int = 1,
     tie_band: float = TIE_BAND,
+    max_runs: int = MAX_RUNS,
+    check_robust: bool = True,
 ) -> TuneResult:
-    """The cheapest settings of ``engine`` whose every episode passes within ``tolerance`` (module docstring).
+    """The cheapest robust settings of ``engine`` whose every episode passes within ``tolerance`` (module docstring).
 
     Parameters
     ----------
@@ -236,27 +335,34 @@ def tune(
         The verdict tolerances; a number sets the sticking, exit and first-impact
         tolerances at once (fractions of each episode's chatter or sliding duration).
     space : dict, optional
-        ``"dt"`` -> timesteps [s] and ``"engine.field"`` -> values, defaults first (default: the
-        engine's ``tuning_space(scene)``).
+        ``"dt"`` -> coarse timesteps [s] and ``"engine.field"`` -> values, defaults first (default:
+        ``search_space``: dt from the scene's scales, the knobs the engine declares).
     refine_steps : int
-        Geometric bisections of dt between the cheapest pass and the failure above it.
+        Refinement levels of the lattice (``tune_search``); 0: the coarse grid only.
     repeats : int
         Timed runs, the minimum taken, of the candidates the choice is between (>= 1).
     tie_band : float
         Relative cost difference under which candidates are tied [-].
+    max_runs : int
+        The budget: runs of up to ``UNIT_STEPS`` engine steps, a longer run counting as its steps /
+        ``UNIT_STEPS`` (a pass's neighbourhood, once begun, is completed).
+    check_robust : bool
+        Run each pass's neighbourhood (False: every pass counts, ``robust`` stays None).
     """
     check_engine(engine)
     tol = tolerance if isinstance(tolerance, Tolerances) else Tolerances(stick=tolerance, exit=tolerance, first_impact=tolerance)
-    if not (isinstance(repeats, int) and repeats >= 1):
-        raise TuneError(f"tune repeats = {repeats!r}: must be an integer >= 1")
-    space = engine_space(engine, scene, space)
+    for name, value, lo in (("repeats", repeats, 1), ("refine_steps", refine_steps, 0), ("max_runs", max_runs, 1)):
+        if not (isinstance(value, int) and value >= lo):
+            raise TuneError(f"tune {name} = {value!r}: must be an integer >= {lo}")
     started = time.perf_counter()
     ref = solve(scene)
+    space = engine_space(engine, scene, space) if space is not None else search_space(engine, scene, tol, ref, refine_steps)
+    grid = Grid.make(space, refine_steps)
     own = executor is None
     executor = executor or ProcessPoolExecutor(max_workers=workers)
     try:
-        rows = search(_evaluator(executor, ref, engine, tol), space, refine_steps, tie_band,
-                      lambda found: _current(found, space, tie_band))
+        rows = search(_evaluator(executor, ref, engine, tol), grid, max_runs, tie_band, check_robust,
+                      weight=lambda p: max(1.0, scene.duration / p["dt"] / UNIT_STEPS))
     finally:
         if own:
             executor.shutdown()
@@ -264,6 +370,7 @@ def tune(
     best = choose(table, tie_band)
     if best is not None and repeats > 1:  # time the candidates the choice is between again, and choose again
         ok = table[passing(table["verdict"])]
+        ok = ok[ok["robust"] != False]  # noqa: E712
         tied = _tied(ok, cost_key(ok), tie_band).index
         more = _time(scene, engine, [{k: table.at[i, k] for k in space} for i in tied], repeats - 1)
         for i, times in zip(tied, more):
@@ -271,16 +378,60 @@ def tune(
             table.at[i, "cost_per_sim_s"] = min(times)
             table.at[i, "cost_repeats"] = len(times)
         best = choose(table, tie_band)
-    return TuneResult(scene=scene, engine=engine, tolerance=tol, table=table, best=best, best_reachable=reachable(table),
-                      extra={"space": space, "defaults": {k: v[0] for k, v in space.items() if k != "dt"},
-                             "tie_band": tie_band, "repeats": repeats, "wall_time_s": time.perf_counter() - started,
-                             "solution": ref})
+    wall = time.perf_counter() - started
+    work = float((scene.duration / table["dt"] / UNIT_STEPS).clip(lower=1.0).sum())
+    searched = {**grid.describe(), "runs": len(table), "max_runs": max_runs, "budget_used": round(work, 1),
+                "budget_spent": work >= max_runs - 1,
+                "levels": sorted({int(v) for v in table["level"].dropna()}), "robustness_checked": check_robust}
+    return TuneResult(scene=scene, engine=engine, tolerance=tol, table=table, best=best,
+                      best_reachable=None if best is not None else reachable(table), fragile=fragile(table, best),
+                      extra={"space": space, "grid": grid, "searched": searched,
+                             "defaults": {k: v[0] for k, v in space.items() if k != "dt"},
+                             "tie_band": tie_band, "repeats": repeats, "wall_time_s": wall, "solution": ref})
 
 
-def _current(rows: list[dict], space: dict[str, tuple], band: float) -> dict[str, Any] | None:
-    """The search's current choice: the recommendation if any, else the best reachable (``tune_search``)."""
-    frame = _frame(rows, space)
-    return choose(frame, band) or reachable(frame)
+def recommended(result: TuneResult) -> dict[str, Any] | None:
+    """``recommended.json``: the chosen candidate as ``compare --engines E --dt DT --set K=V ...`` takes it."""
+    c = result.chosen
+    if c is None:
+        return None
+    keys = [k for k in result.extra["space"] if k != "dt"]
+    out = {"engine": result.engine, "scene": result.scene.name, "dt": float(c["dt"]),
+           "settings": {k: _plain(c[k]) for k in keys}, "robust": bool(result.best is not None),
+           "margin": _plain(result.margin), "scene_restitution_ratio": _plain(c.get("scene_restitution_ratio", math.nan)),
+           "cost_steps_per_s": _plain(c["steps_per_sim_s"]),
+           "verdict": c["verdict"], "failed": c["failed"] or "", "neighbourhood_fails": c.get("neighbourhood") or "",
+           "tolerances": result.tolerance.as_dict(), "searched": {**result.extra["searched"],
+                                                                  "wall_time_s": round(result.extra["wall_time_s"], 2)}}
+    f = result.fragile
+    out["fragile"] = None if f is None else {"dt": float(f["dt"]), "settings": {k: _plain(f[k]) for k in keys},
+                                             "cost_steps_per_s": _plain(f["steps_per_sim_s"]),
+                                             "neighbourhood_fails": f["neighbourhood"]}
+    return out
+
+
+def searched_text(result: TuneResult) -> str:
+    """How far the search looked, in one sentence: runs, ranges, refinement, budget (the guide and the terminal)."""
+    x = result.extra["searched"]
+    grid: Grid = result.extra["grid"]
+    parts = [f"dt {x['dt'][0]:.3g}..{x['dt'][1]:.3g} s ({x['dt_coarse']} coarse values"
+             + (f", {DT_RATIO:g}x apart at the finest)" if x["dt_finest_ratio"] else ")")]
+    if grid.knob is not None:
+        lo, hi = x[grid.knob]
+        parts.append(f"{grid.knob.split('.', 1)[-1]} {lo:.3g}..{hi:.3g} ({x[grid.knob + '_coarse']} coarse values)")
+    parts += [f"{k.split('.', 1)[-1]} {'/'.join(f'{v:g}' if isinstance(v, float) else str(v) for v in vals)}"
+              for k, vals in grid.others.items()]
+    levels = max([lv for lv in x["levels"] if lv > 0], default=0)
+    return (f"{x['runs']} runs covering {', '.join(parts)}; refined {levels} of {x['refine_depth']} levels where verdicts "
+            f"change and around the best; budget {x['max_runs']} runs of up to {UNIT_STEPS:,} steps, "
+            f"{x['budget_used']:g} used" + (" (spent)" if x["budget_spent"] else "")
+            + ("" if x["robustness_checked"] else "; neighbourhoods not run"))
+
+
+def _plain(v: Any) -> Any:
+    """A JSON value: numpy scalars as Python numbers, NaN and inf as None."""
+    v = v.item() if hasattr(v, "item") else v
+    return None if isinstance(v, float) and not math.isfinite(v) else v
 
 
 def _frame(rows: list[dict], space: dict[str, tuple]) -> pd.DataFrame:
@@ -293,6 +444,7 @@ def _frame(rows: list[dict], space: dict[str, tuple]) -> pd.DataFrame:
         table["verdict"] == "refused"))
     defaults = {k: v[0] for k, v in space.items() if k != "dt"}
     table["n_non_default"] = (table[list(defaults)] != pd.Series(defaults)).sum(axis=1) if defaults else 0
+    table["robust"] = table["robust"].astype(object).where(table["robust"].notna(), None)
     cols = TUNE_COLUMNS + list(defaults)
     return (table[[c for c in cols if c in table.columns]]
             .sort_values(["steps_per_sim_s", "n_non_default", "cost_per_sim_s"], na_position="last")

@@ -1,5 +1,7 @@
 """How far a judged run is from each of the judge's checks: every error over its tolerance, and which checks failed.
 
+    >>> from chatterbench.reference.scene import load_scene
+    >>> from chatterbench.comparisons.studies.tune_checks import check_ratios, Tolerances, describe_failures
     >>> from chatterbench.comparisons.pipeline.compare import judge_run
     >>> from chatterbench.comparisons.pipeline.solution import solve
     >>> from chatterbench.engines.registry import make_settings
@@ -14,7 +16,14 @@ episodes at their worst, so a ratio above 1 is a failed check and ``worst_ratio`
 is the run's distance from passing in one number: the same rules as ``pipeline.judge.verdict``
 (stick and first impact against the chatter duration, exit against the sliding duration,
 restitution beyond its measurement uncertainty, the resolved-impact count, the penetration
-against the scene's length scale). A run with an episode that has no error to measure
+against the scene's length scale), and one the judge cannot make from a whole run:
+**restitution under the scene's forces** (``scene_restitution``), the worst e / R - 1 of the
+settings struck from the reference's state before each impact the judge resolves, over the
+strikes where the judge's sampling uncertainty is within the restitution tolerance (where it
+holds a time-stepper to R). A run's impacts fall anywhere in a step and carry the drift of the
+run; a strike measures e where it is struck (MuJoCo's spring-damper at w0 dt = 0.1, dt = 3e-4
+loses 9.1% at the ball's 0.277 m/s under gravity while the whole run's 5th impact there
+measured -2.1% and passed). A run with an episode that has no error to measure
 (``missed``, ``endless``, ``spurious``, a failure) has ``worst_ratio`` = inf: no tolerance
 makes it pass.
 """
@@ -26,8 +35,11 @@ from typing import Any
 
 import pandas as pd
 
+from ..pipeline.solution import ReferenceSolution
 from ..pipeline.tolerances import Tolerances
 from ..pipeline.vocabulary import VERDICTS
+from .restitution_curve import pinned_settings
+from .scene_restitution import miss_summary, scene_restitution
 
 # check -> (the Tolerances field, how the guide names the measure, the scale it is a fraction of, a short name)
 CHECKS = {
@@ -37,8 +49,13 @@ CHECKS = {
     "restitution": ("restitution", "restitution error beyond its uncertainty", "", "restitution"),
     "impact_count": ("impact_count", "resolved impacts differ by", "", "resolved impact count"),
     "penetration": ("penetration", "penetration", " of the length scale", "penetration"),
+    "scene_restitution": ("restitution", "restitution under the scene's forces", "", "restitution under the scene's forces"),
 }
 RATIO_COLUMNS = [f"{name}_ratio" for name in CHECKS] + ["worst_ratio"]
+# where the strikes under the scene's forces meet R: r_holds_from [m/s] (every faster strike within the tolerance;
+# 0: all, inf: none), r_held_from [m/s] (the slowest strike the judge holds to R), r_struck ("N impacts, V1 to V2
+# m/s"), r_misses (the strikes beyond the tolerance, in words); NaN / "" without strikes
+STRIKE_COLUMNS = ["r_holds_from", "r_held_from", "r_struck", "r_misses"]
 MEASURED = ("agree", "timing", "impacts")  # verdict groups whose episodes have every error measured
 
 
@@ -56,13 +73,18 @@ def _ratio(value: float, limit: float) -> float:
     return abs(value) / limit
 
 
-def check_values(table: pd.DataFrame, impacts: pd.DataFrame, allowance: float) -> dict[str, float]:
+def check_values(table: pd.DataFrame, impacts: pd.DataFrame, allowance: float,
+                 strikes: pd.DataFrame | None = None, restitution_tol: float = math.nan) -> dict[str, float]:
     """Each check's worst measure over the episodes (signed for the timing errors: + late, - early).
 
     ``table``: the judged episodes (``judge.TABLE_COLUMNS``); ``impacts``: the paired impacts
     (``judge.IMPACT_PAIR_COLUMNS``, column ``excess`` = |e / R - 1| - its uncertainty);
-    ``allowance``: the penetration allowance [m] (tolerance x the scene's length scale).
+    ``allowance``: the penetration allowance [m] (tolerance x the scene's length scale);
+    ``strikes``: the run's settings struck under the scene's forces (``scene_restitution``), whose
+    worst signed e / R - 1 among the strikes the judge holds to R (sampling uncertainty at most
+    ``restitution_tol``) is ``scene_restitution``, at ``scene_restitution_speed`` [m/s].
     """
+    misses = miss_summary(strikes, restitution_tol) if strikes is not None else None
     eps = table[table["wall"] != ""] if "wall" in table else table
     excess = impacts["excess"].astype(float).dropna() if "excess" in impacts else pd.Series(dtype=float)
     counts = (eps["resolved_impacts"] - eps["ref_resolved_impacts"]).abs() if len(eps) else pd.Series(dtype=float)
@@ -71,12 +93,37 @@ def check_values(table: pd.DataFrame, impacts: pd.DataFrame, allowance: float) -
         "exit": _signed_worst(eps["exit_error_rel"]), "restitution": float(excess.max()) if len(excess) else math.nan,
         "impact_count": float(counts.max()) if len(counts) else math.nan,
         "penetration": float(table["penetration_max"].max()) / allowance if allowance > 0 and len(table) else math.nan,
+        "scene_restitution": misses.value if misses else math.nan,
+        "scene_restitution_speed": misses.speed if misses else math.nan,
     }
 
 
-def check_ratios(table: pd.DataFrame, impacts: pd.DataFrame, tol: Tolerances, allowance: float) -> dict[str, float]:
+def scene_strikes(engine: str, settings: Any, solution: ReferenceSolution, tol: Tolerances,
+                  record: dict[str, Any] | None = None) -> pd.DataFrame:
+    """The settings struck under the scene's own forces at the impacts the judge resolves (``scene_restitution``).
+
+    ``record``: the whole run's ``Trajectory.settings``, to pin what an engine made from the scene
+    (``pinned_settings``: Drake's contact), so that every strike meets the contact the run had.
+    """
+    settings = pinned_settings(settings, record) if record else settings
+    return scene_restitution(engine, settings, solution, tol.resolved_steps)
+
+
+def strike_summary(strikes: pd.DataFrame | None, tol: Tolerances) -> dict[str, Any]:
+    """``STRIKE_COLUMNS`` of ``strikes`` (``scene_strikes``) against the restitution tolerance."""
+    if strikes is None or not len(strikes):
+        return {"r_holds_from": math.nan, "r_held_from": math.nan, "r_struck": "", "r_misses": ""}
+    m = miss_summary(strikes, tol.restitution)
+    v = m.strikes["speed"]
+    return {"r_holds_from": m.holds_from, "r_held_from": m.held_from,
+            "r_struck": f"{len(m.strikes)} impacts, {v.max():.3g} to {v.min():.3g} m/s" if len(v) else "",
+            "r_misses": m.describe()}
+
+
+def check_ratios(table: pd.DataFrame, impacts: pd.DataFrame, tol: Tolerances, allowance: float,
+                 strikes: pd.DataFrame | None = None) -> dict[str, float]:
     """``<check>_ratio``: each check's worst measure over its tolerance (> 1: failed), and ``worst_ratio``."""
-    values = check_values(table, impacts, allowance)
+    values = check_values(table, impacts, allowance, strikes, tol.restitution)
     out = {}
     for name, (field, _, _, _) in CHECKS.items():
         limit = 1.0 if name == "penetration" else float(getattr(tol, field))  # penetration is already a fraction of the allowance
@@ -104,6 +151,8 @@ def describe_failures(table: pd.DataFrame, ratios: dict[str, Any], tol: Toleranc
             parts.append(f"{label} {value * tol.penetration:.3g}{scale} > {tol.penetration:g}")
         elif name == "restitution":
             parts.append(f"{label} {value:.3g} > {limit:g}")
+        elif name == "scene_restitution":
+            parts.append(f"{label} {value:+.3g} at {ratios['scene_restitution_speed_value']:.3g} m/s > {limit:g}")
         else:
             parts.append(f"{label} {value:+.3g}{scale} > {limit:g}")
     verdicts = table["verdict"].value_counts()

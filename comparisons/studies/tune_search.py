@@ -1,38 +1,69 @@
-"""The order in which ``tune`` tries candidates: one setting at a time, each combination down a dt ladder, then a bisection of dt.
+"""The order in which ``tune`` tries candidates: a joint grid over dt and every knob, refined, and each pass's neighbourhood.
 
-    >>> calls = []
-    >>> def run_batch(batch, stage):      # a stand-in judge: passes at dt <= 2e-4 whatever w
-    ...     calls.extend(batch)
-    ...     return [{**p, "verdict": "match" if p["dt"] <= 2e-4 else "late", "stage": stage} for p in batch]
-    >>> rows = search(run_batch, {"dt": (1e-3, 3e-4, 1e-4), "e.w": (1, 2)}, refine_steps=2, band=0.1,
-    ...               current=lambda rows: {"e.w": 1})
-    >>> sorted({r["dt"] for r in rows if r["verdict"] == "match"}), len(calls)
-    ([0.0001, 0.000173], 10)
+    >>> from chatterbench.comparisons.studies.tune_search import Grid, search
+    >>> def run_batch(batch, stage):      # a stand-in judge: passes for dt in [1e-4, 6e-4] whatever w
+    ...     return [{**p, "verdict": "match" if 1e-4 <= p["dt"] <= 6e-4 else "late"} for p in batch]
+    >>> grid = Grid.make({"dt": (1e-3, 1e-4), "e.w": (1.0, 2.0)}, depth=1)
+    >>> rows = search(run_batch, grid, budget=60)
+    >>> best = min((r for r in rows if r.get("robust")), key=lambda r: 1 / r["dt"])
+    >>> best["dt"], best["robust"], grid.dt
+    (0.000316, True, (0.001, 0.000316, 0.0001))
 
-Promises:
+The lattice (``Grid``): dt from coarse to fine, and the *main knob* (the first setting whose
+values are all real numbers, e.g. MuJoCo's ``w0_dt``) at the coarse values given, each
+interval halved ``depth`` times: dt geometrically, the knob in its own scale by the sweep's
+``[refine]`` lattice (``sweep.refine.lattice``: geometric on a log axis); every other setting (an integrator, an
+impedance, an iteration count) is a *slice*: the map is searched at each combination of
+their values. Dt values are rounded to ``SIG_DIGITS`` (they are printed and pasted).
 
-- stage by stage (the settings in the order the space lists them), a stage tries every value
-  of its setting with the others fixed at the current choice (``current``: the recommendation
-  so far, else the best reachable candidate; the defaults before anything ran);
-- each stage walks the dt ladder from coarse to fine, all of its combinations at a level in
-  one batch (they run in parallel), and stops at the first level where one passes, or at the
-  level past the cheapest pass so far (a finer dt costs more steps, so it cannot be cheaper);
-- then, ``refine_steps`` times, every combination whose cheapest pass is tied (within ``band``)
-  with the cheapest one bisects dt geometrically towards its nearest failure above, while the
-  two are more than ``MIN_RATIO`` apart: the front is found to within a factor of
-  (ladder step)^(1 / 2^refine_steps);
-- no candidate runs twice, and every candidate run is returned (refused ones included).
+Promises (``search``):
+
+- **Coarse joint grid.** Every coarse dt x every coarse knob value x every slice, dt rows
+  from coarse to fine, a row in one batch (the rows run in parallel). A row finer than the
+  cheapest robust pass so far (beyond the tie ``band``) is not run: it costs more steps, so it
+  cannot be the answer; nor once the grid has taken ``COARSE_SHARE`` of the budget. Nothing
+  else is pruned: no verdict is assumed from another dt's.
+- **Refinement where verdicts change** (``sweep.refine.split_points`` per slice, level
+  1..depth, as an adaptive sweep does): a cell whose corners' verdicts differ runs its centre
+  and the midpoints of its edges whose ends differ, the cells of the most promising corners
+  first (a pass, then the most matching episodes, the smallest worst error over its
+  tolerance, the fewest steps), so that a budget that ends a level ends it where it matters
+  least; **and around the best**: the lattice
+  neighbours, at the level's spacing, of the ``AROUND`` best candidates (the cheapest passes;
+  when nothing passes yet, the best reachable: most matching episodes, then the smallest worst
+  error over its tolerance), so the search goes on where it is closest even if nothing passes.
+- **Neighbourhood** (``neighbours``): after each stage, the passes no more expensive than the
+  cheapest robust one so far, cheapest first, have their neighbourhood run: dt x 0.8 and x 1.25
+  (the adjacent dt of the lattice) with the other settings the same; the adjacent values of the
+  main knob's finest lattice; for every other real-valued setting, the values half-way (in its
+  scale) to its adjacent searched values. A pass is ``robust`` when every neighbour also
+  passes; else ``robust`` is False and ``neighbourhood`` names the neighbours that fail. At the
+  end of a range only the neighbour inside it is taken; integer and named settings (solver
+  iterations, an integrator) are choices, not neighbourhoods.
+- ``budget`` at most, each run counting ``weight(params)`` (one by default; ``tune`` counts a
+  long run as several: its work); a neighbourhood once begun is completed; no candidate
+  runs twice; every run is returned, refused ones included, each row with ``stage`` and
+  ``level`` (its lattice level: 0 the coarse grid, k the k-th refinement; NaN off the lattice).
 """
 
 from __future__ import annotations
 
+import itertools
 import math
+from dataclasses import dataclass
 from typing import Any, Callable
 
+from ..outputs.sweep_data import axis_scale
 from ..pipeline.vocabulary import VERDICTS
+from .sweep.refine import lattice, split_points
 
-MIN_RATIO = 1.3  # [-] stop bisecting dt when the pass and the failure above it are this close
-SIG_DIGITS = 3  # a bisected dt is rounded to this many significant digits (it is printed and pasted)
+SIG_DIGITS = 3  # a dt is rounded to this many significant digits (it is printed and pasted)
+KNOB_DIGITS = 4  # and a knob value between two searched ones to this many
+DT_RATIO = 1.25  # [-] adjacent dt of the finest lattice: the neighbourhood's dt x 0.8 and x 1.25
+AROUND = 3  # the best candidates whose lattice neighbours each refinement level adds
+COARSE_SHARE = 0.6  # [-] of the budget the coarse grid may take before refining (finer rows cost more)
+PER_STAGE = 4  # passes whose neighbourhood is run after each stage (after the last: until the budget is spent)
+SEARCH_COLUMNS = ["level", "robust", "neighbourhood", "neighbourhood_worst_ratio"]
 
 
 def agrees(verdict: str) -> bool:
@@ -40,62 +71,251 @@ def agrees(verdict: str) -> bool:
     return verdict in VERDICTS and VERDICTS[verdict].group == "agree"
 
 
+def round_dt(dt: float) -> float:
+    return float(f"{dt:.{SIG_DIGITS}g}")
+
+
 def _key(params: dict[str, Any]) -> tuple:
     return tuple(sorted(params.items()))
 
 
-def search(run_batch: Callable[[list[dict], str], list[dict]], space: dict[str, tuple], refine_steps: int, band: float,
-           current: Callable[[list[dict]], dict[str, Any] | None]) -> list[dict]:
-    """Every candidate row the search ran (module docstring); ``run_batch(params, stage)`` judges a batch.
+def _rounded(fine: tuple, coarse: tuple) -> tuple:
+    """A knob's fine lattice with the values between the coarse ones at ``KNOB_DIGITS`` significant digits (pasted)."""
+    return tuple(v if v in coarse else float(f"{v:.{KNOB_DIGITS}g}") for v in fine)
 
-    ``params`` holds ``dt`` and every setting of ``space``; a row is its params plus at least ``verdict``.
+
+def _real(values) -> bool:
+    return all(isinstance(v, float) for v in values)
+
+
+@dataclass(frozen=True)
+class Grid:
+    """The searched lattice (module docstring): fine dt (coarse to fine), the main knob's fine values, the slices."""
+
+    dt: tuple[float, ...]  # [s] every value of the finest lattice, descending; coarse ones at multiples of 2**depth
+    knob: str | None  # the main knob's key ("engine.field"), None when no setting is real-valued
+    knob_values: tuple  # its finest lattice, ascending (one None when there is no main knob)
+    slices: tuple[dict[str, Any], ...]  # each combination of the other settings' values
+    others: dict[str, tuple]  # the other settings' searched values, as given
+    depth: int  # refinement levels
+
+    @classmethod
+    def make(cls, space: dict[str, tuple], depth: int) -> "Grid":
+        """From a search space: ``"dt"`` -> coarse timesteps [s], ``"engine.field"`` -> values (the default first)."""
+        coarse_dt = sorted({float(v) for v in space["dt"]})
+        steps = 2 ** depth  # dt is split geometrically whatever its span (cost is 1 / dt): the lattice's log rule
+        fine_dt = [a * (b / a) ** (k / steps) for a, b in zip(coarse_dt, coarse_dt[1:]) for k in range(steps)] + coarse_dt[-1:]
+        dt = tuple(sorted({round_dt(v) for v in fine_dt}, reverse=True))
+        knobs = {k: tuple(v) for k, v in space.items() if k != "dt"}
+        knob = next((k for k, v in knobs.items() if _real(v) and len(set(v)) > 1), None)
+        values = (None,) if knob is None else (tuple(sorted(set(knobs[knob]))) if len(set(knobs[knob])) < 2
+                                                 else _rounded(lattice(tuple(sorted(set(knobs[knob]))), depth), knobs[knob]))
+        others = {k: v for k, v in knobs.items() if k != knob}
+        slices = tuple(dict(zip(others, combo)) for combo in itertools.product(*others.values()))
+        return cls(dt=dt, knob=knob, knob_values=tuple(values), slices=slices, others=others,
+                   depth=depth if len(coarse_dt) > 1 or knob is not None else 0)
+
+    def step(self, axis_len: int) -> int:
+        return 2 ** self.depth if axis_len > 1 else 1
+
+    def params(self, s: int, i: int, j: int) -> dict[str, Any]:
+        p = {"dt": self.dt[i], **self.slices[s]}
+        if self.knob is not None:
+            p[self.knob] = self.knob_values[j]
+        return p
+
+    def coarse(self, axis: tuple) -> list[int]:
+        return list(range(0, len(axis), 2 ** self.depth)) if len(axis) > 1 else [0]
+
+    def place(self, p: dict[str, Any]) -> tuple[int, int, int] | None:
+        """(slice, dt index, knob index) of a candidate on the lattice, None off it."""
+        try:
+            i = self.dt.index(p["dt"])
+            j = 0 if self.knob is None else self.knob_values.index(p[self.knob])
+            s = self.slices.index({k: p[k] for k in self.others})
+        except ValueError:
+            return None
+        return s, i, j
+
+    def neighbours(self, p: dict[str, Any]) -> list[dict[str, Any]]:
+        """The neighbourhood of a candidate (module docstring), itself excluded."""
+        out = []
+        dt = p["dt"]
+        for factor in (1.0 / DT_RATIO, DT_RATIO):
+            near = [v for v in self.dt if abs(v / (dt * factor) - 1.0) < 0.02]
+            out.append({**p, "dt": near[0] if near else round_dt(dt * factor)})
+        if self.knob is not None:
+            v, vals = p[self.knob], self.knob_values
+            out += [{**p, self.knob: w} for w in ([max((u for u in vals if u < v), default=None),
+                                                    min((u for u in vals if u > v), default=None)]) if w is not None]
+        for k, vals in self.others.items():
+            if not _real(vals) or len(set(vals)) < 2:
+                continue
+            ordered = sorted(set(vals))
+            log = axis_scale(ordered) == "log"
+            for w in (max((u for u in ordered if u < p[k]), default=None), min((u for u in ordered if u > p[k]), default=None)):
+                if w is not None:
+                    mid = math.sqrt(w * p[k]) if log else 0.5 * (w + p[k])
+                    out.append({**p, k: float(f"{mid:.6g}")})
+        return out
+
+    def describe(self) -> dict[str, Any]:
+        """The searched space in numbers: ranges, the coarse grid's shape and the refinement (``recommended.json``)."""
+        out: dict[str, Any] = {"dt": [min(self.dt), max(self.dt)], "dt_coarse": len(self.coarse(self.dt)),
+                               "dt_finest_ratio": DT_RATIO if len(self.dt) > 1 else None}
+        if self.knob is not None:
+            out[self.knob] = [min(self.knob_values), max(self.knob_values)]
+            out[f"{self.knob}_coarse"] = len(self.coarse(self.knob_values))
+        out.update({k: list(v) for k, v in self.others.items()})
+        out["refine_depth"] = self.depth
+        return out
+
+
+def cost(row: dict[str, Any]) -> float:
+    """A row's steps per simulated second (1 / dt where the engine reported none)."""
+    c = row.get("steps_per_sim_s", math.nan)
+    return 1.0 / row["dt"] if c is None or (isinstance(c, float) and math.isnan(c)) else float(c)
+
+
+def _reach_key(row: dict[str, Any]) -> tuple:
+    worst = row.get("worst_ratio", math.inf)
+    return (-row.get("n_match", 0), math.inf if worst is None or math.isnan(worst) else worst, cost(row))
+
+
+class _Search:
+    """The search's state: the rows by candidate, the budget left, the lattice labels."""
+
+    def __init__(self, run_batch: Callable[[list[dict], str], list[dict]], grid: Grid, budget: float, band: float,
+                 check_robust: bool, weight: Callable[[dict], float]) -> None:
+        self.run_batch, self.grid, self.left, self.band, self.check = run_batch, grid, budget, band, check_robust
+        self.weight = weight
+        self.rows: list[dict] = []
+        self.seen: dict[tuple, dict] = {}
+        self.inferred: dict[int, dict] = {s: {} for s in range(len(grid.slices))}
+
+    def run(self, batch: list[dict], stage: str, level: int | None, force: bool = False) -> None:
+        new = list({_key(p): p for p in batch if _key(p) not in self.seen}.values())
+        if not force:
+            cum = list(itertools.accumulate(self.weight(p) for p in new))
+            new = [p for p, c in zip(new, cum) if c <= self.left or c == cum[0] and self.left > 0]
+        if not new:
+            return
+        for params, row in zip(new, self.run_batch(new, stage)):
+            where = self.grid.place(params)
+            row = {**row, "stage": stage, "level": level if where is not None else math.nan,
+                   "robust": None, "neighbourhood": "", "neighbourhood_worst_ratio": math.nan}
+            self.seen[_key(params)] = row
+            self.rows.append(row)
+        self.left -= sum(self.weight(p) for p in new)
+
+    def params(self, row: dict) -> dict:
+        keys = ["dt", *([self.grid.knob] if self.grid.knob else []), *self.grid.others]
+        return {k: row[k] for k in keys}
+
+    def answer_cost(self) -> float | None:
+        robust = [cost(r) for r in self.rows if r["robust"] is True]
+        return min(robust) if robust else None
+
+    def affordable(self, c: float) -> bool:
+        limit = self.answer_cost()
+        return limit is None or c <= limit * (1.0 + self.band)
+
+    def neighbourhoods(self, most: int | None = PER_STAGE) -> None:
+        """Run the neighbourhoods of up to ``most`` passes that could still be the answer, cheapest first, two at
+        a time: dt x 0.8 and x 1.25 first, the knobs' neighbours only where both pass (module docstring)."""
+        checked = 0
+        while self.left > 0 and (most is None or checked < most):
+            todo = sorted((r for r in self.rows if agrees(r["verdict"]) and r["robust"] is None
+                           and self.grid.place(self.params(r)) is not None and self.affordable(cost(r))), key=cost)
+            if not todo:
+                return
+            batch = todo[:2]
+            near = {id(r): self.grid.neighbours(self.params(r)) for r in batch}
+            self.run([n for r in batch for n in near[id(r)][:2]], "neighbourhood", self.grid.depth, force=True)
+            rest = [r for r in batch if all(agrees(self.seen[_key(n)]["verdict"]) for n in near[id(r)][:2])]
+            self.run([n for r in rest for n in near[id(r)][2:]], "neighbourhood", self.grid.depth, force=True)
+            for r in batch:
+                ran = [self.seen[_key(n)] for n in near[id(r)] if _key(n) in self.seen]
+                failing = [n for n in ran if not agrees(n["verdict"])]
+                r["robust"] = not failing
+                r["neighbourhood"] = "; ".join(f"{_moved(self.params(r), n)}: {n['verdict']}" for n in failing)
+                ratios = [r.get("worst_ratio", math.nan), *(n.get("worst_ratio", math.nan) for n in ran)]
+                r["neighbourhood_worst_ratio"] = max((x for x in ratios if x is not None and not math.isnan(x)), default=math.nan)
+            checked += len(batch)
+
+    def labels(self, s: int) -> dict[tuple[int, int], str]:
+        out = {}
+        for r in self.rows:
+            where = self.grid.place(self.params(r))
+            if where is not None and where[0] == s:
+                out[where[1:]] = r["verdict"]
+        return out
+
+    def best(self) -> list[dict]:
+        """The ``AROUND`` best candidates on the lattice: the cheapest passes, else the best reachable."""
+        on = [r for r in self.rows if r["verdict"] != "refused" and self.grid.place(self.params(r)) is not None]
+        ok = sorted((r for r in on if agrees(r["verdict"])), key=cost)
+        return (ok or sorted(on, key=_reach_key))[:AROUND]
+
+    def refine(self, level: int) -> None:
+        g, half = self.grid, 2 ** (self.grid.depth - level)
+        nx, ny = len(g.dt), len(g.knob_values)
+        todo: list[tuple[int, int, int]] = []
+        split: list[tuple[int, int, int]] = []
+        for r in self.best():  # around the best first: where the answer is closest
+            s, i, j = g.place(self.params(r))
+            todo += [(s, a, b) for a, b in ((i - half, j), (i + half, j), (i, j - half), (i, j + half))
+                     if 0 <= a < nx and 0 <= b < ny]
+        for s in range(len(g.slices)):
+            known = self.labels(s)
+            if nx > 1 and ny > 1:
+                run, guessed = split_points({**self.inferred[s], **known}, level, g.depth)
+                self.inferred[s].update(guessed)
+            else:  # one axis: the midpoint of each level-(k-1) interval whose ends differ
+                along = {(c[0] if ny == 1 else c[1]): v for c, v in known.items()}
+                mids = {a + half for a, v in along.items() if a % (2 * half) == 0 and along.get(a + 2 * half, v) != v}
+                run = {(a, 0) if ny == 1 else (0, a) for a in mids}
+            split += [(s, i, j) for i, j in run]
+        at = {g.place(self.params(r)): r for r in self.rows if g.place(self.params(r)) is not None}
+
+        def promise(c: tuple[int, int, int]) -> tuple:  # the best run of the split cell's corners, then the cheaper
+            s, i, j = c
+            near = [at[(s, a, b)] for a in (i - half, i, i + half) for b in (j - half, j, j + half) if (s, a, b) in at]
+            ranked = [(0 if agrees(r["verdict"]) else 1, *_reach_key(r)) for r in near]
+            return (min(ranked, default=(2,)), -g.dt[i], c)
+        todo += sorted(split, key=promise)  # the budget may end the level: the most promising cells first
+        batch = [g.params(*c) for c in dict.fromkeys(todo)]
+        self.run([p for p in batch if self.affordable(1.0 / p["dt"])], f"refine {level}", level)
+
+
+def _moved(p: dict, n: dict) -> str:
+    """How a neighbour differs from its candidate: ``dt x0.8``, ``w0_dt=0.23``."""
+    k = next(k for k in p if p[k] != n[k])
+    return f"dt x{n['dt'] / p['dt']:.3g}" if k == "dt" else f"{k.split('.', 1)[-1]}={n[k]:g}"
+
+
+def search(run_batch: Callable[[list[dict], str], list[dict]], grid: Grid, budget: float, band: float = 0.1,
+           check_robust: bool = True, weight: Callable[[dict], float] = lambda params: 1.0) -> list[dict]:
+    """Every candidate row the search ran (module docstring); ``run_batch(params, stage)`` judges a batch in order.
+
+    ``params`` holds ``dt`` and every searched setting; a row is its params plus at least
+    ``verdict`` (and ``steps_per_sim_s``, ``n_match``, ``worst_ratio`` where known).
+    ``check_robust`` False: no neighbourhood is run (every pass keeps ``robust`` None). ``weight(params)``:
+    what a run costs of ``budget`` (module docstring).
     """
-    ladder = sorted(space["dt"], reverse=True)
-    options = {k: tuple(v) for k, v in space.items() if k != "dt"}
-    rows: list[dict] = []
-    seen: dict[tuple, dict] = {}
-
-    def evaluate(batch: list[dict], stage: str) -> None:
-        new = list({_key(p): p for p in batch if _key(p) not in seen}.values())
-        for params, row in zip(new, run_batch(new, stage) if new else []):
-            seen[_key(params)] = row
-            rows.append(row)
-
-    def cheapest_pass() -> float | None:
-        dts = [r["dt"] for r in rows if agrees(r["verdict"])]
-        return max(dts) if dts else None
-
-    fixed = {k: v[0] for k, v in options.items()}
-    for name, values in (options.items() if options else [("dt", (None,))]):
-        combos = [{**fixed, name: v} for v in values] if options else [{}]
-        for dt in ladder:
-            best = cheapest_pass()
-            if best is not None and dt < best / (1.0 + band):
-                break
-            batch = [{"dt": dt, **c} for c in combos]
-            evaluate(batch, name.split(".")[-1] if options else "ladder")
-            if any(agrees(seen[_key(p)]["verdict"]) for p in batch):
-                break
-        choice = current(rows)
-        if choice is not None:
-            fixed = {k: choice[k] for k in options}
-    for _ in range(refine_steps):
-        best = cheapest_pass()
-        if best is None:
+    st = _Search(run_batch, grid, budget, band, check_robust, weight)
+    for i in grid.coarse(grid.dt):
+        if st.left <= budget * (1.0 - COARSE_SHARE) or not st.affordable(1.0 / grid.dt[i]):
             break
-        batch = []
-        for combo in {_key({k: r[k] for k in options}): {k: r[k] for k in options} for r in rows}.values():
-            mine = [r for r in rows if all(r[k] == v for k, v in combo.items()) and r["verdict"] != "refused"]
-            ok = [r["dt"] for r in mine if agrees(r["verdict"])]
-            if not ok or max(ok) < best / (1.0 + band):
-                continue
-            lo = max(ok)
-            above = [r["dt"] for r in mine if r["dt"] > lo]
-            if not above or min(above) / lo < MIN_RATIO:
-                continue
-            mid = float(f"{math.sqrt(lo * min(above)):.{SIG_DIGITS}g}")
-            batch.append({"dt": mid, **combo})
-        if not batch:
+        st.run([grid.params(s, i, j) for s in range(len(grid.slices)) for j in grid.coarse(grid.knob_values)], "grid", 0)
+        if check_robust:
+            st.neighbourhoods()
+    for level in range(1, grid.depth + 1):
+        if st.left <= 0:
             break
-        evaluate(batch, "refine")
-    return rows
+        st.refine(level)
+        if check_robust:
+            st.neighbourhoods()
+    if check_robust:
+        st.neighbourhoods(most=None)
+    return st.rows

@@ -1,6 +1,7 @@
 """The Drake adapter: a scene as a MultibodyPlant with compliant point contact, run continuous or discrete.
 
     >>> from chatterbench.engines.drake_engine import DrakeEngine, DrakeSettings
+    >>> from chatterbench.reference.scene import load_scene
     >>> traj = DrakeEngine().run(load_scene("bouncing-ball", ["duration=0.6"]), DrakeSettings(dt=1e-3))
     >>> traj.status, round(traj.contact_frequency), DrakeEngine().cost_lever(DrakeSettings())
     ('ok', 994, 'accuracy')
@@ -14,7 +15,7 @@ the impact speed (``hunt_crossley.py``), so the other impacts of a run do not gi
 
 Modules: ``settings`` (``DrakeSettings``: mode, integrator and accuracy, or time step and
 solver), ``hunt_crossley`` (rebound of the contact law), ``contact`` (stiffness rule and
-calibration), ``model`` (the diagram), ``run`` (stepping, sampling, benchmark).
+calibration), ``model`` (the diagram), ``run`` (stepping, sampling, the bare loop).
 
 Cost lever: ``accuracy`` in continuous mode (the integrator picks its steps; ``dt`` is
 only the output sampling), ``dt`` in discrete mode.
@@ -26,15 +27,15 @@ from typing import Any
 
 from chatterbench.reference.scene import Scene
 
-from ..base import EngineAdapter
+from ..base import EngineAdapter, Recording
 from ..trajectory import Trajectory
+from . import run as _run
 from .contact import ContactLaw, contact_law
 from .model import DrakeModel, build
-from .run import benchmark, run
 from .settings import INTEGRATORS, MODES, SOLVERS, DrakeSettings
 
-__all__ = ["INTEGRATORS", "MODES", "SOLVERS", "ContactLaw", "DrakeEngine", "DrakeModel", "DrakeSettings", "benchmark",
-           "build", "contact_law", "run", "snippet"]
+__all__ = ["INTEGRATORS", "MODES", "SOLVERS", "ContactLaw", "DrakeEngine", "DrakeModel", "DrakeSettings", "build",
+           "contact_law", "run", "snippet"]
 
 
 def snippet(scene: Scene, settings: DrakeSettings | None = None) -> str:
@@ -65,29 +66,33 @@ def snippet(scene: Scene, settings: DrakeSettings | None = None) -> str:
 
 
 class DrakeEngine(EngineAdapter):
-    """Drake behind the engine contract (``base.EngineAdapter``)."""
+    """Drake behind the engine contract (``base.EngineAdapter``): compliant Hunt-Crossley contact, float64."""
 
     name = "drake"
     package = "drake"
     settings_type = DrakeSettings
+    compliant = True
     bytes_per_step = 250.0  # measured peak growth per sample, feigin-pair: 181 B (continuous, 4e5) and 214 B (discrete, 1e5)
+
+    def simulate(self, run: Recording) -> None:
+        """Build the diagram, advance it, hand on its samples (``run.simulate``)."""
+        _run.simulate(run)
+
+    def record(self, scene: Scene, settings: DrakeSettings) -> dict[str, Any]:
+        """The cost lever and the contact law's name (the run adds the calibrated contact and the steps taken)."""
+        return {"cost_lever": settings.cost_lever, "law": settings.law}
+
+    def bare_seconds(self, scene: Scene, settings: DrakeSettings, traj: Trajectory) -> float:
+        """Drake's own ``AdvanceTo`` on the same model, nothing recorded (``run.bare_seconds``)."""
+        return _run.bare_seconds(scene, settings)
 
     def build(self, scene: Scene, settings: DrakeSettings | None = None) -> DrakeModel:
         """The scene's diagram and plant (``model.build``)."""
         return build(scene, settings)
 
-    def run(self, scene: Scene, settings: DrakeSettings | None = None) -> Trajectory:
-        """Simulate ``scene`` (``run.run``)."""
-        return run(scene, settings)
-
     def snippet(self, scene: Scene, settings: DrakeSettings | None = None) -> str:
         """The contact properties and configs, as Python (``snippet``)."""
         return snippet(scene, settings)
-
-    def benchmark(self, scene: Scene, settings: DrakeSettings | None = None, n_steps: int = 20000,
-                  repeats: int = 3) -> dict[str, Any]:
-        """Adapter against Drake's bare ``AdvanceTo``, samples per second (``run.benchmark``)."""
-        return benchmark(scene, settings, n_steps, repeats)
 
     def tuning_space(self, scene: Scene) -> dict[str, tuple]:
         """dt from 1 ms down to 10 us (the sampling in continuous mode, the step in discrete mode); both
@@ -99,3 +104,8 @@ class DrakeEngine(EngineAdapter):
     def cost_lever(self, settings: DrakeSettings) -> str:
         """``"accuracy"`` in continuous mode, ``"dt"`` in discrete mode."""
         return settings.cost_lever
+
+
+def run(scene: Scene, settings: DrakeSettings | None = None, compact_above: float | None = None) -> Trajectory:
+    """``DrakeEngine().run``: one run, classified by the base (``base.EngineAdapter.run``)."""
+    return DrakeEngine().run(scene, settings, compact_above)

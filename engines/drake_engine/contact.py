@@ -1,5 +1,6 @@
 """The Drake contact of a scene: stiffness from the scene's scales, dissipation calibrated so one impact gives R.
 
+    >>> from chatterbench.reference.scene import load_scene
     >>> from chatterbench.engines.drake_engine.contact import contact_law
     >>> from chatterbench.engines.drake_engine.settings import DrakeSettings
     >>> law = contact_law(load_scene("bouncing-ball"), DrakeSettings())

@@ -1,5 +1,6 @@
 """The scene as a Drake diagram: a MultibodyPlant with two prismatic bodies, walls and a ball, forces as gains and sines.
 
+    >>> from chatterbench.reference.scene import load_scene
     >>> from chatterbench.engines.drake_engine.model import build
     >>> from chatterbench.engines.drake_engine.settings import DrakeSettings
     >>> model = build(load_scene("feigin-pair"), DrakeSettings())

@@ -1,7 +1,8 @@
 """Running Drake: one ``Simulator.AdvanceTo`` over the whole run, the samples read from its steps, failures kept as status.
 
-    >>> from chatterbench.engines.drake_engine.run import run
-    >>> from chatterbench.engines.drake_engine.settings import DrakeSettings
+    >>> import numpy as np
+    >>> from chatterbench.engines.drake_engine import DrakeSettings, run
+    >>> from chatterbench.reference.scene import load_scene
     >>> traj = run(load_scene("bouncing-ball", ["duration=0.6"]), DrakeSettings(dt=1e-3))
     >>> traj.status, round(float(traj.t[np.argmax(traj.contact["lower"])]), 3)      # first impact: sqrt(2/g)
     ('ok', 0.452)
@@ -22,40 +23,29 @@ Sampling, at ``base.sample_times(scene, dt)`` in both modes:
   force at a sample is Drake's Hunt-Crossley law at the sampled state
   (``contact.ContactLaw.normal_force``; the tests check it against Drake's contact port).
 
-Promises: ``run`` never raises for an engine failure: a Drake exception is ``status =
-"error"`` with the samples before it, a non-finite state ``"diverged"``; the settings are
-checked (and the contact calibrated) before Drake starts.
+Promises: the samples go to the run's ``base.Recording`` in ``window.CHUNK`` slices (a long run
+comes back compact, as every engine's does), and the base classifies the run: Drake's own
+exception is ``"error"`` with the samples before it, a non-finite state ``"diverged"``; the
+settings are checked when made, the contact calibrated as the model is built.
 """
 
 from __future__ import annotations
 
-import dataclasses
-import math
 import time
-from importlib.metadata import version as package_version
 from typing import Any
 
 import numpy as np
 
-from chatterbench.reference.errors import InputError, check_integer
 from chatterbench.reference.scene import Scene
 
-from ..base import failed_trajectory, n_steps, sample_times
-from ..trajectory import Trajectory
+from ..base import Recording, sample_times
+from ..window import CHUNK
 from .model import DrakeModel, build
 from .settings import DrakeSettings
 
-NAME = "drake"
 
-
-def settings_record(s: DrakeSettings, model: DrakeModel | None = None) -> dict[str, Any]:
-    """The settings as run: ours, and the contact they make (k, d, tau, w0, calibration speed)."""
-    record = {**dataclasses.asdict(s), "cost_lever": s.cost_lever, "law": s.law}
-    if model is not None:
-        law = model.law
-        record.update(stiffness=law.stiffness, dissipation=law.dissipation, relaxation_time=law.relaxation_time,
-                      w0_used=law.w0, calibrated_restitution=law.restitution, calibration_speed_used=law.calibration_speed)
-    return record
+class DrakeError(RuntimeError):
+    """Drake stopped the run (its exception's message, the samples before it kept)."""
 
 
 def _simulator(model: DrakeModel, scene: Scene, s: DrakeSettings) -> Any:
@@ -78,7 +68,7 @@ def _advance(sim: Any, t_end: float) -> str:
     try:
         sim.AdvanceTo(t_end)
     except RuntimeError as exc:
-        return f"drake: {exc}".splitlines()[0]
+        return str(exc).splitlines()[0]
     return ""
 
 
@@ -166,7 +156,7 @@ def _discrete(model: DrakeModel, scene: Scene, s: DrakeSettings, t: np.ndarray) 
     push = contact.data()[-1][keep][: len(x)]
     off = np.abs(state.sample_times()[keep][: len(x)] - (t[: len(x)] - t[0]))
     if len(off) and off.max() > 0.25 * s.dt and not message:  # a step that was not a plant update
-        message = f"drake: a logged sample is {off.max():.3g} s off the sample grid"
+        message = f"a logged sample is {off.max():.3g} s off the sample grid"
     forces = {"lower": np.maximum(push, 0.0)}
     if "upper" in model.walls:
         forces["upper"] = np.maximum(-push, 0.0)
@@ -174,93 +164,34 @@ def _discrete(model: DrakeModel, scene: Scene, s: DrakeSettings, t: np.ndarray) 
     return x, forces, wall, message, len(x) - 1
 
 
-def run(scene: Scene, settings: DrakeSettings | None = None) -> Trajectory:
-    """Simulate ``scene.duration`` seconds from ``scene.initial`` (module docstring for the sampling).
-
-    Raises
-    ------
-    SettingsError
-        Settings Drake cannot run (checked by ``DrakeSettings``). Everything that goes wrong
-        inside Drake is returned as ``status = "error"`` (or ``"diverged"``) instead.
-    """
-    s = settings or DrakeSettings()
-    record = settings_record(s)
-    try:
-        t = sample_times(scene, s.dt)
-        model = build(scene, s)
-        record = settings_record(s, model)
-        x, forces, wall, message, record["steps_taken"] = (_continuous if s.mode == "continuous" else _discrete)(
-            model, scene, s, t)
-    except MemoryError as exc:  # the samples of the run do not fit: a result, as the other engines give it
-        return failed_trajectory(NAME, scene, "error", f"{type(exc).__name__}: {n_steps(scene.duration, s.dt)} samples: {exc}",
-                                 record)
-    except InputError:
-        raise
-    except Exception as exc:  # Drake refused the model: a result, not a crash
-        return failed_trajectory(NAME, scene, "error", f"drake: {type(exc).__name__}: {exc}".splitlines()[0], record)
-    return _trajectory(scene, model, t, x, forces, wall, message, record)
-
-
-def _trajectory(scene: Scene, model: DrakeModel, t: np.ndarray, x: np.ndarray, forces: dict, wall: float, message: str,
-                record: dict) -> Trajectory:
-    """The samples as a Trajectory: status from Drake's message and the state's finiteness, x1, v1 by body 1's kind."""
-    status = "error" if message else "ok"
-    finite = np.isfinite(x).all(axis=1)
-    if not finite.all():
-        status, message = "diverged", message or f"non-finite state at t = {t[np.argmin(finite)]:.6g} s"
-        x = x[: np.argmin(finite)]
-    if len(x) < len(t) and status == "ok":
-        status, message = "error", f"drake stopped at sample {len(x)} of {len(t)}"
-    t = t[: len(x)]
+def simulate(run: Recording) -> None:
+    """Build the diagram (calibrating the contact), advance it over the run, hand the samples to ``run`` in
+    ``window.CHUNK`` slices; ``DrakeError`` with Drake's message when it stopped."""
+    scene, s = run.scene, run.settings
+    t = sample_times(scene, s.dt)
+    model = build(scene, s)
+    law = model.law
+    run.record.update(stiffness=law.stiffness, dissipation=law.dissipation, relaxation_time=law.relaxation_time,
+                      w0_used=law.w0, calibrated_restitution=law.restitution, calibration_speed_used=law.calibration_speed)
+    run.contact_time, run.contact_frequency = law.contact_time, law.w0
+    x, forces, wall, message, run.record["steps_taken"] = (_continuous if s.mode == "continuous" else _discrete)(
+        model, scene, s, t)
+    run.wall_time += wall
     nv = model.nv
-    y, vy = x[:, nv - 1], x[:, -1]
-    if model.finite:
-        x1, v1 = x[:, 0], x[:, nv]
-    elif scene.prescribed is not None:
-        x1, v1 = scene.prescribed.position(t), scene.prescribed.velocity(t)
-    else:
-        x1, v1 = np.full(len(t), scene.initial.x1), np.zeros(len(t))
-    force = {w: forces[w][: len(t)] for w in model.walls}
-    return Trajectory(
-        engine=NAME, t=t, x1=x1, x2=x1 + y, v1=v1, v2=v1 + vy,
-        contact={w: f > 0.0 for w, f in force.items()}, normal_force=force,
-        wall_time=wall, settings=record, status=status, message=message,
-        contact_time=model.law.contact_time, contact_frequency=model.law.w0,
-    )
+    for k0 in range(0, len(x), CHUNK):
+        rows = x[k0:k0 + CHUNK]
+        body1 = {"x1": rows[:, 0], "v1": rows[:, nv]} if model.finite else {}
+        if not run.add(t[k0:k0 + len(rows)], {w: forces[w][k0:k0 + len(rows)] for w in model.walls}, y=rows[:, nv - 1],
+                       vy=rows[:, -1], **body1):
+            break
+    if message:
+        raise DrakeError(message)
 
 
-def benchmark(scene: Scene, settings: DrakeSettings | None = None, steps: int = 20000, repeats: int = 3) -> dict[str, Any]:
-    """Samples per second of ``run``'s stepping and sampling against Drake's own ``AdvanceTo`` over the
-    same span on the same model without any recording, best of ``repeats`` each, interleaved.
-
-    ``steps`` samples of dt (discrete: plant steps). Building the model and calibrating the
-    contact (once per run) are outside both clocks; ``build_s`` reports them.
-
-    Returns
-    -------
-    dict
-        ``adapter_steps_per_s``, ``raw_steps_per_s``, ``ratio`` (adapter / raw), ``n_steps``,
-        ``build_s``, ``status``, ``drake_version``.
-    """
-    check_integer("steps", steps, lo=1)
-    check_integer("repeats", repeats, lo=1)
-    s = settings or DrakeSettings()
-    short = dataclasses.replace(scene, duration=steps * s.dt)
-    n = n_steps(short.duration, s.dt)
+def bare_seconds(scene: Scene, s: DrakeSettings) -> float:
+    """Seconds of Drake's own ``AdvanceTo`` over the run on the same model, nothing logged or monitored."""
+    sim = _simulator(build(scene, s, record=False), scene, s)
+    sim.Initialize()
     start = time.perf_counter()
-    bare = build(short, s, record=False)
-    build_s = time.perf_counter() - start
-    raw = adapter = math.inf
-    for _ in range(repeats):
-        sim = _simulator(bare, short, s)
-        sim.Initialize()
-        start = time.perf_counter()
-        sim.AdvanceTo(n * s.dt)
-        raw = min(raw, time.perf_counter() - start)
-        traj = run(short, s)
-        adapter = min(adapter, traj.wall_time)
-    return {
-        "scene": scene.name, "n_steps": n, "repeats": repeats, "adapter_steps_per_s": n / adapter,
-        "raw_steps_per_s": n / raw, "ratio": raw / adapter, "build_s": build_s, "status": traj.status,
-        "drake_version": package_version("drake"),
-    }
+    sim.AdvanceTo(float(sample_times(scene, s.dt)[-1] - scene.initial.t))
+    return time.perf_counter() - start

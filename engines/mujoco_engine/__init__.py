@@ -1,15 +1,17 @@
-"""The MuJoCo adapter: a scene as a two-slide-joint MjSpec model, run in one ``mujoco.rollout`` call.
+"""The MuJoCo adapter: a scene as a two-slide-joint MjSpec model, rolled out with ``mujoco.rollout`` chunk by chunk.
 
-    >>> from chatterbench.engines.mujoco_engine import MujocoSettings, run
-    >>> traj = run(load_scene("bouncing-ball"), MujocoSettings(dt=1e-4, w0_dt=0.03))
+    >>> from chatterbench.engines.mujoco_engine import MujocoEngine, MujocoSettings
+    >>> from chatterbench.reference.scene import load_scene
+    >>> traj = MujocoEngine().run(load_scene("bouncing-ball"), MujocoSettings(dt=1e-4, w0_dt=0.03))
     >>> traj.status, bool(traj.contact["lower"].any()), round(traj.settings["zeta"], 4)
     ('ok', True, 0.2553)
 
 Modules: ``settings`` (``MujocoSettings``, the integrators' stability limits), ``model``
-(the MjSpec model of a scene, its MJCF), ``run`` (rollout, batches, classification),
-``snippet`` (the settings as MJCF attributes a user pastes: ``<option>``, joint limit, geom pair).
+(the MjSpec model of a scene), ``run`` (rollout chunk by chunk, batches; the base class classifies),
+``snippet`` (the settings as MJCF attributes a user pastes: ``<option>``, joint limit, geom pair),
+``export`` (the scene as a complete MJCF file and a runner script for plain MuJoCo).
 
-The model (built with ``mujoco.MjSpec``; ``export_mjcf`` gives the MJCF to paste):
+The model (built with ``mujoco.MjSpec``; ``export_mjcf`` gives it as a complete MJCF file):
 
 - ``body1`` on a slide joint ``x1`` along world x (finite mass); for ``mass1 = inf`` a
   static body at x1, or a mocap body when ``scene.prescribed`` moves it.
@@ -57,37 +59,56 @@ from typing import Any, Sequence
 
 from chatterbench.reference.scene import Scene
 
-from ..base import EngineAdapter
+from .. import mujoco_common
+from ..base import EngineAdapter, Recording
 from ..trajectory import Trajectory
-from .model import build, build_spec, controls, export_mjcf
-from .run import benchmark, run, run_batch
+from . import run as _run
+from .export import export_mjcf
+from .model import build, build_spec, controls
 from .snippet import mjcf_snippet
 from .settings import GAP_MODELS, INTEGRATORS, SOLVERS, MujocoSettings, stability_limit
 
-__all__ = ["GAP_MODELS", "INTEGRATORS", "SOLVERS", "MujocoEngine", "MujocoSettings", "benchmark", "build",
-           "build_spec", "controls", "export_mjcf", "run", "run_batch", "stability_limit"]
+__all__ = ["GAP_MODELS", "INTEGRATORS", "SOLVERS", "MujocoEngine", "MujocoSettings", "build", "build_spec", "controls",
+           "export_mjcf", "run", "run_batch", "stability_limit"]
 
 
 class MujocoEngine(EngineAdapter):
-    """MuJoCo behind the engine contract (``base.EngineAdapter``)."""
+    """MuJoCo behind the engine contract (``base.EngineAdapter``): soft contact, float64, ``dt`` the cost lever."""
 
     name = "mujoco"
     package = "mujoco"
     settings_type = MujocoSettings
+    compliant = True  # solref's spring-damper: a contact time scale 1 / w0
     batches = True
     bytes_per_step = 100.0  # measured 69 B/step (feigin-pair, compact, 4.0e6 -> 1.2e7 steps: 545,060 -> 1,079,520 KiB)
+
+    def simulate(self, run: Recording) -> None:
+        """Roll the scene's model out chunk by chunk (``run.simulate``)."""
+        _run.simulate(run)
+
+    def validate(self, scene: Scene, settings: MujocoSettings) -> None:
+        """Settings the scene cannot run with are refused by the MjSpec build (``model.build_spec``)."""
+        build_spec(scene, settings)
+
+    def record(self, scene: Scene, settings: MujocoSettings) -> dict[str, Any]:
+        """w0, zeta and the solref / solimp they make, MuJoCo's version (``mujoco_common.record``)."""
+        return mujoco_common.record(scene, settings)
+
+    def contact_scales(self, scene: Scene, settings: MujocoSettings) -> tuple[float, float]:
+        """One bounce's duration and w0 (``mujoco_common.contact_scales``)."""
+        return mujoco_common.contact_scales(scene, settings)
+
+    def run_batch(self, jobs: Sequence[tuple[Scene, MujocoSettings]]) -> list[Trajectory]:
+        """Compatible runs rolled out together, each bit for bit as alone (``run.run_batch``)."""
+        return _run.roll_batch(self, list(jobs))
+
+    def bare_seconds(self, scene: Scene, settings: MujocoSettings, traj: Trajectory) -> float:
+        """One bare ``mujoco.rollout`` over the run (``run.bare_seconds``)."""
+        return _run.bare_seconds(scene, settings)
 
     def build(self, scene: Scene, settings: MujocoSettings | None = None) -> Any:
         """The compiled ``MjModel`` for ``scene``."""
         return build(scene, settings)
-
-    def run(self, scene: Scene, settings: MujocoSettings | None = None) -> Trajectory:
-        """Simulate ``scene`` (``run.run``)."""
-        return run(scene, settings)
-
-    def run_batch(self, jobs: Sequence[tuple[Scene, MujocoSettings]]) -> list[Trajectory]:
-        """Compatible runs in one ``mujoco.rollout`` call (``run.run_batch``)."""
-        return run_batch(list(jobs))
 
     def snippet(self, scene: Scene, settings: MujocoSettings | None = None) -> str:
         """The MJCF a user pastes: ``<option>``, the gap as a joint limit or a geom pair (``snippet.mjcf_snippet``)."""
@@ -104,7 +125,12 @@ class MujocoEngine(EngineAdapter):
         return {"dt": (1e-3, 3e-4, 1e-4, 3e-5, 1e-5), "mujoco.w0_dt": tuple(w0_dts),
                 "mujoco.integrator": (base.integrator, "implicitfast"), "mujoco.impedance": (base.impedance, 0.9, 0.9999)}
 
-    def benchmark(self, scene: Scene, settings: MujocoSettings | None = None, n_steps: int = 200_000,
-                  repeats: int = 3) -> dict[str, Any]:
-        """Adapter against bare rollout, steps per second (``run.benchmark``)."""
-        return benchmark(scene, settings, n_steps, repeats)
+
+def run(scene: Scene, settings: MujocoSettings | None = None, compact_above: float | None = None) -> Trajectory:
+    """``MujocoEngine().run``: one run, classified by the base (``base.EngineAdapter.run``)."""
+    return MujocoEngine().run(scene, settings, compact_above)
+
+
+def run_batch(jobs: Sequence[tuple[Scene, MujocoSettings]]) -> list[Trajectory]:
+    """``MujocoEngine().run_batch``: compatible runs together, each as it runs alone."""
+    return MujocoEngine().run_batch(jobs)

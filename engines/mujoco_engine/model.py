@@ -1,13 +1,12 @@
 """The scene as a MuJoCo model: two slide joints, the gap as a joint range or as geoms, forces as springs and motors.
 
-    >>> from chatterbench.engines.mujoco_engine.model import build, export_mjcf
+    >>> from chatterbench.reference.scene import load_scene
+    >>> from chatterbench.engines.mujoco_engine.model import build, MujocoSettings
     >>> model = build(load_scene("feigin-pair"), MujocoSettings(dt=1e-4))
     >>> model.nq, model.nu                     # x1 and y; one motor on x1 for the forcing
     (2, 1)
-    >>> "<mujoco" in export_mjcf(load_scene("feigin-pair"))
-    True
 
-The layout and the contact law are in the package docstring. Forces come from the scene's
+The layout and the contact law are in the package docstring; ``export.py`` writes the model as a complete MJCF file. Forces come from the scene's
 one force model (``reference.forces.ForceModel``): each target's springs and dampers become
 joint (body 1, coupling) or tendon (body 2: x2 = x1 + y) stiffness, damping and rest, its
 constant and harmonic terms motor controls; a prescribed body 1 moves by
@@ -247,10 +246,3 @@ def compiled(spec: mujoco.MjSpec, scene: Scene) -> mujoco.MjModel:
 def build(scene: Scene, settings: MujocoSettings | None = None) -> mujoco.MjModel:
     """Compile the scene's model; raises SettingsError for settings the scene cannot run with."""
     return compiled(build_spec(scene, settings), scene)
-
-
-def export_mjcf(scene: Scene, settings: MujocoSettings | None = None) -> str:
-    """The model as an MJCF string (``spec.to_xml()``), to paste into MuJoCo's viewer."""
-    spec = build_spec(scene, settings)
-    compiled(spec, scene)
-    return spec.to_xml()

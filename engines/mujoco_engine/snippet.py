@@ -1,6 +1,7 @@
 """MuJoCo settings as a user pastes them into their own MJCF: ``<option>``, a joint limit and a geom pair.
 
-    >>> from chatterbench.engines.mujoco_engine.snippet import contact_law, mjcf_snippet
+    >>> from chatterbench.reference.scene import load_scene
+    >>> from chatterbench.engines.mujoco_engine.snippet import contact_law, mjcf_snippet, MujocoSettings
     >>> law = contact_law(load_scene("feigin-pair"), MujocoSettings(dt=1e-4, w0_dt=0.1))
     >>> law.solref, law.solimp                       # MuJoCo's direct form: (-K, -B) and a constant impedance
     ('-1000000 -510.55127529707534', '0.99 0.99 0.001 0.5 2')
@@ -77,17 +78,27 @@ def option_line(settings: MujocoSettings) -> str:
     return f'<option timestep="{_num(settings.dt)}" integrator="{MJCF_INTEGRATORS[settings.integrator]}"{solver}/>'
 
 
+PLACEHOLDERS = {
+    "GAP_JOINT": "the name of your slide joint whose position is the gap y (the moving body's joint, relative to the "
+                 "body that carries the walls or to the world); keep your joint's axis",
+    "WALL_GEOM": "the name of your wall's geom (one <pair> per wall)",
+    "BALL_GEOM": "the name of the moving body's geom that strikes it",
+}
+
+
 def mjcf_snippet(scene: Scene, settings: MujocoSettings | None = None) -> str:
     """What to paste into an MJCF model: the option line, the gap as a joint limit, the gap as a geom pair.
 
-    ``y`` is the slide joint of the moving part relative to the other (y = x2 - x1); ``lower`` /
-    ``upper`` and ``ball`` are the two sides' geoms. Keep one of the two forms.
+    The placeholders (``PLACEHOLDERS``: the gap's slide joint, the wall's and the moving body's
+    geoms) are named in the text with what to put there; ``range`` is in the joint's own
+    coordinate (the positions at which the bodies touch the walls). Keep one of the two forms.
     """
     s = settings or MujocoSettings()
     law = contact_law(scene, s)
     upper = scene.gap.upper
     rng = f"{_num(scene.gap.lower)} {_num(upper) if upper is not None else _num(scene.gap.lower + 1e9)}"
     contact_time = f"{law.contact_time:.3g} s ({law.contact_time / s.dt:.3g} timesteps)" if math.isfinite(law.contact_time) else "no rebound (overdamped)"
+    walls = "the lower wall (and upper)" if upper is not None else "the wall"
     lines = [
         f"<!-- chatterbench: MuJoCo settings for scene {scene.name} (Newton's R = {scene.restitution:g}),",
         f"     timestep dt = {_num(s.dt)} s, contact stiffness w0 dt = {_num(s.w0_dt)}, integrator {s.integrator}.",
@@ -97,13 +108,27 @@ def mjcf_snippet(scene: Scene, settings: MujocoSettings | None = None) -> str:
         f"       B = 2 zeta w0 = {_num(law.damping)} 1/s, zeta = {law.zeta:.6g}, the damping ratio whose single impact rebounds",
         f"       with R = {scene.restitution:g} (a force-only contact: it ends when the force reaches zero); one impact lasts {contact_time}.",
         f'     solimp="{law.solimp}": dmin = dmax = d = {_num(s.impedance)}, a constant impedance (width, midpoint and',
-        "     power then do nothing); while the contact pushes, the other forces reach the gap scaled by 1 - d. -->",
+        "     power then do nothing); while the contact pushes, the other forces reach the gap scaled by 1 - d.",
+        "     Replace the placeholders:",
+        *[f"       {k}: {v}" for k, v in PLACEHOLDERS.items()],
+        f'     range="{rng}": the positions of GAP_JOINT at which the bodies touch {walls} (this scene\'s gap; use yours). -->',
         option_line(s),
-        "<!-- the gap as the range of a slide joint (inside the moving body): -->",
-        f'<joint name="y" type="slide" axis="1 0 0" limited="true" range="{rng}" solreflimit="{law.solref}" '
+        "<!-- the gap as the range of your slide joint (the attributes after name go on your joint): -->",
+        f'<joint name="GAP_JOINT" type="slide" axis="1 0 0" limited="true" range="{rng}" solreflimit="{law.solref}" '
         f'solimplimit="{law.solimp}"/>',
         f"<!-- or the gap as a geom pair (inside <contact>, once per wall; condim 1: no friction); K and B times {law.pair_factor:.6g},",
         "     MuJoCo's impedance correction d / d' for a sphere on a box with these masses: -->",
-        f'<pair geom1="lower" geom2="ball" condim="1" margin="0" gap="0" solref="{law.pair_solref}" solimp="{law.solimp}"/>',
+        f'<pair geom1="WALL_GEOM" geom2="BALL_GEOM" condim="1" margin="0" gap="0" solref="{law.pair_solref}" solimp="{law.solimp}"/>',
     ]
     return "\n".join(lines) + "\n"
+
+
+def measurement() -> str:
+    """Python that measures one impact's e = -v_out / v_in in the user's own model (``model``, ``data`` loaded,
+    the body flying towards the wall): the guide's check that the pasted settings give R."""
+    return "\n".join([
+        'dof = model.joint("GAP_JOINT").dofadr[0]',
+        "while not data.nefc: v_in = data.qvel[dof]; mujoco.mj_step(model, data)  # fly to the wall",
+        "while data.nefc: mujoco.mj_step(model, data)  # through the contact",
+        'print("e =", -data.qvel[dof] / v_in)  # compare with R at this v_in',
+    ]) + "\n"

@@ -1,27 +1,27 @@
 """Running MuJoCo Warp: many worlds stepped together on a warp device, each world one run, float32 throughout.
 
-    >>> from chatterbench.engines.mujoco_warp_engine.run import run
-    >>> from chatterbench.engines.mujoco_warp_engine.settings import MujocoWarpSettings
+    >>> from chatterbench.engines.mujoco_warp_engine import MujocoWarpSettings, run
+    >>> from chatterbench.reference.scene import load_scene
     >>> traj = run(load_scene("bouncing-ball", ["duration=0.2"]), MujocoWarpSettings(dt=1e-3, device="cpu"))
     >>> traj.status, traj.engine, traj.settings["precision"], traj.settings["device"]
     ('ok', 'mujoco_warp', 'float32', 'cpu')
 
 Each run is the MuJoCo engine's own model (``mujoco_engine.model.build``: the same MjSpec,
 contact law, forces and precomputed controls), adapted by ``worlds.warp_model`` and put on
-the device as one world. ``run_batch`` puts compatible runs (same sizes, step count and
+the device as one world. ``roll_batch`` puts compatible runs (same sizes, step count and
 control layout, any per-world parameter: masses, R, gap, springs, forcing, initial state)
 into one MuJoCo Warp model of many worlds; one ``mujoco_warp.step`` advances them all.
 Per step, one small kernel records every world's state and sensors on the device and loads
 the next step's controls (``ctrl``, and ``mocap_pos`` for a prescribed body), as
 ``mujoco.rollout`` does for MuJoCo C; every ``window.CHUNK`` samples the chunk comes back and
-goes to the MuJoCo engine's recorder and checks (``mujoco_engine.run.RunRecord``: contact flags and
+goes to the run's ``base.Recording`` as MuJoCo's do (``mujoco_common.take``: contact flags and
 forces from the same sensors, blow-ups, a long run kept compact), so memory stays bounded.
 
 Promises: sample k is the state after k steps and its contact force the one MuJoCo Warp
 computed at the start of step k (MuJoCo's rollout convention, so the two engines'
 trajectories line up sample by sample); the arrays are float32 values widened to float64;
 MuJoCo C's blow-up checks hold (a state past ``MAXVAL`` or not finite, and its qacc check,
-done on the device: an acceleration past ``MAXVAL`` drops the states after it);
+done on the device: an acceleration past ``base.MAXVAL`` drops the states after it);
 ``settings["precision"]`` and ``settings["device"]`` say what computed them; a run never
 raises from inside MuJoCo Warp (``status = "error"`` / ``"diverged"``, as for MuJoCo); the
 kernel compilation of a first run (tens of seconds on the CPU device, then cached by warp
@@ -37,22 +37,17 @@ import math
 import time
 from typing import Any, Sequence
 
-import mujoco
 import numpy as np
 
 from chatterbench.reference.errors import check_integer
 from chatterbench.reference.scene import Scene
 
-from ..base import _version, n_steps
-from ..mujoco_engine.model import build_spec
-from ..mujoco_engine.run import MAXVAL, rollout_controls, failed_run, prepare, Prepared, RunRecord, settings_record
+from ..base import MAXVAL, Diverged, EngineAdapter, Recording, n_steps
+from ..mujoco_common import Prepared, prepare, rollout_controls, take, warning_note
 from ..trajectory import Trajectory
 from ..window import CHUNK
 from .settings import MujocoWarpSettings
 from .worlds import Incompatible, Worlds, device_name, put_worlds, warp_model, warp_modules
-
-NAME = "mujoco_warp"
-BENCH_STEP_CAP = 2_000  # steps per benchmark repeat: a step's cost is flat after the first few (launch-bound on cpu)
 
 
 @functools.cache
@@ -95,30 +90,24 @@ def _inputs(ps: list[Prepared], k0: int, k1: int) -> tuple[np.ndarray, np.ndarra
     ctrl = np.zeros((k1 - k0, len(ps), model.nu), np.float32)
     mocap = np.zeros((k1 - k0, len(ps), model.nmocap, 3), np.float32)
     for w, p in enumerate(ps):
-        control = rollout_controls(p, k0, k1)  # the MuJoCo engine's rollout input, (1, k1 - k0, nu + 3 nmocap)
+        control = rollout_controls(p, k0, k1)  # MuJoCo's rollout input, (1, k1 - k0, nu + 3 nmocap)
         if control is not None:
             ctrl[:, w] = control[0, :, : model.nu]
             mocap[:, w] = control[0, :, model.nu :].reshape(k1 - k0, model.nmocap, 3)
     return ctrl, mocap
 
 
-def _flag_bad_acceleration(r: RunRecord, state: np.ndarray, bad: int, k0: int) -> None:
-    """Step ``bad`` (>= k0) had an acceleration past MAXVAL: MuJoCo C's warning, and the states after it dropped."""
-    state[bad - k0:, 1:] = np.nan
-    r.p.data.warning[int(mujoco.mjtWarning.mjWARN_BADQACC)].number = 1
-    r.note_warnings(r.p.data)
-
-
-def _roll_worlds(worlds: Worlds, ps: list[Prepared], compact_above: float | None = None) -> tuple[list[RunRecord], float, float]:
+def _roll_worlds(worlds: Worlds, ps: list[Prepared], runs: list[Recording]) -> tuple[list[set[str]], float, float]:
     """Step every world ``nstep`` times from its initial state with its controls, ``window.CHUNK`` samples of all
-    of them at a time, each chunk handed to its run's recorder (the MuJoCo engine's ``RunRecord``).
+    of them at a time, each chunk handed to its run (``mujoco_common.take``, as MuJoCo's are).
 
-    Returns the runs, the stepping wall time [s] and the kernels' loading (first time: compiling) time [s].
+    Returns each run's MuJoCo warnings (an acceleration past MAXVAL: MuJoCo C's mjWARN_BADQACC, and the
+    states after it dropped), the stepping wall time [s] and the kernels' loading (first time: compiling) time [s].
     """
     wp, mjw = warp_modules()
     p0, nw = ps[0], len(ps)
     mjm, nstep, s0 = p0.model, p0.nstep, p0.settings
-    runs = [RunRecord(p, compact_above, engine=NAME) for p in ps]
+    names: list[set[str]] = [set() for _ in ps]
     chunk = max(256, CHUNK // nw)
     with wp.ScopedDevice(worlds.device):
         start = time.perf_counter()
@@ -155,35 +144,36 @@ def _roll_worlds(worlds: Worlds, ps: list[Prepared], compact_above: float | None
             qpos, qvel, sens = (a.numpy()[: k1 - k0].astype(np.float64) for a in out)
             bad = bad_acc.numpy()
             times = s0.dt * np.arange(k0 + 1, k1 + 1)
-            for w, r in enumerate(runs):
-                # the rollout layout RunRecord reads: row j = time, qpos, qvel after step k0 + j
-                state = np.concatenate([(r.p.scene.initial.t + times)[:, None], qpos[:, w], qvel[:, w]], axis=1)
-                if bad[w] < k1:
-                    _flag_bad_acceleration(r, state, int(bad[w]), k0)
-                r.take(k0, before[w], state, sens[:, w])
+            for w, (p, r) in enumerate(zip(ps, runs)):
+                # the rollout layout ``take`` reads: row j = time, qpos, qvel after step k0 + j
+                state = np.concatenate([(p.scene.initial.t + times)[:, None], qpos[:, w], qvel[:, w]], axis=1)
+                if bad[w] < k1 and not r.stopped:
+                    state[int(bad[w]) - k0:, 1:] = np.nan
+                    names[w].add("mjWARN_BADQACC")
+                if not r.stopped:
+                    take(r, p, k0, before[w], state, sens[:, w])
                 before[w] = state[-1]
-            if all(r.bad_at >= 0 for r in runs):
+            if all(r.stopped for r in runs):
                 break
-    return runs, wall, warmup
+    return names, wall, warmup
 
 
-def _record(scene: Scene, s: MujocoWarpSettings, device: str) -> dict[str, Any]:
-    """The settings as run: MuJoCo's record, and what computed them (precision, device, versions)."""
-    wp, _ = warp_modules()
-    return {**settings_record(scene, s), "precision": s.precision, "device": device,
-            "mujoco_warp_version": _version("mujoco-warp"), "warp_version": wp.__version__}
-
-
-def _run_group(jobs: list[tuple[Scene, MujocoWarpSettings]], ps: list[Prepared], device: str) -> list[Trajectory]:
-    """The runs as the worlds of one MuJoCo Warp model, or each alone when they cannot share one."""
+def _group(runs: list[Recording], ps: list[Prepared], device: str) -> list[Exception | None]:
+    """Step the runs as the worlds of one MuJoCo Warp model (each alone when they cannot share one); each run's
+    failure (None: none) for ``Recording.trajectory``."""
     models = [dataclasses.replace(p, model=warp_model(p.model)) for p in ps]
     try:
         worlds = put_worlds([p.model for p in models], device)
     except Incompatible:
-        return [traj for job, p in zip(jobs, ps) for traj in _run_group([job], [p], device)]
-    runs, wall, warmup = _roll_worlds(worlds, models)
-    return [r.trajectory(wall / len(jobs), {**_record(scene, s, device), "batch_size": len(jobs), "warmup_s": warmup})
-            for r, (scene, s) in zip(runs, jobs)]
+        return [failure for r, p in zip(runs, ps) for failure in _group([r], [p], device)]
+    try:
+        names, wall, warmup = _roll_worlds(worlds, models, runs)
+    except Exception as exc:  # noqa: BLE001  an engine failure is a result, not a crash
+        return [exc] * len(runs)
+    for r in runs:
+        r.wall_time = wall / len(runs)
+        r.record.update(batch_size=len(runs), warmup_s=warmup)
+    return [Diverged(warning_note(warned, r.settings)) if warned else None for r, warned in zip(runs, names)]
 
 
 def _signature(p: Prepared) -> tuple:
@@ -191,7 +181,7 @@ def _signature(p: Prepared) -> tuple:
     return (p.model.signature, p.nstep, p.model.nu, p.model.nmocap)
 
 
-def run_batch(jobs: Sequence[tuple[Scene, MujocoWarpSettings]]) -> list[Trajectory]:
+def roll_batch(engine: EngineAdapter, jobs: Sequence[tuple[Scene, MujocoWarpSettings]]) -> list[Trajectory]:
     """Run many (scene, settings) pairs; each group of compatible runs as the worlds of one MuJoCo Warp model.
 
     Compatible: same model sizes, step count, controls layout and device, and no difference
@@ -200,36 +190,26 @@ def run_batch(jobs: Sequence[tuple[Scene, MujocoWarpSettings]]) -> list[Trajecto
     run's share of its batch's stepping time. Raises SettingsError, like ``run``, before
     anything runs (a device that is not there is such an error).
     """
-    jobs = list(jobs)
-    devices = []
     for scene, s in jobs:
-        build_spec(scene, s)  # settings errors first, for every job
-        devices.append(_device(s))
+        engine.validate(scene, engine.settings(s))  # settings errors first, for every job
     out: list[Trajectory | None] = [None] * len(jobs)
-    groups: dict[tuple, list[tuple[int, Prepared]]] = {}
+    groups: dict[tuple, list[tuple[int, Recording, Prepared]]] = {}
     for i, (scene, s) in enumerate(jobs):
-        try:  # the MuJoCo engine's model and initial state
-            prepared = prepare(scene, s, n_steps(scene.duration, s.dt))
-            groups.setdefault((devices[i], _signature(prepared)), []).append((i, prepared))
-        except Exception as exc:  # an engine failure is a result, not a crash
-            out[i] = _error(scene, s, devices[i], f"{type(exc).__name__}: {exc}")
-    for (device, _), members in groups.items():
-        idx = [i for i, _ in members]
-        try:
-            trajs = _run_group([jobs[i] for i in idx], [p for _, p in members], device)
-        except Exception as exc:  # an engine failure is a result, not a crash
-            trajs = [_error(*jobs[i], device, f"{type(exc).__name__}: {exc}") for i in idx]
-        for i, traj in zip(idx, trajs):
-            out[i] = traj
+        try:  # MuJoCo's model and initial state
+            run = engine.open(scene, s)
+            p = prepare(scene, run.settings, run.n)
+        except Exception:  # noqa: BLE001  alone, its failure is its own result
+            out[i] = engine.run(scene, s)
+            continue
+        groups.setdefault((run.record["device"], _signature(p)), []).append((i, run, p))
+    for (dev, _), members in groups.items():
+        failures = _group([r for _, r, _ in members], [p for _, _, p in members], dev)
+        for (i, r, _), failure in zip(members, failures):
+            out[i] = r.trajectory(failure)
     return out  # type: ignore[return-value]  # every job is in a group or failed
 
 
-def _error(scene: Scene, s: MujocoWarpSettings, device: str, message: str) -> Trajectory:
-    """The ``error`` trajectory of a run that failed before its first step."""
-    return failed_run(scene, _record(scene, s, device), "error", message, engine=NAME)
-
-
-def _device(s: MujocoWarpSettings) -> str:
+def device(s: MujocoWarpSettings) -> str:
     """The warp device of settings ``s``; a device that is not there is the user's SettingsError."""
     from ..settings import SettingsError
 
@@ -239,40 +219,17 @@ def _device(s: MujocoWarpSettings) -> str:
         raise SettingsError(str(exc)) from None
 
 
-def run(scene: Scene, settings: MujocoWarpSettings | None = None) -> Trajectory:
-    """Simulate ``scene.duration`` seconds from ``scene.initial`` in one world (see ``run_batch``).
-
-    Raises
-    ------
-    SettingsError
-        Settings the scene cannot run with, or a device warp does not find (checked before
-        MuJoCo Warp is called). What goes wrong inside it is ``status = "error"`` instead.
-    """
-    return run_batch([(scene, settings or MujocoWarpSettings())])[0]
+def simulate(run: Recording) -> None:
+    """One run as a model of one world; ``Diverged`` for MuJoCo's acceleration warning."""
+    (failure,) = _group([run], [prepare(run.scene, run.settings, run.n)], run.record["device"])
+    if failure is not None:
+        raise failure
 
 
-def benchmark(scene: Scene, settings: MujocoWarpSettings | None = None, steps: int = 200_000,
-              repeats: int = 3) -> dict[str, Any]:
-    """Steps per second of ``run`` (one world, all adapter work) and of the bare ``mujoco_warp.step`` loop.
-
-    At most ``BENCH_STEP_CAP`` steps per repeat (``n_steps`` says how many): on the CPU device
-    a step costs the same from the first to the last, so more only takes longer. Returns the
-    keys of ``mujoco_engine.run.benchmark`` and ``device``, ``precision``.
-    """
-    check_integer("steps", steps, lo=1)
-    check_integer("repeats", repeats, lo=1)
-    s = settings or MujocoWarpSettings()
-    short = dataclasses.replace(scene, duration=min(steps, BENCH_STEP_CAP) * s.dt)
-    figures = world_steps_per_s(short, s, nworld=1, repeats=repeats)
-    adapter, traj = math.inf, None
-    for _ in range(repeats):
-        start = time.perf_counter()
-        traj = run(short, s)
-        adapter = min(adapter, time.perf_counter() - start)
-    n = n_steps(short.duration, s.dt)
-    return {"scene": scene.name, "n_steps": n, "repeats": repeats, "adapter_steps_per_s": n / adapter,
-            "raw_steps_per_s": figures["world_steps_per_s"], "ratio": (n / adapter) / figures["world_steps_per_s"],
-            "status": traj.status, "device": figures["device"], "precision": s.precision}
+def bare_seconds(scene: Scene, settings: MujocoWarpSettings) -> float:
+    """Seconds of the bare ``mujoco_warp.step`` loop over the run, one world."""
+    figures = world_steps_per_s(scene, settings, nworld=1, repeats=1)
+    return figures["seconds"]
 
 
 def world_steps_per_s(scene: Scene, settings: MujocoWarpSettings | None = None, nworld: int = 1,
@@ -286,11 +243,11 @@ def world_steps_per_s(scene: Scene, settings: MujocoWarpSettings | None = None, 
     check_integer("repeats", repeats, lo=1)
     s = settings or MujocoWarpSettings()
     wp, mjw = warp_modules()
-    device = _device(s)
+    dev = device(s)
     p = prepare(scene, s, n_steps(scene.duration, s.dt))
     model = warp_model(p.model)
-    worlds = put_worlds([model], device)
-    with wp.ScopedDevice(device):
+    worlds = put_worlds([model], dev)
+    with wp.ScopedDevice(dev):
         d = mjw.put_data(model, p.data, nworld=nworld)
         if model.nu:
             d.ctrl.assign(np.tile(rollout_controls(p, 0, 1)[0, :, : model.nu].astype(np.float32), (nworld, 1)))
@@ -304,5 +261,5 @@ def world_steps_per_s(scene: Scene, settings: MujocoWarpSettings | None = None, 
                 mjw.step(worlds.model, d)
             wp.synchronize()
             best = min(best, time.perf_counter() - start)
-    return {"device": device, "nworld": nworld, "steps": p.nstep, "seconds": best,
+    return {"device": dev, "nworld": nworld, "steps": p.nstep, "seconds": best,
             "world_steps_per_s": nworld * p.nstep / best, "warmup_s": warmup}

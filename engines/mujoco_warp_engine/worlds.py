@@ -1,7 +1,9 @@
 """Many MuJoCo models as one MuJoCo Warp model of many worlds, on the warp device the settings ask for.
 
     >>> from chatterbench.engines.mujoco_warp_engine.worlds import device_name, put_worlds, warp_model
-    >>> from chatterbench.engines.mujoco_engine.model import build
+    >>> from chatterbench.engines.mujoco_common import build
+    >>> from chatterbench.engines.mujoco_engine import MujocoSettings
+    >>> from chatterbench.reference.scene import load_scene
     >>> models = [warp_model(build(load_scene("bouncing-ball", [f"restitution={r}"]), MujocoSettings(dt=1e-3)))
     ...           for r in (0.5, 0.8)]
     >>> worlds = put_worlds(models, device_name("cpu"))

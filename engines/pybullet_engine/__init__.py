@@ -1,6 +1,7 @@
 """PyBullet adapter: runs a ``Scene`` as two prismatic multibodies that collide with Newton restitution R.
 
     >>> from chatterbench.engines.pybullet_engine import PybulletEngine, PybulletSettings
+    >>> from chatterbench.reference.scene import load_scene
     >>> traj = PybulletEngine().run(load_scene("bouncing-ball"), PybulletSettings(dt=1e-4))
     >>> round(float(traj.t[traj.contact["lower"].argmax()]), 4)      # first impact: sqrt(2/g) = 0.4515 s
     0.4516
@@ -9,7 +10,7 @@ The model is the smallest PyBullet world that is Feigin's system (1967, section 
 and body 2 each slide on one prismatic joint along world x, body 2 is a sphere and body 1
 carries one wall box per gap limit (``world.py``). Modules: ``bullet`` (PyBullet, imported
 once, quietly), ``settings`` (``PybulletSettings``, the paste-able calls), ``world`` (the
-model), ``run`` (the stepping loop, contacts, classification, benchmark).
+model), ``run`` (the stepping loop, contacts, the bare loop the benchmark compares with).
 
 Promises:
 
@@ -22,37 +23,38 @@ Promises:
 
 from __future__ import annotations
 
-from typing import Any
-
 from chatterbench.reference.scene import Scene
 
-from ..base import EngineAdapter
+from ..base import EngineAdapter, Recording
 from ..trajectory import Trajectory
+from . import run as _run
 from .bullet import p
-from .run import benchmark, run
 from .settings import PybulletSettings, settings_snippet
 from .world import PybulletWorld, build, connect
 
-__all__ = ["PybulletEngine", "PybulletSettings", "PybulletWorld", "benchmark", "build", "connect", "run",
-           "settings_snippet"]
+__all__ = ["PybulletEngine", "PybulletSettings", "PybulletWorld", "build", "connect", "run", "settings_snippet"]
 
 
 class PybulletEngine(EngineAdapter):
-    """PyBullet behind the engine contract (``base.EngineAdapter``)."""
+    """PyBullet behind the engine contract (``base.EngineAdapter``): rigid impulses, float64, ``dt`` the cost lever."""
 
     name = "pybullet"
     package = "pybullet"
     settings_type = PybulletSettings
     bytes_per_step = 125.0  # measured 88 B/step (feigin-pair, compact, 4.0e6 -> 8.0e6 steps: 600,884 -> 944,880 KiB)
 
+    def simulate(self, run: Recording) -> None:
+        """Step the scene's world in its own client (``run.simulate``)."""
+        _run.simulate(run)
+
+    def bare_seconds(self, scene: Scene, settings: PybulletSettings, traj: Trajectory) -> float:
+        """``stepSimulation`` and the two joint reads, replaying the run's forces (``run.bare_seconds``)."""
+        return _run.bare_seconds(scene, settings, traj)
+
     def build(self, scene: Scene, settings: PybulletSettings | None = None) -> PybulletWorld:
         """Build ``scene`` in a fresh DIRECT client that stays open; close it with ``p.disconnect``."""
         settings = settings or PybulletSettings()
         return build(scene, settings, p.connect(p.DIRECT))
-
-    def run(self, scene: Scene, settings: PybulletSettings | None = None) -> Trajectory:
-        """Simulate ``scene`` (``run.run``)."""
-        return run(scene, settings)
 
     def snippet(self, scene: Scene, settings: PybulletSettings | None = None) -> str:
         """The PyBullet calls these settings make, for the user's own bodies (``settings.settings_snippet``)."""
@@ -66,7 +68,7 @@ class PybulletEngine(EngineAdapter):
                 "pybullet.restitution_velocity_threshold": (base.restitution_velocity_threshold, 0.01, 0.1),
                 "pybullet.num_solver_iterations": (base.num_solver_iterations, 10)}
 
-    def benchmark(self, scene: Scene, settings: PybulletSettings | None = None, n_steps: int = 20000,
-                  repeats: int = 3) -> dict[str, Any]:
-        """Adapter against the bare stepping loop, steps per second (``run.benchmark``)."""
-        return benchmark(scene, settings, n_steps, repeats)
+
+def run(scene: Scene, settings: PybulletSettings | None = None, compact_above: float | None = None) -> Trajectory:
+    """``PybulletEngine().run``: one run, classified by the base (``base.EngineAdapter.run``)."""
+    return PybulletEngine().run(scene, settings, compact_above)

@@ -1,6 +1,8 @@
-"""Running PyBullet: one ``p.DIRECT`` client per run, forces applied every step, contacts read where they act.
+"""Stepping PyBullet: one ``p.DIRECT`` client per run, forces applied every step, contacts read where they act.
 
-    >>> from chatterbench.engines.pybullet_engine.run import run
+    >>> import numpy as np
+    >>> from chatterbench.engines.pybullet_engine import PybulletSettings, run
+    >>> from chatterbench.reference.scene import load_scene
     >>> traj = run(load_scene("bouncing-ball"), PybulletSettings(dt=1e-3))
     >>> traj.status, round(float(traj.t[np.argmax(traj.contact["lower"])]), 3)      # first impact: sqrt(2/g)
     ('ok', 0.453)
@@ -10,33 +12,29 @@ at sample k belong to the step that ended there: ``contact[wall][k]`` is True wh
 pushed body 2 in that step (PyBullet normal force > 0), the force being PyBullet's
 ``appliedImpulse / dt`` summed over the wall's contact points. Every scene force is applied
 as an external force each step, from the state the step starts with (the scene's force
-model as an affine map, ``reference.forces.ForceModel.body_forces``). The samples go to a
-``window.Recorder`` a chunk of ``window.CHUNK`` steps at a time, so a long run comes back
-compact and never holds more than a chunk of Python floats.
+model as an affine map, ``reference.forces.ForceModel.body_forces``). The samples go to the
+run's ``base.Recording`` a chunk of ``window.CHUNK`` steps at a time, so a long run comes back
+compact and never holds more than a chunk of Python floats; the base classifies the run.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import time
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
-from chatterbench.reference.errors import check_integer
 from chatterbench.reference.forces import ForceModel
 from chatterbench.reference.scene import Scene
 
-from ..base import failed_trajectory, n_steps
+from ..base import Recording
 from ..trajectory import Trajectory
-from ..window import CHUNK, Recorder
+from ..window import CHUNK
 from .bullet import p
 from .settings import PybulletSettings
 from .world import PybulletWorld, build, connect
 
-NAME = "pybullet"
 
 # A step's velocity change of body 2 beyond what its forces give, above which the step is taken
 # to have had a contact impulse and the contact points are read: relative to |v2| [1], plus an
@@ -89,9 +87,9 @@ def _force_flags(scene: Scene, t0: float, dt: float, n: int) -> tuple[bool, bool
     return on1, on2, dep
 
 
-def _simulate(scene: Scene, settings: PybulletSettings, world: PybulletWorld, n: int, recorder: Recorder) -> dict[str, Any]:
-    """Step ``world`` n times, handing the samples to ``recorder`` chunk by chunk; return the status and the
-    stepping wall time.
+def _simulate(world: PybulletWorld, run: Recording) -> None:
+    """Step ``world`` ``run.n`` times, handing the samples to ``run`` chunk by chunk and adding the stepping
+    time to ``run.wall_time``; PyBullet's own error is raised once the samples before it are recorded.
 
     The loop is the cost the benchmark measures, so it keeps Python work per step small:
     forces come from a plan precomputed per chunk from the scene's force model (time part as a
@@ -99,8 +97,9 @@ def _simulate(scene: Scene, settings: PybulletSettings, world: PybulletWorld, n:
     runs every 1024 steps, and contact points are read only for steps that start near a wall and
     change body 2's momentum by more than the forces do (so the wall pushed). Between chunks
     (``window.CHUNK`` steps) the samples become arrays, contacts become flags and forces, and
-    the recorder keeps what it keeps: the memory of a run does not grow with its length.
+    the recording keeps what it keeps: the memory of a run does not grow with its length.
     """
+    scene, settings, n = run.scene, run.settings, run.n
     cid = world.client
     dt = settings.dt
     t0 = scene.initial.t
@@ -135,8 +134,7 @@ def _simulate(scene: Scene, settings: PybulletSettings, world: PybulletWorld, n:
     frame = p.LINK_FRAME
     origin = (0.0, 0.0, 0.0)
     isfinite = math.isfinite
-    status, message = "ok", ""
-    wall_time = 0.0
+    failure: Exception | None = None
     k = 0
     for k0 in range(0, n + 1, CHUNK):
         k1 = min(n, k0 + CHUNK)  # this chunk: steps k0 .. k1 - 1, samples k0 (known) .. k1
@@ -187,30 +185,21 @@ def _simulate(scene: Scene, settings: PybulletSettings, world: PybulletWorld, n:
                     last, stop = j + 1, True
                     break
         except p.error as exc:
-            status, message = "error", f"pybullet: {exc}"
-            last, stop = k - k0, True
-        wall_time += time.perf_counter() - start
-        status, message, stop = _record(world, recorder, k0, times, (x1s, v1s, x2s, v2s), contacts, last,
-                                        (status, message, stop))
-        if stop or k1 == n:
+            failure, last, stop = exc, k - k0, True
+        run.wall_time += time.perf_counter() - start
+        if not _record(world, run, k0, times, (x1s, v1s, x2s, v2s), contacts, last) or stop or k1 == n:
             break
-    return {"status": status, "message": message, "wall_time": wall_time}
+    if failure is not None:
+        raise failure
 
 
-def _record(world: PybulletWorld, recorder: Recorder, k0: int, times: np.ndarray, states: tuple, contacts: list,
-            last: int, outcome: tuple[str, str, bool]) -> tuple[str, str, bool]:
-    """Hand positions 0 (for the first chunk; later ones start at 1) .. ``last`` of a chunk to the recorder,
-    up to the first non-finite sample (then the run is ``diverged`` and stops)."""
-    status, message, stop = outcome
+def _record(world: PybulletWorld, run: Recording, k0: int, times: np.ndarray, states: tuple, contacts: list,
+            last: int) -> bool:
+    """Hand positions 0 (for the first chunk; later ones start at 1) .. ``last`` of a chunk to ``run``, the wall
+    forces from the contact points read; whether to go on (the base cuts at a blow-up)."""
     first = 0 if k0 == 0 else 1
     cols = [np.array(col[first:last + 1]) for col in states]
-    finite = np.isfinite(cols[0]) & np.isfinite(cols[1]) & np.isfinite(cols[2]) & np.isfinite(cols[3])
-    m = len(finite)
-    if not finite.all():
-        m = int(np.argmin(finite))
-        bad = k0 + first + m
-        status, message, stop = "diverged", f"non-finite state at sample {bad} (t = {times[bad - k0]:.6g} s)", True
-    contact = {w: np.zeros(m, dtype=bool) for w in world.walls}
+    m = len(cols[0])
     force = {w: np.zeros(m) for w in world.walls}
     # Body 1 is bodyA: contactNormalOnB points from body 2 towards body 1. The lower wall lies
     # on body 2's -x side, the upper wall on its +x side, so the normal's x sign names the wall.
@@ -220,41 +209,16 @@ def _record(world: PybulletWorld, recorder: Recorder, k0: int, times: np.ndarray
             break
         for pt in pts or ():
             wall = "lower" if pt[7][0] < 0.0 else "upper"
-            if wall not in contact:
-                continue
-            if pt[9] > 0.0:  # the wall pushed during the step
-                contact[wall][i] = True
+            if wall in force and pt[9] > 0.0:  # the wall pushed during the step
                 force[wall][i] += pt[9]
-    recorder.add(times[first:first + m], cols[0][:m], cols[1][:m], cols[2][:m], cols[3][:m], contact, force)
-    return status, message, stop
+    body1 = {"x1": cols[0], "v1": cols[1]} if world.link1 >= 0 else {}  # a static body 1: the base fills it in
+    return run.add(times[first:first + m], force, x2=cols[2], v2=cols[3], **body1)
 
 
-def run(scene: Scene, settings: PybulletSettings | None = None, compact_above: float | None = None) -> Trajectory:
-    """Simulate ``scene.duration`` seconds from ``scene.initial``; see the module docstring.
-
-    ``compact_above``: hand on a compact trajectory when the run has more samples than this
-    (default ``window.COMPACT_ABOVE``; ``math.inf``: always full).
-
-    Returns
-    -------
-    Trajectory
-        ``status`` "ok"; "diverged" with the finite samples when the state blew up; "error"
-        with PyBullet's message (and no steps) when the engine refused the model, or when
-        the samples of the run do not fit in memory.
-    """
-    settings = settings or PybulletSettings()
-    n = n_steps(scene.duration, settings.dt)
-    record = dataclasses.asdict(settings)
-    try:
-        recorder = Recorder(scene, n + 1, compact_above)
-        with connect() as cid:
-            world = build(scene, settings, cid)
-            out = _simulate(scene, settings, world, n, recorder)
-        return recorder.trajectory(NAME, out["wall_time"], settings=record, status=out["status"], message=out["message"])
-    except p.error as exc:
-        return failed_trajectory(NAME, scene, "error", f"pybullet: {exc}", record)
-    except MemoryError as exc:  # the samples of n steps do not fit: a result, as MuJoCo gives it
-        return failed_trajectory(NAME, scene, "error", f"{type(exc).__name__}: {n} steps: {exc}", record)
+def simulate(run: Recording) -> None:
+    """One run in its own ``p.DIRECT`` client (``world.build``, then ``_simulate``)."""
+    with connect() as cid:
+        _simulate(build(run.scene, run.settings, cid), run)
 
 
 def _raw_loop(scene: Scene, settings: PybulletSettings, world: PybulletWorld, forces: tuple[list, list], n: int) -> float:
@@ -289,42 +253,18 @@ def _raw_loop(scene: Scene, settings: PybulletSettings, world: PybulletWorld, fo
     return time.perf_counter() - start
 
 
-def benchmark(scene: Scene, settings: PybulletSettings | None = None, steps: int = 20000, repeat: int = 3) -> dict[str, float]:
-    """Steps per second of the adapter and of the bare engine loop, measured in one process.
+def bare_seconds(scene: Scene, settings: PybulletSettings, traj: Trajectory) -> float:
+    """Seconds of the bare engine loop (``_raw_loop``) over the adapter's run ``traj`` of ``scene``.
 
     Both loops step the same trajectory: the raw loop replays the forces the adapter applied
     (recomputed from its recorded states, bit for bit), so the two differ only by the
-    adapter's own work (force evaluation, recording, contact queries). Each is run ``repeat``
-    times, interleaved, and the fastest run counts (as ``timeit`` does: slower runs measure
-    the machine's other load, not the code).
-
-    Returns
-    -------
-    dict
-        ``adapter_steps_per_s``, ``raw_steps_per_s``, ``ratio`` (adapter / raw), ``n_steps``.
+    adapter's own work (force evaluation, recording, contact queries).
     """
-    settings = settings or PybulletSettings()
-    check_integer("steps", steps, lo=1)
-    check_integer("repeat", repeat, lo=1)
-    best_adapter = best_raw = math.inf
+    plan = _force_plan(scene, traj.t)
+    states = np.stack([traj.x1, traj.v1, traj.x2, traj.v2])
+    g = plan.gain
+    # Same operation order as the adapter loop, so the replayed forces are identical.
+    f1, f2 = (plan.time1 + (g[i, 0] * states[0] + g[i, 1] * states[1] + g[i, 2] * states[2] + g[i, 3] * states[3])
+              for i in (0, 1))
     with connect() as cid:
-        for _ in range(repeat):
-            world = build(scene, settings, cid)
-            recorder = Recorder(scene, steps + 1, math.inf)
-            best_adapter = min(best_adapter, _simulate(scene, settings, world, steps, recorder)["wall_time"])
-            raw = recorder.trajectory(NAME, 0.0)
-            plan = _force_plan(scene, raw.t)
-            states = np.stack([raw.x1, raw.v1, raw.x2, raw.v2])
-            g = plan.gain
-            pr = scene.prescribed if scene.body1_infinite else None
-            if pr is not None:  # the adapter used the prescription, not the recorded x1, v1
-                states[0], states[1] = pr.position(raw.t), pr.velocity(raw.t)
-            # Same operation order as the adapter loop, so the replayed forces are identical.
-            f1, f2 = (
-                plan.time1 + (g[i, 0] * states[0] + g[i, 1] * states[1] + g[i, 2] * states[2] + g[i, 3] * states[3])
-                for i in (0, 1)
-            )
-            world = build(scene, settings, cid)
-            best_raw = min(best_raw, _raw_loop(scene, settings, world, (f1.tolist(), f2.tolist()), steps))
-    adapter, bare = steps / best_adapter, steps / best_raw
-    return {"adapter_steps_per_s": adapter, "raw_steps_per_s": bare, "ratio": adapter / bare, "n_steps": float(steps)}
+        return _raw_loop(scene, settings, build(scene, settings, cid), (f1.tolist(), f2.tolist()), len(traj.t) - 1)

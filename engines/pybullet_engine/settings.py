@@ -3,8 +3,8 @@
     >>> from chatterbench.engines.pybullet_engine.settings import PybulletSettings, settings_snippet
     >>> PybulletSettings().restitution_velocity_threshold       # PyBullet's own default is 0.2 m/s
     0.0
-    >>> print(settings_snippet(PybulletSettings()).splitlines()[2])
-    p.setPhysicsEngineParameter(
+    >>> [line for line in settings_snippet(PybulletSettings()).splitlines() if line.startswith("p.change")][0]
+    'p.changeDynamics(BALL_ID, BALL_LINK,'
 
 Every field is checked when the settings are made (``SettingsError`` naming the field, the
 value and the allowed range).
@@ -122,31 +122,59 @@ class PybulletSettings:
         return {"maxJointVelocity": self.max_joint_velocity}
 
 
-def settings_snippet(settings: PybulletSettings, restitution: float = 0.5) -> str:
-    """The PyBullet calls these settings make, as Python a user can paste into their own setup.
+PLACEHOLDERS = {
+    "BALL_ID": "the body unique id of the moving body (what p.createMultiBody or p.loadURDF returned)",
+    "BALL_LINK": "the link index of its colliding shape: -1 for a base body (a body without joints), else the "
+                 "joint index of that link (p.getJointInfo lists them)",
+    "WALL_ID": "the body unique id of what it strikes (a wall, the floor, the other body)",
+    "WALL_LINK": "the link index of the wall's colliding shape: -1 for a base body, else its joint index",
+}
 
-    ``body`` / ``wall`` stand for the user's two colliding bodies (link index 0 here); the
-    combined restitution is the product of the two bodies' values, so one carries R.
+
+def settings_snippet(settings: PybulletSettings, restitution: float = 0.5, names: dict[str, str] | None = None) -> str:
+    """The PyBullet calls these settings make, as Python a user pastes into their own setup.
+
+    ``names`` fills the placeholders (``PLACEHOLDERS``: the two bodies' ids and link indices; a
+    wrong link index is ignored by PyBullet without a word, so the snippet says what goes there);
+    without it the snippet keeps them and explains each. The combined restitution is the product
+    of the two bodies' values, so the moving body carries R and the wall 1.
     """
     def call(fn: str, head: str, kwargs: dict[str, Any]) -> str:
-        names = {p.ACTIVATION_STATE_DISABLE_SLEEPING: "p.ACTIVATION_STATE_DISABLE_SLEEPING"}
+        consts = {p.ACTIVATION_STATE_DISABLE_SLEEPING: "p.ACTIVATION_STATE_DISABLE_SLEEPING"}
         args = "".join(
-            f"\n    {k}={names[v] if k == 'activationState' else repr(v)}," for k, v in kwargs.items()
+            f"\n    {k}={consts[v] if k == 'activationState' else repr(v)}," for k, v in kwargs.items()
         )
         return f"p.{fn}({head}{args}\n)"
 
-    wall = settings.dynamics(1.0)
-    body = settings.dynamics(restitution)
+    n = {key: key for key in PLACEHOLDERS} | dict(names or {})
+    ball, wall = f"{n['BALL_ID']}, {n['BALL_LINK']},", f"{n['WALL_ID']}, {n['WALL_LINK']},"
+    head = [] if names else ["# Replace the placeholders before running:"] + [f"#   {k}: {v}" for k, v in PLACEHOLDERS.items()] + [
+        "# PyBullet ignores a link index the body does not have, silently: check with",
+        "#   p.getDynamicsInfo(BALL_ID, BALL_LINK)[5] == restitution after these calls."]
     return "\n".join(
         [
             "import pybullet as p",
+            *head,
             "",
             call("setPhysicsEngineParameter", "", settings.engine_parameters()),
-            call("changeDynamics", "body, 0,", body),
-            call("changeDynamics", "wall, 0,", wall),
+            call("changeDynamics", ball, settings.dynamics(restitution)),
+            call("changeDynamics", wall, settings.dynamics(1.0)),
             "# separately: passed together with restitution, PyBullet 3.2.7 drops the restitution",
-            call("changeDynamics", "body, 0,", settings.joint_limits()),
-            call("changeDynamics", "wall, 0,", settings.joint_limits()),
+            call("changeDynamics", ball, settings.joint_limits()),
+            call("changeDynamics", wall, settings.joint_limits()),
             "",
         ]
     )
+
+
+def measurement() -> str:
+    """Python that measures one impact's e = -v_out / v_in in the user's own setup (the body flying towards the
+    wall; SPEED() its velocity along the wall's normal): the guide's check that the pasted settings give R."""
+    return "\n".join([
+        "pushed = lambda: any(c[9] > 0 for c in p.getContactPoints(BALL_ID, WALL_ID))  # normal force in the last step",
+        "v_in = SPEED(); p.stepSimulation()",
+        "while not pushed(): v_in = SPEED(); p.stepSimulation()  # fly to the wall",
+        "while pushed(): p.stepSimulation()  # through the contact",
+        'print("e =", -SPEED() / v_in)  # compare with R at this v_in',
+        "# SPEED: e.g. lambda: p.getBaseVelocity(BALL_ID)[0][2] for a base body moving along z",
+    ]) + "\n"

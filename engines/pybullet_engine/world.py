@@ -1,6 +1,7 @@
 """The PyBullet world of a scene: two prismatic multibodies, the walls on body 1, a sphere for body 2.
 
-    >>> from chatterbench.engines.pybullet_engine.world import build, connect
+    >>> from chatterbench.reference.scene import load_scene
+    >>> from chatterbench.engines.pybullet_engine.world import build, connect, PybulletSettings
     >>> with connect() as client:
     ...     world = build(load_scene("feigin-pair"), PybulletSettings(), client)
     ...     world.walls, world.link1

@@ -72,8 +72,10 @@ def test_staying_stuck_to_the_end_is_late_and_leaving_early_is_early():
 
 
 @pytest.mark.parametrize("change, want", [
-    ({"restitution_error": -0.09, "restitution_excess": 0.06}, "rebound"),   # beyond 5% + its uncertainty
-    ({"restitution_error": -0.09, "restitution_excess": 0.04}, "match"),     # within its measurement uncertainty
+    ({"restitution_error": -0.06, "restitution_excess": 0.06}, "rebound"),   # beyond 5%, whatever the step
+    ({"restitution_error": -0.04, "restitution_excess": 0.04}, "match"),     # within 5%
+    ({"unmeasured_impacts": 2, "measured_impacts": 0}, "unmeasured"),        # none measurable: not a match
+    ({"unmeasured_impacts": 2, "measured_impacts": 4}, "match"),             # counted, not judged
     ({"resolved_impacts": 4}, "rebound"),                                     # two resolved impacts short
     ({"resolved_impacts": 7}, "match"),                                       # one more: allowed
     ({"restitution_excess": math.nan, "restitution_error": math.nan}, "match"),  # nothing resolved to judge
@@ -147,7 +149,7 @@ def test_combine_takes_the_most_severe():
 
 
 def test_one_vocabulary_names_every_verdict_with_meaning_colour_and_abbreviation():
-    assert set(NAMES) == set(VERDICTS) and len(NAMES) == len(set(NAMES)) == 13
+    assert set(NAMES) == set(VERDICTS) and len(NAMES) == len(set(NAMES)) == 14
     table = markdown_table()
     for name in NAMES:
         v = VERDICTS[name]

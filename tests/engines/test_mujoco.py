@@ -8,7 +8,7 @@ import pytest
 
 from chatterbench.engines.base import sample_times
 from chatterbench.engines import mujoco_engine as me
-from chatterbench.engines.mujoco_engine import MujocoEngine, MujocoSettings, benchmark, export_mjcf, run
+from chatterbench.engines.mujoco_engine import MujocoEngine, MujocoSettings, export_mjcf, run
 from chatterbench.engines.restitution import contact_duration, damping_ratio_from_restitution
 from chatterbench.engines.settings import SettingsError, settings_with_overrides
 from chatterbench.reference.catalogue import G
@@ -232,21 +232,10 @@ def test_export_and_engine_protocol():
     assert engine.name == "mujoco" and engine.build(scene, MujocoSettings()).nq == 2
 
 
-def test_benchmark_reports_both_loops():
-    # the 80%-of-raw speed goal is checked by `chatterbench bench engines`, not by a timed
-    # assertion here; this checks the benchmark measures both loops on the same model
-    result = benchmark(load_scene("feigin-pair"), MujocoSettings(), steps=2000, repeats=1)
-    assert result["adapter_steps_per_s"] > 0 and result["raw_steps_per_s"] > 0
-    assert result["ratio"] == pytest.approx(result["adapter_steps_per_s"] / result["raw_steps_per_s"])
-
-
 @pytest.mark.parametrize(
     "kwargs, overrides, field",
     [
-        ({"dt": 0.0}, [], "dt"),
-        ({"dt": -1e-4}, [], "dt"),
         ({"w0_dt": 3.0}, [], "w0_dt"),
-        ({}, ["mujoco.integratr=rk4"], "integratr"),
         ({"integrator": "rk45"}, [], "integrator"),
         ({"gap_model": "plane"}, [], "gap_model"),
         ({"impedance": 1.0}, [], "impedance"),
@@ -254,6 +243,7 @@ def test_benchmark_reports_both_loops():
     ],
 )
 def test_bad_settings_are_refused(kwargs, overrides, field):
+    # MuJoCo's own keys; dt and misspelt keys: tests/engines/test_contract.py, for every engine
     with pytest.raises(SettingsError, match=field):
         settings_with_overrides(MujocoSettings(**kwargs), overrides, prefix="mujoco")
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import functools
 import math
 
 import numpy as np
@@ -11,24 +10,18 @@ import pandas as pd
 import pytest
 
 from chatterbench.comparisons.pipeline.compare import judge_run
-from chatterbench.comparisons.pipeline.solution import solve
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
 from chatterbench.engines import window
 from chatterbench.engines.base import sample_times
-from chatterbench.engines.mujoco_engine.run import run as mujoco_run
+from chatterbench.engines.mujoco_engine import run as mujoco_run
 from chatterbench.engines.mujoco_engine.settings import MujocoSettings
-from chatterbench.engines.pybullet_engine.run import run as pybullet_run
-from chatterbench.engines.pybullet_engine.settings import PybulletSettings
-from chatterbench.engines.registry import make_settings, run_engine
+from chatterbench.engines.registry import adapter, available_engines, make_settings, run_engine
 from chatterbench.reference.catalogue import CATALOGUE
 from chatterbench.reference.scene import load_scene
 
+from helpers import solution
+
 ARRAYS = ("t", "x1", "x2", "v1", "v2")
-
-
-@functools.cache
-def _solution(name: str):
-    return solve(load_scene(name))
 
 
 def _judged(ref, engine, traj):
@@ -58,11 +51,14 @@ def _assert_same_samples(a, b):
     assert a.step == b.step
 
 
+STREAMING = [e for e in ("mujoco", "pybullet", "drake") if e in available_engines()]  # MuJoCo Warp: too slow on a CPU
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("name", tuple(CATALOGUE))
-@pytest.mark.parametrize("engine", ["mujoco", "pybullet"])
+@pytest.mark.parametrize("engine", STREAMING)
 def test_the_judge_says_the_same_on_the_compact_form(name, engine):
-    ref = _solution(name)
+    ref = solution(name)
     full = run_engine(engine, ref.scene, make_settings(engine, 1e-4))  # every built-in scene is under COMPACT_ABOVE
     small, table = _same_judgement(ref, engine, full)
     assert len(table) > 0
@@ -78,7 +74,7 @@ def test_a_wrong_restitution_is_still_caught_on_the_compact_form(name):
     # PyBullet run with R x 0.9, judged against the scene's R: its resolved impacts are 10% off
     # (as tests/comparisons/pipeline/test_judge.py checks on the full run), and the compact form
     # must be judged just as wrong, with the same numbers
-    ref = _solution(name)
+    ref = solution(name)
     wrong = dataclasses.replace(ref.scene, restitution=ref.scene.restitution * 0.9)
     full = run_engine("pybullet", wrong, make_settings("pybullet", 1e-4))
     _, table = _same_judgement(ref, "pybullet", full)
@@ -88,12 +84,14 @@ def test_a_wrong_restitution_is_still_caught_on_the_compact_form(name):
     assert len(judged) and ((judged["restitution_error"] + 0.1).abs() < 0.02).all()
 
 
-@pytest.mark.parametrize("run, settings", [(mujoco_run, MujocoSettings(dt=1e-4)), (pybullet_run, PybulletSettings(dt=1e-4))],
-                         ids=["mujoco", "pybullet"])
-def test_a_run_recorded_compact_is_the_full_run_compacted(run, settings):
+@pytest.mark.parametrize("engine", STREAMING)
+def test_a_run_recorded_compact_is_the_full_run_compacted(engine):
     # the adapters hand their samples over chunk by chunk; what they keep is what compacting the
     # full run keeps, and the full run is bit for bit the samples of the run (sample_times)
+    # (before: Drake built its trajectory whole and was never compacted)
     scene = load_scene("feigin-pair", ["duration=4"])
+    settings = make_settings(engine, 1e-4)
+    run = adapter(engine).run
     full = run(scene, settings, compact_above=math.inf)
     np.testing.assert_array_equal(full.t, sample_times(scene, settings.dt))
     streamed = run(scene, settings, compact_above=0)

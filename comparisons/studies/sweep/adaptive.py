@@ -1,5 +1,6 @@
 """An adaptive sweep's levels: the runs each level adds from the rows before it, and the fine map they stand for.
 
+    >>> from chatterbench.comparisons.studies.sweep.adaptive import Sweep, Levels, fine_sweep
     >>> sweep = Sweep(scene="bouncing-ball", engines=("pybullet",), fixed={"duration": 0.6},
     ...               grid={"dt": (1e-3, 1e-2), "restitution": (0.3, 0.7)}, refine={"axes": ["dt", "restitution"], "depth": 1})
     >>> levels = Levels(sweep)

@@ -1,5 +1,10 @@
 """A sweep's dataset: one row per run (``pipeline.summary.ROW_COLUMNS`` + parameters), in Parquet parts.
 
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> tmp = Path(tempfile.mkdtemp())
+    >>> import pandas as pd
+    >>> from chatterbench.comparisons.studies.sweep.dataset import read_rows, load_rows
     >>> rows = read_rows(tmp)                          # every finished part under tmp/rows/, one row per run
     >>> rows.empty                                     # (no part written yet)
     True
@@ -105,6 +110,17 @@ def same_value(got: Any, want: Any) -> bool:
         return float(got) == float(want) if is_number(want) else bool(got == want)
     except (TypeError, ValueError):
         return False
+
+
+def part_fingerprints(out_dir: str | Path) -> set[str | None]:
+    """The spec fingerprints (``Sweep.fingerprint``) the readable parts under OUT/rows/ carry; None: a part without one."""
+    found = set()
+    for path in _part_paths(out_dir):
+        try:
+            found.add(_read_part(path).attrs.get(FINGERPRINT))
+        except DatasetError:
+            continue
+    return found
 
 
 def part_problem(path: Path, runs: Mapping[tuple[str, str], Any], fingerprint: str, untagged_ok: bool,

@@ -1,5 +1,7 @@
 """A sweep's ``[refine]`` table and the cells of an adaptive map: where to split, and the fine map it stands for.
 
+    >>> from chatterbench.comparisons.studies.sweep.refine import (
+    ...     make_refine, lattice, split_points, refine_axis_values)
     >>> refine = make_refine({"axes": ["dt", "restitution"], "depth": 2}, {"dt": (1e-4, 1e-3, 1e-2),
     ...                      "restitution": (0.3, 0.5)}, ValueError)
     >>> refine.depth, refine.boundary

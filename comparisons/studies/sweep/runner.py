@@ -1,5 +1,9 @@
 """Running a sweep: every run of the spec on a local process pool or a Dask cluster, resumable, with progress.
 
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> tmp = Path(tempfile.mkdtemp())
+    >>> from chatterbench.comparisons.studies.sweep.runner import run_sweep
     >>> from chatterbench.comparisons.studies.sweep import Sweep
     >>> sweep = Sweep(scene="bouncing-ball", engines=("pybullet",), fixed={"duration": 0.6, "dt": 1e-3},
     ...               grid={"restitution": (0.3, 0.5)})
@@ -26,6 +30,7 @@ from __future__ import annotations
 
 import math
 import os
+import signal
 import sys
 import time
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
@@ -40,8 +45,8 @@ from chatterbench.engines.isolate import die_with_parent
 from chatterbench.reference.errors import InputError, check_choice, check_integer, check_number
 
 from .adaptive import Levels
-from .dataset import PartWriter, SetAside, check_parts, ordered, read_rows
-from .directory import OutLock, clean_temps
+from .dataset import PartWriter, SetAside, check_parts, ordered, part_fingerprints, read_rows
+from .directory import OutLock, clean_temps, refuse_links
 from .spec import FAILED, MAX_TIMEOUT, SpecError, Sweep, load_sweep, sweep_runs
 from .worker import run_batch_task, work_units
 
@@ -52,6 +57,36 @@ _SHOWN_ASIDE = 3  # set-aside parts named per reason; more are counted
 
 class NoWorkersError(InputError):
     """A Dask cluster had no worker for longer than allowed (``no_workers="stop"``): exit 2, as an unreachable scheduler."""
+
+
+def _worker_start() -> None:
+    """A local pool worker's start: it dies with the sweep and leaves Ctrl-C to it (``_stop_pool`` ends it)."""
+    die_with_parent()
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the runs it forks inherit this
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+
+
+def _local_pool(workers: int | None) -> ProcessPoolExecutor:
+    """A process pool whose workers are all started now, with Ctrl-C held back while they fork.
+
+    A Ctrl-C that reaches a child in the middle of ``fork`` prints "Exception ignored in ...
+    _releaseLock ... KeyboardInterrupt"; held back (blocked), it reaches the sweep once they exist.
+    """
+    pool = ProcessPoolExecutor(max_workers=workers or os.cpu_count() or 1, initializer=_worker_start)
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        pool.submit(int).result()  # a fork-context pool starts every worker at its first submit
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+    return pool
+
+
+def _stop_pool(pool: ProcessPoolExecutor, interrupted: bool) -> None:
+    """Shut a local pool down: after its last run, or at once (its workers killed) when the sweep was interrupted."""
+    if interrupted:
+        for process in list((getattr(pool, "_processes", None) or {}).values()):
+            process.kill()  # their isolated runs die with them (die_with_parent)
+    pool.shutdown(wait=not interrupted, cancel_futures=True)
 
 
 def _note(text: str) -> None:
@@ -142,11 +177,18 @@ def _prepare_out(sweep: Sweep, out: Path, resume: bool) -> bool:
     spec_path = out / "sweep.toml"
     has_rows = any((out / "rows").glob("part-*.parquet")) if (out / "rows").is_dir() else False
     same = False
-    if has_rows and resume and spec_path.exists():
+    previous = None
+    if has_rows and resume and (spec_path.exists() or spec_path.is_symlink()):
         try:
             previous = load_sweep(spec_path, sweep.budget)
-        except InputError as exc:
-            raise SpecError(f"{spec_path}: the sweep written there cannot be read back ({exc}); choose another --out") from None
+        except InputError as exc:  # damaged: the rows say which spec wrote them (their fingerprint)
+            if sweep.fingerprint() not in part_fingerprints(out):
+                raise SpecError(f"{spec_path}: the sweep written there cannot be read back ({exc}), and no rows under "
+                                f"{out / 'rows'} were written by {sweep.source}; resume with the spec that wrote them, "
+                                "or choose another --out") from None
+            _note(f"{spec_path}: cannot be read back ({exc}); resuming from the rows of {sweep.source} (their spec "
+                  "fingerprint), and writing it again")
+    if previous is not None:
         if previous.identity() != sweep.identity():
             diff = [k for k in sweep.identity() if sweep.identity()[k] != previous.identity()[k]]
             raise SpecError(f"{out}: holds rows of a different sweep ({', '.join(diff)} differ); "
@@ -212,8 +254,10 @@ def run_sweep(
     levels = Levels(sweep) if sweep.refine is not None else None
     runs = levels.runs(0, None) if levels else sweep_runs(sweep)
     options = (workers, progress, batch, no_worker_wait, no_workers)
-    with OutLock(out):  # from here on this process alone writes OUT
-        clean_temps(out)
+    refuse_links(out)  # before the lock, so a refusal leaves nothing behind; again once held (a link made meanwhile)
+    with OutLock(out) as lock:  # from here on this process alone writes OUT
+        refuse_links(out)
+        clean_temps(out, lock.tags)
         same_spec = _prepare_out(sweep, out, resume)
         have, aside = check_parts(out, runs, sweep.fingerprint(), untagged_ok=same_spec,
                                   lattice=levels.lattice_runs if levels else None)
@@ -234,9 +278,10 @@ def _run_levels(sweep: Sweep, levels: Levels, out: Path, runs: list, have: pd.Da
     """Level 0 (``runs``), then each level's runs from the rows so far; returns the stats and every run in order."""
     owned = None
     if executor is None:  # one pool for every level: its workers stay warm
-        owned = executor = ProcessPoolExecutor(max_workers=options[0] or os.cpu_count() or 1, initializer=die_with_parent)
+        owned = executor = _local_pool(options[0])
     total: dict[str, Any] = {"levels": []}
     every, seen = list(runs), {r.point_id for r in runs}
+    interrupted = True
     try:
         for level in range(sweep.refine.depth + 1):
             if level:
@@ -247,9 +292,10 @@ def _run_levels(sweep: Sweep, levels: Levels, out: Path, runs: list, have: pd.Da
             for k, v in stats.items():
                 total[k] = max(total.get(k, 0), v) if k == "workers" else total.get(k, 0) + v
             total["levels"].append(len(runs))
+        interrupted = False
     finally:
         if owned is not None:
-            owned.shutdown(wait=True, cancel_futures=True)
+            _stop_pool(owned, interrupted)
     return total, every
 
 
@@ -269,7 +315,7 @@ def _run(sweep: Sweep, out: Path, runs: list, have: pd.DataFrame, executor: Any,
     owned = client = None
     if todo:
         if executor is None:
-            owned = executor = ProcessPoolExecutor(max_workers=workers or os.cpu_count() or 1, initializer=die_with_parent)
+            owned = executor = _local_pool(workers)
         elif hasattr(executor, "get_executor"):  # a dask.distributed Client
             client, executor = executor, executor.get_executor(pure=False)
         else:
@@ -283,6 +329,7 @@ def _run(sweep: Sweep, out: Path, runs: list, have: pd.DataFrame, executor: Any,
         units = work_units(todo, batch, slots)
         stats["units"] = len(units)
         queue = iter(units)
+        interrupted = True
         try:
             while True:
                 # a bounded window: Ctrl-C cancels little, and memory stays flat for any sweep size
@@ -311,6 +358,7 @@ def _run(sweep: Sweep, out: Path, runs: list, have: pd.DataFrame, executor: Any,
                     failures += r.row["status"] in FAILED
                 bar.update(len(results))
                 bar.set_postfix(failed=failures)
+            interrupted = False
         except BaseException:
             for f in pending:
                 f.cancel()
@@ -321,7 +369,7 @@ def _run(sweep: Sweep, out: Path, runs: list, have: pd.DataFrame, executor: Any,
         finally:
             bar.close()
             if owned is not None:
-                owned.shutdown(wait=True, cancel_futures=True)
+                _stop_pool(owned, interrupted)
     stats["wall_s"] = time.perf_counter() - start
     return stats
 

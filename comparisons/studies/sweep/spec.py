@@ -1,5 +1,6 @@
 """A sweep spec: one scene, some engines, a grid of scene fields and engine settings, validated in full.
 
+    >>> from chatterbench.comparisons.studies.sweep.spec import load_sweep, sweep_runs
     >>> sweep = load_sweep("examples/sweeps/bouncing-ball-dt.toml")
     >>> sweep.scene_name, len(sweep_runs(sweep))
     ('bouncing-ball', 18)
@@ -92,7 +93,7 @@ from chatterbench.engines.registry import DEFAULT_ENGINES, ENGINE_NAMES, make_se
 from chatterbench.reference.catalogue import CATALOGUE
 from chatterbench.reference.errors import InputError, did_you_mean, is_number, shown
 from chatterbench.reference.scene import load_scene
-from chatterbench.reference.tables import flatten, read_toml
+from chatterbench.reference.tables import flatten, printable, read_toml
 
 from .refine import Refine, make_refine
 
@@ -362,9 +363,14 @@ def _validate(sweep: Sweep) -> None:
             _resolve(sweep, {**fixed, k: v}, f"grid.{k} = {_toml(v)}")
     for i, p in enumerate(points):
         _resolve(sweep, {**fixed, **p}, f"points[{i}]")
-    if len(grid) > 1:
-        for p in _grid_product(grid):
+    if len(grid) > 1:  # combinations by axis: each numeric axis's extremes (the limits are monotone in each value)
+        for p in _grid_product(_extremes(grid)):
             _resolve(sweep, {**fixed, **p}, "grid point " + ", ".join(f"{k} = {_toml(v)}" for k, v in p.items()))
+
+
+def _extremes(grid: Mapping[str, tuple]) -> dict[str, tuple]:
+    """Each axis's smallest and largest value when it holds numbers, else all its values (2 per axis, not 300)."""
+    return {k: tuple(dict.fromkeys((min(v), max(v)))) if all(is_number(x) for x in v) else v for k, v in grid.items()}
 
 
 def _resolve(sweep: Sweep, params: Mapping[str, Any], where: str) -> dict[str, float]:
@@ -398,7 +404,7 @@ def load_sweep(path: str | Path, budget: Budget | None = None) -> Sweep:
     data = read_toml(path, where, SpecError)
     for k in data:
         if k not in SPEC_KEYS:
-            raise SpecError(f"{where}: {k}: unknown key; allowed: {', '.join(SPEC_KEYS)}" + did_you_mean(k, SPEC_KEYS))
+            raise SpecError(f"{where}: {printable(k)}: unknown key; allowed: {', '.join(SPEC_KEYS)}" + did_you_mean(k, SPEC_KEYS))
     if "scene" not in data:
         raise SpecError(f"{where}: scene: missing; give a built-in scene ({', '.join(CATALOGUE)}) or a scene TOML path")
     scene = data["scene"]

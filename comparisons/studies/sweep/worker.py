@@ -1,5 +1,6 @@
 """One run of a sweep, inside a worker: the run isolated in a child process, its row, or its failure row.
 
+    >>> from chatterbench.comparisons.studies.sweep.worker import run_task
     >>> from chatterbench.comparisons.studies.sweep.spec import load_sweep, sweep_runs
     >>> result = run_task(sweep_runs(load_sweep("examples/sweeps/bouncing-ball-dt.toml"))[0])
     >>> result.row["status"], result.row["engine"]

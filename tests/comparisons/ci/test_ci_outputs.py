@@ -37,7 +37,7 @@ def test_baseline_passes_an_equal_run_and_fails_a_grown_stick_error(gate_file, t
     assert _run(gate_file, "--save-baseline", base) == 0
     saved = json.loads(base.read_text())
     stick = saved["checks"]["ball/pybullet"]["stick_error_max"]
-    assert 1e-3 < stick < 2e-3 and "pybullet" in saved["versions"]  # PyBullet sticks 1.46 ms after the Zeno point
+    assert 1e-3 < stick < 3e-3 and "pybullet" in saved["versions"]  # PyBullet sticks 2.3 ms after the Zeno point (its own ladder)
     capsys.readouterr()
     assert _run(gate_file, "--baseline", base) == 0  # the same deterministic run: nothing grew
     assert "0 metric(s) regressed" in capsys.readouterr().out
@@ -46,7 +46,8 @@ def test_baseline_passes_an_equal_run_and_fails_a_grown_stick_error(gate_file, t
     base.write_text(json.dumps(saved))
     assert _run(gate_file, "--baseline", base) == 1
     out = capsys.readouterr().out
-    assert "REGRESSION: ball/pybullet: stick_error_max" in out and "grew 100% (band 10%)" in out
+    grown = [line.strip() for line in out.splitlines() if line.strip().startswith("stick_error_max <= ")]
+    assert len(grown) == 1 and "(baseline " in grown[0] and "+ 10%)" in grown[0] and grown[0].endswith("FAIL (grew 100%)")
     assert "engines now pybullet" in out and "baseline pybullet" in out  # both runs' versions
     # within a wider band it passes
     assert _run(gate_file, "--baseline", base, "--band", "1.5") == 0

@@ -12,7 +12,8 @@ from chatterbench.comparisons.cli.main import SUBCOMMANDS, build_parser, main
 from chatterbench.comparisons.outputs.report import SUMMARY_COLUMNS as REPORT_COLUMNS
 from chatterbench.comparisons.pipeline.summary import ROW_COLUMNS
 from chatterbench.comparisons.studies.tune import TUNE_COLUMNS
-from chatterbench.comparisons.studies.tune_checks import RATIO_COLUMNS
+from chatterbench.comparisons.studies.tune_checks import RATIO_COLUMNS, STRIKE_COLUMNS
+from chatterbench.comparisons.studies.tune_search import SEARCH_COLUMNS
 
 # what each shared option means, and the subcommands that take it
 SHARED = {"--engines": "engines", "--dt": "timestep", "--set": "override", "--tolerance": "tolerance", "--out": "write",
@@ -26,9 +27,9 @@ def _subparsers() -> dict[str, argparse.ArgumentParser]:
 
 
 def test_every_subcommand_is_registered():
-    assert set(_subparsers()) == {"scenes", "run", "compare", "report", "gate", "platemap", "tune", "calibrate", "sweep",
-                                  "chart", "bench"}
-    assert len(SUBCOMMANDS) == 11
+    assert set(_subparsers()) == {"scenes", "run", "compare", "judge", "report", "gate", "platemap", "tune", "calibrate",
+                                  "sweep", "chart", "bench"}
+    assert len(SUBCOMMANDS) == 12
 
 
 @pytest.mark.parametrize("name", sorted(_subparsers()))
@@ -61,9 +62,14 @@ def test_no_subcommand_spells_the_engines_option_another_way():
 def test_compare_report_tune_and_sweep_print_the_same_column_names():
     summary = set(ROW_COLUMNS)
     assert set(compare_cli.SUMMARY_SHOW) - {"engine"} <= summary
-    assert set(REPORT_COLUMNS) <= summary
+    # the report's errors are signed: each X_worst is the gate's X_max with its sign (summary.SIGNED_COLUMNS)
+    from chatterbench.comparisons.pipeline.summary import SIGNED_COLUMNS
+
+    assert all(c.replace("_worst", "_max") in summary for c in SIGNED_COLUMNS)
+    assert set(REPORT_COLUMNS) <= summary | set(SIGNED_COLUMNS)
     # tune's own: the candidate, the checks it failed and their ratios to the tolerances, its cost in steps
-    own = {"stage", "settings", "failed", *RATIO_COLUMNS, "steps_per_sim_s", "cost_repeats", "n_non_default"}
+    own = {"stage", "settings", "failed", *RATIO_COLUMNS, "steps_per_sim_s", "cost_repeats", "n_non_default",
+           *SEARCH_COLUMNS, *STRIKE_COLUMNS}  # the search's (level, robust, failing neighbours); R under the scene's forces
     assert set(TUNE_COLUMNS) - own <= summary
     assert set(tune_cli.SHOW) - own <= summary
     # the episode table names its errors as the judge does

@@ -63,3 +63,17 @@ def test_a_visit_that_starts_at_rest_has_no_ladder():
     assert c.reference.n_impacts.iloc[0] == 1
     fig = ladder_figure(c)
     assert [ax.get_title().split(" (")[0] for ax in fig.axes] == ["visit 2", "visit 3"]
+
+
+def test_the_title_says_how_many_visits_are_shown_of_how_many():
+    # 12.6 s: four visits with chatter (Zeno points 1.64, 5.37, 8.51, 11.66 s), the ladder draws the first three
+    c = compare(load_scene("feigin-pair", ["duration=12.6"]), engines=("pybullet",), dt=1e-4)
+    n = int(((c.reference.n_impacts > 1) & (c.reference.chatter_duration > 0)).sum())
+    assert n == 4
+    fig = ladder_figure(c)
+    assert len(fig.axes) == MAX_VISITS
+    assert f"the first {MAX_VISITS} of {n} visits with chatter" in fig._suptitle.get_text()  # before: not said
+
+
+def test_a_ladder_that_shows_every_visit_says_so(feigin):
+    assert "all 3 visits with chatter" in ladder_figure(feigin)._suptitle.get_text()

@@ -15,7 +15,7 @@ from chatterbench.comparisons.outputs.figures import figure_bytes
 from chatterbench.comparisons.pipeline.summary import ROW_COLUMNS, summarize
 from chatterbench.comparisons.pipeline.vocabulary import combine as point_verdict
 from chatterbench.comparisons.outputs.stability_map import stability_map_figure, verdict_grid
-from chatterbench.comparisons.outputs.sweep_data import PASSING, VERDICT_ABBREV, VERDICT_COLORS, ChartError
+from chatterbench.comparisons.outputs.sweep_data import PASSING, VERDICT_ABBREV, VERDICT_COLOURS, ChartError
 from chatterbench.comparisons.outputs.work_precision import (default_error, panel_metrics, pareto_front,
                                                              work_precision_figure, work_precision_points)
 from chatterbench.reference import load_scene
@@ -252,7 +252,7 @@ def test_stability_cells_have_the_colour_of_their_rows_verdict(feigin_rows, x, y
             for j, xv in enumerate(grid.columns):
                 want = _expected(feigin_rows, eng, x, y, xv, yv)
                 assert want is not None
-                np.testing.assert_allclose(rgba[i, j], to_rgba(VERDICT_COLORS[want]), err_msg=f"{eng} {xv} {yv}")
+                np.testing.assert_allclose(rgba[i, j], to_rgba(VERDICT_COLOURS[want]), err_msg=f"{eng} {xv} {yv}")
                 assert texts[(round(float(xv), 12), round(float(yv), 12))] == VERDICT_ABBREV[want]
         # dt spans two decades: log axis; restitution 0.3..0.8 does not
         assert ax.get_xscale() == ("log" if x == "dt" else "linear")

@@ -42,13 +42,16 @@ def test_feigin_pair_both_engines_slide_on_both_walls_every_half_period(feigin_b
     assert (table.loc[table["engine"] == "pybullet", "verdict"] == "match").all()
     # MuJoCo's soft contact lasts ~10 ms (w0 = 300 rad/s): longer than the flights of the last
     # resolved bounces, so the pressing force eats into their rebound and they come back 10-13%
-    # below R, beyond their measurement uncertainty: timing right, impacts wrong
+    # below R, beyond the 5% tolerance: timing right, impacts wrong
     mj = table[table["engine"] == "mujoco"]
     assert (mj["verdict"] == "rebound").all()
     assert (mj["restitution_error"] < -0.05).all()
     pairs = feigin_both.impacts[feigin_both.impacts["engine"] == "mujoco"]
-    fast = pairs[pairs["v_minus"] > 0.1]  # its fast impacts do follow R, as calibrated
-    assert len(fast) >= 20 and (fast["restitution_error"].abs() < 0.02).all()  # measured <= 1.03%
+    # its fast impacts follow R to within the tolerance: measured <= 3.3% where the body crosses the
+    # wall's surface (<= 1.03% at release: the contact lets go below the surface and the pressing
+    # still slows the body on its way out)
+    fast = pairs[pairs["v_minus"] > 0.1]
+    assert len(fast) >= 20 and (fast["restitution_error"].abs() < 0.04).all()
 
 
 def test_pybullet_velocity_threshold_sticks_the_ball_early():

@@ -11,7 +11,6 @@ import pytest
 
 from chatterbench.comparisons.pipeline.extract import ExtractionOptions, contact_runs, extract
 from chatterbench.comparisons.pipeline.sampling import reference_trajectory, sample_grid
-from chatterbench.comparisons.pipeline.solution import solve
 from chatterbench.comparisons.pipeline.tolerances import Tolerances, ToleranceError
 from chatterbench.engines.registry import make_settings, run_engine
 from chatterbench.engines.trajectory import Trajectory
@@ -19,18 +18,15 @@ from chatterbench.reference.dense import sample
 from chatterbench.reference.log import EPISODE_COLUMNS, LOG_COLUMNS
 from chatterbench.reference.scene import load_scene
 
+from helpers import solution
+
 SCENES = ("bouncing-ball", "feigin-pair", "impact-damper", "spring-pair")
 CASES = [(name, dt) for name in SCENES for dt in (1e-3, 1e-4)]
 
 
 @functools.cache
-def _solution(name: str):
-    return solve(load_scene(name))
-
-
-@functools.cache
 def _sampled(name: str, dt: float):
-    ref = _solution(name)
+    ref = solution(name)
     traj = reference_trajectory(ref.scene, dt, ref.exhaustive)
     return ref, traj, extract(traj, ref.scene, ref.stick_tolerance(Tolerances().stick))
 
@@ -97,7 +93,7 @@ def test_bouncing_ball_first_impact():
 # -- the reference as a trajectory ----------------------------------------------------
 
 def test_reference_trajectory_is_the_dense_reference():
-    ref = _solution("spring-pair")
+    ref = solution("spring-pair")
     scene = ref.scene
     traj = reference_trajectory(scene, 1e-3)
     assert traj.engine == "reference" and traj.status == "ok"
@@ -174,7 +170,7 @@ def test_a_rigid_engines_micro_bounces_are_sticking_not_impacts():
                                           ("mujoco", "feigin-pair"), ("pybullet", "bouncing-ball")])
 def test_extraction_on_engine_trajectory(engine, name):
     dt = 1e-4
-    ref = _solution(name)
+    ref = solution(name)
     traj = run_engine(engine, ref.scene, make_settings(engine, dt))
     assert traj.status == "ok", traj.message
     got = extract(traj, ref.scene, ref.stick_tolerance(Tolerances().stick)).episodes
@@ -199,7 +195,7 @@ def test_mujoco_exit_on_feigin_pair_is_where_the_force_lets_go():
     dt = 1e-4
     scene = load_scene("feigin-pair")
     traj = run_engine("mujoco", scene, make_settings("mujoco", dt))
-    eps = extract(traj, scene, _solution("feigin-pair").stick_tolerance(Tolerances().stick)).episodes.dropna(subset=["t_exit"])
+    eps = extract(traj, scene, solution("feigin-pair").stick_tolerance(Tolerances().stick)).episodes.dropna(subset=["t_exit"])
     assert len(eps) == 12
     phase = np.where(eps["wall"] == "lower", math.pi, 0.0)
     off = np.mod(eps["t_exit"] - phase + math.pi, 2 * math.pi) - math.pi

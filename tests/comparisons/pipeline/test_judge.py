@@ -8,7 +8,6 @@ extraction's internal thresholds beyond the cases named (with their physical rea
 from __future__ import annotations
 
 import dataclasses
-import functools
 
 import pytest
 
@@ -17,25 +16,21 @@ from chatterbench.comparisons.ci.checks import run_check
 from chatterbench.comparisons.ci.gate import limits_from_keywords, make_check
 from chatterbench.comparisons.pipeline.extract import ExtractionOptions
 from chatterbench.comparisons.pipeline.judge import ERROR_COLUMNS
-from chatterbench.comparisons.pipeline.solution import solve
 from chatterbench.comparisons.pipeline.vocabulary import combine
 from chatterbench.engines.registry import make_settings, run_engine
 from chatterbench.reference.catalogue import CATALOGUE
 from chatterbench.reference.scene import load_scene
 
+from helpers import solution
+
 SCENES = tuple(CATALOGUE)
 DTS = (1e-3, 3e-4, 1e-4)
-
-
-@functools.cache
-def _solution(name: str):
-    return solve(load_scene(name))
 
 
 @pytest.mark.parametrize("name", SCENES)
 @pytest.mark.parametrize("dt", DTS)
 def test_the_exact_reference_sampled_like_an_engine_matches_everywhere(name, dt):
-    ref = _solution(name)
+    ref = solution(name)
     known = reference_trajectory(ref.scene, dt, ref.exhaustive)
     c = compare(ref.scene, engines=("mujoco", "pybullet"), trajectories={"mujoco": known, "pybullet": known},
                 solution=ref)
@@ -52,7 +47,7 @@ def test_the_exact_reference_sampled_like_an_engine_matches_everywhere(name, dt)
 def test_pybullet_with_the_wrong_restitution_is_caught(name, factor):
     # PyBullet applies R exactly at every impact; run with R x 0.9 or x 1.1 and judged against
     # the scene's R, its resolved impacts are 10% off and its chatter ends early or late
-    ref = _solution(name)
+    ref = solution(name)
     wrong = dataclasses.replace(ref.scene, restitution=ref.scene.restitution * factor)
     traj = run_engine("pybullet", wrong, make_settings("pybullet", 1e-4))
     c = compare(ref.scene, engines=("pybullet",), trajectories={"pybullet": traj}, solution=ref)
@@ -136,29 +131,28 @@ def test_the_summary_combines_by_severity():
 #             is still bouncing when the data end (missed); a wider band ends its bouncing in
 #             time (late). Both fail.
 ALLOWED_FLIPS = {
+    ("feigin-pair", "mujoco", 1e-3, "band x10"): "end",
+    ("impact-damper", "mujoco", 1e-4, "band x10"): "soft",
+    ("spring-pair", "mujoco", 1e-4, "band x10"): "soft",
+    ("spring-pair", "pybullet", 1e-3, "band x10"): "soft",
+    ("bouncing-ball", "mujoco", 1e-4, "band/10"): "soft",
+    ("feigin-pair", "mujoco", 1e-4, "band/10"): "soft",
+    ("feigin-pair", "mujoco", 1e-3, "floor_steps x10"): "end",
+    ("impact-damper", "mujoco", 1e-3, "floor_steps x10"): "floor x10",
+    ("impact-damper", "mujoco", 1e-4, "floor_steps x10"): "soft",
+    ("spring-pair", "mujoco", 3e-4, "floor_steps x10"): "soft",
+    ("spring-pair", "mujoco", 1e-4, "floor_steps x10"): "soft",
+    ("spring-pair", "pybullet", 1e-3, "floor_steps x10"): "soft",
+    ("impact-damper", "reference", 1e-3, "floor_steps x10"): "floor x10",
+    ("feigin-pair", "mujoco", 1e-3, "floor_steps/10"): "floor/10",
+    ("impact-damper", "mujoco", 1e-4, "floor_steps/10"): "floor/10",
     ("feigin-pair", "pybullet", 1e-3, "floor_steps/10"): "floor/10",
     ("impact-damper", "pybullet", 1e-3, "floor_steps/10"): "floor/10",
     ("impact-damper", "pybullet", 3e-4, "floor_steps/10"): "floor/10",
     ("impact-damper", "pybullet", 1e-4, "floor_steps/10"): "floor/10",
     ("spring-pair", "pybullet", 1e-3, "floor_steps/10"): "floor/10",
     ("spring-pair", "pybullet", 3e-4, "floor_steps/10"): "floor/10",
-    ("feigin-pair", "mujoco", 1e-3, "floor_steps/10"): "floor/10",
-    ("impact-damper", "mujoco", 1e-4, "floor_steps/10"): "floor/10",
-    ("bouncing-ball", "mujoco", 1e-4, "band/10"): "soft",
-    ("feigin-pair", "mujoco", 1e-4, "band/10"): "soft",
-    ("impact-damper", "mujoco", 1e-4, "band x10"): "soft",
-    ("impact-damper", "mujoco", 1e-4, "floor_steps x10"): "soft",
-    ("spring-pair", "mujoco", 3e-4, "floor_steps x10"): "soft",
-    ("spring-pair", "mujoco", 1e-4, "band x10"): "soft",
-    ("spring-pair", "mujoco", 1e-4, "floor_steps x10"): "soft",
-    ("impact-damper", "pybullet", 3e-4, "band x10"): "soft",
-    ("impact-damper", "pybullet", 3e-4, "floor_steps x10"): "soft",
-    ("impact-damper", "pybullet", 1e-3, "floor_steps x10"): "floor x10",
-    ("impact-damper", "mujoco", 1e-3, "floor_steps x10"): "floor x10",
-    ("impact-damper", "reference", 1e-3, "floor_steps x10"): "floor x10",
     ("bouncing-ball", "mujoco", 1e-4, "resolved_steps x10"): "resolved",
-    ("feigin-pair", "mujoco", 1e-3, "band x10"): "end",
-    ("feigin-pair", "mujoco", 1e-3, "floor_steps x10"): "end",
 }
 
 
@@ -176,7 +170,7 @@ def _variants():
 @pytest.mark.slow
 @pytest.mark.parametrize("name", SCENES)
 def test_verdicts_do_not_follow_the_extractions_internal_thresholds(name):
-    ref = _solution(name)
+    ref = solution(name)
     flips = []
     for dt in DTS:
         runs = {"reference": reference_trajectory(ref.scene, dt, ref.exhaustive)}

@@ -18,7 +18,7 @@ import pytest
 from matplotlib.collections import PolyCollection
 
 from chatterbench.comparisons.outputs.stability_map import stability_map_figure
-from chatterbench.comparisons.outputs.sweep_data import VERDICT_COLORS
+from chatterbench.comparisons.outputs.sweep_data import VERDICT_COLOURS
 from chatterbench.comparisons.studies.sweep import Sweep, load_sweep, read_rows, run_sweep
 from chatterbench.comparisons.studies.sweep.adaptive import Levels, agreement, fine_sweep
 from chatterbench.comparisons.studies.sweep.refine import fill, lattice, split_points
@@ -141,7 +141,7 @@ def test_refined_cells_are_drawn_at_their_size(sweeps):
         # a level-k cell is 2**-k coarse cells: one decade of dt and 0.3 of R at level 0
         assert np.allclose(widths, 1.0 / 2 ** level) and np.allclose(heights, 0.3 / 2 ** level)
         at = rows[rows["refine_level"] == level]
-        want = [matplotlib.colors.to_rgba(VERDICT_COLORS[v]) for v in at["verdict"]]
+        want = [matplotlib.colors.to_rgba(VERDICT_COLOURS[v]) for v in at["verdict"]]
         assert sorted(map(tuple, coll.get_facecolors())) == sorted(want)
 
 

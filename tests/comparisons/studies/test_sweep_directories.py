@@ -7,6 +7,7 @@ rows of one input are bit-identical, so resumed rows are compared exactly.
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import signal
@@ -66,6 +67,11 @@ def finished(tmp_path_factory) -> tuple[Path, Path]:
     spec = _spec(folder)
     run_sweep(load_sweep(spec), folder / "out", workers=1, progress=False)
     return spec, folder / "out"
+
+
+def _tag(out: Path) -> str:
+    """The temp-file tag the holder of OUT's lock recorded (directory.OutLock)."""
+    return json.loads((out / ".lock").read_text(encoding="utf-8"))["temps"]
 
 
 def _copy(finished: tuple[Path, Path], tmp_path: Path) -> tuple[Path, Path]:
@@ -129,15 +135,16 @@ def test_a_killed_holder_leaves_no_stale_lock(tmp_path):
                                str(out)], stdout=subprocess.PIPE, text=True)
     try:
         assert holder.stdout.readline().strip() == "locked"
-        (out / ".rows.parquet.k3j4h5g6.tmp").write_bytes(b"PAR1")  # the holder's write, under way
+        torn = out / f".rows.parquet.{_tag(out)}k3j4h5g6.tmp"  # the holder's write, under way
+        torn.write_bytes(b"PAR1")
         with pytest.raises(OutDirError, match=rf"--out {out}: another sweep is writing there \(pid {holder.pid} "):
             run_sweep(spec, out, workers=1, progress=False)
-        assert (out / ".rows.parquet.k3j4h5g6.tmp").exists(), "a refused sweep touches nothing"
+        assert torn.exists(), "a refused sweep touches nothing"
     finally:
         holder.send_signal(signal.SIGKILL)
         holder.wait()
     rows = run_sweep(spec, out, workers=1, progress=False)  # flock died with its process
-    assert len(rows) == 4 and not (out / ".rows.parquet.k3j4h5g6.tmp").exists()
+    assert len(rows) == 4 and not torn.exists()
 
 
 def test_forked_children_do_not_keep_the_lock(tmp_path):
@@ -300,9 +307,11 @@ def test_a_sweep_with_emoji_resumes(tmp_path, capsys):
 
 def test_stale_temp_files_of_a_killed_write_are_removed(finished, tmp_path, capsys):
     spec, out = _copy(finished, tmp_path)
-    stale = [out / ".rows.parquet.a1b2c3d4.tmp", out / ".sweep.toml.x_9y8z7w.tmp",
-             out / "rows" / f".{_first_part(out).name}.qwertyui.tmp"]
-    kept = [out / ".notes.tmp", out / "mine.tmp", out / "rows" / ".keep.me.tmp"]  # not atomic.py's pattern
+    tag = _tag(out)  # a killed sweep's temps bear the tag its .lock records (atomic.temp_tag)
+    stale = [out / f".rows.parquet.{tag}a1b2c3d4.tmp", out / f".sweep.toml.{tag}x_9y8z7w.tmp",
+             out / "rows" / f".{_first_part(out).name}.{tag}qwertyui.tmp"]
+    kept = [out / ".notes.tmp", out / "mine.tmp", out / "rows" / ".keep.me.tmp",  # not atomic.py's pattern
+            out / ".rows.parquet.a1b2c3d4.tmp", out / "rows" / ".precious.abcdefghabcdefgh.tmp"]  # no sweep's tag
     for p in stale + kept:
         p.write_bytes(b"PAR1 torn")
     _resume(spec, out, capsys)

@@ -6,7 +6,7 @@ import pandas as pd
 import pytest
 
 from chatterbench.comparisons.pipeline.compare import compare
-from chatterbench.comparisons.outputs.guide import guide_html, guide_markdown, tradeoff_figure
+from chatterbench.comparisons.outputs.guide import guide_html, guide_markdown
 from chatterbench.comparisons import reference_trajectory
 from chatterbench.comparisons.pipeline.compare import judge_run
 from chatterbench.comparisons.pipeline.solution import solve
@@ -22,12 +22,14 @@ from chatterbench.reference.errors import InputError
 def test_tune_mujoco_feigin_pair_reruns_as_match():
     # two forcing periods keep it fast; the space is a slice of the default grid that
     # brackets the front at the default tolerances (w0 dt = 0.1: dt = 1e-3 sticks 12% of the
-    # chatter late, 3e-4 within 4.4%: measured)
+    # chatter late, 3e-4 within 4.4%: measured); no neighbourhood here (test_tune_search checks it). MuJoCo's
+    # soft contact misses R by up to 5.8% at 3e-4 (measured): the restitution tolerance is 15% here
     scene = load_scene("feigin-pair", [f"duration={4 * math.pi}"])
     space = {"dt": (1e-3, 3e-4), "mujoco.w0_dt": (0.1,), "mujoco.integrator": ("euler",)}
-    result = tune(scene, "mujoco", Tolerances(), space=space, workers=2, refine_steps=2)
+    tol = Tolerances(restitution=0.15)
+    result = tune(scene, "mujoco", tol, space=space, workers=2, refine_steps=2, check_robust=False)
     assert result.best is not None
-    assert (result.table["stage"] == "refine").any()  # the front was refined, not brute-forced
+    assert result.table["stage"].str.startswith("refine").any()  # the front was refined, not brute-forced
     best = result.best
     # the recommendation takes the fewest steps of every match (one setting combination: no tie to break)
     matches = result.table[result.table["verdict"] == "match"]
@@ -37,11 +39,11 @@ def test_tune_mujoco_feigin_pair_reruns_as_match():
     assert len(cheaper) and cheaper["failed"].str.startswith("sticking error +").all()
     rerun = compare(scene, engines=("mujoco",), dt=best["dt"],
                     overrides=[f"mujoco.w0_dt={best['mujoco.w0_dt']}", f"mujoco.integrator={best['mujoco.integrator']}"],
-                    tol=Tolerances())
+                    tol=tol)
     assert (rerun.table["verdict"] == "match").all()
     text = guide_markdown(result)
     assert "Recommended" in text and "solreflimit=" in text  # the MJCF snippet is in the guide
-    assert tradeoff_figure(result).axes[0].get_xscale() == "log"
+    assert "Searched: " in text and " runs covering dt " in text  # how far it looked
     page = guide_html(result)  # the same guide as an HTML section for the report
     assert "Recommended" in page and "data:image/png;base64," in page and "&lt;option" in page
     assert "<style>" in page  # styled like the report
@@ -54,7 +56,7 @@ def test_tune_says_when_nothing_meets_the_tolerance():
     space = {"dt": (3e-4,), "mujoco.w0_dt": (0.1,), "mujoco.integrator": ("euler",)}
     result = tune(scene, "mujoco", tolerance=1e-5, space=space, workers=1, refine_steps=0)
     assert result.best is None and result.best_reachable is not None
-    assert "No candidate passes these tolerances" in guide_markdown(result)
+    assert "No robust setting passes these tolerances" in guide_markdown(result)
 
 
 def test_tune_refuses_bad_tolerance():
@@ -132,3 +134,21 @@ def test_search_space_comes_from_the_engine_and_is_checked():
         engine_space("mujoco", scene, {"dt": ()})
     with pytest.raises(InputError, match="pybullet.erp"):
         engine_space("mujoco", scene, {"dt": (1e-3,), "pybullet.erp": (0.1,)})
+
+
+@pytest.mark.slow  # a fresh process of the command line: imports, a tiny search and the guide's files (about 8 s)
+def test_tune_prints_the_time_the_user_waited(tmp_path):
+    import re
+    import subprocess
+    import sys
+    import time
+
+    start = time.perf_counter()
+    done = subprocess.run([sys.executable, "-m", "chatterbench.comparisons.cli", "tune", "bouncing-ball", "--engine",
+                           "pybullet", "--set", "duration=0.2", "--workers", "1", "--out", str(tmp_path / "t")],
+                          capture_output=True, text=True, timeout=300)
+    waited = time.perf_counter() - start
+    said = float(re.search(r"tune took ([0-9.]+) s", done.stdout).group(1))
+    # the printed time covers the imports, the search and the guide's files: all but the interpreter's own
+    # start and exit (well under a second), never just the search
+    assert 0.7 * waited <= said <= waited + 0.1, (said, waited, done.stdout[-400:])

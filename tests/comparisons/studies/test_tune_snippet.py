@@ -25,7 +25,7 @@ def _user_model(scene, pasted: str) -> str:
     """A user's own MJCF of the scene's two bodies (written here, not by the adapter), the snippet's lines pasted in:
     body 1 on a slide joint, body 2 on a slide joint y = x2 - x1 inside it, a motor for the forcing on body 1."""
     option = re.search(r"<option[^>]*/>", pasted).group(0).replace("<option ", '<option gravity="0 0 0" ')
-    joint = re.search(r"<joint[^>]*/>", pasted).group(0)
+    joint = re.search(r"<joint[^>]*/>", pasted).group(0).replace("GAP_JOINT", "y")  # the placeholder, as the snippet says
     return f"""<mujoco model="users-own-pair">
   {option}
   <worldbody>
@@ -47,7 +47,7 @@ def _user_geom_model(scene, pasted: str) -> str:
     """The same two bodies with the gap as geoms, the snippet's <pair> pasted once per wall: box walls on the
     carrier, a 1 cm ball on the striker; contype/conaffinity 0, so only the explicit pairs collide."""
     option = re.search(r"<option[^>]*/>", pasted).group(0).replace("<option ", '<option gravity="0 0 0" ')
-    pair = re.search(r"<pair[^>]*/>", pasted).group(0)
+    pair = re.search(r"<pair[^>]*/>", pasted).group(0).replace("WALL_GEOM", "lower").replace("BALL_GEOM", "ball")
     r, h = 0.01, 0.005  # ball radius, half the wall thickness [m]
     lo, up = scene.gap.lower - r - h, scene.gap.upper + r + h
     return f"""<mujoco model="users-own-walls">

@@ -1,0 +1,125 @@
+"""tune searches the whole cost axis jointly, answers with a robust setting, and says how far it looked (issue 26)."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+from chatterbench.comparisons.cli.main import main
+from chatterbench.comparisons.pipeline.compare import compare
+from chatterbench.comparisons.pipeline.solution import solve
+from chatterbench.comparisons.pipeline.tolerances import Tolerances
+from chatterbench.comparisons.studies.tune import dt_range, recommended, tune
+from chatterbench.comparisons.studies.tune_search import Grid, agrees
+from chatterbench.reference import load_scene
+
+TWO_PERIODS = [f"duration={4 * math.pi}"]  # feigin-pair's first two forcing periods: four visits with chatter
+T = 0.05
+
+
+@pytest.fixture(scope="module")
+def fp_pybullet():
+    """The default search (space from the scene's scales and PyBullet's knobs) on feigin-pair, T = 0.05: made once."""
+    return tune(load_scene("feigin-pair", TWO_PERIODS), "pybullet", T, workers=2)
+
+
+def _verdicts(scene, rec: dict, dt: float) -> list[str]:
+    """The episodes' verdicts of ``compare`` with a recommended.json's settings, as ``--set K=V`` items, at ``dt``."""
+    sets = [f"{k}={v}" for k, v in rec["settings"].items()]
+    return compare(scene, engines=(rec["engine"],), dt=dt, overrides=sets, tol=Tolerances(stick=T, exit=T, first_impact=T),
+                   ).table["verdict"].tolist()
+
+
+@pytest.mark.slow  # one default tune of PyBullet (11 s on a quiet machine, 40 s on two busy cores)
+def test_pybullet_tries_coarser_dt_and_answers_cheaper_than_a_millisecond(fp_pybullet):
+    # before: the ladder started at dt = 1e-3 and stopped at the first level that passed (1,000 steps/s)
+    assert fp_pybullet.table["dt"].max() > 1e-3
+    assert fp_pybullet.best is not None and fp_pybullet.best["steps_per_sim_s"] < 1000
+    # the joint grid: every coarse dt row that ran holds every coarse knob value in every slice
+    grid = fp_pybullet.table[fp_pybullet.table["stage"] == "grid"]
+    g = fp_pybullet.extra["grid"]
+    per_row = len(g.coarse(g.knob_values)) * len(g.slices)
+    assert (grid.groupby("dt").size() == per_row).all()
+    assert fp_pybullet.table["stage"].str.startswith("refine").any()
+
+
+@pytest.mark.slow  # the fixture's tune, and three compares
+def test_recommended_setting_reproduces_match_and_passes_at_its_neighbours(fp_pybullet):
+    rec = recommended(fp_pybullet)
+    assert rec["robust"] is True and 0 <= rec["margin"] <= 1
+    scene = load_scene("feigin-pair", TWO_PERIODS)
+    for factor in (1.0, 0.8, 1.25):  # the answer, and dt x 0.8 and x 1.25 with the same knobs
+        verdicts = _verdicts(scene, rec, rec["dt"] * factor)
+        assert all(agrees(v) for v in verdicts), (factor, verdicts)
+    # the fragile pass beside it (when there is one) is cheaper and names the neighbour that fails
+    if rec["fragile"] is not None:
+        assert rec["fragile"]["cost_steps_per_s"] < rec["cost_steps_per_s"] and rec["fragile"]["neighbourhood_fails"]
+
+
+def test_neighbourhood_is_dt_by_1_25_and_the_adjacent_knob_values():
+    grid = Grid.make({"dt": (1e-2, 1e-2 / 1.25 ** 4), "mujoco.w0_dt": (0.03, 0.1, 0.3),
+                      "mujoco.integrator": ("euler", "implicitfast"), "mujoco.impedance": (0.99, 0.9, 0.9999)}, depth=2)
+    assert grid.knob == "mujoco.w0_dt" and len(grid.slices) == 6  # the first real-valued knob is the map's
+    assert [round(a / b, 2) for a, b in zip(grid.dt, grid.dt[1:])] == [1.25] * 4  # the finest dt: 1.25 apart
+    p = {"dt": grid.dt[2], "mujoco.w0_dt": 0.1, "mujoco.integrator": "euler", "mujoco.impedance": 0.99}
+    near = grid.neighbours(p)
+    assert [n["dt"] for n in near[:2]] == [grid.dt[3], grid.dt[1]]  # x 0.8 and x 1.25: the lattice's own values
+    w = grid.knob_values
+    assert [n["mujoco.w0_dt"] for n in near[2:4]] == [w[w.index(0.1) - 1], w[w.index(0.1) + 1]]
+    # impedance, real-valued but not the map's knob: half-way to each adjacent searched value; the integrator: none
+    assert sorted(n["mujoco.impedance"] for n in near[4:]) == [0.945, 0.99495]
+    assert all(n["mujoco.integrator"] == "euler" for n in near) and len(near) == 6
+
+
+def test_dt_range_comes_from_the_scenes_own_scales():
+    ref, tol = solve(load_scene("feigin-pair")), Tolerances(stick=T, exit=T, first_impact=T)
+    fine, coarse = dt_range(ref, tol)
+    # the tightest timing tolerance in seconds: 5% of the shortest chatter (0.791 s)
+    assert coarse == pytest.approx(T * ref.episodes["stick_scale"].min()) and coarse > 1e-3
+    assert fine == pytest.approx(coarse / 1000)
+
+
+def test_search_goes_on_around_the_best_when_nothing_passes():
+    # a tolerance no candidate meets: the refinement still runs, at the best reachable candidate's neighbours
+    space = {"dt": (1e-3, 3e-4), "mujoco.w0_dt": (0.1, 0.3), "mujoco.integrator": ("euler",)}
+    result = tune(load_scene("bouncing-ball"), "mujoco", 1e-5, space=space, workers=1, refine_steps=1)
+    assert result.best is None and not result.table["verdict"].map(agrees).any()
+    assert (result.table["stage"] == "refine 1").sum() >= 2
+    assert recommended(result)["robust"] is False and recommended(result)["failed"]
+
+
+@pytest.mark.slow  # the command line on two forcing periods of feigin-pair, MuJoCo, a budget of 60 runs
+def test_mujoco_feigin_pair_writes_recommended_json_either_way(tmp_path, capsys):
+    out = tmp_path / "tune"
+    code = main(["tune", "feigin-pair", "--engines", "mujoco", "--tolerance", str(T), "--set", TWO_PERIODS[0],
+                 "--max-runs", "60", "--repeats", "1", "--workers", "2", "--out", str(out)])
+    said = capsys.readouterr().out
+    rec = json.loads((out / "recommended.json").read_text())
+    assert code == (0 if rec["robust"] else 1)
+    assert {"engine", "dt", "settings", "robust", "margin", "cost_steps_per_s", "searched"} <= set(rec)
+    assert all(k.startswith("mujoco.") for k in rec["settings"]) and rec["cost_steps_per_s"] == pytest.approx(1 / rec["dt"])
+    if not rec["robust"]:  # the best reachable, with the check that fails (its own, or its neighbours')
+        assert rec["failed"] or rec["neighbourhood_fails"]
+        assert "no robust setting in the searched space" in said
+    # the searched space, in the terminal as in the JSON; counts say "cheaper or as cheap"
+    assert f"searched: {rec['searched']['runs']} runs covering dt " in said and "cheaper or as cheap" in said
+    assert rec["searched"]["budget_used"] <= 60 + 6 * 5 and rec["searched"]["dt"][1] > 1e-3  # with the neighbourhood
+    # the guide's model is written from the JSON: its timestep is the JSON's dt
+    import xml.etree.ElementTree as ET
+
+    option = ET.parse(out / "mujoco" / "model.xml").getroot().find("option")
+    assert float(option.get("timestep")) == pytest.approx(rec["dt"])
+    # and compare with the JSON's settings gives the verdicts the JSON says
+    verdicts = _verdicts(load_scene("feigin-pair", TWO_PERIODS), rec, rec["dt"])
+    assert all(agrees(v) for v in verdicts) == agrees(rec["verdict"]), (verdicts, rec["verdict"])
+
+
+def test_bench_tune_reports_runs_and_wall_time_per_case():
+    from chatterbench.comparisons.studies.bench import bench_tune
+
+    table = bench_tune(cases=(("bouncing-ball", "pybullet", T),), workers=2, max_runs=20)
+    row = table.iloc[0]
+    assert {"runs", "wall_s", "robust", "margin", "steps_per_sim_s", "answer", "fragile"} <= set(table.columns)
+    assert 0 < row["runs"] <= 20 + 6 and row["wall_s"] > 0  # the budget, and a neighbourhood once begun

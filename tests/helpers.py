@@ -1,0 +1,54 @@
+"""What many test modules share, written once: the cached reference solution and the CLI, in-process or not.
+
+Test modules import it as ``from helpers import cli, solution``: pytest puts ``tests/`` (the
+folder of the root ``conftest.py``) on ``sys.path``.
+"""
+
+from __future__ import annotations
+
+import functools
+import io
+import subprocess
+import sys
+from contextlib import redirect_stderr, redirect_stdout
+from pathlib import Path
+from typing import NamedTuple
+
+from chatterbench.comparisons.cli.main import main
+from chatterbench.comparisons.pipeline.solution import ReferenceSolution, solve
+from chatterbench.reference.scene import load_scene
+
+
+@functools.cache
+def solution(scene: str | Path) -> ReferenceSolution:
+    """The reference solution of a built-in scene's name or a scene file, solved once per test session."""
+    return solve(load_scene(scene))
+
+
+class CliRun(NamedTuple):
+    """What one ``chatterbench`` command did: its exit code and what it printed."""
+
+    code: int
+    out: str
+    err: str
+
+
+def cli(argv: list[str]) -> CliRun:
+    """Run ``chatterbench ARGV`` in this process; argparse's refusals (SystemExit) become the exit code.
+
+    Any other exception escapes, so a test sees a traceback the user would have seen.
+    """
+    out, err = io.StringIO(), io.StringIO()
+    with redirect_stdout(out), redirect_stderr(err):
+        try:
+            code = main(list(argv))
+        except SystemExit as exc:
+            code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)  # as sys.exit does
+    return CliRun(int(code), out.getvalue(), err.getvalue())
+
+
+def cli_process(*args: str, cwd: str | Path | None = None, timeout: float = 300) -> subprocess.CompletedProcess:
+    """Run ``chatterbench ARGS`` in a fresh Python process (``python -m chatterbench.comparisons.cli``), as a
+    user's shell would: exit code, stdout and stderr as text."""
+    return subprocess.run([sys.executable, "-m", "chatterbench.comparisons.cli", *args], cwd=cwd,
+                          capture_output=True, text=True, timeout=timeout)
