@@ -150,6 +150,8 @@ CASES: list[tuple[str, str, list[str], str | None, tuple[str, ...]]] = [
     # absurd but finite values: the reference refuses a run it cannot finish (before this guard: a hang)
     ("omega-absurd", "forcing frequency of 1e300 rad/s (a flow step of 1.6e-300 s)",
      ["run", "feigin-pair", "--set", "forces.0.omega=1e300"], None, ("stalled", "max_steps")),
+    ("tune-repeats", "a billion timed repeats of tune's finalists (before: no bound)",
+     ["tune", "bouncing-ball", "--engines", "pybullet", "--repeats", "1000000000"], None, ("--repeats", "[1, 100]")),
     ("stiffness-absurd", "a coupling spring of 1e300 N/m (before: the flow overflowed to NaN with numpy warnings, "
      "the engines diverged and the time-series figure raised a matplotlib traceback)",
      ["compare", "spring-pair", "--engines", "pybullet", "--set", "forces.0.stiffness=1e300", "--out", "o"], None,

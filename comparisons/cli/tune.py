@@ -11,8 +11,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
-import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
@@ -23,11 +21,10 @@ from chatterbench.comparisons.studies.tune import MAX_RUNS, recommended, search_
 from chatterbench.reference.scene import load_scene
 
 from .common import (UsageError, add_budget, add_out, add_scene, add_set, add_tolerance, budget_of, local_workers,
-                     engine_list, parse_tolerances, positive_int, print_table, split_overrides)
+                     engine_list, integer_type, parse_tolerances, positive_int, print_table, split_overrides)
 from .paths import check_dir, writing
-from .progress import CountingExecutor, Progress
+from .progress import CountingExecutor, Progress, waited_s
 
-_IMPORTED = time.perf_counter()
 SHOW = ["stage", "settings", "verdict", "robust", "neighbourhood", "worst_ratio", "failed", "steps_per_sim_s",
         "cost_per_sim_s"]
 SHOW_CHECKED = 12  # rows of the terminal's table
@@ -108,21 +105,6 @@ def answer_lines(result) -> list[str]:
     return lines
 
 
-def waited_s() -> float:
-    """Seconds since this process started [s]: what the user waited for, imports and files included.
-
-    From the kernel's start time of the process (Linux ``/proc``), else since this module was imported.
-    """
-    try:
-        with open("/proc/self/stat", encoding="ascii") as f:
-            start_ticks = float(f.read().rsplit(")", 1)[1].split()[19])  # field 22, starttime, after "pid (comm)"
-        with open("/proc/uptime", encoding="ascii") as f:
-            uptime = float(f.read().split()[0])
-        return uptime - start_ticks / os.sysconf("SC_CLK_TCK")
-    except (OSError, ValueError, IndexError):
-        return time.perf_counter() - _IMPORTED
-
-
 def register(sub, formatter) -> None:
     """Add ``tune`` to the ``chatterbench`` subparsers."""
     p = sub.add_parser("tune", help="find the cheapest engine settings whose episodes all match within the tolerances",
@@ -132,10 +114,10 @@ def register(sub, formatter) -> None:
     add_tolerance(p)
     p.set_defaults(tolerance=None)
     p.add_argument("--workers", type=positive_int, default=None, help="parallel candidate runs; None: all cores")
-    p.add_argument("--max-runs", type=positive_int, default=MAX_RUNS,
+    p.add_argument("--max-runs", type=integer_type(1, 100_000), default=MAX_RUNS,
                    help="the search's budget: runs of up to 100,000 engine steps, a longer run counting as its steps / "
                         "100,000 (a neighbourhood once begun is completed)")
-    p.add_argument("--repeats", type=positive_int, default=3,
+    p.add_argument("--repeats", type=integer_type(1, 100), default=3,
                    help="timed runs of the candidates the choice is between; the least wall time counts")
     add_set(p)
     add_out(p, what="write recommended.json, guide.md, guide.html, candidates.csv and the figures (tradeoff, ladder, restitution_curve) under DIR")

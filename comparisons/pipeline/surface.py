@@ -13,8 +13,8 @@ the speeds just before and after it, for a compliant (soft) one the speeds where
 reaches the undeformed surface and where it crosses it again on its way out. A soft contact
 lets go of the body below the surface (MuJoCo's force falls to zero with the body still in
 the wall) and the free motion still slows it on its way up: the speed at release is more than
-the one the next flight sees (MuJoCo, ball, dt = 3e-4, w0 dt = 0.1: e = 0.499 at release at
-0.52 m/s, 0.476 at the surface, 0.474 from its bounce heights).
+the one the next flight sees (MuJoCo, ball, dt = 3e-4, w0 dt = 0.1, its 4th impact at
+0.52 m/s: e = 0.499 at release, 0.477 at the surface, which is what its bounce heights give).
 
 The speed at the surface is that of the free flight of constant acceleration a through sample
 k (position d_k, velocity v_k), carried to d = 0 by energy: v^2 = v_k^2 - 2 a d_k, forwards

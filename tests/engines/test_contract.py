@@ -94,7 +94,7 @@ def test_a_bad_setting_is_an_input_error_naming_it(name):
 @pytest.mark.parametrize("override, words", [
     ("dt=0", "dt = 0: must be > 0"),
     ("dt=-1e-4", "dt = -0.0001: must be > 0"),
-    ("dtt=1e-3", "unknown NAME setting; allowed: dt, "),  # a misspelt key: every key listed, the nearest suggested
+    ("dtt=1e-3", "unknown NAME setting; allowed: dt"),  # a misspelt key: every key listed, the nearest suggested
 ])
 def test_every_engine_refuses_the_same_bad_settings_the_same_way(name, override, words):
     # one copy for every engine (was one per engine test file); each file keeps only its engine's own keys

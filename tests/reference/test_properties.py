@@ -179,8 +179,9 @@ def check_impacts(result) -> None:
         earlier = times[times < t]
         t_prev = float(earlier.max()) if len(earlier) else t0
         v1_before = row.v1 + share * (row.v_plus - row.v_minus)
-        if t == t0 and not len(earlier):
-            # a strike of the initial state itself: the state before it is the initial one
+        if t - t0 <= 4 * math.ulp(t) and not len(earlier):
+            # a strike of the initial state itself, or within a few ulps of it (an initial y one ulp inside
+            # the wall): no time between t0 and t can be sampled, so the state before it is the initial one
             vy_b, v1_b = scene.initial.vy, scene.initial.v1
         else:
             delta = min(1e-8, 0.5 * (t - t_prev))
