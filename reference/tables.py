@@ -19,6 +19,7 @@ key costs tomllib's quadratic time.
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import stat
@@ -134,3 +135,51 @@ def read_toml(path: str | Path, what: str, error: type[InputError] = InputError)
         raise error(f"{what}: not valid TOML ({exc})") from None
     except ValueError as exc:  # an integer past Python's limit of 4300 digits
         raise error(f"{what}: a number too long to read ({str(exc).splitlines()[0]})") from None
+
+
+def toml_literal(value: Any) -> str:
+    """A TOML literal for a scalar, a string key or an array of scalars (sweep specs, gate commands).
+
+    >>> from chatterbench.reference.tables import toml_literal
+    >>> toml_literal(["ball \N{TENNIS RACQUET AND BALL}", 1e-4, float("inf"), True])
+    '["ball \N{TENNIS RACQUET AND BALL}", 0.0001, inf, true]'
+    """
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        if math.isnan(value):
+            return "nan"
+        if math.isinf(value):
+            return "inf" if value > 0 else "-inf"
+        return repr(value)
+    if isinstance(value, str):
+        return _toml_string(value)
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(toml_literal(v) for v in value) + "]"
+    raise TypeError(f"no TOML form for {value!r}")
+
+
+# TOML basic-string escapes; every other character but the controls is written as itself
+_ESCAPES = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
+
+
+def _toml_string(text: str) -> str:
+    """A TOML basic string holding ``text`` exactly, any Unicode (an emoji is written as itself).
+
+    JSON's ``\\ud83c\\udfbe`` surrogate pairs are not TOML: TOML escapes name Unicode scalar
+    values, so a non-BMP character written that way could not be read back.
+    """
+    out = []
+    for ch in text:
+        code = ord(ch)
+        if ch in _ESCAPES:
+            out.append(_ESCAPES[ch])
+        elif code < 0x20 or code == 0x7F:  # control characters must be escaped
+            out.append(f"\\u{code:04x}")
+        elif 0xD800 <= code <= 0xDFFF:  # a sweep spec refuses these before writing
+            raise ValueError(f"{text!r}: a lone surrogate has no TOML form")
+        else:
+            out.append(ch)
+    return '"' + "".join(out) + '"'

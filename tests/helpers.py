@@ -52,3 +52,17 @@ def cli_process(*args: str, cwd: str | Path | None = None, timeout: float = 300)
     user's shell would: exit code, stdout and stderr as text."""
     return subprocess.run([sys.executable, "-m", "chatterbench.comparisons.cli", *args], cwd=cwd,
                           capture_output=True, text=True, timeout=timeout)
+
+
+# a gate of one cheap check (0.2 s of engine time): the ball's one sliding episode on PyBullet
+BALL_PYBULLET_GATE = """
+[defaults]
+dt = 1e-4
+scene_overrides = { duration = 1.6 }
+
+[[check]]
+name = "ball/pybullet"
+scene = "bouncing-ball"
+engine = "pybullet"
+limits = ["verdict == match", "stick_error_rel_max <= 0.05"]
+"""

@@ -39,7 +39,7 @@ from typing import Any, Mapping
 import pandas as pd
 
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
-from chatterbench.comparisons.studies.sweep.spec import _toml as toml_value
+from chatterbench.reference.tables import toml_literal
 
 from .baseline import BAND, Regression, check_regressions, versions_note
 from .checks import CheckResult, GateResult, LimitOutcome, fmt_value
@@ -245,11 +245,11 @@ def decide(result: GateResult, base: Mapping[str, Any] | None = None, band: floa
 def _scene_args(c: Check) -> list[str]:
     args = [c.scene_source or c.scene.name]
     for key, value in c.scene_overrides.items():
-        args += ["--set", f"{key}={toml_value(value)}"]
+        args += ["--set", f"{key}={toml_literal(value)}"]
     default = Tolerances().as_dict()
     for key, value in c.tolerances.as_dict().items():
         if value != default.get(key):
-            args += ["--tolerance", f"{key}={toml_value(value)}"]
+            args += ["--tolerance", f"{key}={toml_literal(value)}"]
     return args
 
 
@@ -263,7 +263,7 @@ def compare_command(c: Check) -> str:
     if c.dt is not None:
         args += ["--dt", repr(c.dt)]
     for key, value in c.settings.items():
-        args += ["--set", f"{c.engine}.{key}={toml_value(value)}"]
+        args += ["--set", f"{c.engine}.{key}={toml_literal(value)}"]
     return shlex.join(args + ["--out", f"{OUT_ROOT}/{_slug(c.name)}"])
 
 

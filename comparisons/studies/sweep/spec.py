@@ -93,7 +93,7 @@ from chatterbench.engines.registry import DEFAULT_ENGINES, ENGINE_NAMES, make_se
 from chatterbench.reference.catalogue import CATALOGUE
 from chatterbench.reference.errors import InputError, did_you_mean, is_number, shown
 from chatterbench.reference.scene import load_scene
-from chatterbench.reference.tables import flatten, printable, read_toml
+from chatterbench.reference.tables import flatten, printable, read_toml, toml_literal
 
 from .refine import Refine, make_refine
 
@@ -175,18 +175,18 @@ class Sweep:
 
     def to_toml(self) -> str:
         """The resolved spec as TOML (``load_sweep`` reads it back to an equal Sweep)."""
-        lines = [f"scene = {_toml(self.scene)}", f"engines = {_toml(list(self.engines))}",
-                 f"timeout = {_toml(self.timeout)}"]
+        lines = [f"scene = {toml_literal(self.scene)}", f"engines = {toml_literal(list(self.engines))}",
+                 f"timeout = {toml_literal(self.timeout)}"]
         if self.description:
-            lines.append(f"description = {_toml(self.description)}")
+            lines.append(f"description = {toml_literal(self.description)}")
         for name, table in (("set", self.fixed), ("grid", {k: list(v) for k, v in self.grid.items()}),
                             ("tolerances", self.tolerances)):
             if table:
-                lines += ["", f"[{name}]"] + [f"{_toml(k)} = {_toml(v)}" for k, v in table.items()]
+                lines += ["", f"[{name}]"] + [f"{toml_literal(k)} = {toml_literal(v)}" for k, v in table.items()]
         for p in self.points:
-            lines += ["", "[[points]]"] + [f"{_toml(k)} = {_toml(v)}" for k, v in p.items()]
+            lines += ["", "[[points]]"] + [f"{toml_literal(k)} = {toml_literal(v)}" for k, v in p.items()]
         if self.refine is not None:
-            lines += ["", "[refine]"] + [f"{_toml(k)} = {_toml(v)}" for k, v in self.refine.to_table().items()]
+            lines += ["", "[refine]"] + [f"{toml_literal(k)} = {toml_literal(v)}" for k, v in self.refine.to_table().items()]
         return "\n".join(lines) + "\n"
 
     def fingerprint(self) -> str:
@@ -211,49 +211,6 @@ class Sweep:
         return out
 
 
-def _toml(value: Any) -> str:
-    """A TOML literal for a scalar, a string key or an array of scalars."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, int):
-        return str(value)
-    if isinstance(value, float):
-        if math.isnan(value):
-            return "nan"
-        if math.isinf(value):
-            return "inf" if value > 0 else "-inf"
-        return repr(value)
-    if isinstance(value, str):
-        return _toml_string(value)
-    if isinstance(value, (list, tuple)):
-        return "[" + ", ".join(_toml(v) for v in value) + "]"
-    raise TypeError(f"no TOML form for {value!r}")
-
-
-# TOML basic-string escapes; every other character but the controls is written as itself
-_ESCAPES = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
-
-
-def _toml_string(text: str) -> str:
-    """A TOML basic string holding ``text`` exactly, any Unicode (an emoji is written as itself).
-
-    JSON's ``\\ud83c\\udfbe`` surrogate pairs are not TOML: TOML escapes name Unicode scalar
-    values, so a non-BMP character written that way could not be read back.
-    """
-    out = []
-    for ch in text:
-        code = ord(ch)
-        if ch in _ESCAPES:
-            out.append(_ESCAPES[ch])
-        elif code < 0x20 or code == 0x7F:  # control characters must be escaped
-            out.append(f"\\u{code:04x}")
-        elif 0xD800 <= code <= 0xDFFF:  # refused by _unicode before a sweep exists
-            raise ValueError(f"{text!r}: a lone surrogate has no TOML form")
-        else:
-            out.append(ch)
-    return '"' + "".join(out) + '"'
-
-
 def _unicode(sweep: Sweep, where: str, text: str) -> str:
     """``text`` if it is valid Unicode (what TOML and UTF-8 files can hold), else a SpecError."""
     try:
@@ -272,7 +229,7 @@ def _scalar(sweep: Sweep, where: str, value: Any) -> Any:
 def _values(sweep: Sweep, key: str, values: Any) -> tuple:
     where = f"grid.{key}"
     if not isinstance(values, (list, tuple)):
-        raise sweep.fail(f"{where} = {values!r}: must be an array of values, e.g. {key} = [{_toml(values) if _kind(values) else '0.5'}]")
+        raise sweep.fail(f"{where} = {values!r}: must be an array of values, e.g. {key} = [{toml_literal(values) if _kind(values) else '0.5'}]")
     if not values:
         raise sweep.fail(f"{where} = []: empty grid; give at least one value")
     kinds = {_kind(_scalar(sweep, f"{where}[{i}]", v)) for i, v in enumerate(values)}
@@ -360,12 +317,12 @@ def _validate(sweep: Sweep) -> None:
     _resolve(sweep, fixed, "[set]")
     for k, values in grid.items():
         for v in values:
-            _resolve(sweep, {**fixed, k: v}, f"grid.{k} = {_toml(v)}")
+            _resolve(sweep, {**fixed, k: v}, f"grid.{k} = {toml_literal(v)}")
     for i, p in enumerate(points):
         _resolve(sweep, {**fixed, **p}, f"points[{i}]")
     if len(grid) > 1:  # combinations by axis: each numeric axis's extremes (the limits are monotone in each value)
         for p in _grid_product(_extremes(grid)):
-            _resolve(sweep, {**fixed, **p}, "grid point " + ", ".join(f"{k} = {_toml(v)}" for k, v in p.items()))
+            _resolve(sweep, {**fixed, **p}, "grid point " + ", ".join(f"{k} = {toml_literal(v)}" for k, v in p.items()))
 
 
 def _extremes(grid: Mapping[str, tuple]) -> dict[str, tuple]:

@@ -8,17 +8,9 @@ import pytest
 
 from chatterbench.comparisons.cli.main import main
 
-GATE = """
-[defaults]
-dt = 1e-4
-scene_overrides = { duration = 1.6 }
+from helpers import BALL_PYBULLET_GATE
 
-[[check]]
-name = "ball/pybullet"
-scene = "bouncing-ball"
-engine = "pybullet"
-limits = ["verdict == match", "stick_error_rel_max <= 0.05"]
-"""
+GATE = BALL_PYBULLET_GATE
 
 
 @pytest.fixture

@@ -14,20 +14,10 @@ import pytest
 
 from chatterbench.comparisons.cli.main import main
 
-from helpers import cli_process
+from helpers import BALL_PYBULLET_GATE, cli_process
 
 # two cheap checks (0.4 s of engine time together): the ball's one sliding episode on each engine
-GATE = """
-[defaults]
-dt = 1e-4
-scene_overrides = { duration = 1.6 }
-
-[[check]]
-name = "ball/pybullet"
-scene = "bouncing-ball"
-engine = "pybullet"
-limits = ["verdict == match", "stick_error_rel_max <= 0.05"]
-
+GATE = BALL_PYBULLET_GATE + """
 [[check]]
 name = "ball/mujoco"
 scene = "bouncing-ball"
