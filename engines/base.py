@@ -48,6 +48,7 @@ import numpy as np
 from chatterbench.reference.errors import check_integer
 from chatterbench.reference.scene import Scene
 
+from .faults import inject_planned
 from .settings import SettingsError
 from .trajectory import Trajectory
 from .window import Recorder
@@ -220,6 +221,14 @@ class EngineAdapter(abc.ABC):
     batches: ClassVar[bool] = False  # does run_batch do better than one run after another?
     bytes_per_step: ClassVar[float] = 500.0  # [B] memory a run holds per step, samples and engine state (measured)
     bench_step_cap: ClassVar[int | None] = None  # most steps a benchmark repeat takes (a slow engine's cap)
+    # the registry name of an engine that steps this very model on another executor ("": none); compare reports
+    # the two's conformance (``comparisons/pipeline/conformance.py``) whenever both ran
+    same_model_as: ClassVar[str] = ""
+    # what the first run on a machine costs before it steps, said before it starts ("": nothing worth saying)
+    first_run_note: ClassVar[str] = ""
+    # the files ``export`` writes a scene as, the model file first (``run --export-model``, ``tune --out``); (): none
+    exports: ClassVar[tuple[str, ...]] = ()
+    export_kind: ClassVar[str] = ""  # what the model file is, for messages: "an MJCF model"
 
     # -- what an adapter writes -------------------------------------------------------------------
     @abc.abstractmethod
@@ -233,6 +242,15 @@ class EngineAdapter(abc.ABC):
     def bare_seconds(self, scene: Scene, settings: Any, traj: Trajectory) -> float:
         """Seconds of the engine's own loop over the run ``traj`` (full; the adapter's own run of ``scene``):
         the same model and forces with no recording."""
+
+    def export(self, scene: Scene, settings: Any, command: str | None = None) -> dict[str, str]:
+        """File name (each of ``exports``) -> text: ``scene`` at ``settings`` as files that run in the engine alone,
+        printing one line per impact (``impact_lines``); ``command``, the command that wrote them, kept in them."""
+        return {}
+
+    def measurement(self) -> str:
+        """Python that measures one impact's e in the user's own model, with the snippet's placeholders ("": none)."""
+        return ""
 
     def snippet(self, scene: Scene, settings: Any) -> str:
         """The settings as a user pastes them into their own model (MJCF, Python); here, the settings object."""
@@ -295,8 +313,10 @@ class EngineAdapter(abc.ABC):
         return self.finish(run)
 
     def finish(self, run: Recording) -> Trajectory:
-        """``simulate`` the run and classify it (the one place an engine failure is caught)."""
+        """``simulate`` the run and classify it (the one place an engine failure is caught: callers such as
+        ``compare`` catch nothing). A test-only fault (``faults.py``) is injected here, as the engine's own."""
         try:
+            inject_planned(self.name, run.scene)
             self.simulate(run)
         except Exception as exc:  # noqa: BLE001  an engine failure is a result, not a crash
             return run.trajectory(exc)

@@ -1,18 +1,20 @@
 """The engines that write a scene as files a user runs in the engine alone, and the files they write.
 
     >>> from chatterbench.reference.scene import load_scene
-    >>> from chatterbench.engines.export import EXPORTS, export_files
+    >>> from chatterbench.engines.export import export_files, exporting_engines
     >>> from chatterbench.engines.mujoco_engine import MujocoSettings
     >>> sorted(export_files("mujoco", load_scene("bouncing-ball"), MujocoSettings()))
     ['model.xml', 'run.py']
-    >>> sorted(EXPORTS)
-    ['mujoco', 'pybullet']
+    >>> exporting_engines()[:2]
+    ('mujoco', 'pybullet')
 
-``chatterbench run --export-model PATH`` writes the engine's model file (``model_file``:
-MuJoCo's full MJCF, PyBullet's complete script); ``chatterbench tune --out DIR`` writes
-``export_files`` into ``DIR/<engine>/``: ``model.xml`` and ``run.py`` (a runner that loads it
-with plain MuJoCo) or ``scene.py``. Every runnable file prints one line per impact,
-``impact t=... v_in=... v_out=... e=...`` (``impact_lines``). Adapters are imported on first use.
+Which engines export, and what, is a fact each adapter declares (``EngineAdapter.exports``,
+``export_kind``, ``export``): MuJoCo writes its full MJCF (``model.xml``) and a runner that
+loads it with plain MuJoCo (``run.py``), PyBullet a complete script (``scene.py``).
+``chatterbench run --export-model PATH`` writes the model file (``model_file``);
+``chatterbench tune --out DIR`` writes ``export_files`` into ``DIR/<engine>/``. Every runnable
+file prints one line per impact, ``impact t=... v_in=... v_out=... e=...`` (``impact_lines``).
+Adapters are imported on first use.
 """
 
 from __future__ import annotations
@@ -24,16 +26,24 @@ from typing import Any
 
 from chatterbench.reference.scene import Scene
 
+from .registry import adapter, available_engines, check_engine
 from .settings import SettingsError
 
-# engine -> (the model file's name in DIR/<engine>/, its suffix for --export-model)
-EXPORTS = {"mujoco": ("model.xml", ".xml"), "pybullet": ("scene.py", ".py")}
+
+def exporting_engines() -> tuple[str, ...]:
+    """The engines installed here whose adapter writes a scene as files (``EngineAdapter.exports``), in table order."""
+    return tuple(name for name in available_engines() if adapter(name).exports)
+
+
+def export_files_names(engine: str) -> list[str]:
+    """The names ``export_files`` gives, the model file first (none for an engine that does not export)."""
+    return list(adapter(check_engine(engine)).exports)
 
 
 def check_exportable(engine: str) -> None:
     """SettingsError naming the engines that export, for any other."""
-    if engine not in EXPORTS:
-        raise SettingsError(f"engine {engine!r}: cannot export a model; engines that can: {', '.join(EXPORTS)}")
+    if not export_files_names(engine):
+        raise SettingsError(f"engine {engine!r}: cannot export a model; engines that can: {', '.join(exporting_engines())}")
 
 
 def making_command() -> str | None:
@@ -44,43 +54,20 @@ def making_command() -> str | None:
     return None
 
 
-def model_file(engine: str, scene: Scene, settings: Any) -> str:
-    """The engine's model file for ``scene`` at ``settings``: MuJoCo's MJCF (holding ``making_command``) or
-    PyBullet's script."""
+def export_files(engine: str, scene: Scene, settings: Any) -> dict[str, str]:
+    """File name -> text, what ``tune --out DIR`` writes into ``DIR/<engine>/`` (module docstring); the files keep
+    ``making_command``."""
     check_exportable(engine)
-    if engine == "mujoco":
-        from .mujoco_engine.export import model_xml
+    return adapter(engine).export(scene, settings, command=making_command())
 
-        return model_xml(scene, settings, command=making_command())
-    from .pybullet_engine.export import scene_script
 
-    return scene_script(scene, settings)
+def model_file(engine: str, scene: Scene, settings: Any) -> str:
+    """The engine's model file for ``scene`` at ``settings`` (the first of its ``exports``): MuJoCo's MJCF (holding
+    ``making_command``), PyBullet's script."""
+    return export_files(engine, scene, settings)[export_files_names(engine)[0]]
 
 
 def measurement(engine: str) -> str:
     """Python that measures one impact's e in the user's own model, with the snippet's placeholders ("" for an
     engine without one)."""
-    if engine == "mujoco":
-        from .mujoco_engine.snippet import measurement as lines
-    elif engine == "pybullet":
-        from .pybullet_engine.settings import measurement as lines
-    else:
-        return ""
-    return lines()
-
-
-def export_files_names(engine: str) -> list[str]:
-    """The names ``export_files`` gives (none for an engine that does not export)."""
-    return {"mujoco": [EXPORTS["mujoco"][0], "run.py"], "pybullet": [EXPORTS["pybullet"][0]]}.get(engine, [])
-
-
-def export_files(engine: str, scene: Scene, settings: Any) -> dict[str, str]:
-    """File name -> text, what ``tune --out DIR`` writes into ``DIR/<engine>/`` (module docstring)."""
-    check_exportable(engine)
-    names = export_files_names(engine)
-    files = {names[0]: model_file(engine, scene, settings)}
-    if engine == "mujoco":
-        from .mujoco_engine.export import runner_script
-
-        files[names[1]] = runner_script(scene, settings, model_file=names[0], command=making_command())
-    return files
+    return adapter(check_engine(engine)).measurement()

@@ -17,8 +17,10 @@ sweep's pool inherit it). Its value is rules separated by ``;``, each
 the engine), ``hang`` (sleeps forever), ``raise`` (``InjectedFault``); ENGINE an engine name
 or ``*``; KEY=VALUE a scene field by its dotted key (``restitution=0.3``,
 ``initial.vy=0.1``) that the run's scene must have (numbers compared to 1e-12 relative).
-The first rule that matches a run is injected before the engine starts
-(``registry.run_engine``, ``run_engine_batch``). The tests use it to prove that compare,
+The first rule that matches a run is injected as the engine starts, inside the adapter's
+run (``base.EngineAdapter.finish``: a ``raise`` is then the engine's failure, classified
+``error`` where every engine failure is), and before a batch (``registry.run_engine_batch``:
+the whole batch fails). The tests use it to prove that compare,
 report, gate and sweeps survive a run that dies, never returns or raises, and classify it
 while keeping every other result.
 """

@@ -47,6 +47,9 @@ class Engine:
     module: str = ""  # the Python module that extra provides (how a missing extra is told)
     default: bool = False  # run by commands and sweeps when no engine is named
     plugin: str = ""  # the distribution that declared it through ENTRY_POINT_GROUP ("": built in)
+    # "module:function" returning "" when the engine can run here, else why not and how to install it; for an
+    # engine whose own check is not an importable module (Siconos runs under another interpreter)
+    probe: str = ""
 
 
 BUILT_IN = (
@@ -54,6 +57,10 @@ BUILT_IN = (
     Engine("pybullet", "chatterbench.engines.pybullet_engine:PybulletEngine", default=True),
     Engine("drake", "chatterbench.engines.drake_engine:DrakeEngine", extra="drake", module="pydrake"),
     Engine("mujoco_warp", "chatterbench.engines.mujoco_warp_engine:MujocoWarpEngine", extra="warp", module="mujoco_warp"),
+    Engine("physx", "chatterbench.engines.physx_engine:PhysxEngine", extra="physx", module="sapien"),
+    Engine("dart", "chatterbench.engines.dart_engine:DartEngine", extra="dart", module="dartpy"),
+    Engine("siconos", "chatterbench.engines.siconos_engine:SiconosEngine",
+           probe="chatterbench.engines.siconos_engine.run:unavailable"),
 )
 
 
@@ -91,6 +98,9 @@ def unavailable_reason(name: str) -> str:
     if entry.extra and importlib.util.find_spec(entry.module) is None:
         return (f"engine {name!r} needs the optional extra {entry.extra!r}: pip install \".[{entry.extra}]\" "
                 f"(module {entry.module} not found)")
+    if entry.probe:
+        module, _, function = entry.probe.partition(":")
+        return getattr(importlib.import_module(module), function)()
     return ""
 
 
@@ -128,9 +138,9 @@ def settings_dict(settings: Any) -> dict[str, Any]:
 
 
 def run_engine(name: str, scene: Scene, settings: Any) -> Trajectory:
-    """Run ``scene`` in engine ``name``; failures come back as a Trajectory status, not an exception
-    (but for the test-only faults of ``faults.py``, injected first)."""
-    inject_planned(name, scene)
+    """Run ``scene`` in engine ``name``; failures come back as a Trajectory status, not an exception (the
+    adapter catches them, the test-only faults of ``faults.py`` included); SettingsError for settings the
+    scene cannot run with, before the engine starts."""
     return adapter(name).run(scene, settings)
 
 
@@ -153,7 +163,8 @@ def run_engine_batch(name: str, jobs: Sequence[tuple[Scene, Any]]) -> list[Traje
 
     Engines that batch (``EngineAdapter.batches``: MuJoCo, compatible models in one
     ``mujoco.rollout`` call) do; the others run the pairs one by one. Each pair's planned
-    test fault is injected first, as ``run_engine`` does.
+    test fault is injected first, for the whole batch: a ``raise`` fault raises from here
+    (a sweep then runs each pair alone, where the adapter classifies it).
     """
     for scene, _ in jobs:
         inject_planned(name, scene)

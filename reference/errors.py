@@ -11,14 +11,16 @@
 (``SceneError``), an engine setting (``engines.settings.SettingsError``), a tolerance, a
 sweep spec, a gate file, a chart option. Each message names the field, the value and what
 is allowed; the command line turns any of them into one line and exit code 2. The checks
-take the class to raise (``error=``), so each layer raises its own.
+take the class to raise (``error=``), so each layer raises its own. A file reader is a table of
+its keys, each with its check made of these (``check_fields``: the sweep spec's ``FIELDS``,
+the gate file's ``CHECK_FIELDS``), never a check written again.
 """
 
 from __future__ import annotations
 
 import difflib
 import math
-from typing import Any, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 
 class InputError(ValueError):
@@ -62,16 +64,17 @@ def check_number(where: str, value: Any, lo: float | None = None, hi: float | No
                  hi_open: bool = False, unit: str = "", error: type[InputError] = InputError) -> float:
     """``value`` as a float if it is a finite real number in the range, else ``error`` naming ``where``.
 
-    ``unit`` (``" [s]"``) is appended to the allowed range in the message.
+    ``unit`` (``" [s]"``) is appended to the allowed range in the message (and to "must be a number").
     """
     if not is_number(value):
-        raise error(f"{where} = {shown(value)}: must be a number")
+        raise error(f"{where} = {shown(value)}: must be a number{unit}")
     try:
         v = float(value)
     except OverflowError:
         raise error(f"{where} = {shown(value)}: too large; must be {describe_range(lo, hi, lo_open, hi_open)}{unit}") from None
     if not math.isfinite(v):
-        raise error(f"{where} = {shown(value)}: must be a finite number")
+        bounds = "" if lo is None and hi is None else " " + describe_range(lo, hi, lo_open, hi_open)
+        raise error(f"{where} = {shown(value)}: must be a finite number{bounds}{unit}")
     low = lo is not None and (v <= lo if lo_open else v < lo)
     high = hi is not None and (v >= hi if hi_open else v > hi)
     if low or high:
@@ -100,3 +103,59 @@ def check_choice(where: str, value: Any, allowed: Sequence[str], error: type[Inp
     if value not in allowed:
         raise error(f"{where} = {shown(value)}: must be one of {', '.join(map(str, allowed))}" + did_you_mean(str(value), allowed))
     return value
+
+
+def check_text(where: str, value: Any, error: type[InputError] = InputError) -> str:
+    """``value`` if it is a string, else ``error`` naming ``where``."""
+    if not isinstance(value, str):
+        raise error(f"{where} = {shown(value)}: must be a string")
+    return value
+
+
+def check_table(where: str, value: Any, error: type[InputError] = InputError) -> Mapping[str, Any]:
+    """``value`` if it is a table (a mapping of keys to values), else ``error`` naming ``where``."""
+    if not isinstance(value, Mapping):
+        raise error(f"{where} = {shown(value)}: must be a table, e.g. {where} = {{ key = value }}")
+    return value
+
+
+def unknown_keys(data: Mapping[str, Any], allowed: Sequence[str], what: str = "key") -> list[str]:
+    """One message per key of ``data`` not in ``allowed``: ``unknown key 'gird' (did you mean 'grid'?); allowed: ...``."""
+    return [f"unknown {what} {shown(k)}{did_you_mean(str(k), allowed)}; allowed: {', '.join(allowed)}"
+            for k in data if k not in allowed]
+
+
+def check_fields(data: Mapping[str, Any], fields: Mapping[str, Callable[[str, Any], Any]], prefix: str = "",
+                 problems: list[str] | None = None, error: type[InputError] = InputError) -> dict[str, Any]:
+    """An input table read through a table of checks: each key's value passed to its check.
+
+    ``fields`` maps each allowed key to ``check(where, value) -> value`` (a ``check_*`` of this
+    module, or one made of them), which raises an ``InputError`` naming ``where`` (``prefix`` +
+    the key). Returns the checked value of each key present in ``data``; unknown keys are refused
+    (``unknown_keys``, as ``error``). With ``problems`` (a list), every refusal is appended to it,
+    one line each, and a key that fails is left out; without, the first refusal is raised.
+
+    >>> from chatterbench.reference.errors import check_fields, check_number, check_text
+    >>> fields = {"name": check_text, "dt": lambda where, v: check_number(where, v, lo=0.0, lo_open=True, unit=" [s]")}
+    >>> check_fields({"name": "ball", "dt": 1e-3}, fields)
+    {'name': 'ball', 'dt': 0.001}
+    >>> problems = []
+    >>> check_fields({"dt": 0, "dtt": 1}, fields, "check.", problems), problems
+    ({}, ["check: unknown key 'dtt' (did you mean 'dt'?); allowed: name, dt", 'check.dt = 0: must be > 0 [s]'])
+    """
+    refused = [f"{prefix[:-1]}: {m}" if prefix else m for m in unknown_keys(data, list(fields))]
+    if refused and problems is None:
+        raise error(refused[0])
+    out: dict[str, Any] = {}
+    for key, check in fields.items():
+        if key not in data:
+            continue
+        try:
+            out[key] = check(prefix + key, data[key])
+        except InputError as exc:
+            if problems is None:
+                raise
+            refused.extend(str(exc).splitlines())
+    if problems is not None:
+        problems.extend(refused)
+    return out

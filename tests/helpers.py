@@ -66,3 +66,27 @@ scene = "bouncing-ball"
 engine = "pybullet"
 limits = ["verdict == match", "stick_error_rel_max <= 0.05"]
 """
+
+
+def count_settings_made(monkeypatch) -> list[str]:
+    """The engine of every settings object ``registry.make_settings`` makes from now on, in order (its values
+    are applied by ``settings_with_overrides``, wrapped here to count: the real one still runs)."""
+    import chatterbench.engines.registry as registry
+
+    made, real = [], registry.settings_with_overrides
+
+    def count(base, overrides, prefix):
+        made.append(prefix)
+        return real(base, overrides, prefix)
+
+    monkeypatch.setattr(registry, "settings_with_overrides", count)
+    return made
+
+
+MEASURED = ("verdict", "n_episodes", "n_match", "stick_error_max", "stick_error_rel_max", "restitution_error_max",
+            "penetration_max")  # a summary row's measured columns (cost_per_sim_s is the machine's, not the run's)
+
+
+def measured(row) -> dict:
+    """A summary row's ``MEASURED`` columns, NaN as "nan" (nothing measured equals nothing measured)."""
+    return {k: ("nan" if row[k] != row[k] else row[k]) for k in MEASURED}

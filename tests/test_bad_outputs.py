@@ -28,7 +28,7 @@ from typing import NamedTuple
 import pytest
 
 from chatterbench.comparisons.cli.main import main
-from chatterbench.comparisons.outputs.atomic import write_text
+from chatterbench.comparisons.pipeline.atomic import write_text
 
 from helpers import cli
 
@@ -285,7 +285,7 @@ def test_an_interrupted_write_leaves_no_temp_file(tmp_path):
         tmp.write_text("half a rep")
         raise KeyboardInterrupt  # Ctrl-C mid-write: a BaseException, not an Exception
 
-    from chatterbench.comparisons.outputs.atomic import write_with
+    from chatterbench.comparisons.pipeline.atomic import write_with
 
     with pytest.raises(KeyboardInterrupt):
         write_with(target, interrupted)

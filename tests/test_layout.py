@@ -62,6 +62,23 @@ def test_imports_go_one_way_reference_engines_comparisons():
     assert not wrong, wrong
 
 
+# the stages inside comparisons/, lowest first: a stage imports only from itself and the stages before it
+STAGES = ("pipeline", "studies", "outputs", "ci", "cli")
+
+
+def test_stages_inside_comparisons_import_one_way():
+    rank = {f"chatterbench.comparisons.{s}": i for i, s in enumerate(STAGES)}
+
+    def stage(module):  # a module directly in comparisons/ (its __init__) is below every stage
+        return next((v for k, v in rank.items() if module == k or module.startswith(k + ".")), -1)
+
+    names = {m for m in _modules() if m.startswith("chatterbench.comparisons.")}
+    assert {m.split(".")[2] for m in names} <= set(STAGES), "a new stage: add it to STAGES, in its place"
+    wrong = sorted(f"{a} -> {b}" for a, targets in _graph().items() if a.startswith("chatterbench.comparisons")
+                   for b in targets if b.startswith("chatterbench.comparisons") and stage(b) > stage(a))
+    assert not wrong, wrong
+
+
 def test_no_import_cycle_counting_imports_inside_functions():
     graph = _graph()
     # a package importing its own submodules is how a package works; a submodule importing
@@ -107,6 +124,52 @@ def test_every_package_folder_is_installed():
     packages = {name for name, path in _modules().items() if path.name == "__init__.py"}
     missing = [p for p in packages if f'"{p}"' not in text]
     assert not missing, f"add to [tool.setuptools] packages in pyproject.toml: {missing}"
+
+
+# where a built-in engine's name may be written in code (docstrings aside): its own adapter package, the engine
+# table, and the one-engine facts below, each with its reason; every other list of engines reads the table
+ENGINE_NAME_ALLOWED = {
+    "engines/registry.py": "the engine table itself (BUILT_IN)",
+    "comparisons/studies/bench.py": "the benchmark cases: MuJoCo Warp's world-steps against MuJoCo C, and the tune cases",
+    "comparisons/cli/bench.py": "`bench sweep --only warp`: MuJoCo Warp's world-steps per second",
+    "comparisons/pipeline/cross_check.py": "Siconos is the reference's cross-check (a second nonsmooth reference)",
+}
+
+
+def _code_strings(path: Path) -> list[tuple[int, str]]:
+    """(line, text) of every string constant of a module, its docstrings left out."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    docs = {id(node.body[0].value) for node in ast.walk(tree)
+            if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)) and node.body
+            and isinstance(node.body[0], ast.Expr) and isinstance(node.body[0].value, ast.Constant)}
+    return [(n.lineno, n.value) for n in ast.walk(tree)
+            if isinstance(n, ast.Constant) and isinstance(n.value, str) and id(n) not in docs]
+
+
+def test_no_engine_name_in_code_but_its_adapter_and_the_engine_table():
+    from chatterbench.engines.registry import BUILT_IN
+
+    names = {e.name for e in BUILT_IN}
+    found = []
+    for path in _modules().values():
+        rel = path.relative_to(ROOT)
+        if rel.parts[0] == "engines" and rel.parts[1].endswith("_engine") or str(rel) in ENGINE_NAME_ALLOWED:
+            continue
+        found += [f"{rel}:{line} {text!r}" for line, text in _code_strings(path)
+                  if text in names or text.split(".", 1)[0] in names and "." in text]
+    assert not found, f"engine names written in code: read them from engines.registry, or make them an adapter fact: {found}"
+
+
+@pytest.mark.skipif(importlib.util.find_spec("radon") is None, reason="radon is in the test extra: pip install '.[test]'")
+def test_no_function_of_complexity_grade_e_or_f():
+    # what `radon cc -n E reference engines comparisons` lists: a block of cyclomatic complexity > 30
+    from radon.complexity import cc_rank, cc_visit
+
+    blocks = [(str(p.relative_to(ROOT)), b) for p in _modules().values() for b in cc_visit(p.read_text(encoding="utf-8"))]
+    blocks += [(f, m) for f, b in blocks for m in getattr(b, "methods", [])]  # a class's methods, graded one by one
+    worst = sorted(f"{f}:{b.lineno} {b.name} {cc_rank(b.complexity)} ({b.complexity})" for f, b in blocks
+                   if cc_rank(b.complexity) in "EF")
+    assert not worst, f"split these (a table of checks, or one helper per part): {worst}"
 
 
 @pytest.mark.slow

@@ -21,7 +21,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Mapping
 
-from chatterbench.comparisons.outputs.atomic import write_text
+from chatterbench.comparisons.pipeline.atomic import write_text
 from chatterbench.comparisons.pipeline.summary import METRIC_COLUMNS
 from chatterbench.reference.errors import InputError, check_number, shown
 from chatterbench.reference.tables import TooDeep, check_depth, printable, read_text

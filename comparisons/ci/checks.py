@@ -82,6 +82,13 @@ def fmt_value(v: Any) -> str:
     return str(v)
 
 
+def check_settings(check: Check) -> Any:
+    """The check's engine settings object: the one ``make_check`` made (a Check built by hand: made here)."""
+    if check.engine_settings is not None:
+        return check.engine_settings
+    return make_settings(check.engine, check.dt, {f"{check.engine}.{k}": v for k, v in check.settings.items()})
+
+
 def run_check(check: Check, cache: dict[str, tuple[dict, str]] | None = None,
               timeout: float | None = None) -> CheckResult:
     """Run the check's comparison (or reuse an equal one from ``cache``) and test every limit.
@@ -93,9 +100,8 @@ def run_check(check: Check, cache: dict[str, tuple[dict, str]] | None = None,
     if cache is not None and key in cache:
         row, _ = cache[key]
     else:
-        c = compare(check.scene, engines=(check.engine,), dt=check.dt,
-                    overrides={f"{check.engine}.{k}": v for k, v in check.settings.items()}, tol=check.tolerances,
-                    timeout=timeout)
+        c = compare(check.scene, engines=(check.engine,), settings={check.engine: check_settings(check)},
+                    tol=check.tolerances, timeout=timeout)
         row = summarize(c, check.engine, {})
         if cache is not None:
             cache[key] = (row, row["engine_version"])
@@ -113,8 +119,7 @@ def run_gate(gate: Gate, on_check: Callable[[int, CheckResult], None] | None = N
     """
     if budget is not None:
         for check in gate.checks:
-            settings = make_settings(check.engine, check.dt, {f"{check.engine}.{k}": v for k, v in check.settings.items()})
-            check_comparison(check.scene, {check.engine: settings}, budget)
+            check_comparison(check.scene, {check.engine: check_settings(check)}, budget)
     cache: dict[str, tuple[dict, str]] = {}
     results = []
     start = time.perf_counter()

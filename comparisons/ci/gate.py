@@ -84,7 +84,8 @@ from chatterbench.comparisons.pipeline.tolerances import Tolerances, make_tolera
 from chatterbench.comparisons.pipeline.vocabulary import FAILURES, NAMES
 from chatterbench.engines.registry import ENGINE_NAMES, make_settings
 from chatterbench.reference.catalogue import CATALOGUE
-from chatterbench.reference.errors import InputError, did_you_mean, is_number
+from chatterbench.reference.errors import (InputError, check_choice, check_fields, check_number, check_table, check_text,
+                                          did_you_mean, is_number, unknown_keys)
 from chatterbench.reference.scene import Scene, load_scene
 from chatterbench.reference.tables import flatten, read_toml
 
@@ -97,8 +98,6 @@ NUMBER_OPS = ("<=", "<", ">=", ">", "==", "!=")
 # matches a floor, the episode count and the texts exact
 DEFAULT_OPS = {"verdict": "==", "status": "==", "n_match": ">=", "n_episodes": "==",
                **{m: "<=" for m in NUMBER_METRICS if m not in ("n_match", "n_episodes")}}
-CHECK_KEYS = ("name", "scene", "engine", "dt", "settings", "scene_overrides", "tolerances", "limits")
-TOP_KEYS = ("description", "defaults", "check")
 _OPS: dict[str, Callable[[Any, Any], bool]] = {
     "<=": operator.le, "<": operator.lt, ">=": operator.ge, ">": operator.gt, "==": operator.eq, "!=": operator.ne,
     "in": lambda a, b: a in b,
@@ -159,6 +158,7 @@ class Check:
     limits: tuple[Limit, ...]
     source: str = ""  # "FILE, check N" for messages
     scene_source: str = ""  # the scene as the gate names it: a built-in name or a TOML path (resolved against the file)
+    engine_settings: Any = None  # the engine's settings object of ``dt`` and ``settings``, made once by ``make_check``
 
     def run_key(self) -> str:
         """Identity of the run this check needs (checks with equal keys share one run)."""
@@ -257,10 +257,74 @@ def _scene_source(scene: str, base_dir: Path | None) -> str:
     return str(path if path.is_absolute() else base_dir / path)
 
 
+def _scene_field(where: str, value: Any) -> str | Scene:
+    if isinstance(value, Scene):
+        return value
+    if not isinstance(value, str) or not value:
+        raise GateError(f"{where} = {value!r}: must be a built-in scene name ({', '.join(CATALOGUE)}) "
+                        "or a scene TOML path")
+    return value
+
+
+def _limits_field(where: str, value: Any) -> tuple[Limit, ...]:
+    """Limits, each a ``Limit`` or its text ``"METRIC OP VALUE"``; at least one. Every bad one is a line of the error."""
+    if not isinstance(value, (list, tuple)):
+        raise GateError(f"{where} = {value!r}: must be a list of \"METRIC OP VALUE\" strings")
+    limits, problems = [], []
+    for j, item in enumerate(value):
+        try:
+            limits.append(item if isinstance(item, Limit) else parse_limit(item))
+        except GateError as exc:
+            problems.append(f"{where}[{j}] {exc}")
+    if problems:
+        raise GateError("\n".join(problems))
+    if not limits:
+        raise GateError(f"{where}: at least one limit is needed, e.g. \"verdict == match\"")
+    return tuple(limits)
+
+
+# A check's keys and the check each value goes through (the gate file's [[check]] keys and make_check's arguments).
+# What needs two keys at once (the scene with its overrides, the settings with the engine and dt) is checked after.
+CHECK_FIELDS: dict[str, Callable[[str, Any], Any]] = {
+    "name": lambda where, v: check_text(where, v, GateError),
+    "scene": _scene_field,
+    "engine": lambda where, v: check_choice(where, v, ENGINE_NAMES, GateError),
+    "dt": lambda where, v: check_number(where, v, lo=0.0, lo_open=True, unit=" [s]", error=GateError),
+    "settings": lambda where, v: check_table(where, v, GateError),
+    "scene_overrides": lambda where, v: check_table(where, v, GateError),
+    "tolerances": lambda where, v: v if isinstance(v, Tolerances) else check_table(where, v, GateError),
+    "limits": _limits_field,
+}
+CHECK_KEYS = tuple(CHECK_FIELDS)
+REQUIRED_KEYS = ("scene", "engine", "limits")
+DEFAULT_KEYS = tuple(k for k in CHECK_KEYS if k not in ("name", "limits"))  # what [defaults] may set
+
+
+def _check_scene(scene: str | Scene, overrides: Mapping[str, Any], base_dir: Path | None) -> Scene:
+    """The check's scene with its overrides applied; the error names which of the two is wrong."""
+    try:
+        if isinstance(scene, Scene):
+            return load_scene(scene.to_dict(), overrides) if overrides else scene
+        return load_scene(_scene_source(scene, base_dir), overrides)
+    except InputError as exc:
+        key = "scene_overrides" if overrides and (isinstance(scene, Scene) or scene in CATALOGUE) else "scene"
+        raise GateError(f"{key}: {exc}") from None
+
+
+def _engine_settings(engine: str, dt: float | None, settings: Mapping[str, Any]) -> Any:
+    """The engine's settings object of ``dt`` and ``settings`` (by the engine's own names), built once: the TOML edge."""
+    if "dt" in settings:
+        raise GateError(f"settings.dt = {settings['dt']!r}: set the timestep with the check's own dt key")
+    try:
+        return make_settings(engine, dt, {f"{engine}.{k}": v for k, v in settings.items()})
+    except InputError as exc:  # SettingsError: names the key and what is allowed
+        raise GateError(f"settings: {str(exc).removeprefix('--set ')}") from None
+
+
 def make_check(
     scene: str | Scene,
     engine: str,
-    limits: Sequence[Limit],
+    limits: Sequence[Limit | str],
     dt: float | None = None,
     settings: Mapping[str, Any] | None = None,
     scene_overrides: Mapping[str, Any] | None = None,
@@ -272,57 +336,68 @@ def make_check(
 ) -> Check:
     """Validate one check's parts (scene loads, settings build, tolerances hold) without running it.
 
-    ``tolerances`` are applied over ``base_tolerances`` (default: ``Tolerances()``; the
-    command line's ``--tolerance``). Raises GateError listing every problem; ``source``
+    Each part goes through its entry of ``CHECK_FIELDS``; ``limits`` are ``Limit`` objects or
+    their text. ``tolerances`` are applied over ``base_tolerances`` (default: ``Tolerances()``;
+    the command line's ``--tolerance``). Raises GateError listing every problem; ``source``
     ("FILE, check N") prefixes each.
     """
+    given = {"name": name, "scene": scene, "engine": engine, "dt": dt, "settings": settings,
+             "scene_overrides": scene_overrides, "tolerances": tolerances, "limits": limits}
+    present = {k: v for k, v in given.items() if v is not None or k in REQUIRED_KEYS}  # None: the default
     problems: list[str] = []
-    pre = f"{source}: " if source else ""
-    scene_obj = None
-    overrides = flatten(scene_overrides or {})
-    if isinstance(scene, Scene):
-        scene_obj = scene if not overrides else None
-        if overrides:
+    ok = check_fields(present, CHECK_FIELDS, problems=problems)
+    refused = set(present) - set(ok)
+    overrides = flatten(ok.get("scene_overrides", {}))
+    settings = dict(ok.get("settings", {}))
+    made: dict[str, Any] = {}
+    steps = {  # the parts that need two keys: run when those keys passed their own checks
+        "scene": (("scene", "scene_overrides"), lambda: _check_scene(ok["scene"], overrides, base_dir)),
+        "engine_settings": (("engine", "dt", "settings"),
+                            lambda: _engine_settings(ok["engine"], ok.get("dt"), settings)),
+        "tolerances": (("tolerances",), lambda: ok["tolerances"] if isinstance(ok.get("tolerances"), Tolerances)
+                       else make_tolerances(ok.get("tolerances"), base=base_tolerances)),
+    }
+    for part, (needs, make) in steps.items():
+        if not refused & set(needs):
             try:
-                scene_obj = load_scene(scene.to_dict(), overrides)
-            except InputError as exc:
-                problems.append(f"{pre}scene_overrides: {exc}")
-    elif not isinstance(scene, str) or not scene:
-        problems.append(f"{pre}scene = {scene!r}: must be a built-in scene name ({', '.join(CATALOGUE)}) or a scene TOML path")
-    else:
-        try:
-            scene_obj = load_scene(_scene_source(scene, base_dir), overrides)
-        except InputError as exc:
-            problems.append(f"{pre}{'scene_overrides' if overrides and scene in CATALOGUE else 'scene'}: {exc}")
-    if not isinstance(engine, str) or engine not in ENGINE_NAMES:
-        problems.append(f"{pre}engine = {engine!r}: must be one of {', '.join(ENGINE_NAMES)}"
-                        + (did_you_mean(engine, ENGINE_NAMES) if isinstance(engine, str) else ""))
-    if dt is not None and (not is_number(dt) or not math.isfinite(dt) or dt <= 0):
-        problems.append(f"{pre}dt = {dt!r}: must be a finite number > 0 [s]")
-    settings = dict(settings or {})
-    if "dt" in settings:
-        problems.append(f"{pre}settings.dt = {settings['dt']!r}: set the timestep with the check's own dt key")
-    elif engine in ENGINE_NAMES and (dt is None or (is_number(dt) and dt > 0)):
-        try:
-            make_settings(engine, dt, {f"{engine}.{k}": v for k, v in settings.items()})
-        except InputError as exc:  # SettingsError: names the key and what is allowed
-            problems.append(f"{pre}settings: {str(exc).removeprefix('--set ')}")
-    tol = None
-    if isinstance(tolerances, Tolerances):
-        tol = tolerances
-    else:
-        try:
-            tol = make_tolerances(tolerances, base=base_tolerances)
-        except InputError as exc:  # ToleranceError: names the key and what is allowed
-            problems.append(f"{pre}{exc}")
-    if not limits:
-        problems.append(f"{pre}limits: at least one limit is needed, e.g. \"verdict == match\"")
+                made[part] = make()
+            except InputError as exc:  # GateError, and ToleranceError: each names the key and what is allowed
+                problems.append(str(exc))
+    if problems:
+        pre = f"{source}: " if source else ""
+        raise GateError("\n".join(pre + p for p in problems))
+    return Check(name=name or f"{made['scene'].name}/{engine}", scene=made["scene"], engine=engine,
+                 dt=None if dt is None else float(dt), settings=settings, scene_overrides=overrides,
+                 tolerances=made["tolerances"], limits=ok["limits"], source=source,
+                 scene_source=_scene_source(scene, base_dir) if isinstance(scene, str) else "",
+                 engine_settings=made["engine_settings"])
+
+
+def _check_tables(where: str, value: Any) -> list[Mapping[str, Any]]:
+    if not isinstance(value, list) or not all(isinstance(c, Mapping) for c in value):
+        raise GateError(f"{where} must be an array of tables, each written [[check]]")
+    return value
+
+
+# The gate file's top-level keys and their checks; each [[check]] table is read by make_check (CHECK_FIELDS).
+TOP_FIELDS: dict[str, Callable[[str, Any], Any]] = {
+    "description": lambda where, v: check_text(where, v, GateError),
+    "defaults": lambda where, v: check_table(where, v, GateError),
+    "check": _check_tables,
+}
+TOP_KEYS = tuple(TOP_FIELDS)
+
+
+def _read_check(i: int, raw: Mapping[str, Any], defaults: Mapping[str, Any], path: str, base_dir: Path | None,
+                base_tolerances: Tolerances | None) -> Check:
+    """Check ``i`` (from 1) of the file: its own keys over ``[defaults]``; GateError with every problem."""
+    label = f"{path}, check {i}" + (f" ({raw['name']!r})" if isinstance(raw.get("name"), str) else "")
+    entry = {**{k: v for k, v in defaults.items() if k in DEFAULT_KEYS}, **raw}
+    problems = [f"{label}: {m}" for m in unknown_keys(raw, CHECK_KEYS)]
+    problems += [f"{label}: {key} is required" for key in REQUIRED_KEYS if key not in entry]
     if problems:
         raise GateError("\n".join(problems))
-    return Check(name=name or f"{scene_obj.name}/{engine}", scene=scene_obj, engine=engine,
-                 dt=None if dt is None else float(dt), settings=settings, scene_overrides=overrides,
-                 tolerances=tol, limits=tuple(limits), source=source,
-                 scene_source=_scene_source(scene, base_dir) if isinstance(scene, str) else "")
+    return make_check(**entry, base_dir=base_dir, source=label, base_tolerances=base_tolerances)
 
 
 def parse_gate(data: Mapping[str, Any], path: str = "<gate>", base_dir: Path | None = None,
@@ -331,82 +406,30 @@ def parse_gate(data: Mapping[str, Any], path: str = "<gate>", base_dir: Path | N
 
     ``base_tolerances`` (the command line's ``--tolerance``) are what a check's own
     ``tolerances`` table, and the file's ``[defaults]``, are applied over."""
-    problems: list[str] = []
-    for key in data:
-        if key not in TOP_KEYS:
-            problems.append(f"{path}: unknown top-level key {key!r}{did_you_mean(key, TOP_KEYS)}; allowed: {', '.join(TOP_KEYS)}"
-                            " (each check is a [[check]] table)")
-    description = data.get("description", "")
-    if not isinstance(description, str):
-        problems.append(f"{path}: description = {description!r}: must be a string")
-    defaults = data.get("defaults", {})
-    if not isinstance(defaults, Mapping):
-        problems.append(f"{path}: defaults must be a table ([defaults]), got {defaults!r}")
-        defaults = {}
-    for key in defaults:
-        if key not in CHECK_KEYS or key in ("name", "limits"):
-            allowed = [k for k in CHECK_KEYS if k not in ("name", "limits")]
-            problems.append(f"{path}, [defaults]: unknown key {key!r}{did_you_mean(key, allowed)}; allowed: {', '.join(allowed)}")
-    checks_data = data.get("check", [])
-    if not isinstance(checks_data, list) or not all(isinstance(c, Mapping) for c in checks_data):
-        problems.append(f"{path}: check must be an array of tables, each written [[check]]")
-        checks_data = []
-    if not checks_data and not problems:
+    problems = [f"{path}: {m} (each check is a [[check]] table)" for m in unknown_keys(data, TOP_KEYS, "top-level key")]
+    found: list[str] = []
+    top = check_fields({k: v for k, v in data.items() if k in TOP_FIELDS}, TOP_FIELDS, problems=found)
+    problems += [f"{path}: {m}" for m in found]
+    defaults = top.get("defaults", {})
+    problems += [f"{path}, [defaults]: {m}" for m in unknown_keys(defaults, DEFAULT_KEYS)]
+    if not top.get("check") and not problems:
         problems.append(f"{path}: no checks; add at least one [[check]] table with scene, engine and limits")
     checks, names = [], {}
-    for i, raw in enumerate(checks_data, 1):
-        label = f"{path}, check {i}" + (f" ({raw['name']!r})" if isinstance(raw.get("name"), str) else "")
-        entry = {**{k: v for k, v in defaults.items() if k in CHECK_KEYS}, **raw}
-        bad = False
-        for key in raw:
-            if key not in CHECK_KEYS:
-                problems.append(f"{label}: unknown key {key!r}{did_you_mean(key, CHECK_KEYS)}; allowed: {', '.join(CHECK_KEYS)}")
-                bad = True
-        for key in ("scene", "engine", "limits"):
-            if key not in entry:
-                problems.append(f"{label}: {key} is required")
-                bad = True
-        for key in ("settings", "scene_overrides", "tolerances"):
-            if key in entry and not isinstance(entry[key], Mapping):
-                problems.append(f"{label}: {key} = {entry[key]!r}: must be a table, e.g. {key} = {{ key = value }}")
-                bad = True
-        for key in ("name", "scene", "engine"):
-            if key in entry and not isinstance(entry[key], str):
-                problems.append(f"{label}: {key} = {entry[key]!r}: must be a string")
-                bad = True
-        if "dt" in entry and not is_number(entry["dt"]):
-            problems.append(f"{label}: dt = {entry['dt']!r}: must be a number [s]")
-            bad = True
-        limits = []
-        raw_limits = entry.get("limits", [])
-        if not isinstance(raw_limits, list):
-            problems.append(f"{label}: limits = {raw_limits!r}: must be a list of \"METRIC OP VALUE\" strings")
-            bad = True
-        else:
-            for j, text in enumerate(raw_limits):
-                try:
-                    limits.append(parse_limit(text))
-                except GateError as exc:
-                    problems.append(f"{label}: limits[{j}] {exc}")
-                    bad = True
-        if bad:
-            continue
+    for i, raw in enumerate(top.get("check", []), 1):
         try:
-            check = make_check(entry["scene"], entry["engine"], limits, dt=entry.get("dt"), settings=entry.get("settings"),
-                               scene_overrides=entry.get("scene_overrides"), tolerances=entry.get("tolerances"),
-                               name=entry.get("name"), base_dir=base_dir, source=label, base_tolerances=base_tolerances)
+            check = _read_check(i, raw, defaults, path, base_dir, base_tolerances)
         except GateError as exc:
             problems.extend(str(exc).splitlines())
             continue
         if check.name in names:
-            problems.append(f"{label}: name {check.name!r} is already used by check {names[check.name]}; "
+            problems.append(f"{check.source}: name {check.name!r} is already used by check {names[check.name]}; "
                             "give each check a unique name (JUnit reports them by name)")
             continue
         names[check.name] = i
         checks.append(check)
     if problems:
         raise GateError(f"{len(problems)} problem{'s' if len(problems) > 1 else ''} in the gate file:\n  " + "\n  ".join(problems))
-    return Gate(path=path, checks=tuple(checks), description=description)
+    return Gate(path=path, checks=tuple(checks), description=top.get("description", ""))
 
 
 def load_gate(path: str | Path, base_tolerances: Tolerances | None = None) -> Gate:

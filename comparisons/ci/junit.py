@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import Any
 from xml.etree import ElementTree as ET
 
-from chatterbench.comparisons.outputs.atomic import write_text
+from chatterbench.comparisons.pipeline.atomic import write_text
 from chatterbench.comparisons.pipeline.summary import METRIC_COLUMNS
 
 from .decision import Decision

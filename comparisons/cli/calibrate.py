@@ -22,7 +22,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from chatterbench.comparisons.outputs.atomic import write_frame
+from chatterbench.comparisons.pipeline.atomic import write_frame
 from chatterbench.comparisons.pipeline.budget import check_comparison
 from chatterbench.comparisons.pipeline.solution import solve
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
@@ -30,11 +30,11 @@ from chatterbench.comparisons.studies.restitution_curve import (ABOVE, DEFAULT_P
                                                                impact_restitutions, log_speeds, pinned_settings,
                                                                restitution_curve)
 from chatterbench.comparisons.studies.scene_restitution import scene_restitution
-from chatterbench.engines.registry import ENGINE_NAMES, make_settings, run_engine
+from chatterbench.engines.registry import ENGINE_NAMES, run_engine
 from chatterbench.reference.scene import load_scene
 
 from .common import (UsageError, integer_type, add_budget, add_dt, add_out, add_set, budget_of, engine_list, positive_float, print_table,
-                     split_overrides)
+                     settings_of, split_overrides)
 from .paths import check_dir, writing
 
 
@@ -84,7 +84,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     scene = load_scene(args.scene, scene_over + ([f"restitution={args.restitution!r}"] if args.restitution else []))
     if scene.restitution <= 0.0:
         raise UsageError(f"restitution = {scene.restitution:g} (the scene's): e / R needs R in (0, 1); give --restitution")
-    settings = {name: make_settings(name, args.dt, engine_over) for name in engines}  # every refusal before any run
+    settings = settings_of(engines, args.dt, engine_over)  # every refusal before any run
     check_comparison(scene, settings, budget_of(args), reference=args.impacts > 0)
     speeds = log_speeds(*args.speeds, args.points) if args.speeds else default_speeds(scene, args.points)
     # one run of the whole scene per engine: its impacts, and the contact it makes for the scene, which every strike meets

@@ -23,13 +23,14 @@ import re
 import sys
 import warnings
 from contextlib import contextmanager
+from typing import Any, Sequence
 
 import pandas as pd
 
 from chatterbench.comparisons.pipeline.budget import GIB, MAX_MEMORY, MAX_STEPS, Budget
 from chatterbench.comparisons.pipeline.tolerances import Tolerances, tolerances_from_items
 from chatterbench.comparisons.studies.sweep.spec import MAX_TIMEOUT
-from chatterbench.engines.registry import DEFAULT_ENGINES, ENGINE_NAMES, check_engine
+from chatterbench.engines.registry import DEFAULT_ENGINES, ENGINE_NAMES, check_engine, make_settings
 from chatterbench.reference.errors import InputError
 from chatterbench.reference.scene import split_assignment
 from chatterbench.reference.tables import printable
@@ -153,6 +154,13 @@ def split_overrides(items: list[str] | None) -> tuple[list[str], list[str]]:
     return scene, engine
 
 
+def settings_of(engines: Sequence[str], dt: float | None, items: Sequence[str]) -> dict[str, Any]:
+    """Each engine's settings object from ``--dt`` [s] and the ``--set ENGINE.KEY=VALUE`` items (``split_overrides``'
+    engine part): the text is parsed here, once, and the objects go down to ``compare`` and the engines."""
+    values = dict(split_assignment(item) for item in items)
+    return {name: make_settings(name, dt, values) for name in engines}
+
+
 def engine_list(text: str) -> tuple[str, ...]:
     """``"mujoco,pybullet"`` -> the engine names, each checked (did-you-mean for a typo)."""
     names = tuple(n.strip() for n in text.split(",") if n.strip())
@@ -162,6 +170,14 @@ def engine_list(text: str) -> tuple[str, ...]:
     if repeated:
         raise UsageError(f"--engines {text}: {', '.join(repeated)} given more than once (each engine runs once)")
     return tuple(check_engine(n) for n in names)
+
+
+def engines_hint(engines: Sequence[str] = DEFAULT_ENGINES, key: str = "") -> str:
+    """What to add where an option needs an engine run: ``add --engines mujoco or --engines pybullet`` (``engines``,
+    by default the engines run when none is named), or the engine that an engine setting ``key``
+    (``mujoco.w0_dt=0.05``) names."""
+    named = key.split(".", 1)[0] if "." in key else ""
+    return "add " + " or ".join(f"--engines {e}" for e in ([named] if named in ENGINE_NAMES else engines))
 
 
 def parse_tolerances(items: list[str] | None) -> Tolerances:

@@ -19,7 +19,7 @@ from chatterbench.comparisons.pipeline.conformance import conformance, describe,
 from chatterbench.reference.scene import load_scene
 
 from .common import add_judging, add_out, add_scene, budget_of, engine_list, parse_tolerances, print_table, \
-    split_overrides
+    settings_of, split_overrides
 from .paths import check_dir, writing
 from .progress import Progress
 
@@ -38,8 +38,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
     scene = load_scene(args.scene, scene_over)
     tol = parse_tolerances(args.tolerance)
     engines = engine_list(args.engines)
+    settings = settings_of(engines, args.dt, engine_over)
     with Progress(1 + len(engines), f"compare {scene.name}", unit="run") as bar:
-        result = compare(scene, engines=engines, dt=args.dt, overrides=engine_over, tol=tol,
+        result = compare(scene, engines=engines, settings=settings, tol=tol,
                          timeout=args.timeout, budget=budget_of(args), progress=bar.stage)
     print_table(result.table[EPISODE_SHOW],
                 title=f"{scene.name}: engine episodes against the reference (errors in s; _rel: fraction of the "

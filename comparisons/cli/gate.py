@@ -32,7 +32,7 @@ from chatterbench.comparisons.ci.decision import decide, decide_check
 from chatterbench.comparisons.ci.gate import load_gate
 from chatterbench.comparisons.ci.job_outputs import annotations, benchmark_json, job_summary
 from chatterbench.comparisons.ci.junit import write_junit
-from chatterbench.comparisons.outputs.atomic import write_text
+from chatterbench.comparisons.pipeline.atomic import write_text
 
 from chatterbench.reference.errors import check_number
 

@@ -25,7 +25,7 @@ existing ancestor a directory this user may write); a file option must not name 
 a device or a pipe, and its directory must be one or be creatable. Every subcommand checks
 all its output options first, so a refusal costs nothing. Writing can still fail later (a
 full disk): ``writing`` turns that ``OSError`` into one line naming the option and the file,
-and ``outputs/atomic.py`` leaves no temp file.
+and ``pipeline/atomic.py`` leaves no temp file.
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ import os
 from contextlib import contextmanager, suppress
 from pathlib import Path
 
-from chatterbench.comparisons.outputs.atomic import TEMP_NAME_EXTRA
+from chatterbench.comparisons.pipeline.atomic import TEMP_NAME_EXTRA
 
 from .common import UsageError
 
@@ -89,7 +89,7 @@ def check_dir(option: str, path: str | Path | None) -> None:
 def check_file(option: str, path: str | Path | None) -> None:
     """Refuse (``UsageError``) a file option that names a directory or a place no file can be written.
 
-    The file is written beside itself and renamed over (``outputs/atomic.py``): a device or a
+    The file is written beside itself and renamed over (``pipeline/atomic.py``): a device or a
     pipe would be replaced, not written to, so only a regular file, a link or a new name will do.
     """
     if path is None:

@@ -13,17 +13,16 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from chatterbench.comparisons.outputs.atomic import write_frame
+from chatterbench.comparisons.pipeline.atomic import write_frame
 from chatterbench.comparisons.pipeline.budget import BudgetError, check_engine_run, check_plate_map
 from chatterbench.comparisons.studies.plate_map import plate_map
-from chatterbench.engines.registry import make_settings
 from chatterbench.reference.flow import Flow
 from chatterbench.reference.linear import LinearSystem
 from chatterbench.reference.scene import SceneError, load_scene
 from chatterbench.reference.simulate import Options
 
 from .common import UsageError, add_budget, add_dt, add_engines, add_out, add_scene, add_set, budget_of, engine_list, \
-    positive_float, positive_int, print_table, split_overrides
+    engines_hint, positive_float, positive_int, print_table, settings_of, split_overrides
 from .paths import check_dir, writing
 from .progress import Progress
 
@@ -51,21 +50,22 @@ def cmd_platemap(args: argparse.Namespace) -> int:
     scene = load_scene(args.scene, scene_over)
     engines = engine_list(args.engines) if args.engines else ()
     if not engines and (args.dt is not None or engine_over):
-        raise UsageError(f"{'--dt' if args.dt is not None else '--set ' + engine_over[0]}: applies to engine runs; "
-                         "add --engines mujoco or --engines pybullet")
+        key = "" if args.dt is not None else engine_over[0]
+        raise UsageError(f"{'--dt' if args.dt is not None else '--set ' + key}: applies to engine runs; {engines_hint(key=key)}")
     budget = budget_of(args)
     check_plate_map(args.phases, args.speeds, budget)
     _check_strike_steps(scene)
     strike = dataclasses.replace(scene, duration=STRIKE_PERIODS * scene.time_scale)
+    settings = settings_of(engines, args.dt, engine_over)
     for name in engines:  # every strike is one engine run: each is held to --max-steps and --max-memory
         try:
-            check_engine_run(strike, name, make_settings(name, args.dt, engine_over).dt, budget)
+            check_engine_run(strike, name, settings[name].dt, budget)
         except BudgetError as exc:
             raise BudgetError(f"platemap, one strike's engine run: {exc}") from None
     # the reference's map takes about a second; each engine runs once per strike: a bar counts them
     with Progress(args.phases * args.speeds * len(engines), f"platemap {scene.name}", unit="strike",
                   enabled=None if engines else False, eta=True) as bar:
-        table = plate_map(scene, args.wall, args.phases, args.speeds, args.max_speed, engines, args.dt, engine_over,
+        table = plate_map(scene, args.wall, args.phases, args.speeds, args.max_speed, engines, settings=settings,
                           progress=lambda name: bar.done())
     cols = ["reference", "feigin", *engines]
     summary = pd.DataFrame({

@@ -24,12 +24,9 @@ import time
 from concurrent.futures import Executor, Future
 from typing import Any, Callable
 
+from chatterbench.engines.registry import ENGINE_NAMES, adapter, unavailable_reason
+
 REFRESH_S = 1.0  # [s] how often the bar is redrawn while one step runs
-# what an engine's first run costs before it steps, said before it starts (the engine's own docstring has the numbers)
-FIRST_RUN = {
-    "mujoco_warp": "mujoco_warp: the first run on a machine compiles MuJoCo Warp's kernels (about a minute on the CPU; "
-                   "cached under ~/.cache/warp), then steps at 1.5-3 ms a step on the CPU device",
-}
 
 _LOADED = time.perf_counter()  # the fallback's origin where /proc is missing
 
@@ -89,9 +86,10 @@ class Progress:
         if self.started:
             self._update(1)
         self.started = True
-        for engine, text in FIRST_RUN.items():
-            if engine in what.split() or what.endswith(engine):
-                self.note(text)
+        for engine in ENGINE_NAMES:  # what its first run costs before it steps (``EngineAdapter.first_run_note``)
+            if (engine in what.split() or what.endswith(engine)) and not unavailable_reason(engine):
+                if adapter(engine).first_run_note:
+                    self.note(f"{engine}: {adapter(engine).first_run_note}")
         self.bar.set_description_str(f"{self.desc}: {what}", refresh=True)
 
     def done(self, n: int = 1) -> None:

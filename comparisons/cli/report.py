@@ -21,7 +21,7 @@ from chatterbench.comparisons.studies.sweep.dataset import load_rows
 from chatterbench.reference.catalogue import CATALOGUE
 
 from .common import (ENGINE_TIMEOUT, UsageError, add_judging, add_out, budget_of, engine_list, parse_tolerances,
-                     print_table, split_overrides)
+                     print_table, settings_of, split_overrides)
 from .paths import check_dir, writing
 from .progress import Progress
 
@@ -62,7 +62,7 @@ def cmd_report(args: argparse.Namespace) -> int:
     scenes, engines = args.scenes or tuple(CATALOGUE), engine_list(args.engines)
     with Progress(len(scenes) * (1 + len(engines)) + 1, "report", unit="step") as bar:  # + 1: the figures and pages
         report = build_report(
-            scenes=scenes, engines=engines, dt=args.dt,
+            scenes=scenes, engines=engines, dt=args.dt, settings=settings_of(engines, args.dt, engine_over),
             scene_overrides=scene_over, engine_overrides=engine_over, tol=tol, sweeps=sweeps,
             command=_command_line(args), timeout=args.timeout, budget=budget_of(args), progress=bar.write, stage=bar.stage,
         )

@@ -21,34 +21,35 @@ import argparse
 import math
 import sys
 from pathlib import Path
-from typing import Sequence
+from typing import Any
 
 import pandas as pd
 
-from chatterbench.comparisons.outputs.atomic import write_frame, write_text
+from chatterbench.comparisons.pipeline.atomic import write_frame, write_text
 from chatterbench.comparisons.pipeline.budget import Budget, check_engine_run, check_reference
 from chatterbench.comparisons.pipeline.extract import extract_events
 from chatterbench.comparisons.pipeline.solution import solve
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
-from chatterbench.engines.export import EXPORTS, check_exportable, model_file
-from chatterbench.engines.registry import ENGINE_NAMES, make_settings, run_engine
+from chatterbench.engines.export import check_exportable, export_files_names, exporting_engines, model_file
+from chatterbench.engines.registry import ENGINE_NAMES, adapter, run_engine
 from chatterbench.engines.settings import SettingsError
 from chatterbench.reference.errors import check_choice
 from chatterbench.reference.log import episodes, log_frame
 from chatterbench.reference.scene import Scene, SceneError, load_scene
 from chatterbench.reference.simulate import CHATTER_MODES, simulate
 
-from .common import UsageError, add_budget, add_dt, add_out, add_set, budget_of, one_line, print_table, split_overrides
+from .common import (UsageError, add_budget, add_dt, add_out, add_set, budget_of, engines_hint, one_line, print_table,
+                     settings_of, split_overrides)
 from .paths import check_dir, check_file, writing
 
 SIMULATORS = ("reference", *ENGINE_NAMES)
 SHOWN = ["wall", "t_first_impact", "t_plate", "t_stick", "t_exit", "n_impacts", "stick_rule"]  # a reference run's episodes
 
 
-def run_engine_events(scene: Scene, engine: str, dt: float | None, overrides: Sequence[str],
-                      export_model: str | None, budget: Budget) -> tuple[pd.DataFrame, pd.DataFrame, str]:
-    """Run ``scene`` in ``engine`` (refused first when over ``budget``); returns (event log, episodes, one-line summary)."""
-    settings = make_settings(engine, dt, overrides)
+def run_engine_events(scene: Scene, engine: str, settings: Any, export_model: str | None,
+                      budget: Budget) -> tuple[pd.DataFrame, pd.DataFrame, str]:
+    """Run ``scene`` in ``engine`` with its ``settings`` object (refused first when over ``budget``); returns (event log,
+    episodes, one-line summary)."""
     check_engine_run(scene, engine, settings.dt, budget)
     check_reference(scene, budget)  # its sticking resolution is the reference's
     if export_model:
@@ -61,7 +62,7 @@ def run_engine_events(scene: Scene, engine: str, dt: float | None, overrides: Se
     summary = (f"{engine} dt={settings.dt:g} s: status {traj.status}{' (' + traj.message + ')' if traj.message else ''}, "
                f"{len(traj.t)} samples, {n_imp} impacts, {traj.wall_time:.3f} s stepping")
     if export_model:
-        summary += f"; {'MJCF' if engine == 'mujoco' else 'script'} written to {export_model}"
+        summary += f"; {adapter(engine).export_kind} written to {export_model}"
     return log, episodes(log).drop(columns="t_plate_entry"), summary  # an engine has no plate (pipeline/extract.py)
 
 
@@ -72,11 +73,10 @@ def _check_export(engine: str, path: str | None) -> None:
     try:
         check_exportable(engine)
     except SettingsError as exc:
-        raise UsageError(f"--export-model: {exc} (use --engines {' or --engines '.join(EXPORTS)})") from None
-    suffix = EXPORTS[engine][1]
+        raise UsageError(f"--export-model: {exc} (use --engines {' or --engines '.join(exporting_engines())})") from None
+    suffix = Path(export_files_names(engine)[0]).suffix
     if Path(path).suffix != suffix:
-        what = "an MJCF model" if engine == "mujoco" else "a Python script"
-        raise UsageError(f"--export-model {path}: {engine} writes {what}; name a {suffix} file")
+        raise UsageError(f"--export-model {path}: {engine} writes {adapter(engine).export_kind}; name a {suffix} file")
 
 
 def judged_episodes(scene: Scene, result) -> pd.DataFrame:
@@ -111,7 +111,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         for given, option in ((engine_over, f"--set {engine_over[0] if engine_over else ''}"),
                               (args.dt is not None, "--dt"), (args.export_model, "--export-model")):
             if given:
-                raise UsageError(f"{option}: applies to an engine run; add --engines mujoco or --engines pybullet")
+                hint = engines_hint(exporting_engines()) if option == "--export-model" else engines_hint(key=option[6:])
+                raise UsageError(f"{option}: applies to an engine run; {hint}")
         check_reference(scene, budget_of(args))
         result = simulate(scene, args.chatter or "feigin")
         log = result.log
@@ -120,7 +121,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     else:
         if args.chatter is not None:
             raise UsageError(f"--chatter {args.chatter}: chooses the reference's chatter model; an engine run has none")
-        log, eps, summary = run_engine_events(scene, engine, args.dt, engine_over, args.export_model, budget_of(args))
+        settings = settings_of((engine,), args.dt, engine_over)[engine]
+        log, eps, summary = run_engine_events(scene, engine, settings, args.export_model, budget_of(args))
     print(f"{scene.name}: {summary}")
     print_table(eps, title="episodes:" if engine != "reference" else
                 "episodes (t_stick: the Zeno point, the sticking start the judge uses; t_plate: Feigin's plate entry):")

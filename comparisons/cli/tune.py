@@ -14,7 +14,7 @@ import math
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-from chatterbench.comparisons.outputs.atomic import write_frame, write_text
+from chatterbench.comparisons.pipeline.atomic import write_frame, write_text
 from chatterbench.comparisons.pipeline.budget import check_engine_run, check_reference
 from chatterbench.comparisons.outputs.engine_files import write_engine_files
 from chatterbench.comparisons.studies.tune import MAX_RUNS, recommended, search_space, searched_text, tune

@@ -1,6 +1,6 @@
-"""What people read: files written atomically, figures, the comparison report and the tuning guide.
+"""What people read: figures, the comparison report and the tuning guide, written atomically (``pipeline/atomic.py``).
 
-``atomic`` (files: temporary then rename), ``figures`` (a Figure to PNG / SVG bytes), ``style``
+``figures`` (a Figure to PNG / SVG bytes), ``style``
 (engine colours), ``timeseries`` (y(t) of a comparison), ``comparison_files`` (everything
 ``compare --out`` writes), ``sweep_data`` / ``work_precision`` / ``stability_map`` (a sweep's
 charts), ``plate_map_figure``, ``report`` / ``report_page`` (the report and its HTML and

@@ -37,9 +37,9 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from chatterbench.comparisons.pipeline.atomic import write_frame, write_text
 from chatterbench.comparisons.pipeline.conformance import conformance, same_model_pairs
 
-from .atomic import write_frame, write_text
 from .episode_errors import episode_errors_figure
 from .figures import write_figure
 from .ladder import ladder_figure

@@ -21,9 +21,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from chatterbench.engines.export import EXPORTS, export_files
-
-from .atomic import write_text
+from chatterbench.comparisons.pipeline.atomic import write_text
+from chatterbench.engines.export import export_files, export_files_names
 
 
 def write_engine_files(result, out: Path, settings=None) -> list[str]:
@@ -34,7 +33,7 @@ def write_engine_files(result, out: Path, settings=None) -> list[str]:
     from chatterbench.comparisons.studies.tune_evidence import chosen_settings
 
     settings = settings if settings is not None else chosen_settings(result)
-    if settings is None or result.engine not in EXPORTS:
+    if settings is None or not export_files_names(result.engine):
         return []
     written = []
     for name, text in export_files(result.engine, result.scene, settings).items():

@@ -42,7 +42,7 @@ from matplotlib.patches import Patch
 
 from chatterbench.comparisons.pipeline.vocabulary import PASSING
 
-from .style import ENGINE_COLOURS
+from .style import engine_colour
 
 CLIP = 8.0  # a panel spans at most this many tolerances either side of zero; past it, points sit on the edge
 SPREAD = 0.12  # horizontal offset between engines at one episode [episode numbers]
@@ -82,7 +82,7 @@ def _panel(ax, comparison, column: str, field: str, label: str, why: str) -> boo
     engines = list(comparison.runs)
     unmeasured = []  # (engine, colour, x, verdicts) of episodes this error could not be measured for
     for k, name in enumerate(engines):
-        color = ENGINE_COLOURS.get(name, f"C{k + 2}")
+        color = engine_colour(name)
         mine = table[table["engine"] == name]
         x = _episode_x(mine, comparison.reference) + SPREAD * (k - (len(engines) - 1) / 2.0)
         v = pd.to_numeric(mine[column], errors="coerce").to_numpy(float)
@@ -152,7 +152,7 @@ def episode_errors_figure(comparison) -> Figure:
     last.set_xticks(ticks, labels=[f"{i}\n{ref['wall'].iloc[i - 1]}" if len(ref) else str(i) for i in ticks], fontsize=8)
     last.set_xlabel("reference visit to a wall, in time (an unpaired engine episode sits between two)")
     tol = comparison.tolerances
-    handles = [Line2D([], [], ls="none", marker="o", ms=6, color=ENGINE_COLOURS.get(name, f"C{k + 2}"), label=name)
+    handles = [Line2D([], [], ls="none", marker="o", ms=6, color=engine_colour(name), label=name)
                for k, name in enumerate(comparison.runs)]
     # the judge never widens a band: an impact the step cannot measure to it is unmeasured (the top strip)
     handles.append(Patch(color="0.85", label=f"tolerance, never widened: stick {tol.stick:g}, exit {tol.exit:g}, "

@@ -18,7 +18,7 @@ from pathlib import Path
 
 from matplotlib.figure import Figure
 
-from .atomic import write_bytes
+from chatterbench.comparisons.pipeline.atomic import write_bytes
 
 DPI = 120  # PNG resolution: readable at report width
 FORMATS = ("png", "svg")  # every figure a command writes: a picture to look at, a vector file to edit

@@ -29,7 +29,7 @@ import math
 import numpy as np
 from matplotlib.figure import Figure
 
-from .style import ENGINE_COLOURS, STICK_COLOUR
+from .style import REFERENCE_COLOUR, STICK_COLOUR, engine_colour
 
 MAX_VISITS = 3
 MARGIN = 0.15  # of the visit's chatter duration, drawn after its Zeno point (late sticking shows)
@@ -61,11 +61,11 @@ def ladder_figure(comparison) -> Figure:
         lo, hi = _window(row)
         mine = strikes[(strikes.wall == row.wall) & (strikes.t >= lo) & (strikes.t <= row.t_stick)]
         speed = mine.v_minus.abs()
-        ax.plot(mine.t, speed, "-o", color=ENGINE_COLOURS["reference"], ms=3, lw=1, gid="reference",
+        ax.plot(mine.t, speed, "-o", color=REFERENCE_COLOUR, ms=3, lw=1, gid="reference",
                 label=f"reference (R = {comparison.scene.restitution:g})")
         ax.axvline(row.t_stick, color=STICK_COLOUR, ls="--", lw=1.2, label="reference Zeno point (sticks)")
         for name, run in comparison.runs.items():
-            color = ENGINE_COLOURS.get(name, "grey")
+            color = engine_colour(name)
             paired = comparison.impacts[(comparison.impacts.engine == name) & (comparison.impacts.episode == i)]
             found = run.found.impacts
             # the touches of a body already resting on the wall (``stuck``) are not impacts of the ladder

@@ -21,7 +21,7 @@ from matplotlib.patches import Rectangle
 
 from chatterbench.reference.scene import Scene
 
-from .style import ENGINE_COLOURS
+from .style import engine_colour
 
 
 def plate_map_figure(table: pd.DataFrame, scene: Scene, wall: str = "lower") -> Figure:
@@ -57,8 +57,8 @@ def plate_map_figure(table: pd.DataFrame, scene: Scene, wall: str = "lower") -> 
         grid = order[name].to_numpy().reshape(shape).astype(float)
         if grid.min() == grid.max():
             continue
-        ax.contour(P, V, grid, levels=[0.5], colors=[ENGINE_COLOURS.get(name, "gray")], linewidths=1.6)
-        handles.append(Line2D([], [], color=ENGINE_COLOURS.get(name, "gray"), lw=1.6, label=f"{name}: edge of its sliding region"))
+        ax.contour(P, V, grid, levels=[0.5], colors=[engine_colour(name)], linewidths=1.6)
+        handles.append(Line2D([], [], color=engine_colour(name), lw=1.6, label=f"{name}: edge of its sliding region"))
     ax.set_xlabel("strike phase omega t mod 2 pi [rad]")
     ax.set_ylabel("incoming speed |y'| [m/s]")
     ax.set_xlim(0, 2 * math.pi)

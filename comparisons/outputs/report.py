@@ -9,7 +9,8 @@
 
 ``index.html`` opens with the summary table (scene x engine: verdict, episodes matched,
 worst exit and sticking errors, cost), then per scene the time-series chart, the chatter
-ladder, the per-episode error figure and the episode table, then, when a sweep dataset is given, its work-precision chart and stability
+ladder, the per-episode error figure, the episode table and the reference cross-check (Siconos
+against Feigin's model, ``pipeline.cross_check``; or why it did not run), then, when a sweep dataset is given, its work-precision chart and stability
 maps, and ends with what produced it (engine versions and settings, reference chatter
 modes, tolerances, machine, date, command).
 
@@ -29,16 +30,17 @@ import sys
 import time
 from dataclasses import dataclass
 from datetime import datetime, timezone
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import pandas as pd
 
-from chatterbench.engines.registry import DEFAULT_ENGINES, make_settings
+from chatterbench.engines.registry import DEFAULT_ENGINES
 from chatterbench.reference.catalogue import CATALOGUE
 from chatterbench.reference.scene import SceneError, load_scene
 
 from chatterbench.comparisons.pipeline.budget import Budget, check_comparison
-from chatterbench.comparisons.pipeline.compare import Comparison, compare
+from chatterbench.comparisons.pipeline.compare import Comparison, compare, engine_settings
+from chatterbench.comparisons.pipeline.cross_check import CrossCheck, comparison_cross_check
 from chatterbench.comparisons.pipeline.summary import signed_worst, summarize
 from chatterbench.comparisons.pipeline.tolerances import Tolerances, explain
 
@@ -105,6 +107,7 @@ class Report:
     command: str = ""  # the command line that produced it, for the provenance
     sweeps: tuple[SweepSection, ...] = ()  # every ``--sweep`` dataset, in the order given
     tuning: tuple[str, ...] = ()  # HTML sections written by `chatterbench tune --out DIR` (guide_section.html)
+    cross_checks: tuple[CrossCheck, ...] = ()  # per scene, Siconos against Feigin's model (``pipeline.cross_check``)
 
 
 def _stderr(line: str) -> None:
@@ -124,6 +127,7 @@ def build_report(
     timeout: float | None = None,
     budget: Budget | None = None,
     stage: Progress | None = None,
+    settings: Mapping[str, Any] | None = None,
 ) -> Report:
     """Compare every scene on every engine; the scenes are all loaded (validated) before any run.
 
@@ -138,6 +142,9 @@ def build_report(
         a crash or hang is that engine's failure verdict and the report goes on. None: in-process.
     budget : every scene's reference and engine runs are checked against it before the first run.
     stage : called with ``SCENE: reference`` and ``SCENE: ENGINE`` as each run starts (a progress bar).
+    settings : engine name -> settings object (``chatterbench report`` makes them from ``--dt`` and ``--set``); an
+        engine's items of ``engine_overrides`` are then only the provenance's text; engines without one get ``dt`` and
+        their ``engine_overrides``.
     """
     say = progress or (lambda line: None)
     loaded = [load_scene(s, list(scene_overrides)) for s in scenes]
@@ -146,19 +153,22 @@ def build_report(
     if twice:
         raise SceneError(f"scenes: {', '.join(map(repr, twice))} given more than once (by name or by a file's name = "
                          "...); a report has one section per scene name: give each once, or rename one")
+    given = dict(settings or {})
+    text = [o for o in engine_overrides if o.split("=", 1)[0].split(".")[0].strip() not in given]  # the others'
+    made = engine_settings(engines, dt, text, given)  # once, for every scene
     if budget is not None:
-        settings = {name: make_settings(name, dt, list(engine_overrides)) for name in engines}
         for scene in loaded:
-            check_comparison(scene, settings, budget)
+            check_comparison(scene, made, budget)
     start = time.perf_counter()
-    comparisons, rows = [], []
+    comparisons, rows, checks = [], [], []
     for i, scene in enumerate(loaded, 1):
         say(f"[{i}/{len(loaded)}] {scene.name}: reference and {', '.join(engines)} ...")
         t0 = time.perf_counter()
         on = (lambda what, name=scene.name: stage(f"{name}: {what}")) if stage is not None else None
-        c = compare(scene, engines=tuple(engines), dt=dt, overrides=list(engine_overrides), tol=tol, timeout=timeout,
-                    progress=on)
+        c = compare(scene, engines=tuple(engines), settings=made, tol=tol, timeout=timeout, progress=on)
         comparisons.append(c)
+        checks.append(comparison_cross_check(c, dt, tol))  # Siconos against Feigin's model at the report's dt
+        say(f"      {scene.name} reference cross-check (Siconos): {checks[-1].verdict or 'not run'}")
         for name, run in c.runs.items():
             row = {**summarize(c, name, {}), **signed_worst(c.table[c.table["engine"] == name])}
             rows.append(row)
@@ -171,6 +181,7 @@ def build_report(
         comparisons=tuple(comparisons), summary=summary, engines=tuple(engines), dt=dt,
         overrides=tuple(scene_overrides) + tuple(engine_overrides), wall_time_s=time.perf_counter() - start,
         created=datetime.now(timezone.utc).isoformat(timespec="seconds"), command=command, sweeps=tuple(sweeps),
+        cross_checks=tuple(checks),
     )
 
 

@@ -19,10 +19,10 @@ from typing import Sequence
 
 import pandas as pd
 
+from chatterbench.comparisons.pipeline.atomic import write_text
 from chatterbench.comparisons.pipeline.conformance import describe, same_model_pairs
 from chatterbench.comparisons.pipeline.vocabulary import COLOURS, MEANINGS, NAMES, text_colour
 
-from .atomic import write_text
 from .style import PAGE_CSS
 
 from .report import (EPISODE_COLUMNS, HEADERS, SUMMARY_COLUMNS, Figure, Report, cell, engine_rows, plural,
@@ -74,6 +74,7 @@ def _verdict_legend() -> str:
 def report_html(report: Report) -> str:
     """The report as one self-contained HTML document (figures embedded as base64 PNG)."""
     figures = {f.id: f for f in scene_figures(report)}
+    checks = {k.scene: k for k in report.cross_checks}
     parts = [
         "<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
         "<title>chatterbench report</title>", f"<style>{PAGE_CSS}</style></head><body>",
@@ -97,6 +98,8 @@ def report_html(report: Report) -> str:
         parts.append(_img(figures[f"ladder-{name}"]))
         parts.append(_img(figures[f"episode-errors-{name}"]))
         parts.append(_html_table(c.table, EPISODE_COLUMNS))
+        if name in checks:  # Siconos, a second nonsmooth reference, against Feigin's model
+            parts.append(f'<p class="note cross-check">{html.escape(checks[name].line())}</p>')
         for a, b in same_model_pairs(c.runs):  # one model on two executors (MuJoCo C, MuJoCo Warp): where they part
             parts.append(f'<p class="note">Conformance: {html.escape(describe(c, a, b))}</p>')
         failed = {n: r.trajectory.message for n, r in c.runs.items() if r.trajectory.message}
@@ -145,6 +148,7 @@ def report_markdown(report: Report) -> str:
            "## Summary", "", _md_table(summary_frame(report), SUMMARY_COLUMNS), ""]
     for c in report.comparisons:
         out += [f"## {c.scene.name}", "", f"{tolerance_line(c)}.", "", _md_table(c.table, EPISODE_COLUMNS), ""]
+        out += [f"{k.line()}\n" for k in report.cross_checks if k.scene == c.scene.name]
         out += [f"Conformance: {describe(c, a, b)}\n" for a, b in same_model_pairs(c.runs)]
     for section in report.sweeps:  # the charts are in index.html; here the verdicts they draw
         rows = sweep_rows(section, report.engines)

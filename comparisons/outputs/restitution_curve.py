@@ -28,22 +28,16 @@ import pandas as pd
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from .style import ENGINE_COLOURS
+from .style import engine_colour
 
 MIN_PAD = 0.02  # [-] the e axis reaches at least this far beyond the values, R and the band
 # engines that agree would hide one another: each gets its own line style and marker as well as its colour
 _LINES = ("-", "--", ":", "-.")
 _MARKERS = ("o", "^", "s", "D", "v")
-_MORE_COLOURS = ("#9467bd", "#ff7f0e", "#8c564b", "#17becf", "#e377c2")  # engines without a colour in style.py
 # where a label may sit around its marker [points], tried in order: beside first, then further out
 _OFFSETS = [(dx * r, dy * r) for r in (1.0, 1.9, 2.8, 3.7) for dx, dy in
             ((7, 6), (7, -13), (-7, 6), (-7, -13), (0, 11), (0, -18), (12, -3), (-12, -3))]
 FORCE_FREE = ("none", "gravity")  # the ``forces`` of restitution_curve's strikes; "scene" for scene_restitution's
-
-
-def _colours(names) -> dict[str, str]:
-    spare = iter(_MORE_COLOURS)
-    return {n: ENGINE_COLOURS.get(n) or next(spare, "gray") for n in names}
 
 
 def place_labels(fig: Figure, ax, labels: list[tuple[float, float, str, str]], fontsize: float = 7.5) -> None:
@@ -106,7 +100,7 @@ def restitution_curve_figure(curve: pd.DataFrame, impacts: pd.DataFrame | None =
     parts = [f for f in (curve, strikes) if f is not None and len(f)]
     engines = list(dict.fromkeys([*(e for f in parts for e in f["engine"]),
                                   *([] if impacts is None else impacts["engine"])]))
-    colours = _colours(engines)
+    colours = {name: engine_colour(name) for name in engines}
     fig = Figure(figsize=(9, 6.5), layout="constrained")
     ax = fig.subplots()
     R = float(parts[0]["restitution"].iloc[0]) if parts else math.nan
@@ -114,9 +108,26 @@ def restitution_curve_figure(curve: pd.DataFrame, impacts: pd.DataFrame | None =
     if tolerance is not None and np.isfinite(R):
         ax.axhspan(R * (1 - tolerance), R * (1 + tolerance), color="0.85", zorder=0,
                    label=f"R within the restitution tolerance ({100 * tolerance:g}%)")
-    labels: list[tuple[float, float, str, str]] = []
     gravity = float(curve["gravity"].iloc[0]) if len(curve) else 0.0
     free = "under gravity g = %g m/s^2 alone" % gravity if gravity > 0 else "no force: the contact law alone"
+    _draw_curves(ax, curve, engines, colours, R, free)
+    labels = (_draw_strikes(ax, strikes, engines, colours, scene_name)
+              + _draw_impacts(ax, impacts, engines, colours, scene_name))
+    ax.set_xscale("log")
+    ax.set_xlabel("impact speed |y'-| [m/s]")
+    ax.set_ylabel("effective restitution e = -y'+ / y'- [-]")
+    ax.set_ylim(*_e_range(parts, impacts, R, tolerance))
+    ax.set_title("Effective restitution against impact speed"
+                 + (": force-free and under the scene's own forces" if strikes is not None and len(strikes) else f" ({free})"))
+    ax.grid(True, which="both", alpha=0.3)
+    fig.legend(loc="outside lower center", ncols=1, fontsize=8, frameon=False)  # below the axes: no curve hidden
+    if labels:
+        place_labels(fig, ax, labels)
+    return fig
+
+
+def _draw_curves(ax, curve: pd.DataFrame, engines: list[str], colours: dict[str, str], R: float, free: str) -> None:
+    """One strike per speed, force-free or under gravity: a line per engine, its calibration speed a star on R."""
     for name, rows in curve.groupby("engine", sort=False):
         rows = rows.sort_values("speed")
         i = engines.index(name)
@@ -128,6 +139,12 @@ def restitution_curve_figure(curve: pd.DataFrame, impacts: pd.DataFrame | None =
             ax.axvline(v, color=colours[name], lw=0.8, alpha=0.6)
             ax.plot([v], [R], ls="none", marker="*", ms=15, color=colours[name], mec="black",
                     label=f"{name}: calibrated to R at {v:.3g} m/s")
+
+
+def _draw_strikes(ax, strikes: pd.DataFrame | None, engines: list[str], colours: dict[str, str],
+                  scene_name: str) -> list[tuple[float, float, str, str]]:
+    """The strikes under the scene's own forces: markers on a thin dashed line; returns their e labels."""
+    labels = []
     for name, rows in ([] if strikes is None else strikes.groupby("engine", sort=False)):
         rows = rows.sort_values("speed")
         marker = _MARKERS[engines.index(name) % len(_MARKERS)]
@@ -135,6 +152,13 @@ def restitution_curve_figure(curve: pd.DataFrame, impacts: pd.DataFrame | None =
                 label=f"{name}: under {scene_name or 'the scene'}'s own forces, at its impacts (struck from the reference)")
         labels += [(v, e, f"{e:.3f}", colours[name]) for v, e in zip(rows["speed"], rows["restitution_effective"])
                    if np.isfinite(e)]
+    return labels
+
+
+def _draw_impacts(ax, impacts: pd.DataFrame | None, engines: list[str], colours: dict[str, str],
+                  scene_name: str) -> list[tuple[float, float, str, str]]:
+    """The run's resolved impacts: large open markers; returns their numbers as labels."""
+    labels = []
     for name, rows in ([] if impacts is None else impacts.groupby("engine", sort=False)):
         marker = _MARKERS[engines.index(name) % len(_MARKERS)]
         ax.plot(rows["speed"], rows["restitution_effective"], ls="none", marker=marker, ms=10, mfc="none", mew=1.3,
@@ -142,9 +166,11 @@ def restitution_curve_figure(curve: pd.DataFrame, impacts: pd.DataFrame | None =
                 label=f"{name}: {scene_name + ' ' if scene_name else ''}run's impacts 1..{len(rows)} (judged pairs, numbered)")
         labels += [(v, e, f"#{k}", colours[name]) for k, v, e in zip(rows["impact"], rows["speed"], rows["restitution_effective"])
                    if np.isfinite(e)]
-    ax.set_xscale("log")
-    ax.set_xlabel("impact speed |y'-| [m/s]")
-    ax.set_ylabel("effective restitution e = -y'+ / y'- [-]")
+    return labels
+
+
+def _e_range(parts: list[pd.DataFrame], impacts: pd.DataFrame | None, R: float, tolerance: float | None) -> tuple[float, float]:
+    """The e axis: the values, R and the tolerance band, with a margin (a drift of a few percent must show)."""
     values = pd.concat([f["restitution_effective"] for f in parts]
                        + ([] if impacts is None else [impacts["restitution_effective"]]))
     values = values[np.isfinite(values.to_numpy(dtype=float))]
@@ -152,11 +178,4 @@ def restitution_curve_figure(curve: pd.DataFrame, impacts: pd.DataFrame | None =
     lo = min(R - band, float(values.min()) if len(values) else R)
     hi = max(R + band, float(values.max()) if len(values) else R)
     pad = max(0.12 * (hi - lo), MIN_PAD)  # zoom onto the spread: a drift of a few percent must show; room for labels
-    ax.set_ylim(lo - pad, hi + pad)
-    ax.set_title("Effective restitution against impact speed"
-                 + (": force-free and under the scene's own forces" if strikes is not None and len(strikes) else f" ({free})"))
-    ax.grid(True, which="both", alpha=0.3)
-    fig.legend(loc="outside lower center", ncols=1, fontsize=8, frameon=False)  # below the axes: no curve hidden
-    if labels:
-        place_labels(fig, ax, labels)
-    return fig
+    return lo - pad, hi + pad

@@ -35,10 +35,12 @@ from matplotlib.colors import BoundaryNorm, ListedColormap
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
+from chatterbench.comparisons.pipeline.summary import REFINE_LEVEL
 from chatterbench.comparisons.pipeline.vocabulary import combine, text_colour
+from chatterbench.comparisons.studies.axes import axis_scale
 
-from .sweep_data import (REFINE_LEVEL, VERDICT_ABBREV, VERDICT_COLOURS, VERDICT_MEANING, VERDICT_ORDER, ChartError,
-                         axis_scale, check_columns, engines_of, fmt, folded_parameters, parameter_columns, suptitle)
+from .sweep_data import (VERDICT_ABBREV, VERDICT_COLOURS, VERDICT_MEANING, VERDICT_ORDER, ChartError,
+                         check_columns, engines_of, fmt, folded_parameters, parameter_columns, suptitle)
 
 ANNOTATE_MAX_CELLS = 150  # write the verdict in the cells up to this many per panel
 TICK_CHARS = 60  # x tick labels longer than this in all are turned, so that they do not overlap
@@ -60,7 +62,7 @@ def verdict_grid(rows: pd.DataFrame, x: str, y: str, engine: str) -> pd.DataFram
 
 
 def _axis(values: Sequence) -> tuple[np.ndarray, np.ndarray, str]:
-    """Cell centres, cell edges and scale (``sweep_data.axis_scale``) of one map axis."""
+    """Cell centres, cell edges and scale (``studies/axes.py``) of one map axis."""
     vals = list(values)
     scale = axis_scale(vals)
     if scale == "category":

@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Any, Iterable, Sequence
 import numpy as np
 import pandas as pd
 
-from chatterbench.comparisons.pipeline.summary import DERIVED_PARAMETERS, ROW_COLUMNS, mass_ratio
+from chatterbench.comparisons.pipeline.summary import DERIVED_PARAMETERS, REFINE_LEVEL, ROW_COLUMNS, mass_ratio
 from chatterbench.engines.registry import ENGINE_NAMES, make_settings, settings_dict
 from chatterbench.reference.catalogue import CATALOGUE
 from chatterbench.reference.scene import load_scene
@@ -59,9 +59,6 @@ METRIC_LABELS = {
     "first_impact_error_max": "first impact",
 }
 COST = "cost_per_sim_s"
-REFINE_LEVEL = "refine_level"  # a refined sweep's row: the level its point was added at (0: the coarse grid)
-LOG_SPAN = 10.0  # a map axis whose positive values span this ratio (a decade) or more is log-scaled
-IRREGULAR = 2.0  # a linear map axis whose steps differ by more than this factor gets equal cells
 
 
 class ChartError(InputError):
@@ -75,29 +72,6 @@ def parameter_columns(rows: pd.DataFrame) -> list[str]:
     """
     derived = [c for c in DERIVED_PARAMETERS if c == "dt" or c in rows.columns]
     return derived + [c for c in rows.columns if c not in ROW_COLUMNS and c != REFINE_LEVEL]
-
-
-def axis_scale(values: Sequence) -> str:
-    """How a map axis (and a refined sweep's cell split) treats these values: ``log``, ``linear`` or ``category``.
-
-    Positive numbers spanning a decade or more (``LOG_SPAN``): ``log``. Other numbers:
-    ``linear`` when evenly enough spaced (largest step at most ``IRREGULAR`` times the
-    smallest), else ``category`` (equal cells in value order, like strings: 0, 0.1, 1, 10
-    would otherwise squeeze the small values into slivers).
-
-    >>> from chatterbench.comparisons.outputs.sweep_data import axis_scale
-    >>> axis_scale([1e-4, 1e-3, 1e-2]), axis_scale([0.1, 0.5, 0.9]), axis_scale([0, 0.1, 1, 10])
-    ('log', 'linear', 'category')
-    """
-    vals = list(values)
-    if not all(isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_)) for v in vals):
-        return "category"
-    v = np.sort(np.asarray(vals, float))
-    if v.min() > 0 and v.max() / v.min() >= LOG_SPAN:
-        return "log"
-    if len(v) > 2 and np.diff(v).max() > IRREGULAR * np.diff(v).min():
-        return "category"
-    return "linear"
 
 
 def folded_parameters(frame: pd.DataFrame, shown: Sequence[str], candidates: Iterable[str]) -> list[str]:

@@ -45,7 +45,7 @@ from matplotlib.patches import Patch
 
 from chatterbench.reference.dense import sample
 
-from .style import ENGINE_COLOURS, EXIT_COLOUR, STICK_COLOUR
+from .style import EXIT_COLOUR, REFERENCE_COLOUR, STICK_COLOUR, engine_colour
 
 MAX_VISITS = 4  # reference visits drawn on the main panel; every one is in the episode error figure
 LANE = 0.22  # of the axis margin (the penetration allowance): the spacing of the engines' marker lanes
@@ -122,17 +122,17 @@ def _draw_run(ax, comparison, t_hi: float) -> list:
     # the judge's penetration allowance: an engine past it is ``penetrated`` (or worse), so clipping hides no pass
     pad = comparison.tolerances.penetration * comparison.solution.length_scale
     ylo, yhi = lo - pad, hi + pad
-    handles = [Line2D([], [], color=ENGINE_COLOURS["reference"], lw=3.5, alpha=0.3, label="reference (Feigin, exact)")]
+    handles = [Line2D([], [], color=REFERENCE_COLOUR, lw=3.5, alpha=0.3, label="reference (Feigin, exact)")]
     shown = ref[ref["t_stick"] < t_hi]
     for r in shown.itertuples():
         ax.axvspan(r.t_stick, min(t_hi, r.t_exit) if math.isfinite(r.t_exit) else t_hi, color=STICK_COLOUR, alpha=0.12, lw=0)
     if len(shown):
         ends = "to exit" if np.isfinite(shown["t_exit"]).any() else "on: it never exits"
         handles.append(Patch(color=STICK_COLOUR, alpha=0.25, label=f"reference sliding (Zeno point {ends})"))
-    ax.plot(dense["t"], dense["y"], color=ENGINE_COLOURS["reference"], lw=3.5, alpha=0.3, zorder=2, solid_capstyle="butt")
+    ax.plot(dense["t"], dense["y"], color=REFERENCE_COLOUR, lw=3.5, alpha=0.3, zorder=2, solid_capstyle="butt")
     notes, marked = [], set()
     for k, (name, run) in enumerate(comparison.runs.items()):
-        tr, color = run.trajectory, ENGINE_COLOURS.get(name, f"C{k + 2}")
+        tr, color = run.trajectory, engine_colour(name)
         sel = tr.t <= t_hi
         if sel.sum() >= 2:
             t, y = _thin(tr.t[sel], tr.y[sel])
@@ -208,13 +208,13 @@ def _draw_zoom(ax, comparison, r) -> tuple[float, float, float, float]:
     ref_mm = 1e3 * side * (dz["y"].to_numpy() - wall)
     amp = float(np.nanmax(np.abs(ref_mm)))
     amp = amp if amp > 0 else 1e-3  # no bounce left in the window: a thin band around the wall
-    ax.plot(dz["t"], ref_mm, color=ENGINE_COLOURS["reference"], lw=3.5, alpha=0.3, solid_capstyle="butt")
+    ax.plot(dz["t"], ref_mm, color=REFERENCE_COLOUR, lw=3.5, alpha=0.3, solid_capstyle="butt")
     ax.axvline(r["t_stick"], color=STICK_COLOUR, ls="--", lw=1.4, zorder=4, gid="reference-zeno")  # over a close engine
     ax.text(r["t_stick"], 0.02, "Zeno point ", transform=ax.get_xaxis_transform(), ha="right", va="bottom", fontsize=7.5,
             color=STICK_COLOUR)
     box = dict(fc="white", ec="none", alpha=0.85, pad=1.0)
     for k, (name, run) in enumerate(comparison.runs.items()):
-        tr, color = run.trajectory, ENGINE_COLOURS.get(name, f"C{k + 2}")
+        tr, color = run.trajectory, engine_colour(name)
         m = (tr.t >= lo) & (tr.t <= hi)
         ax.plot(tr.t[m], 1e3 * side * (tr.y[m] - wall), color=color, lw=1.0)
         if name in starts:

@@ -53,7 +53,7 @@ from chatterbench.comparisons.pipeline.vocabulary import combine, rank
 from chatterbench.engines.registry import ENGINE_NAMES
 from chatterbench.reference.errors import InputError
 
-from .style import ENGINE_COLOURS
+from .style import REFERENCE_COLOUR, engine_colour
 from .sweep_data import (COST, FAIL_MARKERS, METRIC_LABELS, PASSING, VERDICT_COLOURS, VERDICT_MEANING, VERDICT_ORDER,
                          ChartError, check_columns, fmt, folded_parameters, parameter_columns, suptitle, varying)
 
@@ -247,7 +247,7 @@ def _curve_styles(points: pd.DataFrame) -> dict[str, dict]:
     styles = {}
     for engine, grp in points.groupby("engine", sort=True):
         for k, curve in enumerate(dict.fromkeys(grp["curve"])):
-            styles[curve] = {"color": ENGINE_COLOURS.get(engine, f"C{len(styles)}"),
+            styles[curve] = {"color": engine_colour(engine),
                              "ls": ("-", "--", ":", "-.")[k % 4], "marker": ("o", "s", "D", "^")[k % 4]}
     return styles
 
@@ -311,71 +311,16 @@ def work_precision_figure(rows: pd.DataFrame, error: str | None = None, referenc
     classes_seen: set[str] = set()
     for ax, metric in zip(axes[0], metrics):
         ax.set_gid(metric)
-        labels: list[tuple[float, float, str, str]] = []
-        front = pareto_front(points, metric)
         has = np.isfinite(points[metric]) & np.isfinite(points[COST])
-        passing = points["verdict"].isin(PASSING)
-        strip = blended_transform_factory(ax.transData, ax.transAxes)
-        for curve, grp in points.groupby("curve", sort=False):
-            st = styles[curve]
-            g = grp[has.loc[grp.index]].sort_values(COST)
-            ax.plot(g[COST], g[metric], color=st["color"], ls=st["ls"], lw=1.4, label=curve, zorder=2, gid=f"curve:{curve}")
-            ok = g[passing.loc[g.index]]
-            ax.plot(ok[COST], ok[metric], ls="none", marker=st["marker"], color=st["color"], ms=6, zorder=3)
-            for v, gv in ok[ok["verdict"] != "match"].groupby("verdict"):  # timing or impacts outside tolerance: a rim
-                ax.plot(gv[COST], gv[metric], ls="none", marker=st["marker"], color=st["color"], mec=VERDICT_COLOURS[v],
-                        mew=2.2, ms=8, zorder=3)
-            for v, gv in g[~passing.loc[g.index]].groupby("verdict"):
-                classes_seen.add(v)
-                ax.plot(gv[COST], gv[metric], ls="none", marker=FAIL_MARKERS.get(v, "x"), mfc="white",
-                        mec=st["color"], mew=1.6, ms=8, zorder=3, gid=f"failed:{v}")
-            labels += [(getattr(r, COST), getattr(r, metric), f"{r.lever}={fmt(r.lever_value)}", st["color"])
-                       for r in g.itertuples()]
-            # failures without a measured error: a strip along the top, at their cost
-            lost = grp[~has.loc[grp.index] & np.isfinite(grp[COST]) & ~grp["verdict"].isin(PASSING + ("none",))]
-            for v, gv in lost.groupby("verdict"):
-                classes_seen.add(v)
-                ax.plot(gv[COST], np.full(len(gv), 0.965), transform=strip, ls="none", marker=FAIL_MARKERS.get(v, "x"),
-                        mfc="white", mec=st["color"], mew=1.6, ms=8, zorder=3, clip_on=False, gid=f"failed-no-error:{v}")
-                for r in gv.itertuples():
-                    ax.annotate(f"{r.lever}={fmt(r.lever_value)}", (getattr(r, COST), 0.965), xycoords=strip,
-                                xytext=(6, -3), textcoords="offset points", fontsize=6.5, color=st["color"])
-        fr = points[front].sort_values(COST)
-        if len(fr):
-            ax.plot(fr[COST], fr[metric], color="#ffc107", lw=7, alpha=0.35, solid_capstyle="round", zorder=1)
-            ax.plot(fr[COST], fr[metric], ls="none", marker="o", ms=14, mfc="none", mec="black", mew=1.2, zorder=4,
-                    gid="pareto-front")
+        labels = _draw_curves(ax, points, metric, styles, has, classes_seen)
+        _draw_front(ax, points[pareto_front(points, metric)].sort_values(COST), metric)
         ax.set_xscale("log")
         ax.set_yscale("log")
         # a cost range of about a decade gets labels on minor ticks: keep 2 and 5 only, so they do not overlap
         ax.xaxis.set_minor_locator(matplotlib.ticker.LogLocator(subs=(2.0, 5.0)))
         if has.any():
-            if reference_cost is not None:
-                ref_err = reference_error if reference_error is not None else ROOT_PRECISION
-                data_min = float(points.loc[has, metric][points.loc[has, metric] > 0].min())
-                lo, hi = ax.get_xlim()
-                ax.set_xlim(min(lo, reference_cost / 2.0), max(hi, reference_cost * 2.0))
-                if ref_err < data_min / OFF_SCALE:
-                    # many decades below the engines: drawn on the panel's foot so their curves stay readable
-                    foot = blended_transform_factory(ax.transData, ax.transAxes)
-                    ax.plot([reference_cost], [0.04], transform=foot, ls="none", marker="*", ms=16,
-                            color=ENGINE_COLOURS["reference"], zorder=5, clip_on=False, gid="reference")
-                    ax.annotate(f"reference: {_reference_error(metric, ref_err)} (off scale)", (reference_cost, 0.04),
-                                xycoords=foot,
-                                xytext=(9, 0), textcoords="offset points", fontsize=8, va="center")
-                else:
-                    ax.plot([reference_cost], [ref_err], ls="none", marker="*", ms=16, color=ENGINE_COLOURS["reference"], zorder=5,
-                            gid="reference")
-                    name = "reference (exact)" if reference_error is None else f"reference (error {ref_err:.0e})"
-                    ax.annotate(name, (reference_cost, ref_err), xytext=(9, 0), textcoords="offset points", fontsize=8,
-                                va="center")
-            else:
-                if reference_error is not None:
-                    ax.axhline(reference_error, color="black", lw=0.8, ls="--")
-                ax.add_patch(Rectangle((0, 0), 1, 0.04, transform=ax.transAxes, color="0.85", lw=0, zorder=0))
-                note = "reference (exact): " + _reference_error(metric, ROOT_PRECISION).replace("exact", "no error")
-                ax.text(0.01, 0.02, f"{note}, far below this axis", transform=ax.transAxes,
-                        fontsize=7, va="center", color="0.25")
+            _draw_reference(ax, metric, float(points.loc[has, metric][points.loc[has, metric] > 0].min()),
+                            reference_cost, reference_error)
             lo, hi = ax.get_ylim()
             ax.set_ylim(lo / 2.5, hi * 2.5)  # room for the dt labels, the reference band and the failure strip
         else:
@@ -389,23 +334,108 @@ def work_precision_figure(rows: pd.DataFrame, error: str | None = None, referenc
             ax.text(0.99, 0.965, "failed, no error measured", transform=ax.transAxes, fontsize=7, va="center", ha="right",
                     color="0.3")
         if metric in TOLERANCE_OF and has.any():
-            tol = getattr(tolerances, TOLERANCE_OF[metric])
-            ax.axhline(tol, color="0.35", lw=1.0, ls="--", zorder=1, gid="tolerance")
-            ax.annotate(f"tolerance {tol:g}", (0.01, tol), xycoords=("axes fraction", "data"), xytext=(0, 3),
-                        textcoords="offset points", fontsize=7.5, color="0.3")
-            lo, hi = ax.get_ylim()
-            ax.set_ylim(min(lo, tol / 3.0), max(hi, tol * 3.0))
+            _draw_tolerance(ax, getattr(tolerances, TOLERANCE_OF[metric]))
         _write_labels(ax, labels)
-        ax.grid(True, which="major", color="0.9", lw=0.6)
-        ax.set_xlabel("cost: wall-clock s per simulated s")
-        unit = " [s]" if metric in FALLBACK["s"] or metric == "stick_error_plate_max" else ""
-        ax.set_ylabel(f"worst |error|: {METRIC_LABELS.get(metric, metric)}{unit}")
-        ax.set_title(f"error in {METRIC_LABELS.get(metric, metric).split(' (')[0]}", fontsize=10)
+        _label_axes(ax, metric)
+    handles = _legend_handles(points, styles, classes_seen, reference_cost is not None)
+    fig.legend(handles=handles, loc="outside lower center", ncol=2 if len(metrics) == 1 else 3, fontsize=8, frameon=False)
+    suptitle(fig, _title(rows, points, metrics, empty))
+    return fig
+
+
+def _draw_curves(ax, points: pd.DataFrame, metric: str, styles: dict[str, dict], has: pd.Series,
+                 classes_seen: set[str]) -> list[tuple[float, float, str, str]]:
+    """Each curve's line and points (filled: passing, a rim: not within tolerance, hollow: failed; failures with
+    no measured error on a strip at the top); adds the failure classes drawn to ``classes_seen``; returns the labels."""
+    labels: list[tuple[float, float, str, str]] = []
+    passing = points["verdict"].isin(PASSING)
+    strip = blended_transform_factory(ax.transData, ax.transAxes)
+    for curve, grp in points.groupby("curve", sort=False):
+        st = styles[curve]
+        g = grp[has.loc[grp.index]].sort_values(COST)
+        ax.plot(g[COST], g[metric], color=st["color"], ls=st["ls"], lw=1.4, label=curve, zorder=2, gid=f"curve:{curve}")
+        ok = g[passing.loc[g.index]]
+        ax.plot(ok[COST], ok[metric], ls="none", marker=st["marker"], color=st["color"], ms=6, zorder=3)
+        for v, gv in ok[ok["verdict"] != "match"].groupby("verdict"):  # timing or impacts outside tolerance: a rim
+            ax.plot(gv[COST], gv[metric], ls="none", marker=st["marker"], color=st["color"], mec=VERDICT_COLOURS[v],
+                    mew=2.2, ms=8, zorder=3)
+        for v, gv in g[~passing.loc[g.index]].groupby("verdict"):
+            classes_seen.add(v)
+            ax.plot(gv[COST], gv[metric], ls="none", marker=FAIL_MARKERS.get(v, "x"), mfc="white",
+                    mec=st["color"], mew=1.6, ms=8, zorder=3, gid=f"failed:{v}")
+        labels += [(getattr(r, COST), getattr(r, metric), f"{r.lever}={fmt(r.lever_value)}", st["color"])
+                   for r in g.itertuples()]
+        # failures without a measured error: a strip along the top, at their cost
+        lost = grp[~has.loc[grp.index] & np.isfinite(grp[COST]) & ~grp["verdict"].isin(PASSING + ("none",))]
+        for v, gv in lost.groupby("verdict"):
+            classes_seen.add(v)
+            ax.plot(gv[COST], np.full(len(gv), 0.965), transform=strip, ls="none", marker=FAIL_MARKERS.get(v, "x"),
+                    mfc="white", mec=st["color"], mew=1.6, ms=8, zorder=3, clip_on=False, gid=f"failed-no-error:{v}")
+            for r in gv.itertuples():
+                ax.annotate(f"{r.lever}={fmt(r.lever_value)}", (getattr(r, COST), 0.965), xycoords=strip,
+                            xytext=(6, -3), textcoords="offset points", fontsize=6.5, color=st["color"])
+    return labels
+
+
+def _draw_front(ax, front: pd.DataFrame, metric: str) -> None:
+    """The Pareto front's points ringed and joined (``front`` in order of cost)."""
+    if len(front):
+        ax.plot(front[COST], front[metric], color="#ffc107", lw=7, alpha=0.35, solid_capstyle="round", zorder=1)
+        ax.plot(front[COST], front[metric], ls="none", marker="o", ms=14, mfc="none", mec="black", mew=1.2, zorder=4,
+                gid="pareto-front")
+
+
+def _draw_reference(ax, metric: str, data_min: float, reference_cost: float | None, reference_error: float | None) -> None:
+    """The reference: a star at its cost (on the panel's foot when many decades below ``data_min``), or, its cost
+    not measured, a band at the foot of the panel."""
+    if reference_cost is None:
+        if reference_error is not None:
+            ax.axhline(reference_error, color="black", lw=0.8, ls="--")
+        ax.add_patch(Rectangle((0, 0), 1, 0.04, transform=ax.transAxes, color="0.85", lw=0, zorder=0))
+        note = "reference (exact): " + _reference_error(metric, ROOT_PRECISION).replace("exact", "no error")
+        ax.text(0.01, 0.02, f"{note}, far below this axis", transform=ax.transAxes, fontsize=7, va="center", color="0.25")
+        return
+    ref_err = reference_error if reference_error is not None else ROOT_PRECISION
+    lo, hi = ax.get_xlim()
+    ax.set_xlim(min(lo, reference_cost / 2.0), max(hi, reference_cost * 2.0))
+    if ref_err < data_min / OFF_SCALE:
+        # many decades below the engines: drawn on the panel's foot so their curves stay readable
+        foot = blended_transform_factory(ax.transData, ax.transAxes)
+        ax.plot([reference_cost], [0.04], transform=foot, ls="none", marker="*", ms=16,
+                color=REFERENCE_COLOUR, zorder=5, clip_on=False, gid="reference")
+        ax.annotate(f"reference: {_reference_error(metric, ref_err)} (off scale)", (reference_cost, 0.04), xycoords=foot,
+                    xytext=(9, 0), textcoords="offset points", fontsize=8, va="center")
+    else:
+        ax.plot([reference_cost], [ref_err], ls="none", marker="*", ms=16, color=REFERENCE_COLOUR, zorder=5,
+                gid="reference")
+        name = "reference (exact)" if reference_error is None else f"reference (error {ref_err:.0e})"
+        ax.annotate(name, (reference_cost, ref_err), xytext=(9, 0), textcoords="offset points", fontsize=8, va="center")
+
+
+def _draw_tolerance(ax, tol: float) -> None:
+    """The panel's tolerance as a dashed line, inside the y range."""
+    ax.axhline(tol, color="0.35", lw=1.0, ls="--", zorder=1, gid="tolerance")
+    ax.annotate(f"tolerance {tol:g}", (0.01, tol), xycoords=("axes fraction", "data"), xytext=(0, 3),
+                textcoords="offset points", fontsize=7.5, color="0.3")
+    lo, hi = ax.get_ylim()
+    ax.set_ylim(min(lo, tol / 3.0), max(hi, tol * 3.0))
+
+
+def _label_axes(ax, metric: str) -> None:
+    ax.grid(True, which="major", color="0.9", lw=0.6)
+    ax.set_xlabel("cost: wall-clock s per simulated s")
+    unit = " [s]" if metric in FALLBACK["s"] or metric == "stick_error_plate_max" else ""
+    ax.set_ylabel(f"worst |error|: {METRIC_LABELS.get(metric, metric)}{unit}")
+    ax.set_title(f"error in {METRIC_LABELS.get(metric, metric).split(' (')[0]}", fontsize=10)
+
+
+def _legend_handles(points: pd.DataFrame, styles: dict[str, dict], classes_seen: set[str], reference: bool) -> list[Line2D]:
+    """The legend: curves, the front, the reference, the failure classes drawn, the rims, what the labels are."""
     handles = [Line2D([], [], color=styles[c]["color"], ls=styles[c]["ls"], marker=styles[c]["marker"], label=c)
                for c in styles]
     handles.append(Line2D([], [], ls="none", marker="o", ms=12, mfc="none", mec="black",
                           label="best trade-off (Pareto front)"))
-    if reference_cost is not None:
+    if reference:
         handles.append(Line2D([], [], ls="none", marker="*", ms=12, color="black", label="reference (exact)"))
     for v in sorted(classes_seen, key=VERDICT_ORDER.index):
         handles.append(Line2D([], [], ls="none", marker=FAIL_MARKERS.get(v, "x"), mfc="white", mec="0.3", mew=1.5,
@@ -418,7 +448,11 @@ def work_precision_figure(rows: pd.DataFrame, error: str | None = None, referenc
     handles.append(Line2D([], [], ls="none", label=f"labels: {levers}; hollow: the run failed"))
     for h in handles:  # long meanings wrapped, and as many columns as the figure's width holds: none is cut
         h.set_label(textwrap.fill(h.get_label(), LEGEND_CHARS))
-    fig.legend(handles=handles, loc="outside lower center", ncol=2 if len(metrics) == 1 else 3, fontsize=8, frameon=False)
+    return handles
+
+
+def _title(rows: pd.DataFrame, points: pd.DataFrame, metrics: Sequence[str], empty: Sequence[str]) -> str:
+    """The figure's title: scene, runs, what was folded, why a panel is empty, what could not be placed."""
     scene = ", ".join(sorted(rows["scene"].astype(str).unique())) if "scene" in rows else ""
     measured = any(np.isfinite(points[m]).any() for m in metrics)
     notes = [_folded_note(rows), *(empty if measured else [])]  # nothing measured: the panel says why, once
@@ -426,8 +460,7 @@ def work_precision_figure(rows: pd.DataFrame, error: str | None = None, referenc
     if len(uncosted):  # crashed, timed out or refused before any step: nothing to place on a cost axis
         counts = uncosted["verdict"].astype(str).value_counts()
         notes.append("not drawn (no cost measured): " + ", ".join(f"{counts[v]} {v}" for v in sorted(counts.index, key=rank)))
-    suptitle(fig, "; ".join([f"{scene}: work-precision, {len(rows)} runs", *filter(None, notes)]))
-    return fig
+    return "; ".join([f"{scene}: work-precision, {len(rows)} runs", *filter(None, notes)])
 
 
 def _write_labels(ax, labels: Sequence[tuple[float, float, str, str]]) -> None:

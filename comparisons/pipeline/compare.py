@@ -14,6 +14,15 @@ and ``cost_per_sim_s`` (wall-clock seconds of engine stepping per simulated seco
 ``impacts`` has every paired resolved impact (``judge.IMPACT_PAIR_COLUMNS`` plus
 ``engine``). A failing engine never raises: its run is classified (``error``,
 ``diverged``) and its rows say so; the other engines' results are kept.
+
+Settings are objects here (``settings={"pybullet": PybulletSettings(...)}``, or
+``registry.make_settings``); ``dt`` and ``overrides`` build them for the engines not given
+one, for callers who hold strings. Each class of failure is caught in one place, none here:
+an engine's failure (it raises, blows up, stops short, its samples do not fit) by the
+adapter, as the run's status (``base.EngineAdapter.run``); a crash or a hang of an isolated
+run (``timeout``) by ``isolate``, which also turns anything the child raises into ``error``.
+Settings the scene cannot run with are the caller's mistake: ``SettingsError``, raised
+before that engine starts (inside an isolated run: that run's ``error``).
 """
 
 from __future__ import annotations
@@ -26,9 +35,9 @@ from typing import Any, Callable, Mapping, Sequence
 
 import pandas as pd
 
-from chatterbench.engines.base import failed_trajectory
-from chatterbench.engines.registry import (DEFAULT_ENGINES, check_engine, engine_version, make_settings, run_engine,
-                                           run_engine_isolated, settings_dict)
+from chatterbench.engines.registry import (DEFAULT_ENGINES, adapter, check_engine, engine_version, make_settings,
+                                           run_engine, run_engine_isolated, settings_dict)
+from chatterbench.engines.settings import SettingsError
 from chatterbench.engines.trajectory import Trajectory
 from chatterbench.reference.scene import Scene
 from chatterbench.reference.simulate import Result
@@ -37,6 +46,7 @@ from .budget import Budget, check_comparison
 from .extract import Extraction, ExtractionOptions, extract
 from .judge import IMPACT_PAIR_COLUMNS, TABLE_COLUMNS, judge
 from .solution import ReferenceSolution, solve
+from .summary import SUMMARY_COLUMNS, summarize  # summary imports only the vocabulary: no cycle
 from .tolerances import Tolerances
 
 COLUMNS = ["engine", "dt"] + TABLE_COLUMNS + ["status", "cost_per_sim_s"]
@@ -103,8 +113,6 @@ class Comparison:
 
     def summary(self) -> pd.DataFrame:
         """One row per engine (``summary.ROW_COLUMNS`` without the sweep's point id)."""
-        from .summary import SUMMARY_COLUMNS, summarize
-
         return pd.DataFrame([summarize(self, name, {}) for name in self.runs], columns=SUMMARY_COLUMNS)
 
 
@@ -114,20 +122,19 @@ def judge_run(ref: ReferenceSolution, name: str, settings: Any, tol: Tolerances,
     """Run one engine (or take its ``trajectory``, already run), extract and judge it.
 
     Returns the run, its judged table (``judge.TABLE_COLUMNS``) and its paired impacts.
-    Exceptions of the engine become an ``error`` run. With ``timeout`` [s] the engine runs in
-    a forked child (``run_engine_isolated``): a crash or a hang becomes a ``crashed`` or
-    ``timeout`` run and this process goes on.
+    ``settings``: the engine's settings object. An engine's failure comes back from its adapter
+    as the run's status (nothing is caught here). With ``timeout`` [s] the engine runs in a
+    forked child (``run_engine_isolated``): a crash or a hang becomes a ``crashed`` or
+    ``timeout`` run and this process goes on. Raises SettingsError (in this process) for
+    settings the scene cannot run with.
     """
     scene = ref.scene
-    try:
-        if trajectory is not None:
-            traj = trajectory
-        elif timeout is not None:
-            traj = run_engine_isolated(name, scene, settings, timeout)
-        else:
-            traj = run_engine(name, scene, settings)
-    except Exception as exc:  # an engine fault must not lose the other results
-        traj = failed_trajectory(name, scene, "error", f"{type(exc).__name__}: {exc}", settings_dict(settings))
+    if trajectory is not None:
+        traj = trajectory
+    elif timeout is not None:
+        traj = run_engine_isolated(name, scene, settings, timeout)
+    else:
+        traj = run_engine(name, scene, settings)
     found = extract(traj, scene, ref.stick_tolerance(tol.stick), options)
     judged = judge(ref, found, traj, tol)
     run = EngineRun(
@@ -136,6 +143,42 @@ def judge_run(ref: ReferenceSolution, name: str, settings: Any, tol: Tolerances,
         t_penetrated=judged.t_penetrated,
     )
     return run, judged.table, judged.impacts
+
+
+def _override_keys(overrides: Sequence[str] | Mapping[str, Any]) -> list[str]:
+    return list(overrides) if isinstance(overrides, Mapping) else [str(o).split("=", 1)[0].strip() for o in overrides]
+
+
+def engine_settings(engines: Sequence[str], dt: float | None = None, overrides: Sequence[str] | Mapping[str, Any] = (),
+                    settings: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """Each engine's settings object: ``settings[name]`` as given, else its defaults with ``dt`` [s] and ``overrides``
+    (``registry.make_settings``).
+
+    Raises SettingsError, naming the entry, for an unknown engine, a ``settings`` entry for an engine not in
+    ``engines`` or of another engine's type, and a timestep or an override given for an engine that has an object.
+
+    >>> from chatterbench.comparisons.pipeline.compare import engine_settings
+    >>> from chatterbench.engines.pybullet_engine import PybulletSettings
+    >>> s = engine_settings(("mujoco", "pybullet"), 1e-3, settings={"pybullet": PybulletSettings(dt=1e-3)})
+    >>> type(s["mujoco"]).__name__, s["mujoco"].dt, s["pybullet"].restitution_velocity_threshold
+    ('MujocoSettings', 0.001, 0.0)
+    """
+    given = dict(settings or {})
+    for name, obj in given.items():
+        if name not in engines:
+            raise SettingsError(f"settings[{name!r}]: {name} is not among the engines run ({', '.join(engines) or 'none'}); "
+                                "add it to engines or leave its settings out")
+        want = adapter(check_engine(name)).settings_type
+        if type(obj) is not want:
+            raise SettingsError(f"settings[{name!r}]: a {type(obj).__name__}; {name} takes a {want.__name__} "
+                                f"(registry.make_settings({name!r}, ...))")
+        if dt is not None and obj.dt != dt:
+            raise SettingsError(f"settings[{name!r}].dt = {obj.dt:g} and dt = {dt:g}: two timesteps for {name}; give one")
+        mine = [k for k in _override_keys(overrides) if k.split(".")[0] == name]
+        if mine:
+            raise SettingsError(f"overrides {mine[0]} and settings[{name!r}]: two ways of giving {name}'s settings; "
+                                "set it in the settings object")
+    return {name: given[name] if name in given else make_settings(check_engine(name), dt, overrides) for name in engines}
 
 
 def compare(
@@ -150,6 +193,7 @@ def compare(
     timeout: float | None = None,
     budget: Budget | None = None,
     progress: Callable[[str], None] | None = None,
+    settings: Mapping[str, Any] | None = None,
 ) -> Comparison:
     """Run the reference (both chatter modes) and each engine on ``scene``; judge every episode.
 
@@ -159,7 +203,8 @@ def compare(
     dt : float, optional
         Engine timestep [s]; default: each engine's default settings.
     overrides : sequence of str
-        ``mujoco.KEY=VALUE`` / ``pybullet.KEY=VALUE`` engine settings.
+        ``mujoco.KEY=VALUE`` / ``pybullet.KEY=VALUE`` engine settings (parsed here: a caller
+        holding settings objects passes ``settings``).
     tol : Tolerances, optional
     trajectories : mapping engine name -> Trajectory, optional
         Runs already made (a sweep's MuJoCo batch, or any trajectory to judge: the exact
@@ -180,9 +225,13 @@ def compare(
     progress : callable, optional
         Called with ``"reference"`` before the reference is solved and with each engine's name
         before that engine runs (the command line's progress bar).
+    settings : mapping engine name -> settings object, optional
+        The settings of some or all of ``engines``, each of its engine's ``settings_type``
+        (``registry.make_settings``); the others are built from ``dt`` and ``overrides``
+        (``engine_settings``).
     """
     tol = tol or Tolerances()
-    settings = {name: make_settings(check_engine(name), dt, overrides) for name in engines}  # validate all first
+    settings = engine_settings(engines, dt, overrides, settings)  # every refusal before any run
     if budget is not None:
         check_comparison(scene, {n: s for n, s in settings.items() if n not in (trajectories or {})}, budget,
                          reference=solution is None)

@@ -10,8 +10,9 @@
     >>> table[["wall", "verdict", "other_verdict", "stick_difference", "disagree"]].values.tolist()
     [['lower', 'match', 'match', 0.0, False]]
 
+Two engines run the same model when one's adapter says so (``EngineAdapter.same_model_as``):
 MuJoCo C (float64) and MuJoCo Warp (float32) step the same ``MjSpec`` model, so any
-difference between them is the executor's, not the model's. ``conformance`` pairs the two
+difference between them is the executor's, not the model's (``same_model_pairs``). ``conformance`` pairs the two
 engines' judged episodes of one ``compare`` (the rows of ``compare.Comparison.table`` for the
 same reference visit: same wall, same reference first impact) and reports, episode by
 episode, the second engine (``other``) against the first (``engine``): both verdicts, the
@@ -44,6 +45,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from chatterbench.engines.registry import ENGINE_NAMES, adapter, unavailable_reason
+
 from .tolerances import Tolerances
 
 CONFORMANCE_COLUMNS = [
@@ -52,8 +55,6 @@ CONFORMANCE_COLUMNS = [
     "exit_difference_rel", "first_impact_difference", "n_impacts", "other_n_impacts", "impact_count_difference",
     "resolved_impacts", "other_resolved_impacts", "disagree",
 ]
-# engine pairs that run one model on two executors: compare reports their conformance whenever both ran
-SAME_MODEL = (("mujoco", "mujoco_warp"),)
 PARTING_FRACTION = 0.01  # [-] trajectories part where |y - y_other| passes 1% of the length scale
 
 
@@ -101,12 +102,24 @@ def _row(engine: str, other: str, key: tuple, a: pd.Series | None, b: pd.Series 
     }
 
 
-def conformance(comparison, engine: str = "mujoco", other: str = "mujoco_warp") -> pd.DataFrame:
+def _pair(comparison, engine: str | None, other: str | None) -> tuple[str, str]:
+    """The two engines named, or by default the comparison's first pair that runs one model (``same_model_pairs``)."""
+    if engine is not None and other is not None:
+        return engine, other
+    pairs = same_model_pairs(comparison.runs)
+    if not pairs:
+        raise KeyError(f"no two engines of this comparison ({', '.join(comparison.runs)}) run one model; name the two")
+    return pairs[0]
+
+
+def conformance(comparison, engine: str | None = None, other: str | None = None) -> pd.DataFrame:
     """``other`` against ``engine``, episode by episode, in one ``compare.Comparison`` (``CONFORMANCE_COLUMNS``).
 
+    Default pair: the comparison's engines that run one model (``same_model_pairs``: MuJoCo, MuJoCo Warp).
     Rows follow the reference's visits in time, then the episodes only one engine has.
     Raises KeyError when either engine is not in the comparison.
     """
+    engine, other = _pair(comparison, engine, other)
     tables = {name: comparison.table[comparison.table["engine"] == name] for name in (engine, other)}
     for name in (engine, other):
         if name not in comparison.runs:
@@ -128,10 +141,10 @@ class Parting:
     vy_difference_max: float  # [m/s] max |vy - vy_other|
 
 
-def parting(comparison, engine: str = "mujoco", other: str = "mujoco_warp",
-            fraction: float = PARTING_FRACTION) -> Parting:
-    """Where the gap coordinates of ``engine`` and ``other`` first differ by more than ``fraction`` of the
-    scene's length scale (both sampled at the same times: same dt; else NaN throughout)."""
+def parting(comparison, engine: str | None = None, other: str | None = None, fraction: float = PARTING_FRACTION) -> Parting:
+    """Where the gap coordinates of ``engine`` and ``other`` (default: as ``conformance``) first differ by more
+    than ``fraction`` of the scene's length scale (both sampled at the same times: same dt; else NaN throughout)."""
+    engine, other = _pair(comparison, engine, other)
     ta, tb = comparison.runs[engine].trajectory, comparison.runs[other].trajectory
     threshold = fraction * comparison.solution.length_scale
     n = min(len(ta.t), len(tb.t))
@@ -145,12 +158,21 @@ def parting(comparison, engine: str = "mujoco", other: str = "mujoco_warp",
 
 
 def same_model_pairs(engines) -> list[tuple[str, str]]:
-    """The pairs of ``SAME_MODEL`` that are both among ``engines``."""
-    return [(a, b) for a, b in SAME_MODEL if a in engines and b in engines]
+    """(engine, other) for each of ``engines`` whose adapter runs the model of another of them
+    (``EngineAdapter.same_model_as``: MuJoCo Warp runs MuJoCo's): compare reports their conformance."""
+    return [(first, other) for other in engines if (first := _same_model_as(other)) and first in engines]
 
 
-def describe(comparison, engine: str = "mujoco", other: str = "mujoco_warp") -> str:
+def _same_model_as(name: str) -> str:
+    """The engine whose model ``name``'s adapter runs ("" when none, or when ``name`` cannot be loaded here)."""
+    if name not in ENGINE_NAMES or unavailable_reason(name):
+        return ""
+    return adapter(name).same_model_as
+
+
+def describe(comparison, engine: str | None = None, other: str | None = None) -> str:
     """One paragraph: how many episodes the two disagree on, the largest differences, where the trajectories part."""
+    engine, other = _pair(comparison, engine, other)
     table = conformance(comparison, engine, other)
     part = parting(comparison, engine, other)
     n, bad = len(table), int(table["disagree"].sum())

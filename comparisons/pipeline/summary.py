@@ -14,7 +14,7 @@ report's summary table. Columns (a sweep dataset's schema; charts and reports re
 =========================  ===========================================================================
 point_id                   stable id of the grid point (hash of scene + params), str
 scene                      scene name
-engine                     ``mujoco`` or ``pybullet``
+engine                     the engine's name in the engine table (``engines.registry.ENGINE_NAMES``)
 <param>                    one column per swept parameter, named by its dotted key (sweeps only)
 dt                         engine timestep [s]
 mass_ratio                 mu = mass2 / mass1 (0 when mass1 is infinite: a fixed body)
@@ -34,8 +34,9 @@ cost_per_sim_s             wall-clock seconds of engine stepping per simulated s
 reference_cost_per_sim_s   wall-clock seconds of the reference (Feigin's model) per simulated second
 wall_time_s                wall-clock seconds of engine stepping
 engine_version             the engine package's version
-precision                  the engine's floating-point type: ``float32`` for MuJoCo Warp, ``float64`` for the others
+precision                  the engine's floating-point type (its adapter's ``precision``: ``float32`` for MuJoCo Warp)
 message                    failure message, "" when ok
+refine_level               (refined sweeps only) the level the point was added at, 0 for the coarse grid
 =========================  ===========================================================================
 """
 
@@ -59,6 +60,8 @@ ROW_COLUMNS = [
 SUMMARY_COLUMNS = [c for c in ROW_COLUMNS if c != "point_id"]
 # columns a sweep does not set but charts may use as an axis, like a swept parameter
 DERIVED_PARAMETERS = ("dt", "mass_ratio")
+# a refined sweep's row: the level its point was added at (0: the coarse grid); says when a point ran, not where
+REFINE_LEVEL = "refine_level"
 # the table column each worst-case metric is taken from
 _SOURCES = {
     "exit_error_max": "exit_error", "stick_error_max": "stick_error_zeno", "stick_error_plate_max": "stick_error_plate",

@@ -86,7 +86,7 @@ GLOSSARY: tuple[tuple[str, str], ...] = (
                 "the exit (the code's ``stuck``: ``reference/stuck.py``)"),
     ("exit", "the end of sliding: the free relative acceleration (3.1) turns away from the wall and the bodies part "
              "(event ``exit``, at ``t_exit``)"),
-    ("colour", "the spelling of this code's names and texts (``COLOURS``, ``ENGINE_COLOURS``); ``color`` only "
+    ("colour", "the spelling of this code's names and texts (``COLOURS``, ``engine_colour``); ``color`` only "
                "where matplotlib spells it (its keyword, and the values handed to it)"),
 )
 

@@ -25,13 +25,14 @@ reference, feigin, and each engine (bool).
 from __future__ import annotations
 
 import math
-from typing import Callable, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
 
+from chatterbench.comparisons.pipeline.compare import engine_settings
 from chatterbench.comparisons.pipeline.extract import extract_episodes
-from chatterbench.engines.registry import make_settings, run_engine
+from chatterbench.engines.registry import run_engine
 from chatterbench.reference.chatter import strike_fates
 from chatterbench.reference.flow import Flow
 from chatterbench.reference.linear import V1, VY, X1, Y, LinearSystem
@@ -95,11 +96,15 @@ def plate_map(
     overrides: Sequence[str] = (),
     lead: float | None = None,
     progress: Callable[[str], None] | None = None,
+    settings: Mapping[str, Any] | None = None,
 ) -> pd.DataFrame:
     """Map which strikes on ``wall`` end in sliding (module docstring); one row per strike.
 
     ``progress``, when given, is called with the engine's name after each engine strike is run.
+    ``settings``: engine name -> settings object; engines without one get ``dt`` [s] and ``overrides``
+    (``pipeline.compare.engine_settings``).
     """
+    made = engine_settings(engines, dt, overrides, settings)  # every refusal before any run
     if wall not in scene.gap.walls:
         raise SceneError(f"wall = {wall!r}: must be one of {', '.join(scene.gap.walls)}")
     if not scene.forcing_omegas:  # strikes are placed by the phase of a forcing period
@@ -117,10 +122,9 @@ def plate_map(
     })
     lead = lead if lead is not None else 0.02 * scene.time_scale
     for name in engines:
-        settings = make_settings(name, dt, overrides)
         sticks = []
         for t, v, tz in zip(T.ravel(), S.ravel(), fates.t_stick.ravel()):
-            sticks.append(_engine_sticks(scene, wall, name, settings, float(t), sign * float(v), lead, float(tz)))
+            sticks.append(_engine_sticks(scene, wall, name, made[name], float(t), sign * float(v), lead, float(tz)))
             if progress is not None:
                 progress(name)
         table[name] = sticks

@@ -61,6 +61,7 @@ from concurrent.futures import Executor, ProcessPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any, Sequence
 
+import numpy as np
 import pandas as pd
 
 from chatterbench.engines.registry import adapter, check_engine, make_settings, run_engine
@@ -141,9 +142,11 @@ def passing(verdicts: pd.Series) -> pd.Series:
     return verdicts.map(agrees).astype(bool)
 
 
-def overrides_of(params: dict[str, Any]) -> list[str]:
-    """``engine.field=value`` items for ``registry.make_settings`` from a candidate's dotted settings."""
-    return [f"{k}={v!r}" if isinstance(v, str) else f"{k}={v}" for k, v in params.items() if "." in k]
+def candidate_settings(engine: str, params: dict[str, Any]) -> Any:
+    """A candidate's settings object: ``engine``'s defaults with its ``dt`` [s] and dotted settings (``engine.field``),
+    values handed on as they are (never through text); numpy scalars of a table row become Python's."""
+    values = {k: v.item() if isinstance(v, np.generic) else v for k, v in params.items() if "." in k}
+    return make_settings(engine, params["dt"], values)
 
 
 def settings_label(params: dict[str, Any]) -> str:
@@ -159,7 +162,7 @@ def short_label(row: dict[str, Any], defaults: dict[str, Any]) -> str:
 
 def _evaluate(ref: ReferenceSolution, engine: str, params: dict, tol: Tolerances) -> dict[str, Any]:
     """Run one candidate and judge it (runs in a worker process)."""
-    settings = make_settings(engine, params["dt"], overrides_of(params))
+    settings = candidate_settings(engine, params)
     run, table, impacts = judge_run(ref, engine, settings, tol)
     strikes = scene_strikes(engine, settings, ref, tol, run.trajectory.settings) if run.status == "ok" else None
     ratios = check_ratios(table, impacts, tol, tol.penetration * ref.length_scale, strikes)
@@ -205,7 +208,7 @@ def _evaluator(executor: Executor, ref: ReferenceSolution, engine: str, tol: Tol
 def _time(scene: Scene, engine: str, candidates: list[dict], repeats: int) -> list[list[float]]:
     """Wall-clock stepping seconds per simulated second of ``repeats`` more runs of each candidate, interleaved
     (A B A B ...: a change in the machine's load falls on all of them alike), one after another in this process."""
-    settings = [make_settings(engine, p["dt"], overrides_of(p)) for p in candidates]
+    settings = [candidate_settings(engine, p) for p in candidates]
     out: list[list[float]] = [[] for _ in candidates]
     for _ in range(repeats):
         for times, s in zip(out, settings):
@@ -310,7 +313,7 @@ def engine_space(engine: str, scene: Scene, space: dict[str, Sequence] | None = 
             raise TuneError(f"tune search space: {key!r} is not a setting of {engine} (expected {engine}.FIELD)")
     for key, values in space.items():  # validate every value before running anything
         for v in values:
-            make_settings(engine, v if key == "dt" else space["dt"][0], overrides_of({key: v}) if key != "dt" else [])
+            candidate_settings(engine, {"dt": space["dt"][0], key: v})
     return space
 
 

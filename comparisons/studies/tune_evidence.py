@@ -34,7 +34,7 @@ from chatterbench.reference.errors import InputError
 from ..pipeline.compare import Comparison, compare
 from .restitution_curve import default_speeds, impact_restitutions, pinned_settings, restitution_curve
 from .tune_checks import scene_strikes
-from .tune import overrides_of, recommended
+from .tune import recommended
 
 
 @dataclass(frozen=True)
@@ -45,12 +45,6 @@ class Evidence:
     curve: pd.DataFrame | None  # studies.restitution_curve.CURVE_COLUMNS; None when the scene has no impact
     strikes: pd.DataFrame | None  # the same columns, forces "scene": under the scene's forces at its own impacts
     impacts: pd.DataFrame  # studies.restitution_curve.IMPACT_COLUMNS
-
-
-def chosen_params(result) -> dict | None:
-    """``dt`` and the searched settings of ``result.chosen`` (None when no candidate ran)."""
-    c = result.chosen
-    return None if c is None else {k: c[k] for k in result.extra["space"]}
 
 
 def chosen_settings(result):
@@ -68,12 +62,12 @@ def settings_of(rec: dict):
 
 def evidence(result, speeds: Sequence[float] | None = None) -> Evidence | None:
     """Rerun the chosen candidate on the scene and strike once per speed [m/s] (default ``default_speeds``)."""
-    params = chosen_params(result)
-    if params is None:
+    settings = chosen_settings(result)  # the one settings object of the rerun, the strikes and the curve
+    if settings is None:
         return None
-    comparison = compare(result.scene, engines=(result.engine,), dt=float(params["dt"]), overrides=overrides_of(params),
+    comparison = compare(result.scene, engines=(result.engine,), settings={result.engine: settings},
                          tol=result.tolerance, solution=result.extra.get("solution"))
-    run, settings = comparison.runs[result.engine], chosen_settings(result)
+    run = comparison.runs[result.engine]
     impacts = impact_restitutions(result.engine, settings, result.scene, comparison.solution, result.tolerance,
                                   trajectory=run.trajectory)
     if speeds is None:

@@ -53,7 +53,7 @@ import math
 from dataclasses import dataclass
 from typing import Any, Callable
 
-from ..outputs.sweep_data import axis_scale
+from .axes import axis_scale
 from ..pipeline.vocabulary import VERDICTS
 from .sweep.refine import lattice, split_points
 

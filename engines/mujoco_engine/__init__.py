@@ -81,6 +81,8 @@ class MujocoEngine(EngineAdapter):
     compliant = True  # solref's spring-damper: a contact time scale 1 / w0
     batches = True
     bytes_per_step = 100.0  # measured 69 B/step (feigin-pair, compact, 4.0e6 -> 1.2e7 steps: 545,060 -> 1,079,520 KiB)
+    exports = ("model.xml", "run.py")  # the full MJCF, and a runner that needs only mujoco
+    export_kind = "an MJCF model"
 
     def simulate(self, run: Recording) -> None:
         """Roll the scene's model out chunk by chunk (``run.simulate``)."""
@@ -113,6 +115,20 @@ class MujocoEngine(EngineAdapter):
     def snippet(self, scene: Scene, settings: MujocoSettings | None = None) -> str:
         """The MJCF a user pastes: ``<option>``, the gap as a joint limit or a geom pair (``snippet.mjcf_snippet``)."""
         return mjcf_snippet(scene, settings)
+
+    def export(self, scene: Scene, settings: MujocoSettings, command: str | None = None) -> dict[str, str]:
+        """``model.xml`` (``export.model_xml``) and ``run.py``, which loads it with plain MuJoCo (``export.runner_script``)."""
+        from .export import model_xml, runner_script
+
+        model, runner = self.exports
+        return {model: model_xml(scene, settings, command=command),
+                runner: runner_script(scene, settings, model_file=model, command=command)}
+
+    def measurement(self) -> str:
+        """One impact's e measured in the user's MJCF (``snippet.measurement``)."""
+        from .snippet import measurement
+
+        return measurement()
 
     def tuning_space(self, scene: Scene) -> dict[str, tuple]:
         """dt from 1 ms down to 10 us; w0 dt from soft (0.03) to 0.9 of the integrator's stability limit for the

@@ -42,6 +42,8 @@ class PybulletEngine(EngineAdapter):
     package = "pybullet"
     settings_type = PybulletSettings
     bytes_per_step = 125.0  # measured 88 B/step (feigin-pair, compact, 4.0e6 -> 8.0e6 steps: 600,884 -> 944,880 KiB)
+    exports = ("scene.py",)  # a complete PyBullet script
+    export_kind = "a Python script"
 
     def simulate(self, run: Recording) -> None:
         """Step the scene's world in its own client (``run.simulate``)."""
@@ -59,6 +61,18 @@ class PybulletEngine(EngineAdapter):
     def snippet(self, scene: Scene, settings: PybulletSettings | None = None) -> str:
         """The PyBullet calls these settings make, for the user's own bodies (``settings.settings_snippet``)."""
         return settings_snippet(settings or PybulletSettings(), scene.restitution)
+
+    def export(self, scene: Scene, settings: PybulletSettings, command: str | None = None) -> dict[str, str]:
+        """``scene.py``: the scene built and stepped with PyBullet alone (``export.scene_script``)."""
+        from .export import scene_script
+
+        return {self.exports[0]: scene_script(scene, settings)}
+
+    def measurement(self) -> str:
+        """One impact's e measured in the user's PyBullet world (``settings.measurement``)."""
+        from .settings import measurement
+
+        return measurement()
 
     def tuning_space(self, scene: Scene) -> dict[str, tuple]:
         """dt from 1 ms down to 10 us; the restitution velocity threshold (0: none) and the solver iterations,

@@ -101,7 +101,22 @@ def test_export_refuses_other_engines_and_wrong_suffixes(tmp_path):
     assert done.returncode == 2 and "engines that can: mujoco, pybullet" in done.stderr
     done = cli("run", "bouncing-ball", "--engines", "pybullet", "--export-model", str(tmp_path / "d.xml"))
     assert done.returncode == 2 and "name a .py file" in done.stderr
+    assert "pybullet writes a Python script" in done.stderr  # before: "an MJCF model" for any engine but MuJoCo
     assert not (tmp_path / "d.xml").exists()
+
+
+def test_which_engines_export_is_what_their_adapters_declare():
+    from chatterbench.engines.export import check_exportable, export_files_names, exporting_engines
+    from chatterbench.engines.registry import adapter, available_engines
+    from chatterbench.engines.settings import SettingsError
+
+    # known answer: MuJoCo and PyBullet export, in table order, with their files; no other built-in engine does
+    assert exporting_engines()[:2] == ("mujoco", "pybullet")
+    assert export_files_names("mujoco") == ["model.xml", "run.py"] and export_files_names("pybullet") == ["scene.py"]
+    silent = [n for n in available_engines() if not adapter(n).exports]
+    assert silent and not set(silent) & set(exporting_engines())
+    with pytest.raises(SettingsError, match="engines that can: " + ", ".join(exporting_engines()) + "$"):
+        check_exportable(silent[0])
 
 
 @pytest.mark.parametrize("name", sorted(CATALOGUE) + ["prescribed"])

@@ -42,3 +42,13 @@ def test_an_engine_installed_with_pip_is_listed_and_judged_match(tmp_path):
     contract = _run(python, "-m", "pytest", "-q", "-p", "no:cacheprovider", Path(__file__).parent / "test_contract.py",
                     "-k", "exact", cwd=tmp_path)
     assert contract.returncode == 0 and re.search(r"\b[1-9]\d* passed", contract.stdout), contract.stdout[-2000:]
+    # the facts of other adapters are not said of it: --export-model names the engines whose adapters export
+    refused = _run(python, "-m", "chatterbench.comparisons.cli", "run", "bouncing-ball", "--engines", "exact",
+                   "--export-model", tmp_path / "m.xml", cwd=tmp_path)
+    assert refused.returncode == 2 and "engine 'exact': cannot export a model; engines that can: mujoco, pybullet" \
+        in refused.stderr, refused.stderr
+    # and it is drawn in a colour of its own, as every engine of the table is
+    colours = _run(python, "-c", "from chatterbench.comparisons.outputs.style import engine_colour as c; "
+                   "from chatterbench.engines.registry import ENGINE_NAMES as n; print(c('exact'), *map(c, n[:-1]))")
+    mine, *others = colours.stdout.split()
+    assert mine.startswith("#") and mine not in others, colours.stdout + colours.stderr

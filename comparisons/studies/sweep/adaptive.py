@@ -33,8 +33,7 @@ from typing import Any, Iterator, Mapping
 import numpy as np
 import pandas as pd
 
-from chatterbench.comparisons.outputs.sweep_data import REFINE_LEVEL
-from chatterbench.comparisons.pipeline.summary import point_id
+from chatterbench.comparisons.pipeline.summary import REFINE_LEVEL, point_id
 
 from .refine import boundary_label, fill, lattice, refine_axis_values, split_points
 from .dataset import same_value

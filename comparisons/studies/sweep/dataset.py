@@ -39,9 +39,8 @@ from typing import Any, Callable, Mapping, Sequence
 
 import pandas as pd
 
-from chatterbench.comparisons.outputs.atomic import write_frame
-from chatterbench.comparisons.outputs.sweep_data import REFINE_LEVEL
-from chatterbench.comparisons.pipeline.summary import METRIC_COLUMNS, ROW_COLUMNS
+from chatterbench.comparisons.pipeline.atomic import write_frame
+from chatterbench.comparisons.pipeline.summary import METRIC_COLUMNS, REFINE_LEVEL, ROW_COLUMNS
 from chatterbench.comparisons.pipeline.vocabulary import VERDICTS
 from chatterbench.reference.errors import InputError, is_number
 

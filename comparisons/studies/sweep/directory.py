@@ -29,7 +29,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from chatterbench.comparisons.outputs.atomic import TEMP_PATTERN, temp_tag
+from chatterbench.comparisons.pipeline.atomic import TEMP_PATTERN, temp_tag
 from chatterbench.reference.errors import InputError
 
 LOCK_NAME = ".lock"  # in OUT; kept after the sweep (see OutLock)

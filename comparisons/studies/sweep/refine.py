@@ -28,7 +28,7 @@ value is a side of its own).
 Cells and levels: the grid's values of the two axes are the coarse map. Its fine map at
 depth ``d`` has ``(n - 1) * 2**d + 1`` values per axis, points named by their fine indices
 ``(i, j)``: a coarse value sits at a multiple of ``2**d``. A cell split halves it along both
-axes in the axis's own scale (``sweep_data.axis_scale``: the geometric mean on a log axis,
+axes in the axis's own scale (``studies/axes.py``: the geometric mean on a log axis,
 the arithmetic mean otherwise). Level 0 runs the coarse grid; level ``k`` splits every cell
 of level ``k - 1`` (side ``2**(d - k + 1)``) whose four corners differ (``boundary_label``):
 it runs the cell's centre and the midpoints of the edges whose ends differ; the midpoint of
@@ -52,9 +52,9 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from chatterbench.comparisons.outputs.sweep_data import axis_scale
 from chatterbench.comparisons.pipeline.summary import METRIC_COLUMNS
 from chatterbench.comparisons.pipeline.vocabulary import NAMES, PASSING
+from chatterbench.comparisons.studies.axes import axis_scale
 from chatterbench.reference.errors import check_integer, check_number, did_you_mean, is_number, shown
 
 REFINE_KEYS = ("axes", "depth", "boundary", "threshold")

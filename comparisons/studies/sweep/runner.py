@@ -39,8 +39,8 @@ from typing import Any
 
 import pandas as pd
 
-from chatterbench.comparisons.outputs.atomic import write_frame, write_text
-from chatterbench.comparisons.outputs.sweep_data import REFINE_LEVEL
+from chatterbench.comparisons.pipeline.atomic import write_frame, write_text
+from chatterbench.comparisons.pipeline.summary import REFINE_LEVEL
 from chatterbench.engines.isolate import die_with_parent
 from chatterbench.reference.errors import InputError, check_choice, check_integer, check_number
 
@@ -299,6 +299,70 @@ def _run_levels(sweep: Sweep, levels: Levels, out: Path, runs: list, have: pd.Da
     return total, every
 
 
+def _executor(executor: Any, workers: int | None) -> tuple[Any, ProcessPoolExecutor | None, Any]:
+    """(where to submit, the local pool this sweep owns or None, the Dask client to watch or None)."""
+    if executor is None:
+        pool = _local_pool(workers)
+        return pool, pool, None
+    if hasattr(executor, "get_executor"):  # a dask.distributed Client
+        return executor.get_executor(pure=False), None, executor
+    return executor, None, getattr(executor, "_client", None)  # a Dask ClientExecutor given as is, or any Executor
+
+
+class _Tally:
+    """The finished runs of one ``_run``: their rows appended to OUT/rows/, the stats and the progress bar kept."""
+
+    def __init__(self, writer: PartWriter, stats: dict[str, Any], bar: Any, failures: int, level: int | None) -> None:
+        self.writer, self.stats, self.bar, self.failures, self.level = writer, stats, bar, failures, level
+        bar.set_postfix(failed=failures)
+
+    def add(self, results: list) -> None:
+        self.writer.append([_tagged(r.row, self.level) for r in results])
+        for r in results:
+            self.stats["runs"] += 1
+            self.stats["run_s_sum"] += r.run_time
+            w = r.row.get("wall_time_s")
+            self.stats["engine_s_sum"] += w if isinstance(w, float) and math.isfinite(w) else 0.0
+            self.failures += r.row["status"] in FAILED
+
+    def show(self, n: int) -> None:
+        self.bar.update(n)
+        self.bar.set_postfix(failed=self.failures)
+
+
+def _drain(executor: Any, units: list, slots: int, watch: _WorkerWatch, tally: _Tally, done_before: int) -> None:
+    """Submit ``units`` (at most 2 x ``slots`` in flight) and tally each as it finishes.
+
+    A bounded window: Ctrl-C cancels little, and memory stays flat for any sweep size. On any
+    exception the pending units are cancelled, the rows of those that finished meanwhile kept
+    (the rest run on --resume), and the exception raised again.
+    """
+    pending: set[Future] = set()
+    queue = iter(units)
+    try:
+        while True:
+            while len(pending) < 2 * slots and (unit := next(queue, None)) is not None:
+                pending.add(executor.submit(run_batch_task, unit))
+            if not pending:
+                return
+            finished, pending = wait(pending, timeout=watch.interval, return_when=FIRST_COMPLETED)
+            if not finished:
+                watch.idle(done_before + tally.stats["runs"])
+                continue
+            watch.progressed()
+            results = [r for f in finished if f.exception() is None for r in f.result()]
+            tally.add(results)
+            for f in finished:  # an executor failure (a broken pool, a lost Dask worker) ends the sweep
+                if f.exception() is not None:
+                    raise f.exception()
+            tally.show(len(results))
+    except BaseException:
+        for f in pending:
+            f.cancel()
+        tally.add([r for f in pending if f.done() and not f.cancelled() and f.exception() is None for r in f.result()])
+        raise
+
+
 def _run(sweep: Sweep, out: Path, runs: list, have: pd.DataFrame, executor: Any, workers: int | None,
          progress: bool, batch: int | None, no_worker_wait: float, no_workers: str, level: int | None = None
          ) -> dict[str, Any]:
@@ -306,66 +370,24 @@ def _run(sweep: Sweep, out: Path, runs: list, have: pd.DataFrame, executor: Any,
 
     ``level``: a refined sweep's level, written in each row's ``refine_level``.
     """
-    writer = PartWriter(out / "rows", sweep.fingerprint())
+    writer = PartWriter(out / "rows", sweep.fingerprint())  # OUT/rows/ exists from here on, with rows or not
     done_keys = set(zip(have["point_id"], have["engine"]))
     todo = [r for r in runs if (r.point_id, r.engine) not in done_keys]
-    failures = int(have["status"].isin(FAILED).sum()) if len(have) else 0
     stats = {"wall_s": 0.0, "runs": 0, "units": 0, "run_s_sum": 0.0, "engine_s_sum": 0.0, "workers": 0}
     start = time.perf_counter()
-    owned = client = None
     if todo:
-        if executor is None:
-            owned = executor = _local_pool(workers)
-        elif hasattr(executor, "get_executor"):  # a dask.distributed Client
-            client, executor = executor, executor.get_executor(pure=False)
-        else:
-            client = getattr(executor, "_client", None)  # a Dask ClientExecutor given as is
-        watch = _WorkerWatch(client, no_worker_wait, no_workers, len(runs))
-        slots = workers or _slots(executor) or os.cpu_count() or 1
-        stats["workers"] = slots
-        bar = _progress(len(runs), len(runs) - len(todo), progress, "sweep" if level is None else f"level {level}")
-        bar.set_postfix(failed=failures)
-        pending: set[Future] = set()
+        executor, owned, client = _executor(executor, workers)
+        stats["workers"] = slots = workers or _slots(executor) or os.cpu_count() or 1
         units = work_units(todo, batch, slots)
         stats["units"] = len(units)
-        queue = iter(units)
+        bar = _progress(len(runs), len(runs) - len(todo), progress, "sweep" if level is None else f"level {level}")
+        failures = int(have["status"].isin(FAILED).sum()) if len(have) else 0
+        tally = _Tally(writer, stats, bar, failures, level)
         interrupted = True
         try:
-            while True:
-                # a bounded window: Ctrl-C cancels little, and memory stays flat for any sweep size
-                while len(pending) < 2 * slots:
-                    unit = next(queue, None)
-                    if unit is None:
-                        break
-                    pending.add(executor.submit(run_batch_task, unit))
-                if not pending:
-                    break
-                finished, pending = wait(pending, timeout=watch.interval, return_when=FIRST_COMPLETED)
-                if not finished:
-                    watch.idle(len(runs) - len(todo) + stats["runs"])
-                    continue
-                watch.progressed()
-                results = [r for f in finished if f.exception() is None for r in f.result()]
-                writer.append([_tagged(r.row, level) for r in results])
-                for f in finished:  # an executor failure (a broken pool, a lost Dask worker) ends the sweep
-                    if f.exception() is not None:
-                        raise f.exception()
-                for r in results:
-                    stats["runs"] += 1
-                    stats["run_s_sum"] += r.run_time
-                    w = r.row.get("wall_time_s")
-                    stats["engine_s_sum"] += w if isinstance(w, float) and math.isfinite(w) else 0.0
-                    failures += r.row["status"] in FAILED
-                bar.update(len(results))
-                bar.set_postfix(failed=failures)
+            _drain(executor, units, slots, _WorkerWatch(client, no_worker_wait, no_workers, len(runs)), tally,
+                   len(runs) - len(todo))
             interrupted = False
-        except BaseException:
-            for f in pending:
-                f.cancel()
-            # rows of runs that finished meanwhile are kept; the rest run on --resume
-            done_now = [f for f in pending if f.done() and not f.cancelled() and f.exception() is None]
-            writer.append([_tagged(r.row, level) for f in done_now for r in f.result()])
-            raise
         finally:
             bar.close()
             if owned is not None:

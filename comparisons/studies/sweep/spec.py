@@ -84,20 +84,20 @@ import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable, Mapping
+from typing import Any, Callable, Iterable, Mapping
 
 from chatterbench.comparisons.pipeline.budget import Budget, check_engine_run
 from chatterbench.comparisons.pipeline.summary import point_id
 from chatterbench.comparisons.pipeline.tolerances import make_tolerances
 from chatterbench.engines.registry import DEFAULT_ENGINES, ENGINE_NAMES, make_settings
 from chatterbench.reference.catalogue import CATALOGUE
-from chatterbench.reference.errors import InputError, did_you_mean, is_number, shown
+from chatterbench.reference.errors import (InputError, check_choice, check_fields, check_number, check_table, check_text,
+                                          did_you_mean, is_number)
 from chatterbench.reference.scene import load_scene
 from chatterbench.reference.tables import flatten, printable, read_toml, toml_literal
 
 from .refine import Refine, make_refine
 
-SPEC_KEYS = ("scene", "engines", "timeout", "description", "set", "grid", "points", "tolerances", "refine")
 DEFAULT_TIMEOUT = 120.0  # [s] per run
 MAX_RUNS = 100_000  # (points x engines) a sweep: about 14 h at 0.5 s a run on two cores
 MAX_TIMEOUT = 86400.0  # [s] one day: beyond it a limit is no limit (and past ~1e9 s the OS refuses it)
@@ -211,118 +211,153 @@ class Sweep:
         return out
 
 
-def _unicode(sweep: Sweep, where: str, text: str) -> str:
+def _unicode(where: str, text: str) -> str:
     """``text`` if it is valid Unicode (what TOML and UTF-8 files can hold), else a SpecError."""
     try:
         text.encode("utf-8")
     except UnicodeEncodeError as exc:  # a lone surrogate, e.g. an undecodable byte of a file name
-        raise sweep.fail(f"{where} = {text!r}: not valid Unicode ({exc.reason} at character {exc.start})") from None
+        raise SpecError(f"{where} = {text!r}: not valid Unicode ({exc.reason} at character {exc.start})") from None
     return text
 
 
-def _scalar(sweep: Sweep, where: str, value: Any) -> Any:
+def _scalar(where: str, value: Any) -> Any:
     if _kind(value) is None:
-        raise sweep.fail(f"{where} = {value!r}: must be a number, a string or a boolean")
-    return _unicode(sweep, where, value) if isinstance(value, str) else value
+        raise SpecError(f"{where} = {value!r}: must be a number, a string or a boolean")
+    return _unicode(where, value) if isinstance(value, str) else value
 
 
-def _values(sweep: Sweep, key: str, values: Any) -> tuple:
-    where = f"grid.{key}"
+def _values(where: str, values: Any) -> tuple:
+    key = where.removeprefix("grid.")
     if not isinstance(values, (list, tuple)):
-        raise sweep.fail(f"{where} = {values!r}: must be an array of values, e.g. {key} = [{toml_literal(values) if _kind(values) else '0.5'}]")
+        raise SpecError(f"{where} = {values!r}: must be an array of values, e.g. {key} = [{toml_literal(values) if _kind(values) else '0.5'}]")
     if not values:
-        raise sweep.fail(f"{where} = []: empty grid; give at least one value")
-    kinds = {_kind(_scalar(sweep, f"{where}[{i}]", v)) for i, v in enumerate(values)}
+        raise SpecError(f"{where} = []: empty grid; give at least one value")
+    kinds = {_kind(_scalar(f"{where}[{i}]", v)) for i, v in enumerate(values)}
     if len(kinds) > 1:
-        raise sweep.fail(f"{where} = {list(values)!r}: mixes {', '.join(sorted(kinds))}; give values of one kind")
+        raise SpecError(f"{where} = {list(values)!r}: mixes {', '.join(sorted(kinds))}; give values of one kind")
     if kinds == {"number"} and any(isinstance(v, float) for v in values):
         values = [float(v) for v in values]  # one column type, and one point id per value
     return tuple(values)
 
 
-def _check_key(sweep: Sweep, where: str, key: str) -> None:
-    role = _key_role(key)
-    if role in ENGINE_NAMES and role not in sweep.engines:
-        raise sweep.fail(f"{where}: {key!r} is a {role} setting but {role} is not in engines = {list(sweep.engines)!r}")
+def _scene(where: str, value: Any) -> str:
+    """A built-in scene's name, or a scene file's path made absolute (the same file from any directory)."""
+    if not isinstance(value, str) or not value:
+        raise SpecError(f"{where} = {value!r}: must be a built-in scene ({', '.join(CATALOGUE)}) or a scene TOML path")
+    _unicode(where, value)
+    return str(Path(value).resolve()) if value not in CATALOGUE and Path(value).exists() else value
 
 
-def _validate(sweep: Sweep) -> None:
-    """Normalize the fields in place (frozen: through object.__setattr__) and check every point."""
-    set_ = lambda name, value: object.__setattr__(sweep, name, value)  # noqa: E731
-    if not isinstance(sweep.scene, str) or not sweep.scene:
-        raise sweep.fail(f"scene = {sweep.scene!r}: must be a built-in scene ({', '.join(CATALOGUE)}) or a scene TOML path")
-    _unicode(sweep, "scene", sweep.scene)
-    if sweep.scene not in CATALOGUE and Path(sweep.scene).exists():  # a file: the same one from any directory
-        set_("scene", str(Path(sweep.scene).resolve()))
-    engines = sweep.engines
-    if isinstance(engines, str) or not isinstance(engines, (list, tuple)) or not engines:
-        raise sweep.fail(f"engines = {engines!r}: must be a non-empty array of {', '.join(repr(e) for e in ENGINE_NAMES)}")
-    for e in engines:
-        if e not in ENGINE_NAMES:
-            raise sweep.fail(f"engines: {e!r} is not an engine; allowed: {', '.join(ENGINE_NAMES)}" + did_you_mean(str(e), ENGINE_NAMES))
-    if len(set(engines)) != len(engines):
-        raise sweep.fail(f"engines = {list(engines)!r}: lists an engine twice")
-    set_("engines", tuple(engines))
-    t = sweep.timeout
-    if not is_number(t) or not (t > 0 and math.isfinite(t)):
-        raise sweep.fail(f"timeout = {shown(t)}: must be a finite number of seconds > 0")
-    if t > MAX_TIMEOUT:  # past ~1e9 s the OS refuses the wait: a traceback from the first run
-        raise sweep.fail(f"timeout = {shown(t)}: must be in (0, {MAX_TIMEOUT:g}] seconds (one day at most)")
-    set_("timeout", float(t))
-    if not isinstance(sweep.description, str):
-        raise sweep.fail(f"description = {sweep.description!r}: must be a string")
-    _unicode(sweep, "description", sweep.description)
-    for name in ("fixed", "grid", "tolerances"):
-        if not isinstance(getattr(sweep, name), Mapping):
-            raise sweep.fail(f"{'set' if name == 'fixed' else name} = {getattr(sweep, name)!r}: must be a table")
-    fixed = {k: _scalar(sweep, f"set.{k}", v) for k, v in flatten(sweep.fixed).items()}
-    grid = {k: _values(sweep, k, v) for k, v in flatten(sweep.grid).items()}
-    if isinstance(sweep.points, Mapping) or not isinstance(sweep.points, (list, tuple)):
-        raise sweep.fail(f"points = {sweep.points!r}: must be an array of tables ([[points]])")
+def _engines(where: str, value: Any) -> tuple[str, ...]:
+    if isinstance(value, str) or not isinstance(value, (list, tuple)) or not value:
+        raise SpecError(f"{where} = {value!r}: must be a non-empty array of {', '.join(repr(e) for e in ENGINE_NAMES)}")
+    names = tuple(check_choice(f"{where}[{i}]", e, ENGINE_NAMES, SpecError) for i, e in enumerate(value))
+    if len(set(names)) != len(names):
+        raise SpecError(f"{where} = {list(names)!r}: lists an engine twice")
+    return names
+
+
+def _timeout(where: str, value: Any) -> float:
+    """[s] per run; past ~1e9 s the OS refuses the wait (a traceback from the first run), so one day at most."""
+    check_number(where, value, lo=0.0, lo_open=True, unit=" [s]", error=SpecError)
+    return check_number(where, value, lo=0.0, hi=MAX_TIMEOUT, lo_open=True, unit=" seconds (one day at most)", error=SpecError)
+
+
+def _flat(where: str, value: Any, check: Callable[[str, Any], Any]) -> dict[str, Any]:
+    """A table's dotted keys, each value through ``check``."""
+    return {k: check(f"{where}.{k}", v) for k, v in flatten(check_table(where, value, SpecError)).items()}
+
+
+def _points(where: str, value: Any) -> tuple[dict[str, Any], ...]:
+    if isinstance(value, Mapping) or not isinstance(value, (list, tuple)):
+        raise SpecError(f"{where} = {value!r}: must be an array of tables ([[points]])")
     points = []
-    for i, p in enumerate(sweep.points):
+    for i, p in enumerate(value):
         if not isinstance(p, Mapping):
-            raise sweep.fail(f"points[{i}] = {p!r}: must be a table of KEY = value")
-        flat = {k: _scalar(sweep, f"points[{i}].{k}", v) for k, v in flatten(p).items()}
-        if not flat:
-            raise sweep.fail(f"points[{i}]: empty; give at least one KEY = value")
-        points.append(flat)
+            raise SpecError(f"{where}[{i}] = {p!r}: must be a table of KEY = value")
+        points.append(_flat(f"{where}[{i}]", p, _scalar))
+        if not points[-1]:
+            raise SpecError(f"{where}[{i}]: empty; give at least one KEY = value")
+    return tuple(points)
+
+
+def _tolerances(where: str, value: Any) -> dict[str, Any]:
+    table = flatten(check_table(where, value, SpecError))
+    make_tolerances(table)  # ToleranceError: names the key and what is allowed
+    return table
+
+
+# The spec's keys: the Sweep field each sets, and the check that turns the file's value into the field's.
+# [refine] is checked after them: it names keys of [grid].
+FIELDS: dict[str, tuple[str, Callable[[str, Any], Any]]] = {
+    "scene": ("scene", _scene),
+    "engines": ("engines", _engines),
+    "timeout": ("timeout", _timeout),
+    "description": ("description", lambda where, v: _unicode(where, check_text(where, v, SpecError))),
+    "set": ("fixed", lambda where, v: _flat(where, v, _scalar)),
+    "grid": ("grid", lambda where, v: _flat(where, v, _values)),
+    "points": ("points", _points),
+    "tolerances": ("tolerances", _tolerances),
+}
+SPEC_KEYS = (*FIELDS, "refine")
+
+
+def _check_size(sweep: Sweep) -> None:
+    """Refuse a sweep with no points or more than ``MAX_RUNS`` runs (counted, never enumerated)."""
+    grid, points = sweep.grid, sweep.points
     if not grid and not points:
         raise sweep.fail("no points: give a [grid] of KEY = [values] or [[points]] tables")
-    n_grid = math.prod(len(v) for v in grid.values()) if grid else 0  # counted, never enumerated, before refusing
+    n_grid = math.prod(len(v) for v in grid.values()) if grid else 0
     runs = (n_grid + len(points)) * len(sweep.engines)
     if runs > MAX_RUNS:
         sizes = " x ".join(f"{k} ({len(v)})" for k, v in grid.items())
         raise sweep.fail(f"grid: {sizes} = {n_grid:.3g} points{f' + {len(points)} [[points]]' if points else ''}, x "
                          f"{len(sweep.engines)} engines = {runs:.3g} runs, more than {MAX_RUNS} a sweep; use fewer "
                          "values, or split the sweep into several specs")
-    for where, keys in [("set", fixed), ("grid", grid)] + [(f"points[{i}]", p) for i, p in enumerate(points)]:
+
+
+def _check_keys(sweep: Sweep) -> None:
+    """An engine's setting needs its engine in the sweep; a key is either fixed or varied."""
+    tables = [("set", sweep.fixed), ("grid", sweep.grid)] + [(f"points[{i}]", p) for i, p in enumerate(sweep.points)]
+    for where, keys in tables:
         for k in keys:
-            _check_key(sweep, f"{where}.{k}", k)
-            if where != "set" and k in fixed:
+            role = _key_role(k)
+            if role in ENGINE_NAMES and role not in sweep.engines:
+                raise sweep.fail(f"{where}.{k}: {k!r} is a {role} setting but {role} is not in engines = {list(sweep.engines)!r}")
+            if where != "set" and k in sweep.fixed:
                 raise sweep.fail(f"{where}.{k}: also in [set]; a key is either fixed or varied")
-    if sweep.refine is not None:  # its axes' values become floats: a split value is one, and one column type
-        set_("refine", make_refine(sweep.refine, grid, sweep.fail))
-        grid.update({a: tuple(float(v) for v in grid[a]) for a in sweep.refine.axes})
-    set_("fixed", fixed)
-    set_("grid", grid)
-    set_("points", tuple(points))
-    tol = flatten(sweep.tolerances)
-    try:
-        make_tolerances(tol)
-    except InputError as exc:  # ToleranceError: names the key and what is allowed
-        raise sweep.fail(str(exc)) from None
-    set_("tolerances", tol)
-    # every point's scene and settings, one key at a time first so the message names the key
+
+
+def _check_points(sweep: Sweep) -> None:
+    """Every point's scene and settings, one key at a time first so that the message names the key."""
+    fixed, grid = sweep.fixed, sweep.grid
     _resolve(sweep, fixed, "[set]")
     for k, values in grid.items():
         for v in values:
             _resolve(sweep, {**fixed, k: v}, f"grid.{k} = {toml_literal(v)}")
-    for i, p in enumerate(points):
+    for i, p in enumerate(sweep.points):
         _resolve(sweep, {**fixed, **p}, f"points[{i}]")
     if len(grid) > 1:  # combinations by axis: each numeric axis's extremes (the limits are monotone in each value)
         for p in _grid_product(_extremes(grid)):
             _resolve(sweep, {**fixed, **p}, "grid point " + ", ".join(f"{k} = {toml_literal(v)}" for k, v in p.items()))
+
+
+def _validate(sweep: Sweep) -> None:
+    """Normalize the fields in place (frozen: through object.__setattr__) and check every point."""
+    raw = {key: getattr(sweep, attr) for key, (attr, _) in FIELDS.items()}
+    try:
+        checked = check_fields(raw, {key: check for key, (_, check) in FIELDS.items()}, error=SpecError)
+    except InputError as exc:  # SpecError, and ToleranceError: each names the key and what is allowed
+        raise sweep.fail(str(exc)) from None
+    for key, (attr, _) in FIELDS.items():
+        object.__setattr__(sweep, attr, checked[key])
+    _check_size(sweep)
+    _check_keys(sweep)
+    if sweep.refine is not None:  # its axes' values become floats: a split value is one, and one column type
+        refine = make_refine(sweep.refine, sweep.grid, sweep.fail)
+        object.__setattr__(sweep, "refine", refine)
+        object.__setattr__(sweep, "grid", {**sweep.grid, **{a: tuple(float(v) for v in sweep.grid[a]) for a in refine.axes}})
+    _check_points(sweep)
 
 
 def _extremes(grid: Mapping[str, tuple]) -> dict[str, tuple]:

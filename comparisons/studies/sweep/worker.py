@@ -11,6 +11,8 @@ executor, so under a local process pool and under Dask alike a run that segfault
 ``crashed`` row, one past the timeout a ``timeout`` row, one that raises an ``error`` row.
 Runs go in units of a few runs of one engine (``work_units``); MuJoCo's compatible runs of
 a unit share one ``mujoco.rollout`` call, with the rows of runs made one by one, bit for bit.
+A run's settings object is made once (``task_settings``) and handed to the engine and to
+``compare`` alike.
 """
 
 from __future__ import annotations
@@ -25,7 +27,8 @@ from chatterbench.comparisons.pipeline.summary import failure_row, mass_ratio, s
 from chatterbench.comparisons.pipeline.tolerances import make_tolerances
 from chatterbench.engines.isolate import run_isolated
 from chatterbench.engines.registry import can_batch, engine_version, make_settings, run_engine_batch
-from chatterbench.reference.scene import load_scene
+from chatterbench.engines.trajectory import Trajectory
+from chatterbench.reference.scene import Scene, load_scene
 
 from .spec import RunTask
 
@@ -58,12 +61,22 @@ def _warm_up(task: RunTask) -> None:
         _WARM.update(todo)
 
 
+def task_settings(task: RunTask) -> Any:
+    """The run's engine settings object, made once from its dt and its own settings (TOML values, already typed)."""
+    return make_settings(task.engine, task.dt, task.engine_overrides())
+
+
+def _row(task: RunTask, scene: Scene, settings: Any, trajectory: Trajectory | None = None) -> dict[str, Any]:
+    """The row of one run: its comparison with ``settings`` (on ``trajectory`` when already run), summarized."""
+    result = compare(scene, engines=(task.engine,), settings={task.engine: settings},
+                     tol=make_tolerances(dict(task.tolerances)),
+                     trajectories=None if trajectory is None else {task.engine: trajectory})
+    return summarize(result, task.engine, dict(task.params))
+
+
 def _compute_row(task: RunTask) -> dict[str, Any]:
     """The row of one run (runs in the isolated child)."""
-    scene = load_scene(task.scene, task.scene_overrides())
-    result = compare(scene, engines=(task.engine,), dt=task.dt, overrides=task.engine_overrides(),
-                     tol=make_tolerances(dict(task.tolerances)))
-    return summarize(result, task.engine, dict(task.params))
+    return _row(task, load_scene(task.scene, task.scene_overrides()), task_settings(task))
 
 
 @dataclass(frozen=True)
@@ -99,14 +112,9 @@ def run_task(task: RunTask) -> RunResult:
 def _compute_batch_rows(tasks: Sequence[RunTask]) -> list[dict[str, Any]]:
     """The rows of runs of one engine, in one isolated child (MuJoCo: compatible runs in one rollout call)."""
     scenes = [load_scene(t.scene, t.scene_overrides()) for t in tasks]
-    settings = [make_settings(t.engine, t.dt, t.engine_overrides()) for t in tasks]
+    settings = [task_settings(t) for t in tasks]
     trajectories = run_engine_batch(tasks[0].engine, list(zip(scenes, settings)))
-    rows = []
-    for task, scene, traj in zip(tasks, scenes, trajectories):
-        result = compare(scene, engines=(task.engine,), dt=task.dt, overrides=task.engine_overrides(),
-                         tol=make_tolerances(dict(task.tolerances)), trajectories={task.engine: traj})
-        rows.append(summarize(result, task.engine, dict(task.params)))
-    return rows
+    return [_row(*job) for job in zip(tasks, scenes, settings, trajectories)]
 
 
 def run_batch_task(tasks: Sequence[RunTask]) -> list[RunResult]:

@@ -21,11 +21,16 @@ def test_gate_prints_the_time_since_the_command_started(tmp_path):
     # the old title "1 checks in 0.3 s" counted the checks' runs only, where the user waited for imports and files too
     (tmp_path / "g.toml").write_text(GATE)
     start = time.perf_counter()
-    done = subprocess.run([sys.executable, "-m", "chatterbench.comparisons.cli", "gate", str(tmp_path / "g.toml"),
-                           "--junit", str(tmp_path / "j.xml")], capture_output=True, text=True, timeout=300)
-    wall = time.perf_counter() - start
-    assert done.returncode == 0, done.stdout + done.stderr
-    printed = float(re.search(r"1 checks in ([\d.]+) s since the command started", done.stdout).group(1))
-    # all but the interpreter's exit after the last line (measured 0.34 s), to the print's 0.05 s rounding
-    assert wall - 0.5 <= printed + 0.05 <= wall + 0.05, (printed, wall)
-    assert printed >= 0.8 * wall, (printed, wall)
+    proc = subprocess.Popen([sys.executable, "-m", "chatterbench.comparisons.cli", "gate", str(tmp_path / "g.toml"),
+                             "--junit", str(tmp_path / "j.xml")], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+    printed = wall = None
+    for line in proc.stdout:  # the line is timed as it arrives: the interpreter's exit after it is no one's wait
+        found = re.search(r"1 checks in ([\d.]+) s since the command started", line)
+        if found:
+            printed, wall = float(found.group(1)), time.perf_counter() - start
+    err = proc.stderr.read()
+    assert proc.wait(timeout=300) == 0, err
+    assert printed is not None, err
+    # from the process's start to the print, to the print's 0.05 s rounding and the pipe's delivery
+    assert wall - 0.25 <= printed + 0.05 <= wall + 0.05, (printed, wall)

@@ -18,8 +18,10 @@ from chatterbench.reference.simulate import simulate
 def test_the_default_budget_refuses_no_built_in_work(name):
     scene = load_scene(name)
     for engine in ENGINE_NAMES:  # the default settings, and the finest dt tune tries
+        if unavailable_reason(engine):  # an engine not installed here (siconos needs a system package) has no settings
+            continue
         check_comparison(scene, {engine: make_settings(engine)}, Budget())
-        space = adapter(engine).tuning_space(scene) if not unavailable_reason(engine) else None
+        space = adapter(engine).tuning_space(scene)
         if space is not None:
             check_engine_run(scene, engine, min(space["dt"]), Budget())
 

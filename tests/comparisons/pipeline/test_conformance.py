@@ -5,7 +5,9 @@ import math
 import pytest
 
 from chatterbench.comparisons import compare, reference_trajectory
-from chatterbench.comparisons.pipeline.conformance import CONFORMANCE_COLUMNS, conformance, describe, parting
+from chatterbench.comparisons.pipeline.conformance import (CONFORMANCE_COLUMNS, conformance, describe, parting,
+                                                          same_model_pairs)
+from chatterbench.engines.registry import unavailable_reason
 from chatterbench.reference.scene import load_scene
 
 DT = 1e-4  # [s] the exact reference sampled finely: its sticking starts are its Zeno points to a step
@@ -46,3 +48,11 @@ def test_an_engine_not_in_the_comparison_is_a_key_error():
     _, result = _pair("bouncing-ball", [])
     with pytest.raises(KeyError, match="mujoco_warp"):
         conformance(result, "mujoco", "mujoco_warp")
+
+
+@pytest.mark.skipif(bool(unavailable_reason("mujoco_warp")), reason="needs the warp extra")
+def test_engines_on_one_model_are_the_pairs_their_adapters_declare():
+    # MuJoCo Warp's adapter says it runs MuJoCo's model (same_model_as); no other pair among the built-in engines does
+    assert same_model_pairs(("pybullet", "mujoco_warp", "mujoco")) == [("mujoco", "mujoco_warp")]
+    assert same_model_pairs(("mujoco", "pybullet")) == [] and same_model_pairs(("mujoco_warp",)) == []
+    assert same_model_pairs(("mujoco_warp", "no-such-engine")) == []

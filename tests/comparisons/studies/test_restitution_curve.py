@@ -146,7 +146,9 @@ def test_every_engine_of_the_registry_calibrates(engine):
         settings = make_settings(engine, dt=1e-4)
     except (AttributeError, ImportError) as exc:  # the registry names it, but its adapter is not there yet
         pytest.skip(f"{engine}: {exc}")
-    curve = restitution_curve(engine, settings, R, [0.1, 1.0])
+    # 0.25 m/s: a rebound of R x 0.25 m/s stays above DART's compiled-in 0.1 m/s threshold (its own tests
+    # check the drop below it, both ways)
+    curve = restitution_curve(engine, settings, R, [0.25, 1.0])
     assert (curve["status"] == "ok").all(), curve["message"].tolist()
     # a contact tuned for R gives a rebound near it at these speeds; the drift is the point of the
     # study, so only a loose band: a bounce, not a plastic or an energy-making one

@@ -12,13 +12,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from chatterbench.comparisons.outputs.atomic import write_frame, write_text
+from chatterbench.comparisons.pipeline.atomic import write_frame, write_text
 
 # a child that rewrites one Parquet file forever, alternating two contents of ~1.6 MB each
 WRITER = """
 import sys
 import numpy as np, pandas as pd
-from chatterbench.comparisons.outputs.atomic import write_frame
+from chatterbench.comparisons.pipeline.atomic import write_frame
 path = sys.argv[1]
 frames = [pd.DataFrame({"k": np.full(200_000, float(i)), "x": np.arange(200_000, dtype=float)}) for i in (1, 2)]
 write_frame(path, frames[0])
@@ -54,7 +54,7 @@ def test_failed_writer_keeps_the_old_file_and_no_temporary(tmp_path):
     def explode(_):
         raise Boom
 
-    from chatterbench.comparisons.outputs.atomic import write_with
+    from chatterbench.comparisons.pipeline.atomic import write_with
 
     with pytest.raises(Boom):
         write_with(path, explode)

@@ -4,7 +4,7 @@
     >>> import tempfile
     >>> from pathlib import Path
     >>> tmp = Path(tempfile.mkdtemp())
-    >>> from chatterbench.comparisons.outputs.atomic import write_text, write_frame
+    >>> from chatterbench.comparisons.pipeline.atomic import write_text, write_frame
     >>> write_text(tmp / "out" / "report.md", "# report").read_text()
     '# report'
     >>> write_frame(tmp / "out" / "episodes.csv", pd.DataFrame({"t": [0.5]})).name

@@ -1,0 +1,64 @@
+"""The reference cross-check: Siconos agrees with Feigin's model, a wrong run is caught, a missing Siconos is told."""
+
+from __future__ import annotations
+
+import pytest
+
+from chatterbench.comparisons.pipeline.cross_check import cross_check
+from chatterbench.engines.registry import available_engines
+from chatterbench.reference.scene import load_scene
+
+needs_siconos = pytest.mark.skipif("siconos" not in available_engines(), reason="no python with Siconos "
+                                   "(apt-get install python3-siconos, or CHATTERBENCH_SICONOS_PYTHON)")
+
+
+@needs_siconos
+def test_siconos_agrees_with_feigin_on_the_bouncing_ball():
+    check = cross_check(load_scene("bouncing-ball"), dt=1e-4)
+    assert check.ran and check.verdict == "match" and check.n_episodes == 1
+    # measured: first impact 0 (the step grid hits sqrt(2/g) to rounding), sticking -0.68 ms (Moreau-Jean rests
+    # 7 steps before the Zeno point); 2 ms is 20 steps, 0.15% of the chatter
+    assert abs(check.first_impact) < 1e-4 and abs(check.stick) < 2e-3
+    assert "sticking -0.678 ms" in check.line() and check.line().endswith(": match")
+
+
+@needs_siconos
+def test_a_wrong_trajectory_shows_large_differences():
+    from chatterbench.engines.siconos_engine import SiconosEngine, SiconosSettings
+
+    scene = load_scene("bouncing-ball")
+    wrong = SiconosEngine().run(load_scene("bouncing-ball", ["restitution=0.55"]), SiconosSettings(dt=1e-4))
+    check = cross_check(scene, trajectory=wrong)
+    # R 0.55 for 0.5 chatters longer: the Zeno point moves from 1.355 s to 1.555 s (measured +200 ms)
+    assert check.verdict != "match" and check.stick > 0.1
+    assert "sticking +200 ms" in check.line()
+
+
+def test_without_siconos_the_line_says_why(monkeypatch):
+    monkeypatch.setenv("CHATTERBENCH_SICONOS_PYTHON", "/nowhere/python3")
+    check = cross_check(load_scene("bouncing-ball"), dt=1e-4)
+    assert not check.ran and check.line().startswith("Reference cross-check not run: engine 'siconos' needs Siconos")
+    assert "apt-get install python3-siconos" in check.line()
+
+
+@needs_siconos
+def test_the_report_carries_the_line_per_scene():
+    from chatterbench.comparisons.outputs.report_page import build_report, report_html, report_markdown
+
+    report = build_report(["bouncing-ball"], engines=("pybullet",), dt=1e-3, progress=None)
+    (check,) = report.cross_checks
+    assert check.scene == "bouncing-ball" and check.dt == 1e-3 and check.verdict == "match"
+    assert check.line() in report_markdown(report)
+    assert '<p class="note cross-check">Reference cross-check, Siconos (Moreau-Jean, dt = 0.001 s)' in report_html(report)
+
+
+@needs_siconos
+def test_a_report_running_siconos_reuses_its_run():
+    from chatterbench.comparisons.outputs.report import build_report
+
+    report = build_report(["bouncing-ball"], engines=("siconos",), dt=1e-3, progress=None,
+                          engine_overrides=["siconos.theta=1"])
+    (check,) = report.cross_checks
+    row = report.summary.iloc[0]
+    # the report's own Siconos run (theta = 1 here, +3.9 ms) is the one checked, not a second run at the defaults
+    assert check.stick == row["stick_error_worst"] and check.stick > 0 and check.verdict == row["verdict"]
