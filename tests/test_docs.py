@@ -100,3 +100,14 @@ def test_one_spelling_of_colour_in_the_codes_own_names():
                 names += [t.id for t in targets if isinstance(t, ast.Name)]
         found += [f"{path.relative_to(ROOT)}: {n}" for n in names if "color" in n.lower()]
     assert not found, found
+
+
+def test_ci_runs_the_readmes_test_command_with_every_optional_extra():
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    command = next(line for line in readme.splitlines() if "pytest" in line and line.startswith("python3 -m pip"))
+    ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8").strip().splitlines()[-1]
+    assert ci == command.replace("pip install ", "pip install -q ", 1), (ci, command)
+    from chatterbench.engines.registry import BUILT_IN
+
+    extras = re.search(r'"\.\[([^\]]*)\]"', command).group(1).split(",")
+    assert {e.extra for e in BUILT_IN if e.extra} <= set(extras), extras  # every optional engine's tests run in CI

@@ -17,7 +17,8 @@ from pathlib import Path
 from chatterbench.comparisons.pipeline.atomic import write_frame, write_text
 from chatterbench.comparisons.pipeline.budget import check_engine_run, check_reference
 from chatterbench.comparisons.outputs.engine_files import write_engine_files
-from chatterbench.comparisons.studies.tune import MAX_RUNS, recommended, search_space, searched_text, tune
+from chatterbench.comparisons.studies.tune import (MAX_RUNS, neighbourhood_fails, recommended, search_space, searched_text,
+                                                   tune)
 from chatterbench.reference.scene import load_scene
 
 from .common import (UsageError, add_budget, add_out, add_scene, add_set, add_tolerance, budget_of, local_workers,
@@ -96,7 +97,8 @@ def answer_lines(result) -> list[str]:
     else:
         lines = [f"no robust setting in the searched space; best reachable: {c['settings']} ({cost}; "
                  f"{c['n_match']}/{c['n_episodes']} match; "
-                 + (f"its neighbours fail: {c['neighbourhood']}" if c.get("neighbourhood") else f"fails: {c['failed']}") + ")"]
+                 + (f"its neighbours fail: {c['neighbourhood']}" if c.get("neighbourhood") else
+                    f"its neighbourhood {unrun}" if (unrun := neighbourhood_fails(c)) else f"fails: {c['failed']}") + ")"]
     if f is not None and f["settings"] != c["settings"]:
         lines.append(f"fragile (an isolated pass: its neighbours fail): {f['settings']} ({f['steps_per_sim_s']:.4g} "
                      f"steps per simulated s); fails at {f['neighbourhood']}")

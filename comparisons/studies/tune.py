@@ -83,6 +83,7 @@ FINEST = 1e-3  # [-] the finest dt searched, as a fraction of the coarsest (the 
 FLIGHT_STEPS = 4  # the coarsest dt takes at least this many steps across the gap at the fastest strike
 MAX_RUNS = 600  # the search's budget: runs of up to UNIT_STEPS engine steps (a neighbourhood once begun is completed)
 UNIT_STEPS = 100_000  # a run of more steps counts as steps / UNIT_STEPS runs of the budget (its work)
+UNCHECKED = "not run: the budget was spent before this pass's neighbourhood (--max-runs)"
 DEPTH = 2  # refinement levels: the finest dt lattice is DT_RATIO apart, the coarse grid DT_RATIO ** 4
 # Wall time decides nothing: on this shared 2-core machine the least of 3 interleaved timings of PyBullet at
 # dt = 4.05e-4 with 10 and 50 solver iterations (identical trajectories) came out 1.10x apart in one measurement
@@ -393,6 +394,14 @@ def tune(
                              "tie_band": tie_band, "repeats": repeats, "wall_time_s": wall, "solution": ref})
 
 
+def neighbourhood_fails(c: dict[str, Any], checked: bool = True) -> str:
+    """Why a passing candidate is not robust: the neighbours that fail, or, for a pass whose neighbourhood the
+    budget left unrun (``robust`` None where neighbourhoods are ``checked``), ``UNCHECKED``; "" otherwise."""
+    if c.get("neighbourhood"):
+        return c["neighbourhood"]
+    return UNCHECKED if checked and agrees(c["verdict"]) and c.get("robust") is None else ""
+
+
 def recommended(result: TuneResult) -> dict[str, Any] | None:
     """``recommended.json``: the chosen candidate as ``compare --engines E --dt DT --set K=V ...`` takes it."""
     c = result.chosen
@@ -403,7 +412,8 @@ def recommended(result: TuneResult) -> dict[str, Any] | None:
            "settings": {k: _plain(c[k]) for k in keys}, "robust": bool(result.best is not None),
            "margin": _plain(result.margin), "scene_restitution_ratio": _plain(c.get("scene_restitution_ratio", math.nan)),
            "cost_steps_per_s": _plain(c["steps_per_sim_s"]),
-           "verdict": c["verdict"], "failed": c["failed"] or "", "neighbourhood_fails": c.get("neighbourhood") or "",
+           "verdict": c["verdict"], "failed": c["failed"] or "",
+           "neighbourhood_fails": neighbourhood_fails(c, result.extra["searched"]["robustness_checked"]),
            "tolerances": result.tolerance.as_dict(), "searched": {**result.extra["searched"],
                                                                   "wall_time_s": round(result.extra["wall_time_s"], 2)}}
     f = result.fragile

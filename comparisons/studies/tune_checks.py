@@ -24,8 +24,8 @@ holds a time-stepper to R). A run's impacts fall anywhere in a step and carry th
 run; a strike measures e where it is struck (MuJoCo's spring-damper at w0 dt = 0.1, dt = 3e-4
 loses 9.1% at the ball's 0.277 m/s under gravity, struck half-way through a step; the whole run's
 5th impact there measures -9.6% at the wall surface). A run with an episode that has no error to measure
-(``missed``, ``endless``, ``spurious``, a failure) has ``worst_ratio`` = inf: no tolerance
-makes it pass.
+(``missed``, ``endless``, ``spurious``, a failure, or ``unmeasured``: no resolved impact measurable to the
+restitution tolerance) has ``worst_ratio`` = inf: no tolerance of the other checks makes it pass.
 """
 
 from __future__ import annotations
@@ -57,6 +57,12 @@ RATIO_COLUMNS = [f"{name}_ratio" for name in CHECKS] + ["worst_ratio"]
 # m/s"), r_misses (the strikes beyond the tolerance, in words); NaN / "" without strikes
 STRIKE_COLUMNS = ["r_holds_from", "r_held_from", "r_struck", "r_misses"]
 MEASURED = ("agree", "timing", "impacts")  # verdict groups whose episodes have every error measured
+UNMEASURED = ("unmeasured",)  # in a measured group, but with no restitution error: the step measures no impact
+
+
+def _no_error(verdict: str) -> bool:
+    """Whether an episode of this verdict has an error left unmeasured (no tolerance of the checks makes it pass)."""
+    return verdict in VERDICTS and (VERDICTS[verdict].group not in MEASURED or verdict in UNMEASURED)
 
 
 def _signed_worst(series: pd.Series) -> float:
@@ -128,7 +134,7 @@ def check_ratios(table: pd.DataFrame, impacts: pd.DataFrame, tol: Tolerances, al
     for name, (field, _, _, _) in CHECKS.items():
         limit = 1.0 if name == "penetration" else float(getattr(tol, field))  # penetration is already a fraction of the allowance
         out[f"{name}_ratio"] = _ratio(values[name], limit)
-    unmeasured = any(VERDICTS[v].group not in MEASURED for v in table["verdict"] if v in VERDICTS)
+    unmeasured = any(_no_error(v) for v in table["verdict"])
     finite = [r for r in out.values() if not math.isnan(r)]
     out["worst_ratio"] = math.inf if unmeasured or not len(table) else (max(finite) if finite else 0.0)
     return {**out, **{f"{name}_value": v for name, v in values.items()}}
@@ -157,6 +163,6 @@ def describe_failures(table: pd.DataFrame, ratios: dict[str, Any], tol: Toleranc
             parts.append(f"{label} {value:+.3g}{scale} > {limit:g}")
     verdicts = table["verdict"].value_counts()
     for verdict, n in verdicts.items():
-        if verdict in VERDICTS and VERDICTS[verdict].group not in MEASURED:
+        if _no_error(verdict):
             parts.append(f"{n} {'episode' if n == 1 else 'episodes'} {verdict} ({VERDICTS[verdict].meaning})")
     return "; ".join(parts)

@@ -32,5 +32,6 @@ def test_gate_prints_the_time_since_the_command_started(tmp_path):
     err = proc.stderr.read()
     assert proc.wait(timeout=300) == 0, err
     assert printed is not None, err
-    # from the process's start to the print, to the print's 0.05 s rounding and the pipe's delivery
-    assert wall - 0.25 <= printed + 0.05 <= wall + 0.05, (printed, wall)
+    # from the process's start to the print: the true value is within the print's 0.05 s rounding of ``printed``,
+    # at most ``wall`` (the kernel's clocks tick in 0.01 s) and no more than the pipe's delivery below it
+    assert wall - 0.25 <= printed + 0.05 and printed - 0.05 <= wall + 0.02, (printed, wall)

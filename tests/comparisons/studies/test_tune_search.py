@@ -142,3 +142,17 @@ def test_bench_tune_reports_runs_and_wall_time_per_case():
     row = table.iloc[0]
     assert {"runs", "wall_s", "robust", "margin", "steps_per_sim_s", "answer", "fragile"} <= set(table.columns)
     assert 0 < row["runs"] <= 20 + 6 and row["wall_s"] > 0  # the budget, and a neighbourhood once begun
+
+
+def test_a_pass_left_unchecked_by_the_budget_says_so():
+    # before: a best reachable pass whose neighbourhood the budget left unrun went into recommended.json with
+    # "failed": "" and "neighbourhood_fails": "": robust false, and no reason
+    from chatterbench.comparisons.studies.tune import UNCHECKED, neighbourhood_fails
+
+    assert neighbourhood_fails({"verdict": "match", "robust": None, "neighbourhood": ""}) == UNCHECKED
+    # the other ways: a fragile pass names its failing neighbours, a failing candidate and a robust pass nothing,
+    # and where neighbourhoods were not asked for (check_robust False) nothing is said to be unrun
+    assert neighbourhood_fails({"verdict": "match", "robust": False, "neighbourhood": "dt x0.8: late"}) == "dt x0.8: late"
+    assert neighbourhood_fails({"verdict": "late", "robust": None, "neighbourhood": ""}) == ""
+    assert neighbourhood_fails({"verdict": "match", "robust": True, "neighbourhood": ""}) == ""
+    assert neighbourhood_fails({"verdict": "match", "robust": None, "neighbourhood": ""}, checked=False) == ""
