@@ -23,7 +23,7 @@ these promises for every engine, and ``tests/engines/test_contract.py`` checks t
   state, sample k the state after k steps, the last one at or before the scene's end;
 - a user mistake in the settings is refused (``SettingsError``) before the engine starts;
   anything that goes wrong inside the engine is a ``status`` (``Status``), never an
-  exception: any exception of ``simulate`` is ``error`` (``Diverged``: ``diverged``), a
+  exception: any exception of ``simulate`` is ``error`` (``Diverged``: ``diverged``; ``Crashed``: ``crashed``), a
   sample with a non-finite or huge (> ``MAXVAL``) state or a non-finite force ends the run
   as ``diverged`` there, a run that stops short is ``error``; the samples before are kept;
 - body 1 of infinite mass is filled in by the base (its prescribed motion, or at rest);
@@ -86,6 +86,11 @@ STATUS_MESSAGE = {
 
 class Diverged(RuntimeError):
     """Raised by an adapter's ``simulate`` when its engine itself reports a blow-up (MuJoCo's warnings)."""
+
+
+class Crashed(RuntimeError):
+    """Raised by an adapter's ``simulate`` when the process running its engine died (a child of the adapter killed
+    by a signal, as Siconos's): the run is ``crashed``, as an isolated run whose own process dies."""
 
 
 def n_steps(duration: float, dt: float) -> int:
@@ -176,7 +181,8 @@ class Recording:
         """The recorded samples with their status (module docstring: how a run is classified)."""
         status, message = Status.OK, ""
         if failure is not None:
-            status = Status.DIVERGED if isinstance(failure, Diverged) else Status.ERROR
+            status = (Status.DIVERGED if isinstance(failure, Diverged) else
+                      Status.CRASHED if isinstance(failure, Crashed) else Status.ERROR)
             message = f"{self.engine}: {type(failure).__name__}: {failure}".splitlines()[0]
         if self.cut:
             status, message = Status.DIVERGED, "; ".join(filter(None, (self.cut, message)))
@@ -236,7 +242,7 @@ class EngineAdapter(abc.ABC):
         """Build the engine's world for ``run.scene`` and ``run.settings``, step it ``run.n`` times and hand the
         samples (the initial state first) to ``run.add``, stopping when it returns False; add the stepping
         wall time to ``run.wall_time``. Raise (anything) for a failure of the engine, ``Diverged`` for a blow-up
-        the engine reports itself."""
+        the engine reports itself, ``Crashed`` when a process the adapter runs its engine in died."""
 
     @abc.abstractmethod
     def bare_seconds(self, scene: Scene, settings: Any, traj: Trajectory) -> float:

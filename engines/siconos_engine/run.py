@@ -16,10 +16,10 @@ numpy and Siconos's import: 0.08 to 0.27 s measured, README) on top of its steps
 
 Promises: a child that exits non-zero, dies of a signal or sends what is not the protocol
 raises ``SiconosFailure`` with one line saying which (its last stderr line), and the base
-makes it the run's ``error`` status with the samples before it; a run cut short by the base
-(a blow-up) or by an exception kills its child. Sample k is the state after k steps; the
-contact force of a wall at sample k is the LCP's impulse of that step over dt [N] (> 0: the
-wall pushed).
+makes it the run's ``error`` status (``crashed`` for a signal: ``SiconosCrash``) with the
+samples before it; a run cut short by the base (a blow-up) or by an exception kills its
+child. Sample k is the state after k steps; the contact force of a wall at sample k is the
+LCP's impulse of that step over dt [N] (> 0: the wall pushed).
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ import numpy as np
 
 from chatterbench.reference.scene import Scene
 
-from ..base import Recording
+from ..base import Crashed, Recording
 from ..trajectory import Trajectory
 from ..window import CHUNK
 from .protocol import ProtocolError, read_frames, request
@@ -56,6 +56,10 @@ _PROBE = "import numpy, siconos, siconos.kernel; print(siconos.version)"
 
 class SiconosFailure(RuntimeError):
     """The child failed: a non-zero exit, a signal, or a reply that is not the protocol; the message says which."""
+
+
+class SiconosCrash(SiconosFailure, Crashed):
+    """The child died of a signal (a segfault, the out-of-memory killer): the run is ``crashed``, not ``error``."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -146,7 +150,8 @@ class Child:
                 exit_ = f"killed by signal {-code}"
         else:
             exit_ = f"exited with code {code}"
-        return SiconosFailure("; ".join(filter(None, (f"the Siconos child {exit_}", why, last))))
+        kind = SiconosCrash if code < 0 else SiconosFailure
+        return kind("; ".join(filter(None, (f"the Siconos child {exit_}", why, last))))
 
 
 def _request(scene: Scene, settings: SiconosSettings, steps: int, bare: bool = False) -> dict:
