@@ -46,6 +46,7 @@ from typing import Any, ClassVar, Mapping, Sequence
 import numpy as np
 
 from chatterbench.reference.errors import check_integer
+from chatterbench.reference.forces import ForceModel
 from chatterbench.reference.scene import Scene
 
 from .faults import inject_planned
@@ -104,6 +105,29 @@ _count_steps = n_steps  # ``EngineAdapter.benchmark``'s argument has the name
 def sample_times(scene: Scene, dt: float) -> np.ndarray:
     """The sample times of a run [s], t0 + k dt for k = 0..n_steps(duration, dt); shape (n + 1,)."""
     return scene.initial.t + dt * np.arange(n_steps(scene.duration, dt) + 1)
+
+
+def force_plan(scene: Scene, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The scene's forces at the step starts ``t`` [s] as the affine map an engine loop applies each step
+    (``ForceModel.body_forces``): the time parts on body 1 and body 2 [N] (shape of ``t``) and the (2 x 4) gain
+    on (x1, v1, x2, v2); none on an infinite body 1 (its prescription, or rest, moves it)."""
+    time1, time2, gain = ForceModel.from_scene(scene).body_forces(t)
+    time1 = np.broadcast_to(time1, t.shape).astype(float)
+    time2 = np.broadcast_to(time2, t.shape).astype(float)
+    if scene.body1_infinite:
+        time1[:] = 0.0
+        gain[0, :] = 0.0
+    return time1, time2, gain
+
+
+def replayed_forces(scene: Scene, traj: Trajectory) -> tuple[np.ndarray, np.ndarray]:
+    """The forces [N] on body 1 and body 2 at each sample of the run ``traj`` (``force_plan`` at its states), summed
+    as the loops that apply them do, time part + (gain . state): a bare loop replays them bit for bit."""
+    time1, time2, g = force_plan(scene, traj.t)
+    s = (traj.x1, traj.v1, traj.x2, traj.v2)
+    f1, f2 = (part + (g[i, 0] * s[0] + g[i, 1] * s[1] + g[i, 2] * s[2] + g[i, 3] * s[3])
+              for i, part in enumerate((time1, time2)))
+    return f1, f2
 
 
 def failed_trajectory(engine: str, scene: Scene, status: str, message: str, settings: dict[str, Any] | None = None,

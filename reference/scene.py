@@ -41,7 +41,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from .errors import InputError, check_number, did_you_mean
+from .errors import InputError, check_number, check_text, did_you_mean
 from .tables import TooDeep, loads, printable, read_toml
 
 BODIES = ("body1", "body2", "coupling")
@@ -374,11 +374,8 @@ def scene_from_dict(data: Mapping[str, Any]) -> Scene:
     if not isinstance(forces, (list, tuple)):
         raise SceneError(f"forces = {forces!r}: must be an array of tables")
     prescribed = data.get("prescribed")
-    name = data.get("name", "scene")
-    if not isinstance(name, str):
-        raise SceneError(f"name = {name!r}: must be a string")
     return Scene(
-        name=name,
+        name=check_text("name", data.get("name", "scene"), SceneError),
         mass1=_mass1(data["mass1"]),
         mass2=data["mass2"],
         restitution=data["restitution"],
@@ -387,15 +384,8 @@ def scene_from_dict(data: Mapping[str, Any]) -> Scene:
         prescribed=None if prescribed is None else _section("prescribed", Prescribed, prescribed),
         initial=_section("initial", Initial, data.get("initial", {})),
         duration=data.get("duration", 1.0),
-        description=_text("description", data.get("description", "")),
+        description=check_text("description", data.get("description", ""), SceneError),  # [1, 2] is no description
     )
-
-
-def _text(key: str, value: Any) -> str:
-    """A text field as given; anything else refused (``description = [1, 2]`` is no description)."""
-    if not isinstance(value, str):
-        raise SceneError(f"{key} = {value!r}: must be a string")
-    return value
 
 
 def parse_value(text: str) -> Any:

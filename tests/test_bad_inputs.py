@@ -17,18 +17,17 @@ import banner), and absurd values that must end (refused, or a classified run) r
 
 from __future__ import annotations
 
-import io
 import os
 import subprocess
 import sys
 import tempfile
 import time
-from contextlib import contextmanager, redirect_stderr, redirect_stdout
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
 
-from chatterbench.comparisons.cli.main import main
+from helpers import cli, cli_process
 
 FILE = "bad.toml"  # argv placeholder for the case's scene file
 AFILE, ADIR = "afile", "adir"  # in every scratch directory: a file where a directory is wanted, and the reverse
@@ -411,17 +410,13 @@ def run_cli(argv: list[str], content: str | None) -> tuple[int, str]:
 
     A refusal writes nothing: the scratch directory must hold what it held before.
     """
-    out, err = io.StringIO(), io.StringIO()
-    with _scratch(content, CSV if CSV in argv else FILE) as tmp, redirect_stdout(out), redirect_stderr(err):
+    with _scratch(content, CSV if CSV in argv else FILE) as tmp:
         before = _tree(tmp)
-        try:
-            code = main(list(argv))
-        except SystemExit as exc:  # argparse's refusals
-            code = exc.code
+        done = cli(argv)
         left = _tree(tmp) - before
-    if code == 2:
+    if done.code == 2:
         assert not left, f"{argv}: refused, but left {sorted(left)}"
-    return code, err.getvalue()
+    return done.code, done.err
 
 
 def message(err: str) -> str:
@@ -494,8 +489,7 @@ def test_bench_of_warp_without_its_extra_is_refused():
 
 def test_pybullet_refusal_is_one_line_in_a_process():
     # importing pybullet writes "pybullet build time: ..." from C; the adapter silences it
-    proc = subprocess.run([sys.executable, "-m", "chatterbench.comparisons.cli", "run", "feigin-pair", "--engine", "pybullet",
-                           "--set", "pybullet.dt=-1"], capture_output=True, text=True, timeout=120)
+    proc = cli_process("run", "feigin-pair", "--engine", "pybullet", "--set", "pybullet.dt=-1", timeout=120)
     assert proc.returncode == 2
     assert proc.stderr.count("\n") == 1 and proc.stderr.startswith("chatterbench: error: "), proc.stderr
 
@@ -537,7 +531,6 @@ def markdown() -> str:
         shown = "" if content is None else f"`{_cell(describe_file(content))}`"
         code, err = run_cli(argv, content)
         out.append(f"| `{cid}` | {_cell(what)} | `{_cell(command)}` | {shown} | {_cell(message(err))} ({code}) |")
-    sys.path.insert(0, str(Path(__file__).resolve().parent))  # as pytest imports test modules
     import test_bad_outputs as outputs  # its scratch directory holds a pipe, a broken link, ...
 
     out += ["", "## Output destinations", "",

@@ -13,28 +13,30 @@ else escapes, and every refusal is quick (no read of a device, no wait on a pipe
 
 from __future__ import annotations
 
+import json
 import os
-import sys
 import time
 from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from test_fuzz_inputs import (GATE_BYTES, SCENE_BYTES, SWEEP_BYTES, assert_clean_refusal, check_gate_bytes,  # noqa: E402
-                              check_scene_bytes, check_sweep_bytes, cli)
+from chatterbench.comparisons.ci.gate import GateError, load_gate
+from chatterbench.comparisons.studies.sweep import SpecError, load_sweep
+from chatterbench.reference.scene import SceneError, load_scene
+from chatterbench.reference.tables import MAX_DEPTH, MAX_FILE_BYTES
 
-from chatterbench.comparisons.ci.gate import GateError, load_gate  # noqa: E402
-from chatterbench.comparisons.studies.sweep import SpecError, load_sweep  # noqa: E402
-from chatterbench.reference.scene import SceneError, load_scene  # noqa: E402
-from chatterbench.reference.tables import MAX_DEPTH, MAX_FILE_BYTES  # noqa: E402
+from helpers import cli
+from test_fuzz_inputs import (GATE_BYTES, SCENE_BYTES, SWEEP_BYTES, assert_clean_refusal, check_gate_bytes,
+                              check_scene_bytes, check_sweep_bytes)
 
 SCENE = SCENE_BYTES["feigin-pair"].decode()
 SWEEP = SWEEP_BYTES[sorted(SWEEP_BYTES)[0]].decode()
 GATE = GATE_BYTES[sorted(GATE_BYTES)[0]].decode()
 CHECKS = {"scene": check_scene_bytes, "sweep": check_sweep_bytes, "gate": check_gate_bytes}
 TEXTS = {"scene": SCENE, "sweep": SWEEP, "gate": GATE}
+
+
 @pytest.fixture(scope="module")
 def workdir(tmp_path_factory) -> Path:
     return tmp_path_factory.mktemp("hostile")
@@ -153,8 +155,6 @@ BAD_BASELINES = {  # before: the 100k-deep one raised RecursionError, the others
 
 
 def _gate_with_baseline(tmp_path: Path, baseline) -> tuple[int, str, float]:
-    import json
-
     (tmp_path / "g.toml").write_text(GATE_ONE)
     (tmp_path / "b.json").write_text(baseline if isinstance(baseline, str) else json.dumps(baseline))
     t0 = time.monotonic()
@@ -189,8 +189,6 @@ JSON = st.recursive(st.none() | st.booleans() | st.floats() | st.integers() | st
        value=JSON)
 def test_an_accepted_baseline_never_fails_later(tmp_path_factory, field, value):
     # validated whole on reading: whatever it accepts, the comparison and the versions note take without an error
-    import json
-
     from chatterbench.comparisons.ci.baseline import BaselineError, check_regressions, load_baseline, versions_note
 
     data = json.loads(json.dumps(BASE))

@@ -119,6 +119,10 @@ class CheckDecision:
     def failures(self) -> tuple[Item, ...]:
         return tuple(i for i in self.items if not i.passed)
 
+    def failure_line(self) -> str:
+        """Every failure's ``message`` on one line (JUnit's failure message, the ``::error`` annotation)."""
+        return "; ".join(i.message() for i in self.failures)
+
     def severity(self) -> tuple[int, float]:
         """(rank of the worst failure's kind, its excess); larger is worse, (-1, 0) for a pass."""
         return max(map(_rank, self.failures), default=(-1, 0.0))
@@ -200,6 +204,10 @@ class Decision:
     @property
     def n_regressed(self) -> int:
         return sum(i.kind == "regressed" for i in self.failures)
+
+    def baseline_line(self) -> str:
+        """``baseline PATH: engines now ...; baseline ...`` ("" without a baseline)."""
+        return f"baseline {self.baseline}: {self.versions}" if self.baseline else ""
 
     def worst(self) -> CheckDecision | None:
         """The failing check to look at first (module docstring), None when the gate passes."""

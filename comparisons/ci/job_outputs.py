@@ -56,7 +56,7 @@ def annotations(decision: Decision) -> list[str]:
     for c in decision.checks:
         if not c.passed:
             title = _escape(f"chatter gate {c.name}", property_=True)
-            out.append(f"::error title={title}::{_escape('; '.join(i.message() for i in c.failures))}")
+            out.append(f"::error title={title}::{_escape(c.failure_line())}")
     steps = decision.next_steps()
     if steps:
         out.append(f"::notice title={_escape('chatter gate: what to run next', property_=True)}::{_escape(chr(10).join(steps))}")

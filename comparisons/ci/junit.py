@@ -41,15 +41,15 @@ def _cases(decision: Decision) -> list[tuple[str, float, tuple[str, str, str] | 
     for c in decision.checks:
         failure = None
         if not c.passed:
-            text = c.account() + (f"\nbaseline {decision.baseline}: {decision.versions}" if decision.baseline else "")
-            failure = ("; ".join(i.message() for i in c.failures), "GateFailure", text)
+            text = c.account() + (f"\n{decision.baseline_line()}" if decision.baseline else "")
+            failure = (c.failure_line(), "GateFailure", text)
         row = c.result.row
         system_out = json.dumps({k: _json_value(row.get(k)) for k in ("scene", "engine", "dt", "status", "verdict",
                                  "n_episodes", "n_match", *METRIC_COLUMNS, "cost_per_sim_s", "engine_version")}, default=str)
         out.append((c.name, c.result.wall_s, failure, system_out))
         for i in c.failures:
             if i.kind == "regressed":
-                text = f"{c.name}: {i.message()}\nbaseline {decision.baseline}: {decision.versions}"
+                text = f"{c.name}: {i.message()}\n{decision.baseline_line()}"
                 out.append((f"{c.name}: {i.metric} against the baseline", 0.0, (i.message(), "GateRegression", text), None))
     return out
 

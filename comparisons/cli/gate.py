@@ -61,7 +61,7 @@ def cmd_gate(args: argparse.Namespace) -> int:
         if not c.passed:
             print("\n" + c.account())
     if decision.baseline:
-        print(f"\nbaseline {decision.baseline}: {decision.versions}")
+        print("\n" + decision.baseline_line())
     if os.environ.get("GITHUB_ACTIONS") == "true":  # workflow commands: annotations on the run's page
         for line in annotations(decision):
             print(line)

@@ -62,7 +62,7 @@ def cmd_tune(args: argparse.Namespace) -> int:
         # draws and reruns the chosen settings (the ladder, R(v)): only when files are asked for
         from chatterbench.comparisons.outputs.figures import write_figure
         from chatterbench.comparisons.outputs.guide import FIGURE_FILES, guide_figures, guide_html, guide_markdown, guide_section_html
-        from chatterbench.comparisons.studies.tune_evidence import evidence, settings_of
+        from chatterbench.comparisons.studies.tune_evidence import evidence
 
         rec = recommended(result)
         figures = guide_figures(result, evidence(result))
@@ -75,8 +75,7 @@ def cmd_tune(args: argparse.Namespace) -> int:
             write_frame(out / "candidates.csv", result.table)
             for name, fig in figures.items():
                 write_figure(fig, out, FIGURE_FILES[name])
-            exported = write_engine_files(result, out, settings_of(json.loads((out / "recommended.json").read_text()))
-                                          if rec is not None else None)
+            exported = write_engine_files(result, out)  # at recommended.json's settings (tune_evidence.chosen_settings)
         print(f"wrote {out / 'guide.md'}, " + ("recommended.json, " if rec else "") + "guide.html, guide_section.html, "
               "candidates.csv, " + ", ".join([*(f"{FIGURE_FILES[n]}.png/.svg" for n in figures), *exported]))
     print(f"tune took {waited_s():.1f} s since the command started (the search {result.extra['wall_time_s']:.1f} s)")

@@ -25,14 +25,13 @@ from chatterbench.comparisons.pipeline.atomic import write_text
 from chatterbench.engines.export import export_files, export_files_names
 
 
-def write_engine_files(result, out: Path, settings=None) -> list[str]:
+def write_engine_files(result, out: Path) -> list[str]:
     """Write the chosen settings' files under ``out / engine``; returns their paths relative to ``out``.
 
-    ``settings``: the settings to write (``tune_evidence.settings_of`` of ``recommended.json``); default
-    ``result``'s chosen ones, made the same way."""
+    The settings are ``recommended.json``'s (``tune_evidence.chosen_settings``)."""
     from chatterbench.comparisons.studies.tune_evidence import chosen_settings
 
-    settings = settings if settings is not None else chosen_settings(result)
+    settings = chosen_settings(result)
     if settings is None or not export_files_names(result.engine):
         return []
     written = []

@@ -153,7 +153,7 @@ def episode_errors_figure(comparison) -> Figure:
     last.set_xlabel("reference visit to a wall, in time (an unpaired engine episode sits between two)")
     tol = comparison.tolerances
     handles = [Line2D([], [], ls="none", marker="o", ms=6, color=engine_colour(name), label=name)
-               for k, name in enumerate(comparison.runs)]
+               for name in comparison.runs]
     # the judge never widens a band: an impact the step cannot measure to it is unmeasured (the top strip)
     handles.append(Patch(color="0.85", label=f"tolerance, never widened: stick {tol.stick:g}, exit {tol.exit:g}, "
                                              f"restitution {tol.restitution:g}"))

@@ -260,15 +260,16 @@ def guide_section_html(result, figures: dict[str, Figure] | None = None) -> str:
         return (f'<figure><img alt="{esc(name)}"{wide} src="data:image/png;base64,{png}">'
                 f"<figcaption>{esc(CAPTIONS[name])}</figcaption></figure>")
 
+    def code_block(code: str) -> str:
+        return f'<pre style="white-space: pre-wrap; background: #f6f6f6; padding: 0.6em"><code>{esc(code)}</code></pre>'
+
     text = snippet(result)
     if text:  # the snippet and, under it at the page's full width, what those settings do at every impact speed
-        parts += ["<h3>Paste</h3>",
-                  f'<pre style="white-space: pre-wrap; background: #f6f6f6; padding: 0.6em"><code>{esc(text)}</code></pre>']
+        parts += ["<h3>Paste</h3>", code_block(text)]
         parts += [html_figure(n) for n in figures if n in BESIDE_SNIPPET]
         check = measurement(result.engine)
         if check:
-            parts += ["<h3>Check it in your own model</h3>", f"<p>{_inline(_check_text(result.engine))}</p>",
-                      f'<pre style="white-space: pre-wrap; background: #f6f6f6; padding: 0.6em"><code>{esc(check)}</code></pre>']
+            parts += ["<h3>Check it in your own model</h3>", f"<p>{_inline(_check_text(result.engine))}</p>", code_block(check)]
     cheaper = result.cheaper()
     parts.append(f"<h3>Cheaper or as cheap candidates that fail ({len(cheaper)})</h3>")
     parts.append(_html_table(_candidates(cheaper, result.extra.get("defaults", {}))) if len(cheaper) else "<p>None: nothing cheaper was tried and failed.</p>")

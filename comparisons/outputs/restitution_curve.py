@@ -62,7 +62,7 @@ def place_labels(fig: Figure, ax, labels: list[tuple[float, float, str, str]], f
         outside = (box[0] < inside.x0) or (box[2] > inside.x1) or (box[1] < inside.y0) or (box[3] > inside.y1)
         return area + (1e9 if outside else 0.0)
 
-    for (x, y, text, color), _ in zip(labels, pts):
+    for x, y, text, color in labels:
         best = None
         for dx, dy in _OFFSETS:
             ann = ax.annotate(text, (x, y), textcoords="offset points", xytext=(dx, dy), fontsize=fontsize, color=color)

@@ -195,7 +195,7 @@ def panel_metrics(rows: pd.DataFrame, error: str | None = None) -> tuple[list[st
     with nothing measured, the one panel of ``error`` (it says why).
     """
     error = error or default_error(rows)
-    unit = "s" if error in FALLBACK["s"] or error == "stick_error_plate_max" else "rel"
+    unit = "s" if _in_seconds(error) else "rel"
     asked = list(dict.fromkeys([error, "stick_error_rel_max" if unit == "rel" else "stick_error_max"]))
     has = {m: m in rows and np.isfinite(pd.to_numeric(rows[m], errors="coerce")).any() for m in {*asked, *FALLBACK[unit]}}
     chosen, missing = [m for m in asked if has[m]], [m for m in asked if not has[m]]
@@ -261,10 +261,15 @@ def _folded_note(rows: pd.DataFrame) -> str:
     return "worst case over " + ", ".join(f"{c} ({rows[c].dropna().nunique()} values)" for c in varied)
 
 
+def _in_seconds(metric: str) -> bool:
+    """Whether ``metric`` is a time error [s] (else dimensionless: relative, restitution)."""
+    return metric in FALLBACK["s"] or metric == "stick_error_plate_max"
+
+
 def _reference_error(metric: str, error: float) -> str:
     """The reference's error on ``metric``'s panel in the metric's unit: seconds for a time metric; "exact" for a
     dimensionless one (relative, restitution: Newton's R holds exactly; ``error`` [s] is a time)."""
-    return f"error {error:.0e} s" if metric in FALLBACK["s"] or metric == "stick_error_plate_max" else "exact"
+    return f"error {error:.0e} s" if _in_seconds(metric) else "exact"
 
 
 def measured_reference_cost(rows: pd.DataFrame) -> float | None:
@@ -424,7 +429,7 @@ def _draw_tolerance(ax, tol: float) -> None:
 def _label_axes(ax, metric: str) -> None:
     ax.grid(True, which="major", color="0.9", lw=0.6)
     ax.set_xlabel("cost: wall-clock s per simulated s")
-    unit = " [s]" if metric in FALLBACK["s"] or metric == "stick_error_plate_max" else ""
+    unit = " [s]" if _in_seconds(metric) else ""
     ax.set_ylabel(f"worst |error|: {METRIC_LABELS.get(metric, metric)}{unit}")
     ax.set_title(f"error in {METRIC_LABELS.get(metric, metric).split(' (')[0]}", fontsize=10)
 

@@ -25,7 +25,7 @@ from chatterbench.engines.registry import make_settings, unavailable_reason
 from chatterbench.engines.trajectory import Trajectory
 from chatterbench.reference.scene import Scene
 
-from .compare import Comparison, judge_run
+from .compare import Comparison, EngineRun, judge_run
 from .solution import ReferenceSolution, solve
 from .summary import metrics, signed_worst
 from .tolerances import Tolerances
@@ -70,16 +70,20 @@ def cross_check(scene: Scene, dt: float | None = None, solution: ReferenceSoluti
                 tol: Tolerances | None = None, trajectory: Trajectory | None = None) -> CrossCheck:
     """Siconos at ``dt`` [s] (None: its default) against the reference of ``scene`` (``solution``: already solved);
     ``trajectory``: a Siconos run already made, judged instead of running one."""
-    settings_dt = dt
     reason = unavailable_reason(ENGINE)
     if reason and trajectory is None:
         return CrossCheck(scene.name, math.nan if dt is None else dt, reason=reason)
-    settings = make_settings(ENGINE, settings_dt) if not reason else None
+    settings = make_settings(ENGINE, dt) if not reason else None
     ref = solution if solution is not None else solve(scene)
     run, table, _ = judge_run(ref, ENGINE, settings, tol or Tolerances(), trajectory)
+    return _judged(scene.name, run, table)
+
+
+def _judged(scene: str, run: EngineRun, table) -> CrossCheck:
+    """The check of a judged Siconos ``run`` and its episodes' ``table`` (``judge.TABLE_COLUMNS``)."""
     worst, counts = signed_worst(table), metrics(table)
     return CrossCheck(
-        scene=scene.name, dt=float(run.settings.get("dt", math.nan)), verdict=counts["verdict"],
+        scene=scene, dt=float(run.settings.get("dt", math.nan)), verdict=counts["verdict"],
         n_match=counts["n_match"], n_episodes=counts["n_episodes"], first_impact=worst["first_impact_error_worst"],
         stick=worst["stick_error_worst"], exit=worst["exit_error_worst"], message=run.trajectory.message,
     )
@@ -87,6 +91,10 @@ def cross_check(scene: Scene, dt: float | None = None, solution: ReferenceSoluti
 
 def comparison_cross_check(comparison: Comparison, dt: float | None = None, tol: Tolerances | None = None) -> CrossCheck:
     """``cross_check`` of a comparison's scene against its solved reference, reusing its Siconos run when it has one
-    (then at that run's dt, else at ``dt`` [s]; None: Siconos's own)."""
-    ran = comparison.runs[ENGINE].trajectory if ENGINE in comparison.runs else None
-    return cross_check(comparison.scene, dt, comparison.solution, tol, ran)
+    (then at that run's dt, else at ``dt`` [s]; None: Siconos's own): judged at the comparison's tolerances, its
+    own episodes are the check, nothing is judged again."""
+    if ENGINE not in comparison.runs:
+        return cross_check(comparison.scene, dt, comparison.solution, tol)
+    if (tol or Tolerances()) == comparison.tolerances:
+        return _judged(comparison.scene.name, comparison.runs[ENGINE], comparison.table[comparison.table["engine"] == ENGINE])
+    return cross_check(comparison.scene, dt, comparison.solution, tol, comparison.runs[ENGINE].trajectory)

@@ -98,14 +98,15 @@ def _absmax(series) -> float:
     return float(vals.max()) if len(vals) else math.nan
 
 
-def _signed_worst(series) -> float:
+def worst_signed(series) -> float:
+    """The entry of largest magnitude, with its sign (the first of equal magnitudes); NaN when there is none."""
     vals = series.astype(float).dropna().to_numpy()
     return float(vals[abs(vals).argmax()]) if len(vals) else math.nan
 
 
 def signed_worst(table) -> dict[str, float]:
     """The signed worst errors (``SIGNED_COLUMNS``) of one engine's judged episodes (``judge.TABLE_COLUMNS``)."""
-    return {name: _signed_worst(table[source]) for name, source in SIGNED_COLUMNS.items()}
+    return {name: worst_signed(table[source]) for name, source in SIGNED_COLUMNS.items()}
 
 
 def metrics(table) -> dict[str, Any]:

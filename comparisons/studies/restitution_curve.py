@@ -94,6 +94,7 @@ from ..pipeline.extract import free_relative_acceleration
 from ..pipeline.impacts import restitution_error
 from ..pipeline.surface import surface_speed
 from ..pipeline.solution import ReferenceSolution, solve
+from ..pipeline.summary import worst_signed
 from ..pipeline.tolerances import Tolerances
 
 CURVE_COLUMNS = ["engine", "forces", "impact", "t", "wall", "speed", "restitution", "restitution_effective",
@@ -340,11 +341,9 @@ def impact_restitutions(engine: str, settings: Any, scene: Scene, solution: Refe
     ref = solution if solution is not None else solve(scene)
     _, table, pairs = judge_run(ref, engine, settings, tol or Tolerances(), trajectory)
     pairs = pairs.sort_values("t", kind="stable").reset_index(drop=True)
-    errors = table["restitution_error"].astype(float).dropna() if "restitution_error" in table else pd.Series(dtype=float)
+    reported = worst_signed(table["restitution_error"]) if "restitution_error" in table else math.nan
     worst = np.zeros(len(pairs), dtype=bool)
-    if len(errors) and len(pairs):
-        hit = np.flatnonzero(pairs["restitution_error"].to_numpy(dtype=float) == errors.loc[errors.abs().idxmax()])
-        worst[hit[:1]] = True
+    worst[np.flatnonzero(pairs["restitution_error"].to_numpy(dtype=float) == reported)[:1]] = True
     return pd.DataFrame({"engine": engine, "impact": np.arange(1, len(pairs) + 1), "t": pairs["t"],
                          "speed": pairs["v_minus"], "ref_speed": pairs["ref_v_minus"], "restitution": scene.restitution,
                          "restitution_effective": pairs["restitution"], "restitution_error": pairs["restitution_error"],

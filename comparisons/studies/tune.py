@@ -366,7 +366,7 @@ def tune(
     executor = executor or ProcessPoolExecutor(max_workers=workers)
     try:
         rows = search(_evaluator(executor, ref, engine, tol), grid, max_runs, tie_band, check_robust,
-                      weight=lambda p: max(1.0, scene.duration / p["dt"] / UNIT_STEPS))
+                      weight=lambda p: run_weight(scene, p["dt"]))
     finally:
         if own:
             executor.shutdown()
@@ -383,7 +383,7 @@ def tune(
             table.at[i, "cost_repeats"] = len(times)
         best = choose(table, tie_band)
     wall = time.perf_counter() - started
-    work = float((scene.duration / table["dt"] / UNIT_STEPS).clip(lower=1.0).sum())
+    work = float(sum(run_weight(scene, dt) for dt in table["dt"]))
     searched = {**grid.describe(), "runs": len(table), "max_runs": max_runs, "budget_used": round(work, 1),
                 "budget_spent": work >= max_runs - 1,
                 "levels": sorted({int(v) for v in table["level"].dropna()}), "robustness_checked": check_robust}
@@ -392,6 +392,11 @@ def tune(
                       extra={"space": space, "grid": grid, "searched": searched,
                              "defaults": {k: v[0] for k, v in space.items() if k != "dt"},
                              "tie_band": tie_band, "repeats": repeats, "wall_time_s": wall, "solution": ref})
+
+
+def run_weight(scene: Scene, dt: float) -> float:
+    """What one run at ``dt`` [s] costs of the budget: its steps / ``UNIT_STEPS``, at least one run."""
+    return max(1.0, scene.duration / dt / UNIT_STEPS)
 
 
 def neighbourhood_fails(c: dict[str, Any], checked: bool = True) -> str:

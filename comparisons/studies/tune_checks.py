@@ -36,6 +36,7 @@ from typing import Any
 import pandas as pd
 
 from ..pipeline.solution import ReferenceSolution
+from ..pipeline.summary import worst_signed
 from ..pipeline.tolerances import Tolerances
 from ..pipeline.vocabulary import VERDICTS
 from .restitution_curve import pinned_settings
@@ -65,12 +66,6 @@ def _no_error(verdict: str) -> bool:
     return verdict in VERDICTS and (VERDICTS[verdict].group not in MEASURED or verdict in UNMEASURED)
 
 
-def _signed_worst(series: pd.Series) -> float:
-    """The entry of largest magnitude, with its sign; NaN when there is none."""
-    vals = series.astype(float).dropna()
-    return float(vals.loc[vals.abs().idxmax()]) if len(vals) else math.nan
-
-
 def _ratio(value: float, limit: float) -> float:
     if math.isnan(value):
         return math.nan
@@ -95,8 +90,8 @@ def check_values(table: pd.DataFrame, impacts: pd.DataFrame, allowance: float,
     excess = impacts["excess"].astype(float).dropna() if "excess" in impacts else pd.Series(dtype=float)
     counts = (eps["resolved_impacts"] - eps["ref_resolved_impacts"]).abs() if len(eps) else pd.Series(dtype=float)
     return {
-        "stick": _signed_worst(eps["stick_error_rel"]), "first_impact": _signed_worst(eps["first_impact_error_rel"]),
-        "exit": _signed_worst(eps["exit_error_rel"]), "restitution": float(excess.max()) if len(excess) else math.nan,
+        "stick": worst_signed(eps["stick_error_rel"]), "first_impact": worst_signed(eps["first_impact_error_rel"]),
+        "exit": worst_signed(eps["exit_error_rel"]), "restitution": float(excess.max()) if len(excess) else math.nan,
         "impact_count": float(counts.max()) if len(counts) else math.nan,
         "penetration": float(table["penetration_max"].max()) / allowance if allowance > 0 and len(table) else math.nan,
         "scene_restitution": misses.value if misses else math.nan,

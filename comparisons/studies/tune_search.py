@@ -120,9 +120,6 @@ class Grid:
         return cls(dt=dt, knob=knob, knob_values=tuple(values), slices=slices, others=others,
                    depth=depth if len(coarse_dt) > 1 or knob is not None else 0)
 
-    def step(self, axis_len: int) -> int:
-        return 2 ** self.depth if axis_len > 1 else 1
-
     def params(self, s: int, i: int, j: int) -> dict[str, Any]:
         p = {"dt": self.dt[i], **self.slices[s]}
         if self.knob is not None:
@@ -192,8 +189,8 @@ class _Search:
     """The search's state: the rows by candidate, the budget left, the lattice labels."""
 
     def __init__(self, run_batch: Callable[[list[dict], str], list[dict]], grid: Grid, budget: float, band: float,
-                 check_robust: bool, weight: Callable[[dict], float]) -> None:
-        self.run_batch, self.grid, self.left, self.band, self.check = run_batch, grid, budget, band, check_robust
+                 weight: Callable[[dict], float]) -> None:
+        self.run_batch, self.grid, self.left, self.band = run_batch, grid, budget, band
         self.weight = weight
         self.rows: list[dict] = []
         self.seen: dict[tuple, dict] = {}
@@ -309,7 +306,7 @@ def search(run_batch: Callable[[list[dict], str], list[dict]], grid: Grid, budge
     ``check_robust`` False: no neighbourhood is run (every pass keeps ``robust`` None). ``weight(params)``:
     what a run costs of ``budget`` (module docstring).
     """
-    st = _Search(run_batch, grid, budget, band, check_robust, weight)
+    st = _Search(run_batch, grid, budget, band, weight)
     for i in grid.coarse(grid.dt):
         if st.left <= budget * (1.0 - COARSE_SHARE) or not st.affordable(1.0 / grid.dt[i]):
             break

@@ -65,14 +65,6 @@ class DartEngine(EngineAdapter):
         """DART's compiled-in rebound threshold [m/s], which no setting changes, beside the settings."""
         return {"bounce_threshold": BOUNCE_THRESHOLD}
 
-    def cost_lever(self, settings: DartSettings) -> str:
-        """``dt``: DART steps at a fixed step, one LCP per step."""
-        return "dt"
-
-    def contact_scales(self, scene: Scene, settings: DartSettings) -> tuple[float, float]:
-        """A rigid impulse contact has no duration and no frequency of its own: (0, inf)."""
-        return super().contact_scales(scene, settings)
-
     def tuning_space(self, scene: Scene) -> dict[str, tuple]:
         """dt from 1 ms down to 10 us; the LCP solver (Dantzig, DART's default, or PGS), the collision detector
         (FCL, DART's default, or DART's own) and split impulse. Defaults first."""

@@ -30,10 +30,9 @@ import time
 
 import numpy as np
 
-from chatterbench.reference.forces import ForceModel
 from chatterbench.reference.scene import Scene
 
-from ..base import Recording
+from ..base import Recording, force_plan
 from ..trajectory import Trajectory
 from ..window import CHUNK
 from .settings import DartSettings
@@ -55,13 +54,6 @@ def _wall_forces(result, walls: tuple[str, ...]) -> dict[str, float]:
     return out
 
 
-def _forces(model: ForceModel, scene: Scene, t: np.ndarray) -> tuple[list[float], list[float]]:
-    """The time parts [N] of the forces on body 1 and body 2 at the step starts ``t`` (``ForceModel.body_forces``)."""
-    time1, time2, _ = model.body_forces(t)
-    time1 = np.broadcast_to(time1, t.shape) * (0.0 if scene.body1_infinite else 1.0)  # no force moves an infinite body
-    return time1.tolist(), np.broadcast_to(time2, t.shape).tolist()
-
-
 def _prescribed(scene: Scene, t: np.ndarray, dt: float) -> tuple[list[float], list[float], list[float]]:
     """Body 1's prescribed position [m] and velocity [m/s] at the step starts ``t``, and its mean velocity [m/s] over
     each step (the joint's command: the body then ends each step on its path)."""
@@ -76,10 +68,7 @@ def _simulate(w: DartWorld, run: Recording) -> None:
     lists and eight gains, the contacts are read only in steps where DART found one."""
     scene, dt, n = run.scene, run.settings.dt, run.n
     world, j1, j2, walls = w.world, w.joint1, w.joint2, w.walls
-    model = ForceModel.from_scene(scene)
-    gain = model.body_forces(0.0)[2]
-    if scene.body1_infinite:
-        gain[0, :] = 0.0
+    gain = force_plan(scene, np.array([scene.initial.t]))[2]
     g10, g11, g12, g13, g20, g21, g22, g23 = (float(g) for g in gain.ravel())
     finite, prescribed = w.body1 == "finite", w.body1 == "prescribed"
     ini = scene.initial
@@ -88,7 +77,7 @@ def _simulate(w: DartWorld, run: Recording) -> None:
     for k0 in range(0, n, CHUNK):
         c = min(n, k0 + CHUNK) - k0
         starts = ini.t + dt * np.arange(k0, k0 + c)
-        time1, time2 = _forces(model, scene, starts)
+        time1, time2 = (part.tolist() for part in force_plan(scene, starts)[:2])
         if prescribed:
             px, pv, mean = _prescribed(scene, starts, dt)
         x1s, v1s, x2s, v2s = [x1] * (c + 1), [v1] * (c + 1), [x2] * (c + 1), [v2] * (c + 1)  # [0]: the chunk's start
@@ -139,10 +128,9 @@ def bare_seconds(scene: Scene, settings: DartSettings, traj: Trajectory) -> floa
     recorded and no contact read."""
     w = build(scene, settings)
     dt, n = settings.dt, len(traj.t) - 1
-    model = ForceModel.from_scene(scene)
     starts = traj.t[:-1]
-    time1, time2 = (np.array(f) for f in _forces(model, scene, starts))
-    g = model.body_forces(0.0)[2]
+    time1, time2, g = force_plan(scene, starts)
+    # summed as ``_simulate`` sums them (time part first, unlike ``base.replayed_forces``): the forces it applied
     s = [a[:-1] for a in (traj.x1, traj.v1, traj.x2, traj.v2)]
     f1 = (time1 + g[0, 0] * s[0] + g[0, 1] * s[1] + g[0, 2] * s[2] + g[0, 3] * s[3]).tolist()
     f2 = (time2 + g[1, 0] * s[0] + g[1, 1] * s[1] + g[1, 2] * s[2] + g[1, 3] * s[3]).tolist()

@@ -52,10 +52,6 @@ class PhysxEngine(EngineAdapter):
         """``step`` and one state read per step, replaying the run's forces (``run.bare_seconds``)."""
         return _run.bare_seconds(scene, settings, traj)
 
-    def cost_lever(self, settings: PhysxSettings) -> str:
-        """``dt``: PhysX steps at a fixed timestep."""
-        return "dt"
-
     def tuning_space(self, scene: Scene) -> dict[str, tuple]:
         """dt from 1 ms down to 10 us; the bounce threshold (the adapter's, then PhysX's own 2 m/s and two between),
         TGS or PGS, and the solver iterations (the adapter's 1 / 1 first, then PhysX's 4 and SAPIEN's 10 position

@@ -33,10 +33,9 @@ from typing import Callable
 
 import numpy as np
 
-from chatterbench.reference.forces import ForceModel
 from chatterbench.reference.scene import Scene
 
-from ..base import Recording
+from ..base import Recording, force_plan, replayed_forces
 from ..trajectory import Trajectory
 from ..window import CHUNK
 from .settings import PhysxSettings
@@ -48,17 +47,6 @@ IMPULSE_RELATIVE_TOLERANCE = 4.0 * 2.0**-23
 IMPULSE_ABSOLUTE_TOLERANCE = 1e-12  # [m/s]
 PACKED = 13  # float32 per dynamic body in PhysxCpuSystem.pack(): quaternion (4), position (3), velocities (3 + 3)
 POSITION, VELOCITY = 4, 7  # offsets of x and of x' in a body's block
-
-
-def _plan(scene: Scene, t: np.ndarray) -> tuple[list[float], list[float], np.ndarray]:
-    """The forces of steps starting at ``t`` [s]: time parts on body 1 and 2 [N] and the (2 x 4) state gain."""
-    time1, time2, gain = ForceModel.from_scene(scene).body_forces(t)
-    time1 = np.broadcast_to(time1, t.shape).astype(float)
-    time2 = np.broadcast_to(time2, t.shape).astype(float)
-    if scene.body1_infinite:
-        time1[:] = 0.0  # an infinite body 1 is moved by its prescription (or not at all), not by forces
-        gain[0, :] = 0.0
-    return time1.tolist(), time2.tolist(), gain
 
 
 def _offsets(world: PhysxWorld) -> tuple[int | None, int]:
@@ -118,7 +106,7 @@ def _simulate(world: PhysxWorld, run: Recording) -> None:
     f1 = np.zeros(3, np.float32)
     f2 = np.zeros(3, np.float32)
     torque = np.zeros(3, np.float32)
-    gain = _plan(scene, np.array([t0]))[2]
+    gain = force_plan(scene, np.array([t0]))[2]
     g10, g11, g12, g13, g20, g21, g22, g23 = (float(v) for v in gain.ravel())
     dep = bool(np.any(gain != 0.0))
     step, pack, contacts_of, isfinite = system.step, system.pack, system.get_contacts, math.isfinite
@@ -133,7 +121,7 @@ def _simulate(world: PhysxWorld, run: Recording) -> None:
         k1 = min(n, k0 + CHUNK)  # this chunk: steps k0 .. k1 - 1, samples k0 (known) .. k1
         c = k1 - k0
         times = t0 + dt * np.arange(k0, k1 + 1)
-        time1, time2, _ = _plan(scene, times[:-1])
+        time1, time2 = (part.tolist() for part in force_plan(scene, times[:-1])[:2])
         if prescribed is not None:
             px, pv = prescribed.position(times).tolist(), prescribed.velocity(times).tolist()
         cols = [[x1] * (c + 1), [v1] * (c + 1), [x2] * (c + 1), [v2] * (c + 1)]
@@ -191,10 +179,7 @@ def bare_seconds(scene: Scene, settings: PhysxSettings, traj: Trajectory) -> flo
     each driven body, the kinematic target of a prescribed body 1, ``step``, the state read as the run reads it), the forces
     replayed from the run's recorded states (the least any driver has to do), no contacts read, nothing recorded."""
     world = build(scene, settings)
-    time1, time2, g = _plan(scene, traj.t)
-    states = np.stack([traj.x1, traj.v1, traj.x2, traj.v2])
-    forces1 = (np.array(time1) + g[0] @ states).astype(np.float32)
-    forces2 = (np.array(time2) + g[1] @ states).astype(np.float32)
+    forces1, forces2 = (f.astype(np.float32) for f in replayed_forces(scene, traj))
     targets = None
     if world.kinematic:
         targets = [sapien.Pose([x, 0.0, 0.0]) for x in scene.prescribed.position(traj.t).tolist()]

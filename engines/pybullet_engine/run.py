@@ -25,10 +25,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from chatterbench.reference.forces import ForceModel
 from chatterbench.reference.scene import Scene
 
-from ..base import Recording
+from ..base import Recording, force_plan, replayed_forces
 from ..trajectory import Trajectory
 from ..window import CHUNK
 from .bullet import p
@@ -62,12 +61,7 @@ class _ForcePlan:
 
 def _force_plan(scene: Scene, t: np.ndarray) -> _ForcePlan:
     """The scene's force model as the affine map the loop applies (``ForceModel.body_forces``)."""
-    time1, time2, gain = ForceModel.from_scene(scene).body_forces(t)
-    time1 = np.broadcast_to(time1, t.shape).astype(float)
-    time2 = np.broadcast_to(time2, t.shape).astype(float)
-    if scene.body1_infinite:
-        time1[:] = 0.0  # an infinite body 1 is moved by its prescription, not by forces
-        gain[0, :] = 0.0
+    time1, time2, gain = force_plan(scene, t)
     return _ForcePlan(
         time1=time1,
         time2=time2,
@@ -260,11 +254,6 @@ def bare_seconds(scene: Scene, settings: PybulletSettings, traj: Trajectory) -> 
     (recomputed from its recorded states, bit for bit), so the two differ only by the
     adapter's own work (force evaluation, recording, contact queries).
     """
-    plan = _force_plan(scene, traj.t)
-    states = np.stack([traj.x1, traj.v1, traj.x2, traj.v2])
-    g = plan.gain
-    # Same operation order as the adapter loop, so the replayed forces are identical.
-    f1, f2 = (plan.time1 + (g[i, 0] * states[0] + g[i, 1] * states[1] + g[i, 2] * states[2] + g[i, 3] * states[3])
-              for i in (0, 1))
+    f1, f2 = replayed_forces(scene, traj)  # summed as the adapter loop sums them: identical
     with connect() as cid:
         return _raw_loop(scene, settings, build(scene, settings, cid), (f1.tolist(), f2.tolist()), len(traj.t) - 1)

@@ -64,14 +64,6 @@ class SiconosEngine(EngineAdapter):
         got = _run.interpreter()
         return got.version if isinstance(got, _run.Interpreter) else ""
 
-    def contact_scales(self, scene: Scene, settings: SiconosSettings) -> tuple[float, float]:
-        """Rigid impacts: no contact duration, no contact frequency."""
-        return 0.0, float("inf")
-
-    def cost_lever(self, settings: SiconosSettings) -> str:
-        """``dt``: one LCP per step."""
-        return "dt"
-
     def tuning_space(self, scene: Scene) -> dict[str, tuple]:
         """dt from 1 ms down to 10 us, and theta (Siconos's 0.5 first, then fully implicit 1)."""
         return {"dt": (1e-3, 3e-4, 1e-4, 3e-5, 1e-5), "siconos.theta": (0.5, 1.0)}

@@ -53,9 +53,14 @@ def test_the_report_carries_the_line_per_scene():
 
 
 @needs_siconos
-def test_a_report_running_siconos_reuses_its_run():
+def test_a_report_running_siconos_reuses_its_run(monkeypatch):
     from chatterbench.comparisons.outputs.report import build_report
+    from chatterbench.comparisons.pipeline import cross_check as module
 
+    def judged_again(*args, **kwargs):
+        raise AssertionError("the comparison's Siconos episodes are the check: nothing is judged again")
+
+    monkeypatch.setattr(module, "judge_run", judged_again)
     report = build_report(["bouncing-ball"], engines=("siconos",), dt=1e-3, progress=None,
                           engine_overrides=["siconos.theta=1"])
     (check,) = report.cross_checks
