@@ -44,8 +44,8 @@ REPEAT = {  # what one repeat is, and which counts
     "platemap": "one repeat = the whole grid of --strikes strikes; the best of --repeats counts (time of one repeat)",
     "sweep": "one sweep of --points points x 2 engines, once with --workers and once with 1 worker; the adaptive map "
              "of --refine and its full fine grid, once each with --workers (no repeats)",
-    "tune": "one tune per case of the tuning issue's grid, with --workers and at most --max-runs runs, timed from the "
-            "reference to the answer (no repeats)",
+    "tune": "one tune per case (the four built-in scenes x mujoco and pybullet), with --workers and at most --max-runs "
+            "runs, timed from the reference to the answer and its frontier (no repeats)",
 }
 
 
@@ -142,7 +142,8 @@ def _run_bench(args: argparse.Namespace, bar: Progress):
             _print_warp(args.worlds)
     elif args.what == "tune":
         figures = bench_tune(workers=args.workers, max_runs=args.max_runs)
-        print_table(figures, title="tune per case (runs, and wall time from the reference to the answer):")
+        print_table(figures, title="tune per case (runs, and wall time from the reference to the answer and its robust "
+                                   "frontier):")
     elif args.what == "platemap":
         figures = bench_platemap(strikes=args.strikes, repeats=args.repeats)
         print_table(pd.DataFrame([figures]), title="plate map, feigin-pair lower wall, reference exhaustive mode (best of repeats):")

@@ -48,6 +48,7 @@ def cmd_report(args: argparse.Namespace) -> int:
     check_dir("--out", args.out)
     from chatterbench.comparisons.outputs.report import SUMMARY_COLUMNS, SweepSection, build_report  # draws: loads matplotlib (0.7 s), so only when asked
     from chatterbench.comparisons.outputs.report_page import write_report
+    from chatterbench.comparisons.outputs.frontier_chart import read_frontiers
 
     scene_over, engine_over = split_overrides(args.set)
     tol = parse_tolerances(args.tolerance)
@@ -58,6 +59,7 @@ def cmd_report(args: argparse.Namespace) -> int:
             raise UsageError(f"--tune {d}: no guide_section.html there (write one with `chatterbench tune ... --out {d}`)")
         tuning.append(f.read_text(encoding="utf-8"))
     tuning = tuple(tuning)
+    frontiers = read_frontiers(args.tune or ())  # each tune's recommended.json: the frontier chart per scene
     sweeps = [SweepSection(str(d), load_rows(d)) for d in args.sweep or ()]  # bad input before any run
     scenes, engines = args.scenes or tuple(CATALOGUE), engine_list(args.engines)
     with Progress(len(scenes) * (1 + len(engines)) + 1, "report", unit="step") as bar:  # + 1: the figures and pages
@@ -67,7 +69,7 @@ def cmd_report(args: argparse.Namespace) -> int:
             command=_command_line(args), timeout=args.timeout, budget=budget_of(args), progress=bar.write, stage=bar.stage,
         )
         if tuning:
-            report = dataclasses.replace(report, tuning=tuning)
+            report = dataclasses.replace(report, tuning=tuning, frontiers=frontiers)
         bar.stage("figures and pages")
         with writing("--out", args.out):
             paths = write_report(report, Path(args.out))
@@ -88,5 +90,6 @@ def register(sub, formatter) -> None:
                    help="a sweep dataset (directory with rows.parquet, or a .parquet/.csv file): add its work-precision "
                         "chart and stability maps of the --engines; repeatable, one section each")
     p.add_argument("--tune", action="append", metavar="DIR", default=None,
-                   help="include the tuning guide that `chatterbench tune ... --out DIR` wrote (repeatable)")
+                   help="include the tuning guide that `chatterbench tune ... --out DIR` wrote, and its robust frontier "
+                        "in a chart per scene, one line per engine (repeatable)")
     p.set_defaults(func=cmd_report)

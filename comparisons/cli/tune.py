@@ -1,28 +1,31 @@
-"""``chatterbench tune``: the cheapest robust settings of one engine whose episodes all match, and a guide to paste them.
+"""``chatterbench tune``: per engine, the cheapest robust settings whose episodes all match, the robust frontier over a
+ladder of tolerances, and a guide to paste them.
 
-    $ chatterbench tune feigin-pair --engines mujoco --tolerance 0.05 --out out/tune-fp
+    $ chatterbench tune feigin-pair --engines mujoco,pybullet --tolerance 0.05 --out out/tune-fp
+    $ chatterbench tune bouncing-ball --engines mujoco --tolerance stick=0.03 --tolerance restitution=0.2 --max-cost 5000
 
-Exit codes: 0 a robust candidate met the tolerances (its neighbourhood too), 1 none did (the guide and
-recommended.json say the best reachable), 2 bad input.
+Each engine's answer leads with whether the asked tolerances have a robust setting and what is reachable
+(``studies.tune_answer.frontier_line``), then its frontier as a table. Exit codes: 0 every engine has a robust
+candidate at the asked tolerances (its neighbourhood too), 1 one has none (the guide and recommended.json say what
+is reachable, and the best reachable), 2 bad input.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import math
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-from chatterbench.comparisons.pipeline.atomic import write_frame, write_text
 from chatterbench.comparisons.pipeline.budget import check_engine_run, check_reference
-from chatterbench.comparisons.outputs.engine_files import write_engine_files
-from chatterbench.comparisons.studies.tune import (MAX_RUNS, neighbourhood_fails, recommended, search_space, searched_text,
-                                                   tune)
-from chatterbench.reference.scene import load_scene
+from chatterbench.comparisons.studies.tune import MAX_RUNS, search_space, tune
+from chatterbench.comparisons.studies.tune_answer import frontier_frame, frontier_line, neighbourhood_fails, searched_text
+from chatterbench.engines.registry import make_settings
+from chatterbench.reference.scene import load_scene, split_assignment
 
 from .common import (UsageError, add_budget, add_out, add_scene, add_set, add_tolerance, budget_of, local_workers,
-                     engine_list, integer_type, parse_tolerances, positive_int, print_table, split_overrides)
+                     engine_list, integer_type, parse_tolerances, positive_float, positive_int, print_table,
+                     split_overrides)
 from .paths import check_dir, writing
 from .progress import CountingExecutor, Progress, waited_s
 
@@ -34,52 +37,72 @@ SHOW_CHECKED = 12  # rows of the terminal's table
 def cmd_tune(args: argparse.Namespace) -> int:
     check_dir("--out", args.out)
     scene_over, engine_over = split_overrides(args.set)
-    if engine_over:
-        raise UsageError(f"--set {engine_over[0]}: tune searches the engine settings itself; set scene fields only")
     engines = engine_list(args.engines)
-    if len(engines) != 1:
-        raise UsageError(f"--engines {args.engines}: tune takes one engine at a time")
-    engine = engines[0]
+    strangers = [item for item in engine_over if split_assignment(item)[0].split(".", 1)[0] not in engines]
+    if strangers:
+        raise UsageError(f"--set {strangers[0]}: its engine is not among --engines {args.engines}")
     scene = load_scene(args.scene, scene_over)
     tol = parse_tolerances(args.tolerance)
-    budget = budget_of(args)  # the reference, then the finest candidate, before any run
+    budget = budget_of(args)  # the reference, then the finest candidate of each engine, before any run
     check_reference(scene, budget)
-    space = search_space(engine, scene, tol)
-    check_engine_run(scene, engine, min(space["dt"]), budget)
-    with Progress(None, f"tune {engine} on {scene.name}", unit="candidate") as bar, \
-            ProcessPoolExecutor(max_workers=local_workers(args.workers, budget.max_memory)) as pool:
-        result = tune(scene, engine, tol, space=space, executor=CountingExecutor(pool, bar), repeats=args.repeats,
-                      max_runs=args.max_runs)
+    spaces = {engine: fixed(engine, search_space(engine, scene, tol), engine_over) for engine in engines}
+    for engine, space in spaces.items():
+        within = [dt for dt in space["dt"] if 1.0 / dt <= args.max_cost]
+        if not within:
+            coarsest = max(space["dt"])
+            raise UsageError(f"--max-cost {args.max_cost:g}: no dt {engine} would search costs so little (the coarsest, "
+                             f"{coarsest:.3g} s, is {1 / coarsest:.3g} steps per simulated second): raise it")
+        check_engine_run(scene, engine, min(within), budget)
+    results = []
+    for engine in engines:
+        with Progress(None, f"tune {engine} on {scene.name}", unit="candidate") as bar, \
+                ProcessPoolExecutor(max_workers=local_workers(args.workers, budget.max_memory)) as pool:
+            result = tune(scene, engine, tol, space=spaces[engine], executor=CountingExecutor(pool, bar),
+                          repeats=args.repeats, max_runs=args.max_runs, max_cost=args.max_cost)
+        _print_result(result)
+        results.append(result)
+    if args.out:
+        from chatterbench.comparisons.outputs.tune_files import write_tune_files  # draws: only when files are asked for
+
+        out = Path(args.out)
+        with writing("--out", out):
+            written = write_tune_files(results, out)
+        print(f"wrote under {out}: " + ", ".join(written))
+    print(f"tune took {waited_s():.1f} s since the command started (the searches "
+          + ", ".join(f"{r.engine} {r.extra['wall_time_s']:.1f} s" for r in results) + ")")
+    return 0 if all(r.best is not None for r in results) else 1
+
+
+def fixed(engine: str, space: dict[str, tuple], items: list[str]) -> dict[str, tuple]:
+    """``space`` with the knobs that ``--set ENGINE.KNOB=VALUE`` items fix held at their value (a smaller search);
+    an item for an engine not tuned, or for a setting the engine does not search, is refused by name."""
+    for item in items:
+        key = split_assignment(item)[0]
+        if key.split(".", 1)[0] != engine:
+            continue
+        if key not in space:
+            knobs = ", ".join(k for k in space if k != "dt")
+            raise UsageError(f"--set {item}: {engine} searches {knobs}; --set fixes one of them (dt: --max-cost caps it)")
+        value = getattr(make_settings(engine, None, dict([split_assignment(item)])), key.split(".", 1)[1])
+        space = {**space, key: (value,)}
+    return space
+
+
+def _print_result(result) -> None:
+    """One engine's table of checked passes, the search's extent and the answer, as the terminal says them."""
+    print(f"{result.engine}: {frontier_line(result)}")
+    if result.frontier:
+        print_table(frontier_frame(result), title=f"the robust frontier of {result.engine} on {result.scene.name} (the "
+                                                  "cheapest robust setting at each tolerance level it reaches, cheapest "
+                                                  "first; exit and first impact move with stick):")
     checked = result.table[result.table["robust"].notna()].head(SHOW_CHECKED)
     if len(checked):
-        print_table(checked[SHOW], title=f"tune {engine} on {scene.name}; {tol.describe()}; the passes whose "
-                                         f"neighbourhood was run, cheapest first (every run: --out DIR/candidates.csv):")
+        print_table(checked[SHOW], title=f"tune {result.engine} on {result.scene.name}; {result.tolerance.describe()}; "
+                                         "the passes whose neighbourhood was run, cheapest first (every run: --out "
+                                         "DIR/candidates.csv):")
     print(f"searched: {searched_text(result)}")
     for line in answer_lines(result):
         print(line)
-    if args.out:
-        out = Path(args.out)
-        # draws and reruns the chosen settings (the ladder, R(v)): only when files are asked for
-        from chatterbench.comparisons.outputs.figures import write_figure
-        from chatterbench.comparisons.outputs.guide import FIGURE_FILES, guide_figures, guide_html, guide_markdown, guide_section_html
-        from chatterbench.comparisons.studies.tune_evidence import evidence
-
-        rec = recommended(result)
-        figures = guide_figures(result, evidence(result))
-        with writing("--out", out):
-            if rec is not None:  # first: the guide's files are written from what it says
-                write_text(out / "recommended.json", json.dumps(rec, indent=2) + "\n")
-            write_text(out / "guide.md", guide_markdown(result, figures))
-            write_text(out / "guide.html", guide_html(result, figures))
-            write_text(out / "guide_section.html", guide_section_html(result, figures))  # for `report --tune DIR`
-            write_frame(out / "candidates.csv", result.table)
-            for name, fig in figures.items():
-                write_figure(fig, out, FIGURE_FILES[name])
-            exported = write_engine_files(result, out)  # at recommended.json's settings (tune_evidence.chosen_settings)
-        print(f"wrote {out / 'guide.md'}, " + ("recommended.json, " if rec else "") + "guide.html, guide_section.html, "
-              "candidates.csv, " + ", ".join([*(f"{FIGURE_FILES[n]}.png/.svg" for n in figures), *exported]))
-    print(f"tune took {waited_s():.1f} s since the command started (the search {result.extra['wall_time_s']:.1f} s)")
-    return 0 if result.best is not None else 1
 
 
 def answer_lines(result) -> list[str]:
@@ -111,16 +134,22 @@ def register(sub, formatter) -> None:
     p = sub.add_parser("tune", help="find the cheapest engine settings whose episodes all match within the tolerances",
                        formatter_class=formatter)
     add_scene(p)
-    p.add_argument("--engines", "--engine", required=True, metavar="E", help="the engines to tune: one at a time")
+    p.add_argument("--engines", "--engine", required=True, metavar="E[,E...]",
+                   help="the engines to tune, comma-separated: one search and one frontier each")
     add_tolerance(p)
     p.set_defaults(tolerance=None)
     p.add_argument("--workers", type=positive_int, default=None, help="parallel candidate runs; None: all cores")
     p.add_argument("--max-runs", type=integer_type(1, 100_000), default=MAX_RUNS,
                    help="the search's budget: runs of up to 100,000 engine steps, a longer run counting as its steps / "
                         "100,000 (a neighbourhood once begun is completed)")
+    p.add_argument("--max-cost", type=positive_float, default=math.inf, metavar="STEPS_PER_S",
+                   help="a cap on the cost: no candidate of more engine steps per simulated second (1 / dt) is run or "
+                        "answered (its dt x 0.8 neighbour still checks it); default: none")
     p.add_argument("--repeats", type=integer_type(1, 100), default=3,
                    help="timed runs of the candidates the choice is between; the least wall time counts")
     add_set(p)
-    add_out(p, what="write recommended.json, guide.md, guide.html, candidates.csv and the figures (tradeoff, ladder, restitution_curve) under DIR")
+    add_out(p, what="write recommended.json (the answer and the robust frontier), guide.md, guide.html, candidates.csv and "
+                    "the figures (frontier, tradeoff, ladder, restitution_curve) under DIR; with several engines, each "
+                    "engine's under DIR/ENGINE and the frontier of all under DIR")
     add_budget(p)
     p.set_defaults(func=cmd_tune)

@@ -32,20 +32,26 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from chatterbench.comparisons.pipeline.vocabulary import COLOURS, text_colour
-from chatterbench.comparisons.studies.tune import passing, searched_text, short_label
+from chatterbench.comparisons.studies.tune import passing, short_label
+from chatterbench.comparisons.studies.tune_answer import FRAME_COLUMNS, frontier_frame, frontier_line, searched_text
 from chatterbench.comparisons.studies.tune_checks import CHECKS
 from chatterbench.engines.export import export_files_names, measurement
 from chatterbench.engines.registry import adapter
 
 from .figures import figure_bytes
+from .frontier_chart import frontier_figure
 from .ladder import ladder_figure
 from .style import PAGE_CSS  # the report page's style sheet: the guide reads like the report
 from .restitution_curve import restitution_curve_figure
 from .tradeoff import tradeoff_figure
 
-FIGURE_FILES = {"tradeoff": "tradeoff", "ladder": "ladder", "restitution_curve": "restitution_curve"}
+FIGURE_FILES = {"frontier": "frontier", "tradeoff": "tradeoff", "ladder": "ladder", "restitution_curve": "restitution_curve"}
+IN_FRONTIER = ("frontier",)  # drawn in the frontier's section, under its table
 BESIDE_SNIPPET = ("restitution_curve",)  # what the pasted settings do at every impact speed, drawn right after them
 CAPTIONS = {
+    "frontier": "The work-precision chart of robust settings: the steps per simulated second of the cheapest robust "
+                "setting against the tolerance it reaches, timing (left) and restitution (right), each point labelled "
+                "with the tolerance it reaches on the other axis; dashed: the asked tolerance.",
     "tradeoff": "The searched region as a map: dt (cost = 1 / dt) against the main knob, one panel per combination of "
                 "the other settings; each run owns its lattice cell (coarse runs large, refined ones small), coloured by "
                 "its verdict; the answer circled, fragile passes (isolated: a neighbour fails) crossed.",
@@ -93,7 +99,9 @@ def _check_markdown(result) -> list[str]:
 
 def guide_figures(result, ev=None) -> dict[str, Figure]:
     """The guide's figures by name (``FIGURE_FILES``): the trade-off, and with the evidence ``ev`` the ladder and R(v)."""
-    figs = {"tradeoff": tradeoff_figure(result)}
+    figs = {"frontier": frontier_figure({result.engine: result.frontier}, result.scene.name,
+                                        {"stick": result.tolerance.stick, "restitution": result.tolerance.restitution}),
+            "tradeoff": tradeoff_figure(result)}
     if ev is not None:
         figs["ladder"] = ladder_figure(ev.comparison)
         if ev.curve is not None:
@@ -130,7 +138,7 @@ def _answer(result) -> list[str]:
                         "table of every candidate, column \"neighbours that fail\".")
     else:
         why = (f"its neighbours fail: {c['neighbourhood']}" if c.get("neighbourhood") else f"it fails: {c['failed']}")
-        head = ["**No robust setting passes these tolerances in the searched space.**",
+        head = [f"**No robust setting passes these tolerances in the searched space.** {_sentence(result)}.",
                 f"Best reachable: `{c['settings']}`, {c['n_match']} of {c['n_episodes']} episodes match, verdict "
                 f"{c['verdict']}; {why}; cost {cost}."]
     f = result.fragile
@@ -140,6 +148,37 @@ def _answer(result) -> list[str]:
                     "a small change of the model can land on a failure.")
     ratios = ", ".join(f"{short} {_fmt(c.get(f'{name}_ratio', math.nan))}" for name, (*_, short) in CHECKS.items())
     return head + [f"Each check's worst error over its tolerance (1 = at the tolerance): {ratios}."] + _restitution_claim(result)
+
+
+def _sentence(result) -> str:
+    """The frontier's sentence with a capital, for the guide."""
+    line = frontier_line(result)
+    return line[:1].upper() + line[1:]
+
+
+def _frontier_markdown(result, figures: list[str]) -> list[str]:
+    """The frontier's section: its sentence, its table and its chart (Markdown)."""
+    lines = ["## Robust frontier", "", _frontier_note(result), ""]
+    frame = frontier_frame(result)
+    if len(frame):
+        lines += ["| " + " | ".join(FRAME_COLUMNS) + " |", "| " + " | ".join("---" for _ in FRAME_COLUMNS) + " |"]
+        lines += ["| " + " | ".join(f"`{v}`" if c == "settings" else _fmt(v) for c, v in row.items()) + " |"
+                  for _, row in frame.iterrows()]
+        lines.append("")
+    for name in (n for n in figures if n in IN_FRONTIER):
+        lines += [f"![{name}]({FIGURE_FILES[name]}.png)", "", f"*{CAPTIONS[name]}*", ""]
+    return lines
+
+
+def _frontier_note(result) -> str:
+    """What the frontier is, and the tightest levels reached (one paragraph)."""
+    reach = result.extra.get("tightest", {})
+    pct = lambda v: "none" if v is None else f"{100 * v:.3g}%"  # noqa: E731
+    return (f"{_sentence(result)}. Each row is the cheapest setting robust at its tolerances (it and every neighbour "
+            "pass there: dt x 0.8, x 1.25 and the knobs' neighbours), judged at those tolerances, so `compare` with "
+            "them and the row's settings says `match`; a level another row reaches as tightly and as cheaply is left "
+            f"out. Tightest reached robustly: stick {pct(reach.get('stick'))}, restitution {pct(reach.get('restitution'))} "
+            "(each at any level of the other; exit and first impact move with stick in the asked proportions).")
 
 
 def _restitution_claim(result) -> list[str]:
@@ -189,6 +228,7 @@ def guide_markdown(result, figures: dict | None = None) -> str:
              "fewest settings away from the engine's defaults, then the larger dt, then the wall-clock time (reported, "
              "never deciding by itself: on a busy machine it follows the load).", "", "## Answer", ""]
     lines += [line + "\n" for line in _answer(result)]
+    lines += _frontier_markdown(result, list(figures or ()))
     text = snippet(result)
     if text:
         lang = "xml" if text.lstrip().startswith("<") else "python"
@@ -201,7 +241,7 @@ def guide_markdown(result, figures: dict | None = None) -> str:
     cheaper = result.cheaper()
     lines += [f"## Cheaper or as cheap candidates that fail ({len(cheaper)})", ""]
     lines += [_md_table(_candidates(cheaper, result.extra.get("defaults", {}))) if len(cheaper) else "None: nothing cheaper was tried and failed.", ""]
-    for name in (n for n in figures if n not in BESIDE_SNIPPET):
+    for name in (n for n in figures if n not in BESIDE_SNIPPET + IN_FRONTIER):
         lines += md_figure(name)
     lines += [f"## Every candidate tried ({len(result.table)})", "", _md_table(_candidates(result.table, result.extra.get("defaults", {}))), ""]
     return "\n".join(lines)
@@ -233,6 +273,15 @@ def _html_table(frame: pd.DataFrame) -> str:
     return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(rows)}</tbody></table>"
 
 
+def _plain_html_table(frame: pd.DataFrame) -> str:
+    """A table of plain cells (the frontier's), numbers right-aligned, settings as code."""
+    head = "".join(f'<th class="{"text" if c == "settings" else "num"}">{html.escape(c)}</th>' for c in frame.columns)
+    rows = ["<tr>" + "".join(f'<td class="text"><code>{html.escape(str(v))}</code></td>' if c == "settings"
+                             else f'<td class="num">{html.escape(_fmt(v))}</td>' for c, v in row.items()) + "</tr>"
+            for _, row in frame.iterrows()]
+    return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(rows)}</tbody></table>"
+
+
 def _inline(markdown: str) -> str:
     """One Markdown sentence as HTML: ``code`` and **bold**, the rest escaped."""
     parts = markdown.split("`")
@@ -253,12 +302,17 @@ def guide_section_html(result, figures: dict[str, Figure] | None = None) -> str:
                      "among these runs, not beyond them.</p>")
     parts += [f"<p>{_inline(s)}</p>" for s in _answer(result)]
     figures = figures if figures is not None else {"tradeoff": tradeoff_figure(result)}
+    parts += ["<h3>Robust frontier</h3>", f"<p>{_inline(_frontier_note(result))}</p>"]
+    if result.frontier:
+        parts.append(_plain_html_table(frontier_frame(result)))
 
     def html_figure(name: str) -> str:
         png = base64.b64encode(figure_bytes(figures[name], "png")).decode()
         wide = ' style="width: 100%"' if name in BESIDE_SNIPPET else ""  # the R(v) figure at the page's full width
         return (f'<figure><img alt="{esc(name)}"{wide} src="data:image/png;base64,{png}">'
                 f"<figcaption>{esc(CAPTIONS[name])}</figcaption></figure>")
+
+    parts += [html_figure(n) for n in figures if n in IN_FRONTIER]
 
     def code_block(code: str) -> str:
         return f'<pre style="white-space: pre-wrap; background: #f6f6f6; padding: 0.6em"><code>{esc(code)}</code></pre>'
@@ -273,7 +327,7 @@ def guide_section_html(result, figures: dict[str, Figure] | None = None) -> str:
     cheaper = result.cheaper()
     parts.append(f"<h3>Cheaper or as cheap candidates that fail ({len(cheaper)})</h3>")
     parts.append(_html_table(_candidates(cheaper, result.extra.get("defaults", {}))) if len(cheaper) else "<p>None: nothing cheaper was tried and failed.</p>")
-    parts += [html_figure(n) for n in figures if n not in BESIDE_SNIPPET]
+    parts += [html_figure(n) for n in figures if n not in BESIDE_SNIPPET + IN_FRONTIER]
     parts += [f"<h3>Every candidate tried ({len(result.table)})</h3>", _html_table(_candidates(result.table, result.extra.get("defaults", {})))]
     return "\n".join(parts)
 

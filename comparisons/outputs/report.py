@@ -46,6 +46,7 @@ from chatterbench.comparisons.pipeline.tolerances import Tolerances, explain
 
 from .episode_errors import episode_errors_figure
 from .figures import figure_bytes
+from .frontier_chart import TunedFrontier, frontier_figure, scene_frontiers
 from .stability_map import stability_map_figure
 from .sweep_data import ChartError, at_defaults, parameter_columns
 from .ladder import ladder_figure
@@ -108,6 +109,7 @@ class Report:
     sweeps: tuple[SweepSection, ...] = ()  # every ``--sweep`` dataset, in the order given
     tuning: tuple[str, ...] = ()  # HTML sections written by `chatterbench tune --out DIR` (guide_section.html)
     cross_checks: tuple[CrossCheck, ...] = ()  # per scene, Siconos against Feigin's model (``pipeline.cross_check``)
+    frontiers: tuple[TunedFrontier, ...] = ()  # the robust frontiers of `--tune DIR` (``frontier_chart.read_frontiers``)
 
 
 def _stderr(line: str) -> None:
@@ -290,6 +292,24 @@ def scene_figures(report: Report) -> list[Figure]:
         out.append(Figure(f"episode-errors-{c.scene.name}", f"{c.scene.name}: every episode's sticking, exit and "
                           "restitution error per engine, as fractions of the episode's scales; grey: the tolerance",
                           _render(episode_errors_figure(c))))
+    return out
+
+
+def frontier_figures(report: Report) -> list[Figure]:
+    """Per scene with a tuned frontier (``Report.frontiers``), the work-precision chart of robust settings, one line
+    per engine (``frontier_chart.frontier_figure``), rendered; the report's scenes first, in order."""
+    order = [c.scene.name for c in report.comparisons]
+    scenes = order + sorted({f.scene for f in report.frontiers} - set(order))
+    out = []
+    for scene in scenes:
+        by_engine = scene_frontiers(report.frontiers, scene)
+        if not by_engine:
+            continue
+        asked = next(f.asked for f in report.frontiers if f.scene == scene)
+        out.append(Figure(f"frontier-{scene}", f"{scene}: the cheapest robust setting of each engine tuned (`chatterbench "
+                          "tune --out DIR`, given to the report with --tune DIR) against the tolerance it reaches, timing "
+                          "(left) and restitution (right); each point labelled with the other axis's tolerance; dashed: "
+                          "the tolerance asked of the first tune", _render(frontier_figure(by_engine, scene, asked))))
     return out
 
 

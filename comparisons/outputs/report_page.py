@@ -25,8 +25,8 @@ from chatterbench.comparisons.pipeline.vocabulary import COLOURS, MEANINGS, NAME
 
 from .style import PAGE_CSS
 
-from .report import (EPISODE_COLUMNS, HEADERS, SUMMARY_COLUMNS, Figure, Report, cell, engine_rows, plural,
-                     provenance_items, summary_frame, tolerance_line, build_report, scene_figures, sweep_figures,
+from .report import (EPISODE_COLUMNS, HEADERS, SUMMARY_COLUMNS, Figure, Report, cell, engine_rows, frontier_figures,
+                     plural, provenance_items, summary_frame, tolerance_line, build_report, scene_figures, sweep_figures,
                      sweep_rows)
 
 __all__ = ["build_report", "report_html", "report_markdown", "write_report"]
@@ -74,6 +74,7 @@ def _verdict_legend() -> str:
 def report_html(report: Report) -> str:
     """The report as one self-contained HTML document (figures embedded as base64 PNG)."""
     figures = {f.id: f for f in scene_figures(report)}
+    frontiers = {f.id: f for f in frontier_figures(report)}  # from --tune DIR: the robust frontier per scene
     checks = {k.scene: k for k in report.cross_checks}
     parts = [
         "<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
@@ -105,6 +106,8 @@ def report_html(report: Report) -> str:
         failed = {n: r.trajectory.message for n, r in c.runs.items() if r.trajectory.message}
         for n, msg in failed.items():
             parts.append(f'<p class="note">{html.escape(n)}: {html.escape(msg.splitlines()[0])}</p>')
+        if f"frontier-{name}" in frontiers:
+            parts.append(_img(frontiers.pop(f"frontier-{name}")))
     for i, section in enumerate(report.sweeps, 1):
         figs, notes = sweep_figures(section, report.engines)
         if i > 1:  # ids stay unique on the page
@@ -115,6 +118,7 @@ def report_html(report: Report) -> str:
                      f'(of {len(section.rows)} in the dataset).</p>')
         parts.extend(_img(f) for f in figs)
         parts.extend(f'<p class="note">{html.escape(n)}</p>' for n in notes)
+    parts.extend(_img(f) for f in frontiers.values())  # tuned scenes the report did not run
     parts.extend(report.tuning)  # tuning guides, as `chatterbench tune` wrote them
     parts.append('<h2 id="provenance">What produced this report</h2><table class="prov"><tbody>')
     for key, value in provenance_items(report):
@@ -139,6 +143,17 @@ def _md_table(frame: pd.DataFrame, columns: Sequence[str]) -> str:
     return "\n".join(lines)
 
 
+def _frontier_lines(report: Report, scene: str) -> list[str]:
+    """A scene's tuned frontiers as text (the chart is in index.html): per engine, its points, cheapest first."""
+    out = []
+    for f in (f for f in report.frontiers if f.scene == scene):
+        points = "; ".join(f"stick {100 * e['tolerances']['stick']:.3g}%, restitution "
+                           f"{100 * e['tolerances']['restitution']:.3g}% at {e['cost_steps_per_s']:,.0f} steps/s (dt "
+                           f"{e['dt']:g})" for e in f.frontier) or "nothing robust in the searched space"
+        out.append(f"Robust frontier of {f.engine} (`{f.source}`): {points}\n")
+    return out
+
+
 def report_markdown(report: Report) -> str:
     """The report's tables in Markdown (GitHub flavour), for issues and pull requests."""
     out = ["# chatterbench report", "",
@@ -150,6 +165,7 @@ def report_markdown(report: Report) -> str:
         out += [f"## {c.scene.name}", "", f"{tolerance_line(c)}.", "", _md_table(c.table, EPISODE_COLUMNS), ""]
         out += [f"{k.line()}\n" for k in report.cross_checks if k.scene == c.scene.name]
         out += [f"Conformance: {describe(c, a, b)}\n" for a, b in same_model_pairs(c.runs)]
+        out += _frontier_lines(report, c.scene.name)
     for section in report.sweeps:  # the charts are in index.html; here the verdicts they draw
         rows = sweep_rows(section, report.engines)
         counts = rows.groupby(["engine", "verdict"]).size().unstack(fill_value=0)
@@ -158,6 +174,9 @@ def report_markdown(report: Report) -> str:
                 "| engine | " + " | ".join(counts.columns) + " |", "|---|" + "---:|" * len(counts.columns)]
         out += [f"| {engine} | " + " | ".join(str(int(v)) for v in row) + " |" for engine, row in counts.iterrows()]
         out.append("")
+    ran = {c.scene.name for c in report.comparisons}
+    for scene in sorted({f.scene for f in report.frontiers} - ran):  # tuned scenes the report did not run
+        out += [f"## {scene} (tuned)", "", *_frontier_lines(report, scene)]
     out += ["## What produced this report", ""]
     for key, value in provenance_items(report):
         out.append(f"- {key}: `{value}`" if key == "command" else f"- {key}: {value}")

@@ -9,8 +9,8 @@
     (True, 'dt=0.0003, mujoco.w0_dt=0.1')
     >>> result.fragile["neighbourhood"]                       # its neighbours fail
     'dt x0.8: rebound; dt x1.25: late'
-    >>> result.table.loc[0, "failed"]                         # the cheapest candidate, and why it fails
-    'sticking error +0.122 of the chatter > 0.05'
+    >>> [(p["tolerances"]["stick"], p["tolerances"]["restitution"], p["dt"]) for p in result.frontier]  # what is robust
+    [(0.2, 0.2, 0.001)]
 
 ``outputs/guide.py`` turns the result into the tuning guide; ``recommended`` into ``recommended.json``.
 
@@ -72,10 +72,13 @@ from ..pipeline.compare import judge_run
 from ..pipeline.solution import ReferenceSolution, solve
 from ..pipeline.summary import METRIC_COLUMNS, metrics
 from ..pipeline.tolerances import Tolerances
-from .tune_checks import CHECKS, RATIO_COLUMNS, STRIKE_COLUMNS, check_ratios, describe_failures, scene_strikes, strike_summary
-from .tune_search import DT_RATIO, SEARCH_COLUMNS, Grid, agrees, round_dt, search
+from .tune_checks import RATIO_COLUMNS, STRIKE_COLUMNS, check_ratios, describe_failures, judged_margin, scene_strikes, strike_summary
+from .tune_frontier import answers, frontier_entries, frontier_sentence, tightest
+from .tune_ladder import Ladder, judge_levels, level_text
+from .tune_search import DT_RATIO, SEARCH_COLUMNS, Grid, agrees, need, round_dt, search
 
-TUNE_COLUMNS = ["stage", "dt", "settings", "verdict", "n_episodes", "n_match", "failed", *SEARCH_COLUMNS, *RATIO_COLUMNS,
+TUNE_COLUMNS = ["stage", "dt", "settings", "verdict", "n_episodes", "n_match", "failed", *SEARCH_COLUMNS, "passes",
+                "robust_at", "margins", "unjudged", *RATIO_COLUMNS,
                 *STRIKE_COLUMNS,
                 *METRIC_COLUMNS, "steps_per_sim_s", "cost_per_sim_s", "cost_repeats", "n_non_default", "status", "message"]
 TIE_BAND = 0.1  # [-] steps per simulated second within 10% of each other are a tie
@@ -83,7 +86,6 @@ FINEST = 1e-3  # [-] the finest dt searched, as a fraction of the coarsest (the 
 FLIGHT_STEPS = 4  # the coarsest dt takes at least this many steps across the gap at the fastest strike
 MAX_RUNS = 600  # the search's budget: runs of up to UNIT_STEPS engine steps (a neighbourhood once begun is completed)
 UNIT_STEPS = 100_000  # a run of more steps counts as steps / UNIT_STEPS runs of the budget (its work)
-UNCHECKED = "not run: the budget was spent before this pass's neighbourhood (--max-runs)"
 DEPTH = 2  # refinement levels: the finest dt lattice is DT_RATIO apart, the coarse grid DT_RATIO ** 4
 # Wall time decides nothing: on this shared 2-core machine the least of 3 interleaved timings of PyBullet at
 # dt = 4.05e-4 with 10 and 50 solver iterations (identical trajectories) came out 1.10x apart in one measurement
@@ -106,6 +108,7 @@ class TuneResult:
     best_reachable: dict[str, Any] | None  # when nothing robust passes: the closest (module docstring)
     extra: dict[str, Any] = field(default_factory=dict)  # space, grid, searched, defaults, tie band, repeats, wall time
     fragile: dict[str, Any] | None = None  # the cheapest pass whose neighbourhood fails, if cheaper than ``best``
+    frontier: list[dict[str, Any]] = field(default_factory=list)  # tune_frontier.frontier_entries, cheapest first
 
     @property
     def chosen(self) -> dict[str, Any] | None:
@@ -118,12 +121,7 @@ class TuneResult:
         smaller the more room; inf: an episode with no error to measure; NaN: none ran). Restitution under the
         scene's forces, which the judge does not check, is ``scene_restitution_ratio`` beside it."""
         c = self.chosen
-        if c is None:
-            return math.nan
-        if not math.isfinite(c["worst_ratio"]):
-            return math.inf
-        judged = [c.get(f"{name}_ratio", math.nan) for name in CHECKS if name != "scene_restitution"]
-        return max((float(r) for r in judged if not math.isnan(r)), default=0.0)
+        return math.nan if c is None else judged_margin(c)
 
     def cheaper(self, fragile: bool = False) -> pd.DataFrame:
         """The failing candidates no more expensive than the chosen one (steps within the tie band), cheapest first;
@@ -161,14 +159,23 @@ def short_label(row: dict[str, Any], defaults: dict[str, Any]) -> str:
     return ", ".join([f"dt={row['dt']:g}", *changed])
 
 
-def _evaluate(ref: ReferenceSolution, engine: str, params: dict, tol: Tolerances) -> dict[str, Any]:
-    """Run one candidate and judge it (runs in a worker process)."""
+def _evaluate(ref: ReferenceSolution, engine: str, params: dict, points: tuple[Tolerances, ...], asked: int,
+              bounds: list[float] | None = None) -> dict[str, Any]:
+    """Run one candidate, judge it at the asked tolerances ``points[asked]`` and at every ladder point where it can
+    still matter (``tune_search.need`` of the search's ``bounds``; all of them for an engine whose steps are not
+    1 / dt); in a worker process."""
+    tol = points[asked]
     settings = candidate_settings(engine, params)
     run, table, impacts = judge_run(ref, engine, settings, tol)
     strikes = scene_strikes(engine, settings, ref, tol, run.trajectory.settings) if run.status == "ok" else None
     ratios = check_ratios(table, impacts, tol, tol.penetration * ref.length_scale, strikes)
-    return {**params, "settings": settings_label(params), **metrics(table), **ratios, **strike_summary(strikes, tol),
-            "failed": describe_failures(table, ratios, tol), "steps_per_sim_s": steps_per_sim_s(engine, settings, run),
+    steps = steps_per_sim_s(engine, settings, run)
+    fixed = adapter(engine).cost_lever(settings) == "dt" and math.isfinite(steps)
+    judged = need(steps, bounds, asked) if bounds is not None and fixed else range(len(points))
+    levels = judge_levels(ref, engine, settings, run.trajectory, points, known={asked: (run, table, impacts)},
+                          only=judged)
+    return {**params, "settings": settings_label(params), **metrics(table), **ratios, **strike_summary(strikes, tol), **levels,
+            "failed": describe_failures(table, ratios, tol), "steps_per_sim_s": steps,
             "cost_per_sim_s": run.cost_per_sim_s, "cost_repeats": 1, "status": run.status, "message": run.trajectory.message}
 
 
@@ -187,14 +194,15 @@ def steps_per_sim_s(engine: str, settings: Any, run) -> float:
 def _refused(params: dict, exc: Exception) -> dict[str, Any]:
     """The row of a candidate whose settings the scene cannot run (e.g. past the stability limit)."""
     return {**params, "settings": settings_label(params), "verdict": "refused", "n_episodes": 0, "n_match": 0,
-            "failed": f"refused: {exc}", **{c: math.nan for c in [*RATIO_COLUMNS, *METRIC_COLUMNS]},
+            "failed": f"refused: {exc}", **{c: math.nan for c in [*RATIO_COLUMNS, *METRIC_COLUMNS]}, "passes": (), "margins": (),
+            "unjudged": (),
             "worst_ratio": math.inf, "cost_per_sim_s": math.nan, "cost_repeats": 0, "status": "refused", "message": str(exc)}
 
 
-def _evaluator(executor: Executor, ref: ReferenceSolution, engine: str, tol: Tolerances):
+def _evaluator(executor: Executor, ref: ReferenceSolution, engine: str, points: tuple[Tolerances, ...], asked: int):
     """A function running a batch of candidates in parallel, one row each, in order."""
-    def run_batch(batch: list[dict], stage: str) -> list[dict]:
-        futures = [executor.submit(_evaluate, ref, engine, p, tol) for p in batch]
+    def run_batch(batch: list[dict], stage: str, bounds: list[float] | None = None) -> list[dict]:
+        futures = [executor.submit(_evaluate, ref, engine, p, points, asked, bounds) for p in batch]
         rows = []
         for fut, params in zip(futures, batch):
             try:
@@ -230,13 +238,16 @@ def _tied(frame: pd.DataFrame, column: str, band: float) -> pd.DataFrame:
     return frame[frame[column] <= low * (1.0 + band)] if pd.notna(low) else frame
 
 
-def choose(table: pd.DataFrame, band: float = TIE_BAND) -> dict[str, Any] | None:
-    """The recommendation among ``table``'s robust passing candidates (module docstring); None if none.
+def choose(table: pd.DataFrame, band: float = TIE_BAND, max_cost: float = math.inf,
+           checked: bool = True) -> dict[str, Any] | None:
+    """The recommendation among ``table``'s robust passing candidates of at most ``max_cost`` steps per simulated
+    second (module docstring); None if none.
 
-    Where no neighbourhood was run (``robust`` missing or None everywhere), every pass counts.
+    ``checked`` False (no neighbourhood was run), or a table without ``robust``: every pass counts. Otherwise a pass
+    whose neighbourhood the budget left unrun is no answer.
     """
-    ok = table[passing(table["verdict"])]
-    if "robust" in ok and ok["robust"].notna().any():
+    ok = table[passing(table["verdict"]) & ~(table["steps_per_sim_s"] > max_cost)]
+    if "robust" in ok and checked:
         ok = ok[ok["robust"] == True]  # noqa: E712 (an object column: True, False or None)
     if ok.empty:
         return None
@@ -330,8 +341,11 @@ def tune(
     tie_band: float = TIE_BAND,
     max_runs: int = MAX_RUNS,
     check_robust: bool = True,
+    ladder: Ladder | None = Ladder(),
+    max_cost: float = math.inf,
 ) -> TuneResult:
-    """The cheapest robust settings of ``engine`` whose every episode passes within ``tolerance`` (module docstring).
+    """The cheapest robust settings of ``engine`` whose every episode passes within ``tolerance``, and the robust
+    frontier over a ladder of tolerances (module docstring).
 
     Parameters
     ----------
@@ -352,28 +366,40 @@ def tune(
         ``UNIT_STEPS`` (a pass's neighbourhood, once begun, is completed).
     check_robust : bool
         Run each pass's neighbourhood (False: every pass counts, ``robust`` stays None).
+    ladder : Ladder or None
+        The tolerance levels of the frontier (``tune_ladder``); None: the asked tolerances alone.
+    max_cost : float
+        No candidate of more steps per simulated second is run or answered [1/s] (> 0; inf: no cap).
     """
     check_engine(engine)
     tol = tolerance if isinstance(tolerance, Tolerances) else Tolerances(stick=tolerance, exit=tolerance, first_impact=tolerance)
     for name, value, lo in (("repeats", repeats, 1), ("refine_steps", refine_steps, 0), ("max_runs", max_runs, 1)):
         if not (isinstance(value, int) and value >= lo):
             raise TuneError(f"tune {name} = {value!r}: must be an integer >= {lo}")
+    if not max_cost > 0:
+        raise TuneError(f"tune max_cost = {max_cost!r}: must be > 0 steps per simulated second (inf: no cap)")
     started = time.perf_counter()
     ref = solve(scene)
     space = engine_space(engine, scene, space) if space is not None else search_space(engine, scene, tol, ref, refine_steps)
     grid = Grid.make(space, refine_steps)
+    if not any(1.0 / dt <= max_cost for dt in grid.dt):
+        raise TuneError(f"tune max_cost = {max_cost:g}: every dt searched costs more (the coarsest, {max(grid.dt):.3g} s, "
+                        f"is {1 / max(grid.dt):.3g} steps per simulated second)")
+    points = ladder.points(tol) if ladder is not None else (tol,)
+    asked = points.index(tol)
     own = executor is None
     executor = executor or ProcessPoolExecutor(max_workers=workers)
     try:
-        rows = search(_evaluator(executor, ref, engine, tol), grid, max_runs, tie_band, check_robust,
-                      weight=lambda p: run_weight(scene, p["dt"]))
+        done = search(_evaluator(executor, ref, engine, points, asked), grid, max_runs, tie_band, check_robust,
+                      weight=lambda p: run_weight(scene, p["dt"]), levels=[(p.stick, p.restitution) for p in points],
+                      asked=asked, max_cost=max_cost)
     finally:
         if own:
             executor.shutdown()
-    table = _frame(rows, space)
-    best = choose(table, tie_band)
+    table = _frame(done.rows, space)
+    best = choose(table, tie_band, max_cost, check_robust)
     if best is not None and repeats > 1:  # time the candidates the choice is between again, and choose again
-        ok = table[passing(table["verdict"])]
+        ok = table[passing(table["verdict"]) & (table["steps_per_sim_s"] <= max_cost)]
         ok = ok[ok["robust"] != False]  # noqa: E712
         tied = _tied(ok, cost_key(ok), tie_band).index
         more = _time(scene, engine, [{k: table.at[i, k] for k in space} for i in tied], repeats - 1)
@@ -381,15 +407,22 @@ def tune(
             times = [table.at[i, "cost_per_sim_s"], *times]
             table.at[i, "cost_per_sim_s"] = min(times)
             table.at[i, "cost_repeats"] = len(times)
-        best = choose(table, tie_band)
+        best = choose(table, tie_band, max_cost, check_robust)
     wall = time.perf_counter() - started
     work = float(sum(run_weight(scene, dt) for dt in table["dt"]))
-    searched = {**grid.describe(), "runs": len(table), "max_runs": max_runs, "budget_used": round(work, 1),
-                "budget_spent": work >= max_runs - 1,
+    found = answers(table, points, max_cost) if check_robust else {}
+    keys = [k for k in space if k != "dt"]
+    within = [dt for dt in grid.dt if 1.0 / dt <= max_cost] or list(grid.dt)
+    searched = {**grid.describe(), "dt": [min(within), max(within)], "runs": len(table), "max_runs": max_runs, "budget_used": round(work, 1),
+                "budget_spent": work >= max_runs - 1, "exhaustive": done.exhaustive, "lattice": done.lattice,
+                "lattice_run": done.lattice_run, "skipped_costlier": done.costlier, "max_cost": _plain(max_cost),
+                "capped": done.capped, "unchecked_passes": done.unchecked,
                 "levels": sorted({int(v) for v in table["level"].dropna()}), "robustness_checked": check_robust}
     return TuneResult(scene=scene, engine=engine, tolerance=tol, table=table, best=best,
                       best_reachable=None if best is not None else reachable(table), fragile=fragile(table, best),
-                      extra={"space": space, "grid": grid, "searched": searched,
+                      frontier=frontier_entries(found, points, keys),
+                      extra={"space": space, "grid": grid, "searched": searched, "points": points, "asked": asked,
+                             "answers": found, "tightest": tightest(found, points), "ladder": ladder,
                              "defaults": {k: v[0] for k, v in space.items() if k != "dt"},
                              "tie_band": tie_band, "repeats": repeats, "wall_time_s": wall, "solution": ref})
 
@@ -397,53 +430,6 @@ def tune(
 def run_weight(scene: Scene, dt: float) -> float:
     """What one run at ``dt`` [s] costs of the budget: its steps / ``UNIT_STEPS``, at least one run."""
     return max(1.0, scene.duration / dt / UNIT_STEPS)
-
-
-def neighbourhood_fails(c: dict[str, Any], checked: bool = True) -> str:
-    """Why a passing candidate is not robust: the neighbours that fail, or, for a pass whose neighbourhood the
-    budget left unrun (``robust`` None where neighbourhoods are ``checked``), ``UNCHECKED``; "" otherwise."""
-    if c.get("neighbourhood"):
-        return c["neighbourhood"]
-    return UNCHECKED if checked and agrees(c["verdict"]) and c.get("robust") is None else ""
-
-
-def recommended(result: TuneResult) -> dict[str, Any] | None:
-    """``recommended.json``: the chosen candidate as ``compare --engines E --dt DT --set K=V ...`` takes it."""
-    c = result.chosen
-    if c is None:
-        return None
-    keys = [k for k in result.extra["space"] if k != "dt"]
-    out = {"engine": result.engine, "scene": result.scene.name, "dt": float(c["dt"]),
-           "settings": {k: _plain(c[k]) for k in keys}, "robust": bool(result.best is not None),
-           "margin": _plain(result.margin), "scene_restitution_ratio": _plain(c.get("scene_restitution_ratio", math.nan)),
-           "cost_steps_per_s": _plain(c["steps_per_sim_s"]),
-           "verdict": c["verdict"], "failed": c["failed"] or "",
-           "neighbourhood_fails": neighbourhood_fails(c, result.extra["searched"]["robustness_checked"]),
-           "tolerances": result.tolerance.as_dict(), "searched": {**result.extra["searched"],
-                                                                  "wall_time_s": round(result.extra["wall_time_s"], 2)}}
-    f = result.fragile
-    out["fragile"] = None if f is None else {"dt": float(f["dt"]), "settings": {k: _plain(f[k]) for k in keys},
-                                             "cost_steps_per_s": _plain(f["steps_per_sim_s"]),
-                                             "neighbourhood_fails": f["neighbourhood"]}
-    return out
-
-
-def searched_text(result: TuneResult) -> str:
-    """How far the search looked, in one sentence: runs, ranges, refinement, budget (the guide and the terminal)."""
-    x = result.extra["searched"]
-    grid: Grid = result.extra["grid"]
-    parts = [f"dt {x['dt'][0]:.3g}..{x['dt'][1]:.3g} s ({x['dt_coarse']} coarse values"
-             + (f", {DT_RATIO:g}x apart at the finest)" if x["dt_finest_ratio"] else ")")]
-    if grid.knob is not None:
-        lo, hi = x[grid.knob]
-        parts.append(f"{grid.knob.split('.', 1)[-1]} {lo:.3g}..{hi:.3g} ({x[grid.knob + '_coarse']} coarse values)")
-    parts += [f"{k.split('.', 1)[-1]} {'/'.join(f'{v:g}' if isinstance(v, float) else str(v) for v in vals)}"
-              for k, vals in grid.others.items()]
-    levels = max([lv for lv in x["levels"] if lv > 0], default=0)
-    return (f"{x['runs']} runs covering {', '.join(parts)}; refined {levels} of {x['refine_depth']} levels where verdicts "
-            f"change and around the best; budget {x['max_runs']} runs of up to {UNIT_STEPS:,} steps, "
-            f"{x['budget_used']:g} used" + (" (spent)" if x["budget_spent"] else "")
-            + ("" if x["robustness_checked"] else "; neighbourhoods not run"))
 
 
 def _plain(v: Any) -> Any:

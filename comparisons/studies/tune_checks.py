@@ -135,6 +135,16 @@ def check_ratios(table: pd.DataFrame, impacts: pd.DataFrame, tol: Tolerances, al
     return {**out, **{f"{name}_value": v for name, v in values.items()}}
 
 
+def judged_margin(ratios: dict[str, Any]) -> float:
+    """The worst error over its tolerance among the judge's checks (``check_ratios``'s dict or a tune row) [-]:
+    <= 1 passes, the smaller the more room; inf for an episode with no error to measure. Restitution under the
+    scene's forces, which the judge does not check, is left out."""
+    if not math.isfinite(ratios["worst_ratio"]):
+        return math.inf
+    judged = [ratios.get(f"{name}_ratio", math.nan) for name in CHECKS if name != "scene_restitution"]
+    return max((float(r) for r in judged if not math.isnan(r)), default=0.0)
+
+
 def describe_failures(table: pd.DataFrame, ratios: dict[str, Any], tol: Tolerances) -> str:
     """The checks that failed, each with its measure and tolerance, and the episodes with no measure; "" if none.
 

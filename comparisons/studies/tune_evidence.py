@@ -34,7 +34,7 @@ from chatterbench.reference.errors import InputError
 from ..pipeline.compare import Comparison, compare
 from .restitution_curve import default_speeds, impact_restitutions, pinned_settings, restitution_curve
 from .tune_checks import scene_strikes
-from .tune import recommended
+from .tune_answer import recommended
 
 
 @dataclass(frozen=True)

@@ -1,10 +1,10 @@
 """The order in which ``tune`` tries candidates: a joint grid over dt and every knob, refined, and each pass's neighbourhood.
 
     >>> from chatterbench.comparisons.studies.tune_search import Grid, search
-    >>> def run_batch(batch, stage):      # a stand-in judge: passes for dt in [1e-4, 6e-4] whatever w
+    >>> def run_batch(batch, stage, bounds):      # a stand-in judge: passes for dt in [1e-4, 6e-4] whatever w
     ...     return [{**p, "verdict": "match" if 1e-4 <= p["dt"] <= 6e-4 else "late"} for p in batch]
     >>> grid = Grid.make({"dt": (1e-3, 1e-4), "e.w": (1.0, 2.0)}, depth=1)
-    >>> rows = search(run_batch, grid, budget=60)
+    >>> rows = search(run_batch, grid, budget=60).rows
     >>> best = min((r for r in rows if r.get("robust")), key=lambda r: 1 / r["dt"])
     >>> best["dt"], best["robust"], grid.dt
     (0.000316, True, (0.001, 0.000316, 0.0001))
@@ -54,7 +54,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Callable
 
 from .axes import axis_scale
@@ -66,7 +66,8 @@ KNOB_DIGITS = 4  # and a knob value between two searched ones to this many
 DT_RATIO = 1.25  # [-] adjacent dt of the finest lattice: the neighbourhood's dt x 0.8 and x 1.25
 AROUND = 3  # the best candidates whose lattice neighbours each refinement level adds
 COARSE_SHARE = 0.6  # [-] of the budget the coarse grid may take before refining (finer rows cost more)
-CHECK_SHARE = 0.2  # [-] of the budget the refinement leaves for the last neighbourhoods (the passes it found)
+CHECK_SHARE = 0.4  # [-] of the budget the refinement leaves for the neighbourhoods of the passes it found
+NEED_SLACK = 1.01  # [-] a run's cost may differ from 1 / dt by its step count's rounding; this covers it
 PER_STAGE = 4  # passes whose neighbourhood is run after each stage (after the last: until the budget is spent)
 SEARCH_COLUMNS = ["level", "robust", "neighbourhood", "neighbourhood_worst_ratio"]
 
@@ -103,6 +104,7 @@ class Grid:
     slices: tuple[dict[str, Any], ...]  # each combination of the other settings' values
     others: dict[str, tuple]  # the other settings' searched values, as given
     depth: int  # refinement levels
+    defaults: dict[str, Any] = field(default_factory=dict)  # each setting's default: its first value as given
 
     @classmethod
     def make(cls, space: dict[str, tuple], depth: int) -> "Grid":
@@ -118,7 +120,7 @@ class Grid:
         others = {k: v for k, v in knobs.items() if k != knob}
         slices = tuple(dict(zip(others, combo)) for combo in itertools.product(*others.values()))
         return cls(dt=dt, knob=knob, knob_values=tuple(values), slices=slices, others=others,
-                   depth=depth if len(coarse_dt) > 1 or knob is not None else 0)
+                   depth=depth if len(coarse_dt) > 1 or knob is not None else 0, defaults={k: v[0] for k, v in knobs.items()})
 
     def params(self, s: int, i: int, j: int) -> dict[str, Any]:
         p = {"dt": self.dt[i], **self.slices[s]}
@@ -185,13 +187,46 @@ def _reach_key(row: dict[str, Any]) -> tuple:
     return (-row.get("n_match", 0), math.inf if worst is None or math.isnan(worst) else worst, cost(row))
 
 
+
+def need(c: float, bounds: list[float], asked: int) -> list[int]:
+    """The ladder points where a run of cost ``c`` (steps per simulated second) can still matter, given the search's
+    ``bounds`` when it was asked for: the asked point, and every point whose bound reaches ``c`` / ``DT_RATIO`` (the
+    cheapest candidate it can be the dt x 0.8 neighbour of; ``NEED_SLACK`` over it for rounding). Bounds only fall,
+    so a point left out never matters to it later: neither as a candidate (dearer than the point's answer, or than
+    that of a tighter point) nor as a neighbour (its candidates are dearer still)."""
+    return [p for p, b in enumerate(bounds) if p == asked or c <= b * DT_RATIO * NEED_SLACK]
+
+
+def passes(row: dict[str, Any], asked: int = 0) -> tuple[int, ...]:
+    """The ladder points a row passes at (its ``passes``; without one, the asked point when its verdict agrees)."""
+    p = row.get("passes")
+    if p is not None and not (isinstance(p, float) and math.isnan(p)):
+        return tuple(p)
+    return (asked,) if agrees(row["verdict"]) else ()
+
+
+@dataclass(frozen=True)
+class Searched:
+    """What ``search`` ran: every row, and how much of the lattice (module docstring)."""
+
+    rows: list[dict]  # every run, in the order run
+    exhaustive: bool  # the whole lattice was run (it fitted the budget)
+    lattice: int  # settings on the lattice within the cost cap
+    lattice_run: int  # of them run
+    costlier: int  # of those not run: costlier than every ladder point's robust answer (none could be one)
+    capped: int  # lattice settings over the cost cap, never run
+    unchecked: int  # passes that could still be an answer whose neighbourhood the budget left unrun
+
+
 class _Search:
     """The search's state: the rows by candidate, the budget left, the lattice labels."""
 
-    def __init__(self, run_batch: Callable[[list[dict], str], list[dict]], grid: Grid, budget: float, band: float,
-                 weight: Callable[[dict], float]) -> None:
+    def __init__(self, run_batch: Callable[[list[dict], str, list[float]], list[dict]], grid: Grid, budget: float,
+                 band: float,
+                 weight: Callable[[dict], float], levels: list[tuple[float, float]] | None = None, asked: int = 0,
+                 max_cost: float = math.inf) -> None:
         self.run_batch, self.grid, self.left, self.band = run_batch, grid, budget, band
-        self.weight = weight
+        self.weight, self.levels, self.asked, self.max_cost = weight, levels or [(0.0, 0.0)], asked, max_cost
         self.rows: list[dict] = []
         self.seen: dict[tuple, dict] = {}
         self.inferred: dict[int, dict] = {s: {} for s in range(len(grid.slices))}
@@ -203,62 +238,146 @@ class _Search:
             new = [p for p, c in zip(new, cum) if c <= self.left - keep or c == cum[0] and self.left > keep]
         if not new:
             return
-        for params, row in zip(new, self.run_batch(new, stage)):
+        for params, row in zip(new, self.run_batch(new, stage, self.bounds())):
             where = self.grid.place(params)
-            row = {**row, "stage": stage, "level": level if where is not None else math.nan,
-                   "robust": None, "neighbourhood": "", "neighbourhood_worst_ratio": math.nan}
+            row = {**row, "stage": stage, "level": (level if level is not None else self.level(where))
+                   if where is not None else math.nan,
+                   "robust": None, "robust_at": None, "neighbourhood": "", "neighbourhood_worst_ratio": math.nan}
             self.seen[_key(params)] = row
             self.rows.append(row)
         self.left -= sum(self.weight(p) for p in new)
+
+    def level(self, where: tuple[int, int, int]) -> int:
+        """The refinement level that first reaches a lattice place (0: the coarse grid)."""
+        _, i, j = where
+        return next(k for k in range(self.grid.depth + 1)
+                    if i % 2 ** (self.grid.depth - k) == 0 and j % 2 ** (self.grid.depth - k) == 0)
 
     def params(self, row: dict) -> dict:
         keys = ["dt", *([self.grid.knob] if self.grid.knob else []), *self.grid.others]
         return {k: row[k] for k in keys}
 
-    def answer_cost(self) -> float | None:
-        robust = [cost(r) for r in self.rows if r["robust"] is True]
-        return min(robust) if robust else None
+    def passes(self, row: dict) -> tuple[int, ...]:
+        return passes(row, self.asked)
 
-    def affordable(self, c: float) -> bool:
-        limit = self.answer_cost()
-        return limit is None or c <= limit * (1.0 + self.band)
+    def on_lattice(self, row: dict) -> bool:
+        return self.grid.place(self.params(row)) is not None
+
+    def rank(self, row: dict) -> tuple:
+        """A candidate's place among equally good ones, as ``tune_frontier.answers`` chooses: fewest steps, fewest
+        settings away from the defaults, the larger dt, the settings' text."""
+        nnd = sum(1 for k, v in self.grid.defaults.items() if row.get(k) != v)
+        return cost(row), nnd, -row["dt"], str(row.get("settings", _key(self.params(row))))
+
+    def answers(self) -> list[tuple | None]:
+        """Per ladder point, the rank of its answer so far (the best-ranked robust candidate there), None if none."""
+        out: list[tuple | None] = [None] * len(self.levels)
+        for r in self.rows:
+            for p in r["robust_at"] or ():
+                if out[p] is None or self.rank(r) < out[p]:
+                    out[p] = self.rank(r)
+        return out
+
+    def bounds(self, found: list[tuple | None] | None = None) -> list[float]:
+        """Per ladder point, the largest cost at which a candidate could still be its answer *and* on the frontier:
+        at most its answer's cost (the asked point: plus the tie band, for ``tune.choose``), and below the cost of
+        the answer of every point as tight on both axes (which beats it)."""
+        found = self.answers() if found is None else found
+        known = [math.inf if a is None else a[0] for a in found]
+        out = []
+        for p, (t, e) in enumerate(self.levels):
+            if p == self.asked:
+                out.append(known[p] * (1.0 + self.band))
+                continue
+            beaten = min((known[q] for q, (tq, eq) in enumerate(self.levels) if q != p and tq <= t and eq <= e),
+                         default=math.inf)
+            out.append(min(known[p], math.nextafter(beaten, 0.0)))
+        return out
+
+    def affordable(self, c: float, bounds: list[float]) -> bool:
+        """Whether a candidate of cost ``c`` could still be an answer at some ladder point."""
+        return c <= self.max_cost and c <= max(bounds)
+
+    def could_answer(self, row: dict, bounds: list[float], found: list[tuple | None]) -> bool:
+        """Whether ``row`` could still be the answer of a point it passes at: within the point's bound and, beside
+        the asked point, ranked before the point's answer so far."""
+        c = cost(row)
+        return c <= self.max_cost and any(c <= bounds[p] and (p == self.asked or found[p] is None
+                                                              or self.rank(row) < found[p]) for p in self.passes(row))
+
+    def unchecked(self) -> list[dict]:
+        """The passes whose neighbourhood is not run yet and that could still be an answer: first those that could
+        be one at a point that has none yet and no cheaper answer at a tighter point ("open": a new point of the
+        frontier), then the others; by rank in each."""
+        found = self.answers()
+        bounds = self.bounds(found)
+        todo = [r for r in self.rows if r["robust_at"] is None and self.passes(r) and self.on_lattice(r)
+                and self.could_answer(r, bounds, found)]
+        return sorted(todo, key=lambda r: (not any(math.isinf(bounds[p]) for p in self.passes(r)), self.rank(r)))
+
+    def surviving(self, row: dict, near: list[dict]) -> set[int]:
+        """The points ``row`` passes at where every neighbour run so far passes too."""
+        out = set(self.passes(row))
+        for n in near:
+            if _key(n) in self.seen:
+                out &= set(self.passes(self.seen[_key(n)]))
+        return out
 
     def neighbourhoods(self, most: int | None = PER_STAGE) -> None:
-        """Run the neighbourhoods of up to ``most`` passes that could still be the answer, cheapest first, two at
-        a time: dt x 0.8 and x 1.25 first, the knobs' neighbours only where both pass (module docstring)."""
+        """Run the neighbourhoods of up to ``most`` passes that could still be an answer (``unchecked``), two at a
+        time: dt x 0.8 and x 1.25 first, the knobs' neighbours only where a ladder point still passes (module
+        docstring)."""
         checked = 0
         while self.left > 0 and (most is None or checked < most):
-            todo = sorted((r for r in self.rows if agrees(r["verdict"]) and r["robust"] is None
-                           and self.grid.place(self.params(r)) is not None and self.affordable(cost(r))), key=cost)
-            if not todo:
+            batch = self.unchecked()[:2]
+            if not batch:
                 return
-            batch = todo[:2]
             near = {id(r): self.grid.neighbours(self.params(r)) for r in batch}
-            self.run([n for r in batch for n in near[id(r)][:2]], "neighbourhood", self.grid.depth, force=True)
-            rest = [r for r in batch if all(agrees(self.seen[_key(n)]["verdict"]) for n in near[id(r)][:2])]
-            self.run([n for r in rest for n in near[id(r)][2:]], "neighbourhood", self.grid.depth, force=True)
+            for part in (slice(0, 2), slice(2, None)):
+                alive = [r for r in batch if self.surviving(r, near[id(r)][:part.start])]
+                self.run([n for r in alive for n in near[id(r)][part]], "neighbourhood", self.grid.depth, force=True)
             for r in batch:
-                ran = [self.seen[_key(n)] for n in near[id(r)] if _key(n) in self.seen]
-                failing = [n for n in ran if not agrees(n["verdict"])]
-                r["robust"] = not failing
-                r["neighbourhood"] = "; ".join(f"{_moved(self.params(r), n)}: {n['verdict']}" for n in failing)
-                ratios = [r.get("worst_ratio", math.nan), *(n.get("worst_ratio", math.nan) for n in ran)]
-                r["neighbourhood_worst_ratio"] = max((x for x in ratios if x is not None and not math.isnan(x)), default=math.nan)
+                self.settle(r, near[id(r)])
             checked += len(batch)
 
-    def labels(self, s: int) -> dict[tuple[int, int], str]:
+    def settle(self, r: dict, near: list[dict]) -> None:
+        """A candidate's robust points, and at the asked one its verdict: robust, or the neighbours that fail."""
+        r["robust_at"] = tuple(sorted(self.surviving(r, near)))
+        if self.asked not in self.passes(r):
+            return
+        ran = [self.seen[_key(n)] for n in near if _key(n) in self.seen]
+        failing = [n for n in ran if not agrees(n["verdict"])]
+        r["robust"] = not failing
+        r["neighbourhood"] = "; ".join(f"{_moved(self.params(r), n)}: {n['verdict']}" for n in failing)
+        ratios = [r.get("worst_ratio", math.nan), *(n.get("worst_ratio", math.nan) for n in ran)]
+        r["neighbourhood_worst_ratio"] = max((x for x in ratios if x is not None and not math.isnan(x)), default=math.nan)
+
+    def labels(self, s: int) -> dict[tuple[int, int], tuple]:
+        """Slice ``s``'s runs on the lattice -> their label: the verdict and the ladder points passed."""
         out = {}
         for r in self.rows:
             where = self.grid.place(self.params(r))
             if where is not None and where[0] == s:
-                out[where[1:]] = r["verdict"]
+                out[where[1:]] = (r["verdict"], self.passes(r))
         return out
 
     def best(self) -> list[dict]:
-        """The ``AROUND`` best candidates on the lattice: the cheapest passes, else the best reachable."""
-        on = [r for r in self.rows if r["verdict"] != "refused" and self.grid.place(self.params(r)) is not None]
-        ok = sorted((r for r in on if agrees(r["verdict"])), key=cost)
-        return (ok or sorted(on, key=_reach_key))[:AROUND]
+        """The candidates whose lattice neighbours a refinement level adds: the ``AROUND`` cheapest passes (else the
+        best reachable), and the cheapest pass of each ladder point, those cheapest at the most points first."""
+        on = [r for r in self.rows if r["verdict"] != "refused" and self.on_lattice(r)]
+        ok = sorted((r for r in on if self.asked in self.passes(r)), key=cost)
+        cheapest: dict[int, dict] = {}
+        for r in sorted(on, key=cost):
+            for p in self.passes(r):
+                cheapest.setdefault(p, r)
+        count = {id(r): sum(1 for c in cheapest.values() if c is r) for r in cheapest.values()}
+        front = sorted({id(r): r for r in cheapest.values()}.values(), key=lambda r: (-count[id(r)], cost(r)))
+        out = (ok or sorted(on, key=_reach_key))[:AROUND] + front[:2 * AROUND]
+        return list({id(r): r for r in out}.values())
+
+    def promise(self, r: dict) -> tuple:
+        """How close a run is to an answer: passes at the asked point, then at the most points, then the nearest."""
+        return (0 if self.asked in self.passes(r) else 1, -len(self.passes(r)), *_reach_key(r))
 
     def refine(self, level: int, keep: float = 0.0) -> None:
         g, half = self.grid, 2 ** (self.grid.depth - level)
@@ -284,11 +403,37 @@ class _Search:
         def promise(c: tuple[int, int, int]) -> tuple:  # the best run of the split cell's corners, then the cheaper
             s, i, j = c
             near = [at[(s, a, b)] for a in (i - half, i, i + half) for b in (j - half, j, j + half) if (s, a, b) in at]
-            ranked = [(0 if agrees(r["verdict"]) else 1, *_reach_key(r)) for r in near]
-            return (min(ranked, default=(2,)), -g.dt[i], c)
+            return (min((self.promise(r) for r in near), default=(2,)), -g.dt[i], c)
         todo += sorted(split, key=promise)  # the budget may end the level: the most promising cells first
+        bounds = self.bounds()
         batch = [g.params(*c) for c in dict.fromkeys(todo)]
-        self.run([p for p in batch if self.affordable(1.0 / p["dt"])], f"refine {level}", level, keep=keep)
+        self.run([p for p in batch if self.affordable(1.0 / p["dt"], bounds)], f"refine {level}", level, keep=keep)
+
+    def coarse(self, floor: float, check_robust: bool) -> None:
+        """The coarse grid's rows, coarse to fine, while the budget is above ``floor`` and a row could hold an answer;
+        after each, the neighbourhoods of its passes (a robust answer makes the finer rows dearer than it)."""
+        g = self.grid
+        for i in g.coarse(g.dt):
+            if self.left <= floor or not self.affordable(1.0 / g.dt[i], self.bounds()):
+                break
+            self.run([g.params(s, i, j) for s in range(len(g.slices)) for j in g.coarse(g.knob_values)], "grid", 0)
+            if check_robust:
+                self.neighbourhoods()
+
+    def lattice(self) -> list[dict]:
+        """Every setting of the lattice within the cost cap, coarse dt first."""
+        g = self.grid
+        return [g.params(s, i, j) for i in range(len(g.dt)) if 1.0 / g.dt[i] <= self.max_cost
+                for s in range(len(g.slices)) for j in range(len(g.knob_values))]
+
+    def outcome(self, exhaustive: bool) -> Searched:
+        lattice = self.lattice()
+        unrun = [p for p in lattice if _key(p) not in self.seen]
+        top = max(self.bounds())
+        g = self.grid
+        capped = len(g.dt) * len(g.slices) * len(g.knob_values) - len(lattice)
+        return Searched(rows=self.rows, exhaustive=exhaustive, lattice=len(lattice), lattice_run=len(lattice) - len(unrun),
+                        costlier=sum(1 for p in unrun if 1.0 / p["dt"] > top), capped=capped, unchecked=len(self.unchecked()))
 
 
 def _moved(p: dict, n: dict) -> str:
@@ -297,25 +442,32 @@ def _moved(p: dict, n: dict) -> str:
     return f"dt x{n['dt'] / p['dt']:.3g}" if k == "dt" else f"{k.split('.', 1)[-1]}={n[k]:g}"
 
 
-def search(run_batch: Callable[[list[dict], str], list[dict]], grid: Grid, budget: float, band: float = 0.1,
-           check_robust: bool = True, weight: Callable[[dict], float] = lambda params: 1.0) -> list[dict]:
-    """Every candidate row the search ran (module docstring); ``run_batch(params, stage)`` judges a batch in order.
+def search(run_batch: Callable[[list[dict], str, list[float]], list[dict]], grid: Grid, budget: float, band: float = 0.1,
+           check_robust: bool = True, weight: Callable[[dict], float] = lambda params: 1.0,
+           levels: list[tuple[float, float]] | None = None, asked: int = 0, max_cost: float = math.inf) -> Searched:
+    """Every candidate row the search ran (module docstring); ``run_batch(params, stage, bounds)`` judges a batch in
+    order, ``bounds`` per ladder point the cost above which a run cannot matter there (``need``).
 
     ``params`` holds ``dt`` and every searched setting; a row is its params plus at least
-    ``verdict`` (and ``steps_per_sim_s``, ``n_match``, ``worst_ratio`` where known).
+    ``verdict`` (and ``passes``, the indices of the ladder points it passes at: ``levels``, each
+    point's (timing, restitution) tolerance, ``asked`` the asked one's index; ``steps_per_sim_s``,
+    ``n_match``, ``worst_ratio`` where known).
     ``check_robust`` False: no neighbourhood is run (every pass keeps ``robust`` None). ``weight(params)``:
-    what a run costs of ``budget`` (module docstring).
+    what a run costs of ``budget``; ``max_cost``: no candidate of more steps per simulated second is run
+    (module docstring).
     """
-    st = _Search(run_batch, grid, budget, band, weight)
-    for i in grid.coarse(grid.dt):
-        if st.left <= budget * (1.0 - COARSE_SHARE) or not st.affordable(1.0 / grid.dt[i]):
-            break
-        st.run([grid.params(s, i, j) for s in range(len(grid.slices)) for j in grid.coarse(grid.knob_values)], "grid", 0)
+    st = _Search(run_batch, grid, budget, band, weight, levels, asked, max_cost)
+    whole = st.lattice()
+    if sum(weight(p) for p in whole) <= budget * (1.0 - CHECK_SHARE):  # it fits: run all of it, coarse dt first
+        for i in sorted({p["dt"] for p in whole}, reverse=True):
+            st.run([p for p in whole if p["dt"] == i], "exhaustive", None)
         if check_robust:
-            st.neighbourhoods()
+            st.neighbourhoods(most=None)
+        return st.outcome(exhaustive=True)
+    st.coarse(budget * (1.0 - COARSE_SHARE), check_robust)
     for level in range(1, grid.depth + 1):
         # kept for the neighbourhoods of the passes found; none yet, all of it may go to refining
-        keep = budget * CHECK_SHARE if check_robust and any(agrees(r["verdict"]) for r in st.rows) else 0.0
+        keep = budget * CHECK_SHARE if check_robust and any(st.passes(r) for r in st.rows) else 0.0
         if st.left <= keep:
             break
         st.refine(level, keep)
@@ -323,4 +475,14 @@ def search(run_batch: Callable[[list[dict], str], list[dict]], grid: Grid, budge
             st.neighbourhoods()
     if check_robust:
         st.neighbourhoods(most=None)
-    return st.rows
+    while st.left > 0:  # what the reserve left: hand it back to the grid and the refinement, a share kept again
+        ran = len(st.rows)
+        st.coarse(0.0, check_robust)
+        for level in range(1, grid.depth + 1):
+            keep = st.left * CHECK_SHARE if check_robust else 0.0
+            st.refine(level, keep)
+            if check_robust:
+                st.neighbourhoods(most=None)
+        if len(st.rows) == ran:
+            break
+    return st.outcome(exhaustive=False)

@@ -69,7 +69,8 @@ def test_compare_report_tune_and_sweep_print_the_same_column_names():
     assert set(REPORT_COLUMNS) <= summary | set(SIGNED_COLUMNS)
     # tune's own: the candidate, the checks it failed and their ratios to the tolerances, its cost in steps
     own = {"stage", "settings", "failed", *RATIO_COLUMNS, "steps_per_sim_s", "cost_repeats", "n_non_default",
-           *SEARCH_COLUMNS, *STRIKE_COLUMNS}  # the search's (level, robust, failing neighbours); R under the scene's forces
+           *SEARCH_COLUMNS, *STRIKE_COLUMNS,  # the search's (level, robust, failing neighbours); R under the scene's forces
+           "passes", "robust_at", "margins"}  # the ladder points each run passes at, is robust at, its margins there
     assert set(TUNE_COLUMNS) - own <= summary
     assert set(tune_cli.SHOW) - own <= summary
     # the episode table names its errors as the judge does
@@ -78,9 +79,10 @@ def test_compare_report_tune_and_sweep_print_the_same_column_names():
     assert set(compare_cli.EPISODE_SHOW) <= set(COLUMNS)
 
 
-def test_tune_takes_one_engine(capsys):
-    assert main(["tune", "bouncing-ball", "--engines", "mujoco,pybullet", "--tolerance", "0.05"]) == 2
-    assert "one engine" in capsys.readouterr().err
+def test_tune_refuses_an_engine_given_twice(capsys):
+    # tune takes several engines (one frontier each: tests/comparisons/studies/test_tune_frontier.py), each once
+    assert main(["tune", "bouncing-ball", "--engines", "pybullet,pybullet", "--tolerance", "0.05"]) == 2
+    assert "more than once" in capsys.readouterr().err
 
 
 def test_a_refusal_loads_no_drawing_code():

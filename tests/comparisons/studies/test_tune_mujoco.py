@@ -19,7 +19,8 @@ from chatterbench.comparisons import reference_trajectory
 from chatterbench.comparisons.pipeline.compare import compare, judge_run
 from chatterbench.comparisons.pipeline.solution import solve
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
-from chatterbench.comparisons.studies.tune import recommended, tune
+from chatterbench.comparisons.studies.tune import tune
+from chatterbench.comparisons.studies.tune_answer import recommended
 from chatterbench.comparisons.studies.tune_checks import check_ratios, describe_failures
 from chatterbench.comparisons.studies.tune_search import agrees
 from chatterbench.engines.registry import make_settings

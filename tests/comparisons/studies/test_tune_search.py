@@ -11,7 +11,8 @@ from chatterbench.comparisons.cli.main import main
 from chatterbench.comparisons.pipeline.compare import compare
 from chatterbench.comparisons.pipeline.solution import solve
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
-from chatterbench.comparisons.studies.tune import dt_range, recommended, tune
+from chatterbench.comparisons.studies.tune import dt_range, tune
+from chatterbench.comparisons.studies.tune_answer import recommended
 from chatterbench.comparisons.studies.tune_search import Grid, agrees
 from chatterbench.reference import load_scene
 
@@ -103,7 +104,10 @@ def test_dt_range_comes_from_the_scenes_own_scales():
 def test_search_goes_on_around_the_best_when_nothing_passes():
     # a tolerance no candidate meets: the refinement still runs, at the best reachable candidate's neighbours
     space = {"dt": (1e-3, 3e-4), "mujoco.w0_dt": (0.1, 0.3), "mujoco.integrator": ("euler",)}
-    result = tune(load_scene("bouncing-ball"), "mujoco", 1e-5, space=space, workers=1, refine_steps=1)
+    # the asked tolerances alone (no ladder: nothing passes anywhere), and a budget the 9-setting lattice does not fit
+    result = tune(load_scene("bouncing-ball"), "mujoco", 1e-5, space=space, workers=1, refine_steps=1, ladder=None,
+                  max_runs=12)
+    assert not result.extra["searched"]["exhaustive"]
     assert result.best is None and not result.table["verdict"].map(agrees).any()
     assert (result.table["stage"] == "refine 1").sum() >= 2
     assert recommended(result)["robust"] is False and recommended(result)["failed"]
@@ -147,7 +151,7 @@ def test_bench_tune_reports_runs_and_wall_time_per_case():
 def test_a_pass_left_unchecked_by_the_budget_says_so():
     # before: a best reachable pass whose neighbourhood the budget left unrun went into recommended.json with
     # "failed": "" and "neighbourhood_fails": "": robust false, and no reason
-    from chatterbench.comparisons.studies.tune import UNCHECKED, neighbourhood_fails
+    from chatterbench.comparisons.studies.tune_answer import UNCHECKED, neighbourhood_fails
 
     assert neighbourhood_fails({"verdict": "match", "robust": None, "neighbourhood": ""}) == UNCHECKED
     # the other ways: a fragile pass names its failing neighbours, a failing candidate and a robust pass nothing,

@@ -1,0 +1,150 @@
+"""The work-precision chart of robust settings: each engine's cheapest robust cost against the tolerance it reaches.
+
+    >>> from chatterbench.comparisons.outputs.frontier_chart import frontier_figure
+    >>> point = lambda stick, rest, cost: {"tolerances": {"stick": stick, "restitution": rest}, "dt": 1 / cost,
+    ...                                    "settings": {}, "cost_steps_per_s": cost, "margin": 0.5}
+    >>> fig = frontier_figure({"mujoco": [point(0.2, 0.2, 206.0), point(0.05, 0.3, 629.0)], "pybullet": []},
+    ...                       "bouncing-ball", asked={"stick": 0.05, "restitution": 0.05})
+    >>> [ax.get_xlabel().split(" ")[0] for ax in fig.axes], len(fig.axes[0].lines) >= 1
+    (['timing', 'restitution'], True)
+
+Input: ``recommended.json``'s ``frontier`` per engine (``studies.tune_frontier``: each entry's
+``tolerances``, ``cost_steps_per_s``), so a chart can be drawn from the files of several
+``tune`` runs (``chatterbench report --tune DIR``) as from one. Two panels, one per axis of
+the ladder, since timing and restitution fail for different reasons: x the tolerance reached
+on that axis (the sticking tolerance; exit and first impact move with it), log; y the steps
+per simulated second of the cheapest robust setting reaching it, log. One line per engine,
+its colour from ``style.engine_colour``: the staircase of its frontier's points seen on that
+axis (filled: the cheapest point reaching each tolerance on it), the other points hollow
+(dearer there, but tighter on the other axis), each labelled with the tolerance it reaches
+on the other axis; an engine with no robust point is named in the legend. Dashed: the asked
+tolerance on each axis.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+from matplotlib.figure import Figure
+from matplotlib.ticker import FuncFormatter, LogLocator, NullLocator
+
+from chatterbench.reference.errors import InputError
+
+from .style import engine_colour
+
+AXES = (("stick", "timing (sticking tolerance; exit and first impact move with it)", "restitution", "r"),
+        ("restitution", "restitution tolerance |e / R - 1|", "stick", "stick"))
+
+
+def staircase(entries: Sequence[dict[str, Any]], axis: str) -> list[dict[str, Any]]:
+    """The entries no cheaper (or as cheap and tighter) entry beats on ``axis``, tightest first (costliest first)."""
+    def key(e):
+        return e["tolerances"][axis], e["cost_steps_per_s"]
+    out = []
+    for e in sorted(entries, key=key):
+        if not out or e["cost_steps_per_s"] < out[-1]["cost_steps_per_s"]:
+            out.append(e)
+    return out
+
+
+def _pct(v: float) -> str:
+    return f"{100 * v:.3g}%"
+
+
+def frontier_figure(frontiers: Mapping[str, Sequence[dict[str, Any]]], scene: str,
+                    asked: Mapping[str, float] | None = None) -> Figure:
+    """The chart (module docstring); ``frontiers``: engine -> its frontier entries; ``asked``: the asked tolerances."""
+    fig = Figure(figsize=(10.5, 4.8), layout="constrained")
+    axes = fig.subplots(1, 2)
+    for ax, (axis, label, other, short) in zip(axes, AXES):
+        for k, (engine, entries) in enumerate(frontiers.items()):
+            colour = engine_colour(engine)
+            steps = staircase(entries, axis)
+            if not steps:
+                ax.plot([], [], color=colour, label=f"{engine}: nothing robust in the searched space")
+                continue
+            x = [e["tolerances"][axis] for e in steps]
+            y = [e["cost_steps_per_s"] for e in steps]
+            ax.step(x, y, where="post", color=colour, lw=1.8, label=f"{engine}: the cheapest reaching each tolerance")
+            ax.plot(x, y, "o", color=colour, ms=6)
+            others = [e for e in entries if e not in steps]  # dearer here, but tighter on the other axis
+            ax.plot([e["tolerances"][axis] for e in others], [e["cost_steps_per_s"] for e in others], "o", mfc="none",
+                    color=colour, ms=6)
+            for e in entries:
+                ax.annotate(f"{short} {_pct(e['tolerances'][other])}", (e["tolerances"][axis], e["cost_steps_per_s"]),
+                            textcoords="offset points", xytext=(5, 4 - 10 * k), fontsize=7, color=colour)
+        if any(frontiers.values()):
+            ax.plot([], [], "o", mfc="none", color="0.3", label="other frontier points (tighter on the other axis)")
+        else:
+            ax.text(0.5, 0.5, "nothing robust in the searched space", transform=ax.transAxes, ha="center", fontsize=9,
+                    color="0.4")
+        if asked and axis in asked:
+            ax.axvline(asked[axis], color="0.4", ls="--", lw=1, label=f"asked: {_pct(asked[axis])}")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        _tolerance_ticks(ax, frontiers, axis, asked)
+        ax.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+        ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:,.0f}"))
+        ax.set_xlabel(label, fontsize=8)
+        ax.set_ylabel("steps per simulated second (cost)", fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.grid(True, which="major", alpha=0.25)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncol=min(len(labels), 3), fontsize=7, frameon=False)
+    fig.suptitle(f"{scene}: the cheapest robust setting against the tolerance it reaches (robust: passes at dt, "
+                 "dt x 0.8, dt x 1.25 and the knobs' neighbours)", fontsize=9)
+    return fig
+
+
+def _tolerance_ticks(ax, frontiers, axis: str, asked) -> None:
+    """Ticks at the tolerances drawn, in percent; the axis padded a little on each side."""
+    values = sorted({e["tolerances"][axis] for entries in frontiers.values() for e in entries}
+                    | ({asked[axis]} if asked and axis in asked else set()))
+    if not values:
+        values = [0.01, 0.3]
+    ax.set_xticks(values, [_pct(v) for v in values], fontsize=7)
+    ax.xaxis.set_minor_locator(NullLocator())
+    lo, hi = min(values), max(values)
+    ax.set_xlim(lo / 1.4, hi * 1.4 if hi > lo else hi * 2.0)
+    costs = [e["cost_steps_per_s"] for entries in frontiers.values() for e in entries] or [10.0, 1e5]  # none: a range
+    ax.set_ylim(min(costs) / 1.6, max(costs) * 1.6)
+
+
+@dataclass(frozen=True)
+class TunedFrontier:
+    """One engine's frontier as a ``recommended.json`` holds it (``chatterbench report --tune DIR``)."""
+
+    scene: str
+    engine: str
+    frontier: tuple[dict[str, Any], ...]  # studies.tune_frontier.FRONTIER_KEYS each
+    asked: dict[str, float]  # the asked tolerances (recommended.json's ``tolerances``)
+    source: str  # the file it came from
+
+
+def read_frontiers(dirs: Sequence[str | Path]) -> tuple[TunedFrontier, ...]:
+    """Every ``recommended.json`` of each ``tune --out`` directory: ``DIR/recommended.json`` (one engine) or
+    ``DIR/ENGINE/recommended.json`` (several), in that order; files without a ``frontier`` are left out."""
+    out = []
+    for d in dirs:
+        for path in [Path(d) / "recommended.json", *sorted(Path(d).glob("*/recommended.json"))]:
+            if not path.is_file():
+                continue
+            try:
+                rec = json.loads(path.read_text(encoding="utf-8"))
+            except (ValueError, UnicodeDecodeError) as exc:
+                raise InputError(f"--tune {d}: {path.name} is not the JSON `chatterbench tune` writes ({exc})") from None
+            if isinstance(rec, dict) and isinstance(rec.get("frontier"), list):
+                out.append(TunedFrontier(scene=str(rec.get("scene", "")), engine=str(rec.get("engine", "")),
+                                         frontier=tuple(rec["frontier"]), asked=dict(rec.get("tolerances") or {}),
+                                         source=str(path)))
+    return tuple(out)
+
+
+def scene_frontiers(frontiers: Sequence[TunedFrontier], scene: str) -> dict[str, Sequence[dict[str, Any]]]:
+    """``scene``'s frontiers by engine, as ``frontier_figure`` takes them (an engine tuned twice: named by its file)."""
+    mine = [f for f in frontiers if f.scene == scene]
+    names = [f.engine for f in mine]
+    return {(f.engine if names.count(f.engine) == 1 else f"{f.engine} ({f.source})"): f.frontier for f in mine}

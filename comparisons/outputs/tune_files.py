@@ -1,0 +1,129 @@
+"""Everything ``chatterbench tune --out DIR`` writes: per engine the answer, its guide, its runs and figures; the frontier of all.
+
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from chatterbench.reference.scene import load_scene
+    >>> from chatterbench.comparisons.outputs.tune_files import write_tune_files
+    >>> from chatterbench.comparisons.studies.tune import tune
+    >>> result = tune(load_scene("bouncing-ball"), "pybullet", 0.05, space={"dt": (1e-3,)}, workers=1, refine_steps=0,
+    ...               ladder=None)
+    >>> written = write_tune_files([result], Path(tempfile.mkdtemp()))
+    >>> written[:3], "frontier.png/.svg" in written
+    (['recommended.json', 'guide.md', 'guide.html'], True)
+
+One engine: ``DIR/recommended.json`` (``studies.tune_answer.recommended``, its ``frontier``
+included), ``guide.md``, ``guide.html`` and ``guide_section.html`` (``guide.py``; the last for
+``chatterbench report --tune DIR``), ``candidates.csv`` (every run, ``TUNE_COLUMNS`` with the
+ladder points each passes at and is robust at as ``stick%/restitution%`` pairs, e.g.
+``5/20 10/30``), the figures (``guide.FIGURE_FILES``, PNG and SVG) and the engine's files at the
+chosen settings (``engine_files``). Several engines: each engine's set under ``DIR/ENGINE`` as
+one engine writes it, and under ``DIR`` the frontier of all of them in one chart
+(``frontier.png/.svg``, one line per engine) with a guide that leads with each engine's
+answer and embeds each engine's guide (``guide.md``, ``guide.html``, ``guide_section.html``).
+The JSON is written first: the guide's files are made from what it says.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+from pathlib import Path
+from typing import Sequence
+
+import pandas as pd
+
+from chatterbench.comparisons.pipeline.atomic import write_frame, write_text
+from chatterbench.comparisons.studies.tune_answer import frontier_line, recommended
+from chatterbench.comparisons.studies.tune_evidence import evidence
+
+from .engine_files import write_engine_files
+from .figures import figure_bytes, write_figure
+from .frontier_chart import frontier_figure
+from .guide import CAPTIONS, FIGURE_FILES, guide_figures, guide_html, guide_markdown, guide_section_html
+from .style import PAGE_CSS
+
+
+def level_labels(points, indices) -> str:
+    """Ladder point indices as ``stick%/restitution%`` pairs (``5/20 10/30``); "" for none, "-" when not run."""
+    if indices is None or isinstance(indices, float):
+        return "-"
+    return " ".join(f"{100 * points[i].stick:g}/{100 * points[i].restitution:g}" for i in indices)
+
+
+def candidates_frame(result) -> pd.DataFrame:
+    """``result.table`` for ``candidates.csv``: the ladder columns as text."""
+    points = result.extra.get("points") or (result.tolerance,)
+    table = result.table.copy()
+    for column in ("passes", "robust_at"):
+        if column in table:
+            table[column] = [level_labels(points, v) for v in table[column]]
+    if "margins" in table:
+        table["margins"] = [" ".join(f"{m:.3g}" for m in v) if isinstance(v, tuple) else "-" for v in table["margins"]]
+    return table
+
+
+def write_engine_set(result, out: Path) -> list[str]:
+    """One engine's files under ``out`` (module docstring); returns their names relative to ``out``."""
+    rec = recommended(result)
+    figures = guide_figures(result, evidence(result))  # reruns the chosen settings (the ladder, R(v))
+    written = []
+    if rec is not None:  # first: the guide's files are written from what it says
+        write_text(out / "recommended.json", json.dumps(rec, indent=2) + "\n")
+        written.append("recommended.json")
+    write_text(out / "guide.md", guide_markdown(result, figures))
+    write_text(out / "guide.html", guide_html(result, figures))
+    write_text(out / "guide_section.html", guide_section_html(result, figures))  # for `report --tune DIR`
+    write_frame(out / "candidates.csv", candidates_frame(result))
+    written += ["guide.md", "guide.html", "guide_section.html", "candidates.csv"]
+    for name, fig in figures.items():
+        write_figure(fig, out, FIGURE_FILES[name])
+        written.append(f"{FIGURE_FILES[name]}.png/.svg")
+    return written + write_engine_files(result, out)  # at recommended.json's settings (tune_evidence.chosen_settings)
+
+
+def write_tune_files(results: Sequence, out: Path) -> list[str]:
+    """What ``tune --out`` writes for ``results`` (one per engine, one scene); returns the names written."""
+    out = Path(out)
+    if len(results) == 1:
+        return write_engine_set(results[0], out)
+    written = []
+    for result in results:
+        written += [f"{result.engine}/{name}" for name in write_engine_set(result, out / result.engine)]
+    first = results[0]
+    fig = frontier_figure({r.engine: r.frontier for r in results}, first.scene.name,
+                          {"stick": first.tolerance.stick, "restitution": first.tolerance.restitution})
+    write_figure(fig, out, "frontier")
+    sections = [(out / r.engine / "guide_section.html").read_text(encoding="utf-8") for r in results]
+    section = _combined_section(results, fig, sections)
+    write_text(out / "guide_section.html", section)
+    write_text(out / "guide.html", f'<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>tuning '
+                                   f"{html.escape(first.scene.name)}</title><style>{PAGE_CSS}</style></head><body>"
+                                   f"{section}</body></html>")
+    write_text(out / "guide.md", _combined_markdown(results))
+    return written + ["frontier.png/.svg", "guide_section.html", "guide.html", "guide.md"]
+
+
+def _combined_markdown(results: Sequence) -> str:
+    first = results[0]
+    lines = [f"# Tuning {', '.join(r.engine for r in results)} for {first.scene.name}", "",
+             f"Tolerances: {first.tolerance.describe()}; every episode must pass.", ""]
+    for r in results:
+        lines += [f"- **{r.engine}**: {frontier_line(r)} ([its guide]({r.engine}/guide.md), "
+                  f"[recommended.json]({r.engine}/recommended.json))", ""]
+    lines += ["![frontier](frontier.png)", "", f"*{CAPTIONS['frontier']} One line per engine.*", ""]
+    return "\n".join(lines)
+
+
+def _combined_section(results: Sequence, fig, sections: list[str]) -> str:
+    import base64
+
+    first = results[0]
+    png = base64.b64encode(figure_bytes(fig, "png")).decode()
+    parts = [f'<h2 id="tuning-{html.escape(first.scene.name)}">Tuning {html.escape(", ".join(r.engine for r in results))} '
+             f"for {html.escape(first.scene.name)}</h2>",
+             f'<p class="note">Tolerances: {html.escape(first.tolerance.describe())}; every episode must pass.</p>',
+             "<ul>" + "".join(f"<li><strong>{html.escape(r.engine)}</strong>: {html.escape(frontier_line(r))}</li>"
+                              for r in results) + "</ul>",
+             f'<figure><img alt="frontier" src="data:image/png;base64,{png}"><figcaption>'
+             f"{html.escape(CAPTIONS['frontier'])} One line per engine.</figcaption></figure>"]
+    return "\n".join(parts + sections)

@@ -1,0 +1,153 @@
+"""The tolerance ladder of ``tune``'s frontier: timing and restitution levels, and each run judged at every level.
+
+    >>> from chatterbench.comparisons.pipeline.tolerances import Tolerances
+    >>> from chatterbench.comparisons.studies.tune_ladder import Ladder, level_text
+    >>> points = Ladder(timing=(0.02, 0.05), restitution=(0.1,)).points(Tolerances(stick=0.05, exit=0.02))
+    >>> [level_text(p) for p in points]       # the asked tolerances are a point of the ladder
+    ['stick 2% (exit 0.8%, first impact 2%), restitution 5%', 'stick 2% (exit 0.8%, first impact 2%), restitution 10%', \
+'stick 5% (exit 2%, first impact 5%), restitution 5%', 'stick 5% (exit 2%, first impact 5%), restitution 10%']
+
+Two axes, since they fail for different reasons: **timing** (the sticking, exit and
+first-impact tolerances together: a level is the sticking tolerance, and the exit and
+first-impact tolerances scale with it in the proportions asked, so a bare ``--tolerance T``
+moves all three as one) and **restitution**. A ladder point is one ``Tolerances``: the asked
+ones with the timing tolerances scaled and the restitution tolerance replaced (every other
+field as asked); the points are every pair of a timing level and a restitution level, the
+asked values added to each axis. Values are rounded to ``DIGITS`` significant digits, so
+that ``compare --tolerance stick=... --tolerance exit=...`` with the printed numbers judges
+with exactly these.
+
+Each run is judged at every point by the judge itself (``judge_levels``: ``pipeline.compare.
+judge_run`` on the run's trajectory, with the point's tolerances), never from errors measured
+at another tolerance, because the judge's measurements depend on the tolerances: the
+extraction ignores bounces too short to matter against the sticking tolerance (a looser one
+moves the detected sticking start), and an impact counts for restitution only where the
+step measures it to the restitution tolerance (a looser one admits slower impacts with
+larger errors). So a point's verdict is what ``compare`` says at that point. One shortcut,
+from the judge's rule order (``pipeline.judge``: a failure of the run, a penetration, a
+missing, extra or endless episode and a timing error are decided before, and without, the
+restitution tolerance): once a run fails that way at a timing level, it fails at that
+level whatever the restitution level, and the other restitution levels are not judged
+(``tests/comparisons/studies/test_tune_frontier.py`` checks the shortcut against judging
+every point).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from ..pipeline.compare import judge_run
+from ..pipeline.judge import judge
+from ..pipeline.solution import ReferenceSolution
+from ..pipeline.tolerances import Tolerances
+from ..pipeline.vocabulary import VERDICTS
+from .tune_checks import check_ratios, judged_margin
+
+TIMING_LEVELS = (0.01, 0.02, 0.05, 0.1, 0.2)  # [-] sticking tolerances (fractions of the chatter)
+RESTITUTION_LEVELS = (0.02, 0.05, 0.1, 0.2, 0.3)  # [-] |e / R - 1|
+DIGITS = 6  # significant digits of a scaled tolerance (printed, pasted into --tolerance)
+# verdict groups the judge decides before the restitution tolerance enters (pipeline.judge's rules 1-5)
+BEFORE_RESTITUTION = ("failure", "broken", "physics", "timing")
+
+
+def _round(v: float) -> float:
+    return float(f"{v:.{DIGITS}g}")
+
+
+@dataclass(frozen=True)
+class Ladder:
+    """The levels of each axis (module docstring); the asked tolerances' own levels are added to them."""
+
+    timing: tuple[float, ...] = TIMING_LEVELS  # sticking tolerances, in (0, 1]
+    restitution: tuple[float, ...] = RESTITUTION_LEVELS  # restitution tolerances, in (0, 1]
+
+    def __post_init__(self) -> None:
+        for name in ("timing", "restitution"):
+            values = tuple(float(v) for v in getattr(self, name))
+            if not values or not all(0 < v <= 1 for v in values):
+                raise ValueError(f"Ladder.{name} = {values!r}: needs at least one level, each in (0, 1]")
+            object.__setattr__(self, name, values)
+
+    def points(self, asked: Tolerances) -> tuple[Tolerances, ...]:
+        """Every (timing level, restitution level) as ``Tolerances``, timing then restitution ascending."""
+        timing = sorted({*self.timing, asked.stick})
+        restitution = sorted({*self.restitution, asked.restitution})
+        return tuple(at_level(asked, t, r) for t in timing for r in restitution)
+
+
+def at_level(asked: Tolerances, stick: float, restitution: float) -> Tolerances:
+    """``asked`` with the sticking tolerance ``stick`` (exit and first impact scaled with it) and ``restitution``."""
+    if stick == asked.stick:
+        timing = {"stick": asked.stick, "exit": asked.exit, "first_impact": asked.first_impact}
+    else:
+        k = stick / asked.stick
+        timing = {"stick": stick, "exit": min(1.0, _round(asked.exit * k)),
+                  "first_impact": min(1.0, _round(asked.first_impact * k))}
+    return dataclasses.replace(asked, **timing, restitution=restitution)
+
+
+def level_text(tol: Tolerances) -> str:
+    """A point as the frontier names it: ``stick 5%, restitution 20%`` (exit and first impact when they differ)."""
+    pct = lambda v: f"{100 * v:.3g}%"  # noqa: E731
+    same = tol.exit == tol.stick and tol.first_impact == tol.stick
+    timing = f"stick {pct(tol.stick)}" + ("" if same else f" (exit {pct(tol.exit)}, first impact {pct(tol.first_impact)})")
+    return f"{timing}, restitution {pct(tol.restitution)}"
+
+
+def tolerance_items(tol: Tolerances) -> list[str]:
+    """The ``--tolerance KEY=VALUE`` items of a point's four varied tolerances, as ``compare`` takes them."""
+    return [f"{k}={getattr(tol, k)!r}" for k in ("stick", "exit", "first_impact", "restitution")]
+
+
+def _fails_before_restitution(table) -> bool:
+    return any(VERDICTS[v].group in BEFORE_RESTITUTION for v in table["verdict"] if v in VERDICTS)
+
+
+def _agrees(table) -> bool:
+    return len(table) > 0 and all(v in VERDICTS and VERDICTS[v].group == "agree" for v in table["verdict"])
+
+
+def judge_levels(ref: ReferenceSolution, engine: str, settings: Any, trajectory, points: tuple[Tolerances, ...],
+                 known: dict[int, tuple] | None = None, shortcut: bool = True, only=None) -> dict[str, Any]:
+    """Judge one run at every ladder point (module docstring).
+
+    ``known``: point index -> ``judge_run``'s (run, table, impacts) there, already judged (the asked
+    point's). At each timing level the run is extracted once (``judge_run``; the extraction depends on
+    the sticking tolerance alone) and judged at each restitution level (``judge.judge``, as ``judge_run``
+    does). Returns ``passes``, the indices of the points where every episode agrees (``match`` or
+    ``none``), and ``margins``, the judged checks' worst error over tolerance at each of them
+    (``tune_checks.judged_margin``), and ``unjudged``, the points left out: not in ``only`` (the
+    points where the run can still matter: ``tune_search.need``; None: all). ``shortcut`` False judges
+    every point (the shortcut's check).
+    """
+    known = dict(known or {})
+    wanted = set(range(len(points)) if only is None else only)
+    passes, margins, failed_timing = [], [], set()
+    found = {points[i].stick: run.found for i, (run, _, _) in known.items()}  # extraction per timing level
+    for i, tol in enumerate(points):
+        if i not in wanted or shortcut and tol.stick in failed_timing:
+            continue
+        if i in known:
+            _, table, impacts = known[i]
+        elif tol.stick in found:
+            judged = judge(ref, found[tol.stick], trajectory, tol)
+            table, impacts = judged.table, judged.impacts
+        else:
+            run, table, impacts = judge_run(ref, engine, settings, tol, trajectory=trajectory)
+            found[tol.stick] = run.found
+        if _agrees(table):
+            passes.append(i)
+            margins.append(judged_margin(check_ratios(table, impacts, tol, tol.penetration * ref.length_scale)))
+        elif _fails_before_restitution(table):
+            failed_timing.add(tol.stick)
+    return {"passes": tuple(passes), "margins": tuple(margins),
+            "unjudged": tuple(i for i in range(len(points)) if i not in wanted)}
+
+
+def margin_at(row: dict[str, Any], point: int) -> float:
+    """A row's margin at ladder point ``point`` (NaN where it does not pass there)."""
+    passes = list(row.get("passes") or ())
+    return float(row["margins"][passes.index(point)]) if point in passes else math.nan
