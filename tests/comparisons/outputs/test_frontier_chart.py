@@ -1,0 +1,65 @@
+"""The frontier chart: each engine's cheapest robust cost against the tolerance it reaches, per axis, from recommended.json."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from chatterbench.comparisons.outputs.frontier_chart import frontier_figure, read_frontiers, scene_frontiers, staircase
+from chatterbench.reference.errors import InputError
+
+
+def point(stick: float, restitution: float, cost: float) -> dict:
+    return {"tolerances": {"stick": stick, "exit": stick, "first_impact": stick, "restitution": restitution},
+            "dt": 1.0 / cost, "settings": {}, "cost_steps_per_s": cost, "margin": 0.5}
+
+
+# a frontier as tune writes it (PyBullet on the ball, measured): cheaper where looser, on either axis
+FRONTIER = [point(0.1, 0.1, 85.0), point(0.2, 0.05, 206.0), point(0.1, 0.05, 258.0), point(0.05, 0.05, 323.0),
+            point(0.02, 0.02, 505.0), point(0.01, 0.02, 787.0)]
+
+
+def test_staircase_keeps_the_cheapest_point_reaching_each_tolerance():
+    # timing: 1% costs 787, 2% 505, 5% 323, 10% 85 (the 10% / 5% point at 258 is dearer than 85: left off the stairs)
+    assert [(e["tolerances"]["stick"], e["cost_steps_per_s"]) for e in staircase(FRONTIER, "stick")] == \
+        [(0.01, 787.0), (0.02, 505.0), (0.05, 323.0), (0.1, 85.0)]
+    # restitution: 2% costs 505 (787 is dearer at the same 2%), 5% 206, 10% 85
+    assert [(e["tolerances"]["restitution"], e["cost_steps_per_s"]) for e in staircase(FRONTIER, "restitution")] == \
+        [(0.02, 505.0), (0.05, 206.0), (0.1, 85.0)]
+
+
+def test_one_line_per_engine_on_each_axis_and_an_engine_with_nothing_robust_is_named():
+    fig = frontier_figure({"pybullet": FRONTIER, "mujoco": []}, "bouncing-ball", {"stick": 0.05, "restitution": 0.05})
+    timing, restitution = fig.axes
+    for ax, axis in ((timing, "stick"), (restitution, "restitution")):
+        stairs = [line for line in ax.lines if line.get_label().startswith("pybullet: the cheapest")]
+        assert len(stairs) == 1  # one line per engine
+        x, y = stairs[0].get_data()
+        assert list(y) == [e["cost_steps_per_s"] for e in staircase(FRONTIER, axis)]
+        assert list(x) == [e["tolerances"][axis] for e in staircase(FRONTIER, axis)]
+        asked = [line for line in ax.lines if line.get_label() == "asked: 5%"]
+        assert len(asked) == 1 and list(asked[0].get_xdata()) == [0.05, 0.05]
+        assert ax.get_xscale() == ax.get_yscale() == "log"
+    labels = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert "mujoco: nothing robust in the searched space" in labels
+    # every frontier point is drawn and labelled with the other axis's tolerance (the joint trade-off stays visible)
+    assert sorted(t.get_text() for t in timing.texts) == sorted(f"r {100 * e['tolerances']['restitution']:.3g}%"
+                                                                for e in FRONTIER)
+
+
+def test_frontiers_are_read_from_the_tune_folders_one_or_several_engines(tmp_path):
+    one, two = tmp_path / "one", tmp_path / "two"
+    (two / "mujoco").mkdir(parents=True)
+    one.mkdir()
+    rec = {"scene": "bouncing-ball", "engine": "pybullet", "frontier": FRONTIER, "tolerances": {"stick": 0.05}}
+    (one / "recommended.json").write_text(json.dumps(rec))
+    (two / "mujoco" / "recommended.json").write_text(json.dumps({**rec, "engine": "mujoco", "frontier": []}))
+    (two / "recommended.json.bak").write_text("not read")
+    found = read_frontiers([one, two])
+    assert [(f.engine, len(f.frontier)) for f in found] == [("pybullet", 6), ("mujoco", 0)]
+    assert list(scene_frontiers(found, "bouncing-ball")) == ["pybullet", "mujoco"]
+    assert scene_frontiers(found, "feigin-pair") == {}
+    (one / "recommended.json").write_text("{not json")
+    with pytest.raises(InputError, match=r"--tune .*one: recommended.json is not the JSON"):
+        read_frontiers([one])
