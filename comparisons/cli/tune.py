@@ -18,7 +18,8 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 from chatterbench.comparisons.pipeline.budget import check_engine_run, check_reference
-from chatterbench.comparisons.studies.tune import MAX_RUNS, search_space, tune
+from chatterbench.comparisons.pipeline.solution import solve
+from chatterbench.comparisons.studies.tune import MAX_RUNS, engine_space, search_space, tune
 from chatterbench.comparisons.studies.tune_answer import frontier_frame, frontier_line, neighbourhood_fails, searched_text
 from chatterbench.engines.registry import make_settings
 from chatterbench.reference.scene import load_scene, split_assignment
@@ -45,7 +46,10 @@ def cmd_tune(args: argparse.Namespace) -> int:
     tol = parse_tolerances(args.tolerance)
     budget = budget_of(args)  # the reference, then the finest candidate of each engine, before any run
     check_reference(scene, budget)
-    spaces = {engine: fixed(engine, search_space(engine, scene, tol), engine_over) for engine in engines}
+    for engine in engines:  # the knobs --set fixes, checked against what the engine declares, before any solving
+        fixed(engine, engine_space(engine, scene), engine_over)
+    solution = solve(scene)
+    spaces = {engine: fixed(engine, search_space(engine, scene, tol, solution), engine_over) for engine in engines}
     for engine, space in spaces.items():
         within = [dt for dt in space["dt"] if 1.0 / dt <= args.max_cost]
         if not within:

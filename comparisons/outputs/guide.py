@@ -10,9 +10,11 @@
     >>> "<style>" in guide_html(result)           # one self-contained page, styled like the report
     True
 
-The answer: the recommended candidate (``studies.tune``: the fewest steps per simulated
-second that pass, ties to the simplest) or, when nothing passes, the best reachable one
-(most matching episodes, then the smallest worst error over its tolerance); each check's
+The answer: whether the asked tolerances have a robust setting and what is reachable
+(``studies.tune_answer.frontier_line``), the recommended candidate (``studies.tune``: the fewest
+steps per simulated second that pass, ties to the simplest) or, when nothing passes, the best
+reachable one (most matching episodes, then the smallest worst error over its tolerance); the
+robust frontier (``studies.tune_frontier``) as a table and a chart (``frontier_chart``); each check's
 worst error over its tolerance; every failing candidate no more expensive than it, with the
 check that failed and its measure; the snippet a user pastes (``EngineAdapter.snippet``:
 MJCF attributes for MuJoCo, PyBullet calls); the figures (``guide_figures``: the trade-off of
@@ -132,6 +134,8 @@ def _answer(result) -> list[str]:
                 "so do they at dt x 0.8 and x 1.25 and at the neighbouring values of each continuous knob (the map's knob: "
                 "its adjacent searched values; every other real-valued knob: half-way to its adjacent searched values); "
                 f"margin {_fmt(result.margin)} (its worst error over its tolerance among the judge's checks); cost {cost}."]
+        if result.frontier:
+            head.append(f"{_sentence(result)}.")
         n_fragile = len(result.cheaper(fragile=True))
         if n_fragile:
             head.append(f"{n_fragile} cheaper or as cheap candidates pass but are fragile (a neighbour fails): see the "
@@ -174,7 +178,7 @@ def _frontier_note(result) -> str:
     """What the frontier is, and the tightest levels reached (one paragraph)."""
     reach = result.extra.get("tightest", {})
     pct = lambda v: "none" if v is None else f"{100 * v:.3g}%"  # noqa: E731
-    return (f"{_sentence(result)}. Each row is the cheapest setting robust at its tolerances (it and every neighbour "
+    return ("Each row is the cheapest setting robust at its tolerances (it and every neighbour "
             "pass there: dt x 0.8, x 1.25 and the knobs' neighbours), judged at those tolerances, so `compare` with "
             "them and the row's settings says `match`; a level another row reaches as tightly and as cheaply is left "
             f"out. Tightest reached robustly: stick {pct(reach.get('stick'))}, restitution {pct(reach.get('restitution'))} "

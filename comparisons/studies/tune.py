@@ -12,7 +12,7 @@
     >>> [(p["tolerances"]["stick"], p["tolerances"]["restitution"], p["dt"]) for p in result.frontier]  # what is robust
     [(0.2, 0.2, 0.001)]
 
-``outputs/guide.py`` turns the result into the tuning guide; ``recommended`` into ``recommended.json``.
+``outputs/guide.py`` turns the result into the tuning guide; ``tune_answer.recommended`` into ``recommended.json``.
 
 The space (``search_space``): dt from the scene's own scales (``dt_range``: the coarsest dt
 worth trying is the tightest timing tolerance in seconds, a step that places an event no
@@ -32,7 +32,16 @@ a robust candidate whose strikes miss R where the judge holds a time-stepper to 
 (``scene_restitution_ratio`` > 1) is recommended only when no robust one meets R there.
 The budget (``max_runs``, default ``MAX_RUNS``) counts runs of up to ``UNIT_STEPS`` steps, a
 longer run as several, so that a scene of long runs searches fewer of them in about the time
-a short scene searches many.
+a short scene searches many. When the whole lattice fits the budget it is all run
+(``searched["exhaustive"]``); else the adaptive search says how much of it ran and what it
+skipped. ``max_cost`` caps the steps per simulated second of every candidate run or answered.
+
+The frontier. Each run is also judged at every point of a ladder of tolerances
+(``tune_ladder``: timing levels x restitution levels, the asked tolerances among them), and
+the neighbourhood of every pass that could be the answer somewhere is run, so that each
+point has its own cheapest robust setting (``tune_frontier``); ``frontier`` lists the points
+no other beats (as tight on both axes and as cheap), cheapest first, each with its tolerances,
+dt, settings, cost and margin. A search with ``ladder=None`` judges the asked tolerances alone.
 
 Cost and choice. The cost of a candidate is its steps per simulated second (1 / dt: every
 searched setting makes one force evaluation per step, so this is the work, and it is free

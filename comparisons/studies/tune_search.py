@@ -18,32 +18,41 @@ their values. Dt values are rounded to ``SIG_DIGITS`` (they are printed and past
 
 Promises (``search``):
 
-- **Coarse joint grid.** Every coarse dt x every coarse knob value x every slice, dt rows
-  from coarse to fine, a row in one batch (the rows run in parallel). A row finer than the
-  cheapest robust pass so far (beyond the tie ``band``) is not run: it costs more steps, so it
-  cannot be the answer; nor once the grid has taken ``COARSE_SHARE`` of the budget. Nothing
-  else is pruned: no verdict is assumed from another dt's.
+- **The whole lattice when it fits.** When every lattice setting within the cost cap weighs
+  at most ``1 - CHECK_SHARE`` of the budget, all of them run, coarse dt first, and then the
+  neighbourhoods (``Searched.exhaustive``); the frontier is then the brute force's.
+- **Coarse joint grid** (otherwise). Every coarse dt x every coarse knob value x every slice, dt rows
+  from coarse to fine, a row in one batch (the rows run in parallel). A row dearer than
+  every ladder point's bound (``bounds``: its answer so far, the tie band added at the asked
+  point, and below the answer of any point as tight on both axes) is not run: it costs more
+  steps, so it cannot be an answer; nor once the grid has taken ``COARSE_SHARE`` of the budget,
+  nor beyond ``max_cost``. Nothing else is pruned: no verdict is assumed from another dt's.
 - **Refinement where verdicts change** (``sweep.refine.split_points`` per slice, level
-  1..depth, as an adaptive sweep does): a cell whose corners' verdicts differ runs its centre
+  1..depth, as an adaptive sweep does; a run's label is its verdict and the ladder points it
+  passes at): a cell whose corners' labels differ runs its centre
   and the midpoints of its edges whose ends differ, the cells of the most promising corners
-  first (a pass, then the most matching episodes, the smallest worst error over its
-  tolerance, the fewest steps), so that a budget that ends a level ends it where it matters
-  least; **and around the best**: the lattice
-  neighbours, at the level's spacing, of the ``AROUND`` best candidates (the cheapest passes;
-  when nothing passes yet, the best reachable: most matching episodes, then the smallest worst
-  error over its tolerance), so the search goes on where it is closest even if nothing passes.
-  Once a pass is found, refinement stops with ``CHECK_SHARE`` of the budget left, which goes
-  to the neighbourhoods of the passes found (a budget spent refining left cheap passes
-  unchecked: spring-pair, MuJoCo, T = 0.1 and restitution 0.2 answered 8,850 steps per
-  simulated s, now 2,320).
-- **Neighbourhood** (``neighbours``): after each stage, the passes no more expensive than the
-  cheapest robust one so far, cheapest first, have their neighbourhood run: dt x 0.8 and x 1.25
+  first (passing at the asked point, then at the most points, then the most matching episodes,
+  the smallest worst error over its tolerance, the fewest steps), so that a budget that ends a
+  level ends it where it matters least; **and around the best**: the lattice
+  neighbours, at the level's spacing, of the ``AROUND`` cheapest passes (when nothing passes
+  yet, the best reachable: most matching episodes, then the smallest worst error over its
+  tolerance) and of the cheapest pass of each ladder point, so the search goes on where it is
+  closest even if nothing passes. Once a pass is found, refinement stops with ``CHECK_SHARE``
+  of the budget left for the neighbourhoods of the passes found; what they leave goes back to
+  the grid and the refinement, a share kept again each round, until nothing is left to split.
+- **Neighbourhood** (``neighbours``): after each stage, the passes that could still be an answer
+  somewhere (``unchecked``: within a point's bound, ranked before its answer so far; those that
+  could open a new frontier point first) have their neighbourhood run: dt x 0.8 and x 1.25
   (exactly, 6 significant digits: not the lattice's adjacent dt) with the other settings the same; the adjacent values of the
   main knob's finest lattice; for every other real-valued setting, the values half-way (in its
-  scale) to its adjacent searched values. A pass is ``robust`` when every neighbour also
-  passes; else ``robust`` is False and ``neighbourhood`` names the neighbours that fail. At the
+  scale) to its adjacent searched values. A pass is robust at a ladder point when every neighbour
+  also passes there (``robust_at``); at the asked point ``robust`` is True or False and
+  ``neighbourhood`` names the neighbours that fail. At the
   end of a range only the neighbour inside it is taken; integer and named settings (solver
   iterations, an integrator) are choices, not neighbourhoods.
+- **Judged where it can matter** (``need``): a run is judged at the asked point and at every
+  ladder point whose bound, when it was asked for, reaches its cost over ``DT_RATIO`` (bounds
+  only fall, so the points left out never matter to it: ``unjudged`` lists them).
 - ``budget`` at most, each run counting ``weight(params)`` (one by default; ``tune`` counts a
   long run as several: its work); a neighbourhood once begun is completed; no candidate
   runs twice; every run is returned, refused ones included, each row with ``stage`` and

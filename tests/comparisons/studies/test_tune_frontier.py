@@ -269,3 +269,11 @@ def test_two_engines_one_frontier_each_capped_in_cost_and_charted_in_the_report(
     assert '<figure id="frontier-bouncing-ball">' in section
     md = (report / "report.md").read_text()
     assert "Robust frontier of mujoco" in md and "Robust frontier of pybullet" in md
+
+
+def test_a_cost_cap_under_every_searched_dt_is_refused_by_name():
+    # the coarsest dt tune searches comes from the scene's reference (solved first: not within the 2 s of the
+    # refusals table, tests/test_bad_inputs.py), so the cap is checked against it here
+    done = cli(["tune", "bouncing-ball", "--engines", "pybullet", "--max-cost", "1"])
+    assert done.code == 2 and "--max-cost 1: no dt pybullet would search costs so little (the coarsest" in done.err
+    assert "Traceback" not in done.err
