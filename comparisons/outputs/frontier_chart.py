@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 from matplotlib.figure import Figure
-from matplotlib.ticker import FuncFormatter, LogLocator, NullLocator
+from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter, NullLocator
 
 from chatterbench.reference.errors import InputError
 
@@ -88,6 +88,7 @@ def frontier_figure(frontiers: Mapping[str, Sequence[dict[str, Any]]], scene: st
         _tolerance_ticks(ax, frontiers, axis, asked)
         ax.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
         ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:,.0f}"))
+        ax.yaxis.set_minor_formatter(NullFormatter())  # labels at 1, 2 and 5 only, as numbers
         ax.set_xlabel(label, fontsize=8)
         ax.set_ylabel("steps per simulated second (cost)", fontsize=8)
         ax.tick_params(labelsize=7)
