@@ -70,7 +70,8 @@ def test_compare_report_tune_and_sweep_print_the_same_column_names():
     # tune's own: the candidate, the checks it failed and their ratios to the tolerances, its cost in steps
     own = {"stage", "settings", "failed", *RATIO_COLUMNS, "steps_per_sim_s", "cost_repeats", "n_non_default",
            *SEARCH_COLUMNS, *STRIKE_COLUMNS,  # the search's (level, robust, failing neighbours); R under the scene's forces
-           "passes", "robust_at", "margins"}  # the ladder points each run passes at, is robust at, its margins there
+           # the ladder points a run passes at, is robust at, its margins there, and those it was not judged at
+           "passes", "robust_at", "margins", "unjudged"}
     assert set(TUNE_COLUMNS) - own <= summary
     assert set(tune_cli.SHOW) - own <= summary
     # the episode table names its errors as the judge does
