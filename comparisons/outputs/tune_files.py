@@ -14,8 +14,8 @@
 One engine: ``DIR/recommended.json`` (``studies.tune_answer.recommended``, its ``frontier``
 included), ``guide.md``, ``guide.html`` and ``guide_section.html`` (``guide.py``; the last for
 ``chatterbench report --tune DIR``), ``candidates.csv`` (every run, ``TUNE_COLUMNS`` with the
-ladder points each passes at and is robust at as ``stick%/restitution%`` pairs, e.g.
-``5/20 10/30``), the figures (``guide.FIGURE_FILES``, PNG and SVG) and the engine's files at the
+ladder points each passes at, is robust at and was not judged at as ``stick%/restitution%``
+pairs, e.g. ``5/20 10/30``), the figures (``guide.FIGURE_FILES``, PNG and SVG) and the engine's files at the
 chosen settings (``engine_files``). Several engines: each engine's set under ``DIR/ENGINE`` as
 one engine writes it, and under ``DIR`` the frontier of all of them in one chart
 (``frontier.png/.svg``, one line per engine) with a guide that leads with each engine's
@@ -54,7 +54,7 @@ def candidates_frame(result) -> pd.DataFrame:
     """``result.table`` for ``candidates.csv``: the ladder columns as text."""
     points = result.extra.get("points") or (result.tolerance,)
     table = result.table.copy()
-    for column in ("passes", "robust_at"):
+    for column in ("passes", "robust_at", "unjudged"):
         if column in table:
             table[column] = [level_labels(points, v) for v in table[column]]
     if "margins" in table:
