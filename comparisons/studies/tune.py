@@ -82,8 +82,8 @@ from ..pipeline.solution import ReferenceSolution, solve
 from ..pipeline.summary import METRIC_COLUMNS, metrics
 from ..pipeline.tolerances import Tolerances
 from .tune_checks import RATIO_COLUMNS, STRIKE_COLUMNS, check_ratios, describe_failures, judged_margin, scene_strikes, strike_summary
-from .tune_frontier import answers, frontier_entries, frontier_sentence, tightest
-from .tune_ladder import Ladder, judge_levels, level_text
+from .tune_frontier import answers, frontier_entries, json_value, tightest
+from .tune_ladder import Ladder, judge_levels
 from .tune_search import DT_RATIO, SEARCH_COLUMNS, Grid, agrees, need, round_dt, search
 
 TUNE_COLUMNS = ["stage", "dt", "settings", "verdict", "n_episodes", "n_match", "failed", *SEARCH_COLUMNS, "passes",
@@ -424,7 +424,7 @@ def tune(
     within = [dt for dt in grid.dt if 1.0 / dt <= max_cost] or list(grid.dt)
     searched = {**grid.describe(), "dt": [min(within), max(within)], "runs": len(table), "max_runs": max_runs, "budget_used": round(work, 1),
                 "budget_spent": work >= max_runs - 1, "exhaustive": done.exhaustive, "lattice": done.lattice,
-                "lattice_run": done.lattice_run, "skipped_costlier": done.costlier, "max_cost": _plain(max_cost),
+                "lattice_run": done.lattice_run, "skipped_costlier": done.costlier, "max_cost": json_value(max_cost),
                 "capped": done.capped, "unchecked_passes": done.unchecked,
                 "levels": sorted({int(v) for v in table["level"].dropna()}), "robustness_checked": check_robust}
     return TuneResult(scene=scene, engine=engine, tolerance=tol, table=table, best=best,
@@ -439,12 +439,6 @@ def tune(
 def run_weight(scene: Scene, dt: float) -> float:
     """What one run at ``dt`` [s] costs of the budget: its steps / ``UNIT_STEPS``, at least one run."""
     return max(1.0, scene.duration / dt / UNIT_STEPS)
-
-
-def _plain(v: Any) -> Any:
-    """A JSON value: numpy scalars as Python numbers, NaN and inf as None."""
-    v = v.item() if hasattr(v, "item") else v
-    return None if isinstance(v, float) and not math.isfinite(v) else v
 
 
 def _frame(rows: list[dict], space: dict[str, tuple]) -> pd.DataFrame:

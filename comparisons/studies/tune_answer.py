@@ -29,7 +29,7 @@ from typing import Any
 import pandas as pd
 
 from .tune import UNIT_STEPS, TuneResult
-from .tune_frontier import frontier_sentence
+from .tune_frontier import frontier_sentence, json_value
 from .tune_search import DT_RATIO, Grid, agrees
 
 FRAME_COLUMNS = ["stick %", "exit %", "first_impact %", "restitution %", "dt", "settings", "steps_per_sim_s", "margin"]
@@ -67,9 +67,9 @@ def recommended(result: TuneResult) -> dict[str, Any] | None:
     keys = [k for k in result.extra["space"] if k != "dt"]
     points = result.extra.get("points") or (result.tolerance,)
     out = {"answer": frontier_line(result), "engine": result.engine, "scene": result.scene.name, "dt": float(c["dt"]),
-           "settings": {k: _plain(c[k]) for k in keys}, "robust": bool(result.best is not None),
-           "margin": _plain(result.margin), "scene_restitution_ratio": _plain(c.get("scene_restitution_ratio", math.nan)),
-           "cost_steps_per_s": _plain(c["steps_per_sim_s"]),
+           "settings": {k: json_value(c[k]) for k in keys}, "robust": bool(result.best is not None),
+           "margin": json_value(result.margin), "scene_restitution_ratio": json_value(c.get("scene_restitution_ratio", math.nan)),
+           "cost_steps_per_s": json_value(c["steps_per_sim_s"]),
            "verdict": c["verdict"], "failed": c["failed"] or "",
            "neighbourhood_fails": neighbourhood_fails(c, result.extra["searched"]["robustness_checked"]),
            "tolerances": result.tolerance.as_dict(), "frontier": result.frontier,
@@ -77,8 +77,8 @@ def recommended(result: TuneResult) -> dict[str, Any] | None:
            "ladder": {"stick": sorted({p.stick for p in points}), "restitution": sorted({p.restitution for p in points})},
            "searched": {**result.extra["searched"], "wall_time_s": round(result.extra["wall_time_s"], 2)}}
     f = result.fragile
-    out["fragile"] = None if f is None else {"dt": float(f["dt"]), "settings": {k: _plain(f[k]) for k in keys},
-                                             "cost_steps_per_s": _plain(f["steps_per_sim_s"]),
+    out["fragile"] = None if f is None else {"dt": float(f["dt"]), "settings": {k: json_value(f[k]) for k in keys},
+                                             "cost_steps_per_s": json_value(f["steps_per_sim_s"]),
                                              "neighbourhood_fails": f["neighbourhood"]}
     return out
 
@@ -130,9 +130,3 @@ def _coverage(x: dict[str, Any]) -> str:
             f"{x['refine_depth']} levels where verdicts change at any ladder point and around the best; skipped "
             f"{skipped}: {costlier} dearer than every ladder point's robust answer, {skipped - costlier} not reached "
             "(in cells whose corners agreed at every point, or left by the budget)")
-
-
-def _plain(v: Any) -> Any:
-    """A JSON value: numpy scalars as Python numbers, NaN and inf as None."""
-    v = v.item() if hasattr(v, "item") else v
-    return None if isinstance(v, float) and not math.isfinite(v) else v

@@ -74,8 +74,8 @@ def frontier_entries(found: dict[int, dict[str, Any]], points: tuple[Tolerances,
     for i in pareto(found, points):
         row = found[i]
         out.append({"tolerances": points[i].as_dict(), "dt": float(row["dt"]),
-                    "settings": {k: _plain(row[k]) for k in keys}, "cost_steps_per_s": float(row["steps_per_sim_s"]),
-                    "margin": _plain(margin_at(row, i))})
+                    "settings": {k: json_value(row[k]) for k in keys}, "cost_steps_per_s": float(row["steps_per_sim_s"]),
+                    "margin": json_value(margin_at(row, i))})
     return out
 
 
@@ -85,7 +85,8 @@ def tightest(found: dict[int, dict[str, Any]], points: tuple[Tolerances, ...]) -
             "restitution": min((points[i].restitution for i in found), default=None)}
 
 
-def _plain(v: Any) -> Any:
+def json_value(v: Any) -> Any:
+    """A JSON value: numpy scalars as Python numbers, NaN and inf as None (``recommended.json``)."""
     v = v.item() if hasattr(v, "item") else v
     return None if isinstance(v, float) and not math.isfinite(v) else v
 
