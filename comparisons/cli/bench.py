@@ -142,8 +142,10 @@ def _run_bench(args: argparse.Namespace, bar: Progress):
             _print_warp(args.worlds)
     elif args.what == "tune":
         figures = bench_tune(workers=args.workers, max_runs=args.max_runs)
-        print_table(figures, title="tune per case (runs, and wall time from the reference to the answer and its robust "
-                                   "frontier):")
+        print_table(figures.drop(columns="answer_line"), title="tune per case (runs, and wall time from the reference "
+                                                               "to the answer and its robust frontier):")
+        for row in figures.itertuples():  # what each engine reaches, robustly, and at what cost
+            print(f"{row.scene} / {row.engine}: {row.answer_line}")
     elif args.what == "platemap":
         figures = bench_platemap(strikes=args.strikes, repeats=args.repeats)
         print_table(pd.DataFrame([figures]), title="plate map, feigin-pair lower wall, reference exhaustive mode (best of repeats):")

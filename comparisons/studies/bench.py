@@ -228,11 +228,13 @@ def bench_tune(cases=TUNE_CASES, workers: int = 2, max_runs: int | None = None):
     Returns a DataFrame, one row per case: scene, engine, tolerance, answer (the chosen settings),
     robust, margin (worst error / tolerance of the judge's checks), steps_per_sim_s, runs, wall_s, fragile (the cheapest
     isolated pass, if cheaper), exhaustive (the whole lattice ran), frontier (its points), tightest_stick and
-    tightest_restitution (the tightest tolerances reached robustly; NaN: none).
+    tightest_restitution (the tightest tolerances reached robustly; NaN: none), and answer_line (the answer's first
+    sentence: robust at T or not, then the frontier, ``tune_answer.frontier_line``).
     """
     import pandas as pd
 
     from .tune import MAX_RUNS, tune
+    from .tune_answer import frontier_line
 
     rows = []
     for scene_name, engine, tol in cases:
@@ -248,5 +250,6 @@ def bench_tune(cases=TUNE_CASES, workers: int = 2, max_runs: int | None = None):
                      "fragile": f["settings"] if f is not None and c is not None and f["settings"] != c["settings"] else "",
                      "exhaustive": result.extra["searched"]["exhaustive"], "frontier": len(result.frontier),
                      "tightest_stick": math.nan if reach["stick"] is None else reach["stick"],
-                     "tightest_restitution": math.nan if reach["restitution"] is None else reach["restitution"]})
+                     "tightest_restitution": math.nan if reach["restitution"] is None else reach["restitution"],
+                     "answer_line": frontier_line(result)})
     return pd.DataFrame(rows)
