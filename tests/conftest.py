@@ -42,9 +42,11 @@ settings.load_profile(_profile())
 
 @pytest.fixture
 def engine_runs(monkeypatch, tmp_path_factory):
-    """The engine runs started while the test ran, as ``["pybullet.run", ...]``: a spy on the adapters' ``run`` and
-    ``run_batch`` (the real engines still run). It logs to a file, so runs in forked children (isolated runs, process
-    pools) count too. A test of a refusal asserts ``engine_runs() == []``: refused before any engine ran."""
+    """The engine runs made while the test ran, as ``["pybullet.run", ...]``: a spy on the adapters' ``run`` and
+    ``run_batch`` (the real engines still run) that logs each call that returned a result; a call refused with an
+    exception (``SettingsError``: settings the scene cannot run with, refused before the engine steps) is no run.
+    It logs to a file, so runs in forked children (isolated runs, process pools) count too. A test of a refusal
+    asserts ``engine_runs() == []``: refused before any engine ran."""
     from chatterbench.engines import base
     from chatterbench.engines.registry import adapter
 
@@ -56,9 +58,10 @@ def engine_runs(monkeypatch, tmp_path_factory):
     def spy(method: str, original):
         @functools.wraps(original)
         def wrapper(self, *args, **kwargs):
+            result = original(self, *args, **kwargs)
             with open(log, "a", encoding="utf-8") as f:
                 f.write(f"{self.name}.{method}\n")
-            return original(self, *args, **kwargs)
+            return result
         return wrapper
 
     classes, todo = set(), [base.EngineAdapter]

@@ -147,3 +147,16 @@ def check_printed_age(printed: float, run: TimedRun, last_write: float, rounding
                                                           last_write - run.started)
     assert printed - slack <= run.ended - run.before, ("the age printed is more than the process lived", printed,
                                                        run.ended - run.before)
+
+
+def needs_engine(*names: str) -> None:
+    """Skip the calling test, with the engine's install line as the reason, when an engine it runs is not installed
+    (an optional extra absent, Siconos's interpreter missing): the suite passes with any subset of extras."""
+    import pytest
+
+    from chatterbench.engines.registry import unavailable_reason
+
+    for name in names:
+        reason = unavailable_reason(name)
+        if reason:
+            pytest.skip(reason)

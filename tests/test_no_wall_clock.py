@@ -13,6 +13,8 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
+import pytest
+
 TESTS = Path(__file__).resolve().parent
 CLOCKS = {"time", "monotonic", "perf_counter", "process_time", "time_ns", "monotonic_ns", "perf_counter_ns",
           "process_time_ns"}
@@ -113,6 +115,7 @@ def test_the_scan_finds_each_kind_of_timed_assertion():
 def test_the_engine_run_spy_sees_runs_in_this_process_and_in_isolated_children(engine_runs):
     # the spy replaces "refused within 2 s" with "refused before any engine ran": it must see every kind of run
     from chatterbench.engines.registry import make_settings, run_engine, run_engine_isolated
+    from chatterbench.engines.settings import SettingsError
     from chatterbench.reference.scene import load_scene
 
     scene = load_scene("bouncing-ball", ["duration=0.01"])
@@ -121,3 +124,6 @@ def test_the_engine_run_spy_sees_runs_in_this_process_and_in_isolated_children(e
     assert engine_runs() == ["pybullet.run"]
     assert run_engine_isolated("mujoco", scene, make_settings("mujoco", 1e-3), timeout=120).status == "ok"
     assert engine_runs() == ["pybullet.run", "mujoco.run"]  # logged by the forked child
+    with pytest.raises(SettingsError):  # refused before the engine steps: no run
+        run_engine("mujoco", load_scene("feigin-pair"), make_settings("mujoco", 1e-3, ["mujoco.w0_dt=1.9"]))
+    assert engine_runs() == ["pybullet.run", "mujoco.run"]
