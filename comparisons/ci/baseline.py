@@ -19,14 +19,15 @@ import math
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any, Mapping
+from typing import TYPE_CHECKING, Any, Mapping
 
 from chatterbench.comparisons.pipeline.atomic import write_text
 from chatterbench.comparisons.pipeline.summary import METRIC_COLUMNS
 from chatterbench.reference.errors import InputError, check_number, shown
 from chatterbench.reference.tables import TooDeep, check_depth, printable, read_text
 
-from .checks import GateResult
+if TYPE_CHECKING:  # `gate --help` reads BAND without loading the runs
+    from .checks import GateResult
 
 BAND = 0.1  # relative growth allowed before a metric counts as a regression
 FLOOR = 1e-12

@@ -109,11 +109,12 @@ def run_check(check: Check, cache: dict[str, tuple[dict, str]] | None = None,
 
 
 def run_gate(gate: Gate, on_check: Callable[[int, CheckResult], None] | None = None, timeout: float | None = None,
-             budget: Budget | None = None) -> GateResult:
+             budget: Budget | None = None, starting: Callable[[int, Check], None] | None = None) -> GateResult:
     """Run every check of a validated gate, in order; checks needing the same run share it.
 
     ``on_check(i, result)`` is called as each check's run ends (``i`` from 1): the CLI decides
-    the check there (``decision.decide_check``) and prints its progress line.
+    the check there (``decision.decide_check``) and prints its progress line; ``starting(i, check)`` as
+    each check's run starts (the CLI's progress says which check runs).
     ``timeout`` [s]: each engine run is isolated in a child with this limit (``run_check``).
     ``budget``: every check's runs are estimated against it before the first one starts.
     """
@@ -124,6 +125,8 @@ def run_gate(gate: Gate, on_check: Callable[[int, CheckResult], None] | None = N
     results = []
     start = time.perf_counter()
     for i, check in enumerate(gate.checks, 1):
+        if starting:
+            starting(i, check)
         result = run_check(check, cache, timeout)
         results.append(result)
         if on_check:

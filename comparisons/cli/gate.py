@@ -27,21 +27,22 @@ import sys
 from pathlib import Path
 
 from chatterbench.comparisons.ci.baseline import BAND, load_baseline, save_baseline
-from chatterbench.comparisons.ci.checks import run_gate
-from chatterbench.comparisons.ci.decision import decide, decide_check
-from chatterbench.comparisons.ci.gate import load_gate
-from chatterbench.comparisons.ci.job_outputs import annotations, benchmark_json, job_summary
-from chatterbench.comparisons.ci.junit import write_junit
 from chatterbench.comparisons.pipeline.atomic import write_text
-
 from chatterbench.reference.errors import check_number
 
+from .commands import COMMANDS
 from .common import UsageError, add_budget, add_timeout, add_tolerance, budget_of, parse_tolerances, print_table
 from .paths import check_file, writing
-from .progress import waited_s
+from .progress import Progress, waited_s
 
 
 def cmd_gate(args: argparse.Namespace) -> int:
+    from chatterbench.comparisons.ci.checks import run_gate
+    from chatterbench.comparisons.ci.decision import decide, decide_check
+    from chatterbench.comparisons.ci.gate import load_gate
+    from chatterbench.comparisons.ci.job_outputs import annotations, benchmark_json, job_summary
+    from chatterbench.comparisons.ci.junit import write_junit
+
     for option in ("junit", "summary", "json", "save_baseline"):
         check_file(f"--{option.replace('_', '-')}", getattr(args, option))
     check_number("--band", args.band, lo=0.0, error=UsageError)
@@ -49,12 +50,13 @@ def cmd_gate(args: argparse.Namespace) -> int:
     gate = load_gate(args.gates, base_tolerances=parse_tolerances(args.tolerance))
     print(f"{gate.path}: {len(gate.checks)} checks" + (f" ({gate.description})" if gate.description else ""), file=sys.stderr)
     decided = []
+    with Progress(len(gate.checks), f"gate {gate.path}", unit="check") as bar:
+        def on_check(i: int, result) -> None:  # each check is decided once, as its run ends
+            decided.append(decide_check(result, base, args.band))
+            bar.write(decided[-1].progress_line(i, len(gate.checks)))
 
-    def on_check(i: int, result) -> None:  # each check is decided once, as its run ends
-        decided.append(decide_check(result, base, args.band))
-        print(decided[-1].progress_line(i, len(gate.checks)), file=sys.stderr, flush=True)
-
-    result = run_gate(gate, on_check=on_check, timeout=args.timeout, budget=budget_of(args))
+        result = run_gate(gate, on_check=on_check, timeout=args.timeout, budget=budget_of(args),
+                          starting=lambda i, check: bar.stage(check.name))
     decision = decide(result, base, args.band, args.baseline, checks=tuple(decided))
     print_table(decision.table(), title=f"{gate.path}: {len(result.results)} checks")
     for c in decision.checks:
@@ -95,8 +97,7 @@ def cmd_gate(args: argparse.Namespace) -> int:
 
 def register(sub, formatter) -> None:
     """Add ``gate`` to the ``chatterbench`` subparsers."""
-    p = sub.add_parser("gate", help="run accuracy checks from a gate file; exit 1 if any fails (for CI)",
-                       formatter_class=formatter)
+    p = sub.add_parser("gate", help=COMMANDS["gate"], formatter_class=formatter)
     p.add_argument("gates", metavar="GATES.toml", help="gate file (format: chatterbench.comparisons.ci.gate docstring)")
     p.add_argument("--junit", metavar="PATH", default=None,
                    help="write JUnit XML here (one testcase per check and per regressed metric)")

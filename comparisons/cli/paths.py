@@ -31,10 +31,11 @@ and ``pipeline/atomic.py`` leaves no temp file.
 from __future__ import annotations
 
 import os
-from contextlib import contextmanager, suppress
+from contextlib import contextmanager, nullcontext, suppress
 from pathlib import Path
+from typing import Sequence
 
-from chatterbench.comparisons.pipeline.atomic import TEMP_NAME_EXTRA
+from chatterbench.comparisons.pipeline.atomic import TEMP_NAME_EXTRA, confined, staged
 
 from .common import UsageError
 
@@ -108,6 +109,18 @@ def check_file(option: str, path: str | Path | None) -> None:
                              "(it is first written beside itself under a longer temporary name)")
 
 
+def check_links(option: str, folder: str | Path | None, names: tuple[str, ...]) -> None:
+    """Refuse (``UsageError``) an output folder where a name the command writes (a file, an engine's folder) is a
+    symbolic link: it would be written through (``atomic.confined`` refuses it again at the write)."""
+    if folder is None:
+        return
+    for name in names:
+        path = Path(folder, name)
+        if path.is_symlink():
+            raise UsageError(f"{option} {folder}: {path} is a symbolic link (-> {os.readlink(path)}); nothing is "
+                             f"written through a link in {option}: remove it or choose another {option}")
+
+
 def write_error(exc: OSError, under: str | Path | None = None) -> str:
     """One line for an OSError met while writing (a full disk, a permission taken away).
 
@@ -122,10 +135,25 @@ def write_error(exc: OSError, under: str | Path | None = None) -> str:
 
 
 @contextmanager
-def writing(option: str, path: str | Path):
-    """Turn an ``OSError`` met while writing what ``option`` names into a ``UsageError`` (one line, exit 2)."""
+def writing(option: str, path: str | Path, folder: bool | None = None, together: bool | Sequence[str] = False):
+    """Turn an ``OSError`` met while writing what ``option`` names into a ``UsageError`` (one line, exit 2); yields
+    where to write.
+
+    ``folder`` (default: ``option`` is ``--out``): ``path`` is an output folder, every write under it
+    follows no link (``atomic.confined``): a link planted there is refused, nothing written through it.
+    ``together``: the block's files appear in ``path`` together when it ends (``atomic.staged``; a
+    sequence: these files last), written where this yields; an interrupted or failed block
+    leaves ``path`` as it was. Otherwise it yields ``path``.
+    """
+    path = Path(path)
+    confining = confined(path) if (option == "--out" if folder is None else folder) else nullcontext()
     try:
-        yield
+        with confining:
+            if together:
+                with staged(path, last=() if together is True else tuple(together)) as stage:
+                    yield stage
+            else:
+                yield path
     except BrokenPipeError:  # the reader of stdout left (``| head``): ``main`` says nothing more
         raise
     except OSError as exc:

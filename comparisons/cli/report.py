@@ -17,9 +17,9 @@ import dataclasses
 import shlex
 from pathlib import Path
 
-from chatterbench.comparisons.studies.sweep.dataset import load_rows
 from chatterbench.reference.catalogue import CATALOGUE
 
+from .commands import COMMANDS
 from .common import (ENGINE_TIMEOUT, UsageError, add_judging, add_out, budget_of, engine_list, parse_tolerances,
                      print_table, settings_of, split_overrides)
 from .paths import check_dir, writing
@@ -48,6 +48,7 @@ def cmd_report(args: argparse.Namespace) -> int:
     check_dir("--out", args.out)
     from chatterbench.comparisons.outputs.report import SUMMARY_COLUMNS, SweepSection, build_report  # draws: loads matplotlib (0.7 s), so only when asked
     from chatterbench.comparisons.outputs.report_page import write_report
+    from chatterbench.comparisons.studies.sweep.dataset import load_rows
 
     scene_over, engine_over = split_overrides(args.set)
     tol = parse_tolerances(args.tolerance)
@@ -69,8 +70,8 @@ def cmd_report(args: argparse.Namespace) -> int:
         if tuning:
             report = dataclasses.replace(report, tuning=tuning)
         bar.stage("figures and pages")
-        with writing("--out", args.out):
-            paths = write_report(report, Path(args.out))
+        with writing("--out", args.out, together=True) as stage:  # both pages, or neither (Ctrl-C, a full disk)
+            paths = [Path(args.out) / p.relative_to(stage) for p in write_report(report, stage)]
     print_table(report.summary[SUMMARY_COLUMNS], title=f"summary ({report.wall_time_s:.1f} s of runs; errors in s):")
     print(f"wrote {paths[0]} and {paths[1]}")
     return 0
@@ -78,8 +79,7 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 def register(sub, formatter) -> None:
     """Add ``report`` to the ``chatterbench`` subparsers."""
-    p = sub.add_parser("report", help="every scene on every engine: one self-contained HTML report and a Markdown twin",
-                       formatter_class=formatter)
+    p = sub.add_parser("report", help=COMMANDS["report"], formatter_class=formatter)
     p.add_argument("scenes", nargs="*", metavar="SCENE",
                    help="built-in scene names or scene TOML files; none: every built-in scene")
     add_judging(p)
