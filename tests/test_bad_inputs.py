@@ -381,6 +381,10 @@ CASES: list[tuple[str, str, list[str], str | None, tuple[str, ...]]] = [
      ("'bouncing-ball'", "more than once")),
     ("report-same-name", "two scene files of one name", ["report", "feigin-pair", FILE], _file(**{'name = "pair"': 'name = "feigin-pair"'}),
      ("'feigin-pair'", "more than once", "name")),
+    # issue 33: a misspelt subcommand or option gets the nearest name (before: the list of choices, or nothing)
+    ("repot", "a misspelt subcommand (before: no did-you-mean)", ["repot"], None, ("'repot'", "did you mean 'report'")),
+    ("--dtt", "a misspelt option (before: no did-you-mean, and 'see chatterbench --help')", ["run", "feigin-pair", "--dtt",
+     "1e-3"], None, ("--dtt: did you mean '--dt'", "see chatterbench run --help")),
 ]
 
 

@@ -22,7 +22,7 @@ from typing import Any, Callable, Mapping
 
 from chatterbench.comparisons.pipeline.budget import Budget, check_comparison
 from chatterbench.comparisons.pipeline.compare import compare
-from chatterbench.comparisons.pipeline.summary import summarize
+from chatterbench.comparisons.pipeline.summary import signed_worst, summarize
 from chatterbench.comparisons.pipeline.vocabulary import FAILURES
 from chatterbench.engines.registry import make_settings
 
@@ -102,7 +102,8 @@ def run_check(check: Check, cache: dict[str, tuple[dict, str]] | None = None,
     else:
         c = compare(check.scene, engines=(check.engine,), settings={check.engine: check_settings(check)},
                     tol=check.tolerances, timeout=timeout)
-        row = summarize(c, check.engine, {})
+        # the summary row, with the report's signed worst errors (``summary.SIGNED_COLUMNS``) a limit may name too
+        row = {**summarize(c, check.engine, {}), **signed_worst(c.table[c.table["engine"] == check.engine])}
         if cache is not None:
             cache[key] = (row, row["engine_version"])
     return CheckResult(check=check, row=row, outcomes=CheckResult.outcomes_for(check, row), wall_s=time.perf_counter() - start)

@@ -36,6 +36,7 @@ REFRESH_S = 1.0  # [s] how often the bar is redrawn while one step runs
 # [s] the longest a command is silent where no bar is drawn: a line is printed after this long without one. Half the
 # 10 s promised (issue 33), so that a line late by a loaded machine or a C call holding the GIL still keeps it
 LINE_EVERY_S = 5.0
+IMPORTS_S = 2.0  # [s] of a process's start counted as the command's silence before its first line
 
 _LOADED = time.perf_counter()  # the fallback's origin where /proc is missing
 
@@ -84,7 +85,9 @@ class _Heartbeat:
     @contextmanager
     def __call__(self, command: str) -> Iterator[None]:
         """Lines for ``command`` (``chatterbench tune``) while the block runs; none after it."""
-        self.command, self.bars, self.last = command, [], time.monotonic()
+        # silent since the process started, its imports included (at most IMPORTS_S of them: a long-lived process, a
+        # notebook, runs its first command as a fresh one would)
+        self.command, self.bars, self.last = command, [], time.monotonic() - min(waited_s(), IMPORTS_S)
         stop = threading.Event()
 
         def run() -> None:

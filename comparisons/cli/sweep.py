@@ -25,7 +25,7 @@ from chatterbench.comparisons.studies.limits import NO_WORKER_WAIT, NO_WORKERS
 from .commands import COMMANDS
 from .common import UsageError, add_budget, add_out, add_tolerance, budget_of, local_workers, positive_int, print_table, timeout_seconds
 from .paths import check_dir, writing
-from .progress import Progress
+from .progress import Progress, waited_s
 
 
 def _spec_path(args: argparse.Namespace) -> str:
@@ -83,6 +83,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         print(f"ran {stats['runs']} runs in {stats['wall_s']:.1f} s on {stats['workers']} workers "
               f"(runs' own time {stats['run_s_sum']:.1f} s)")
     print(f"wrote {out / 'rows.parquet'} ({len(rows)} rows), {out / 'sweep.toml'}")
+    print(f"sweep took {waited_s():.1f} s since the command started")
     return 0
 
 
