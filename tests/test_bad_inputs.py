@@ -551,6 +551,16 @@ def markdown() -> str:
         shown = "" if content is None else f"`{_cell(describe_file(content))}`"
         got = outputs.run_cli(argv, content)
         out.append(f"| `{cid}` | {_cell(what)} | `{_cell(command)}` | {shown} | {_cell(message(got.stderr))} ({got.code}) |")
+    import test_hostile_cases as hostile  # gate outputs and baselines, interruptions, planted links, guide sections
+
+    out += ["", "## Gate outputs, baselines, interruptions, links and guide sections", "",
+            "From `tests/test_hostile_cases.py`: each case prepares its scratch directory (a one-check gate file",
+            "`gate.toml`, a named pipe `apipe`, a folder `elsewhere/` outside every output, and what the case says), runs",
+            "the command and checks the disk after; an interrupted case gets a real SIGINT or SIGTERM from its own",
+            "process right after the function named. The message column holds the command's own lines about it and",
+            "what was on disk after. (The full-disk case needs root to mount a tmpfs: tested, not shown.)", "",
+            "| case | what is wrong | command | what it says and leaves (exit code) |", "|---|---|---|---|",
+            *hostile.markdown_rows()]
     out += [
         "",
         "Every message is one stderr line: argparse's refusals too (no usage line), a newline typed into",

@@ -42,7 +42,7 @@ import pandas as pd
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
 from chatterbench.reference.tables import toml_literal
 
-from .baseline import BAND, Regression, check_regressions, versions_note
+from .baseline import BAND, Regression, check_regressions, run_fingerprint, versions_note
 from .checks import CheckResult, GateResult, LimitOutcome, fmt_value
 from .gate import Check
 
@@ -67,7 +67,7 @@ class Item:
     def message(self) -> str:
         """One line: ``METRIC = MEASURED, limit LIMIT[; NOTE]``."""
         if self.kind == "missing":
-            return f"not in the baseline; {self.note}"
+            return f"not in the baseline{'' if self.measured == 'absent' else ' as this run'}; {self.note}"
         return f"{self.metric} = {fmt_value(self.measured)}, limit {self.limit}" + (f"; {self.note}" if self.note else "")
 
 
@@ -97,6 +97,10 @@ def _excess(op: str, measured: Any, value: Any) -> float:
 def _regression_item(g: Regression, versions: str) -> Item:
     if g.why == "missing":
         return Item("missing", "", "in the baseline", "absent", False, note=versions)
+    if g.why == "other run":  # a baseline from another gate file, or from before the check changed: not comparable
+        return Item("missing", "", "the same run in the baseline", "another run", False,
+                    note=f"the baseline's {g.check!r} measured another scene, engine, dt, settings or tolerances; "
+                         f"{versions}")
     if g.why == "one run":
         return Item("regressed", g.metric, f"{g.metric} measured in both runs", g.now, False,
                     baseline=None if math.isnan(g.base) else g.base, note="measured in one run only", excess=math.inf)
@@ -181,7 +185,7 @@ def decide_check(result: CheckResult, base: Mapping[str, Any] | None = None, ban
         note = versions_note({engine: str(result.row.get("engine_version", ""))},
                              {"versions": {k: v for k, v in (base.get("versions") or {}).items() if k == engine}})
         items += [dataclasses.replace(_regression_item(g, note), line=result.check.line)
-                  for g in check_regressions(result.check.name, result.row, base, band)]
+                  for g in check_regressions(result.check.name, result.row, base, band, run_fingerprint(result.check))]
     return CheckDecision(result, tuple(items))
 
 

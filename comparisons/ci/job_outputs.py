@@ -33,6 +33,8 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import stat
 from typing import Any
 
 from chatterbench.comparisons.pipeline.summary import METRIC_COLUMNS
@@ -96,6 +98,32 @@ def job_summary(decision: Decision) -> str:
     if decision.baseline:
         lines += ["", f"Baseline `{decision.baseline}`: {decision.versions}."]
     return "\n".join(lines) + "\n"
+
+
+def append_step_summary(path: str, summary: str) -> str:
+    """Append ``summary`` to GitHub's job summary file ``path``; "" when done, else what went wrong (for one warning
+    line: the file is GitHub's, the verdict must not depend on it).
+
+    Only a regular file (or a new one) is written: a named pipe, opened without waiting for a
+    reader, or a device is refused, so a gate never hangs on it; a full disk is said, not raised.
+    """
+    try:
+        fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NONBLOCK | os.O_CLOEXEC, 0o666)
+    except OSError as exc:  # a pipe with no reader (ENXIO), a directory, a missing folder, a NUL in the name
+        return f"{path}: cannot be opened ({exc.strerror or exc})"
+    except ValueError as exc:
+        return f"{path!r}: cannot be opened ({exc})"
+    try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            return f"{path}: not a regular file (a pipe, a device or a socket); nothing written to it"
+        data = summary.encode("utf-8")
+        while data:
+            data = data[os.write(fd, data):]
+        return ""
+    except OSError as exc:  # a full disk: part of the summary may be there, the verdict is in the log
+        return f"{path}: cannot write ({exc.strerror or exc})"
+    finally:
+        os.close(fd)
 
 
 def benchmark_entries(decision: Decision) -> list[dict[str, Any]]:

@@ -20,7 +20,7 @@ from typing import Iterable
 
 from chatterbench.reference.errors import InputError
 
-from . import interrupt, quiet_interrupts
+from . import Terminated, interrupt, quiet_interrupts
 from .commands import COMMANDS
 from .common import HelpFormatter, Parser, UsageError, check_settings, held_warnings, one_line
 from .paths import write_error
@@ -87,6 +87,9 @@ def _run(args) -> int:
     except KeyboardInterrupt:
         print("chatterbench: interrupted", file=sys.stderr)
         return 130
+    except Terminated:  # SIGTERM: what was being written is removed (atomic.staged), as for Ctrl-C
+        print("chatterbench: terminated", file=sys.stderr)
+        return 143
     finally:
         quiet_interrupts(True)  # a Ctrl-C while the interpreter shuts down (joining a pool) is one line, exit 130
 

@@ -109,6 +109,34 @@ def check_file(option: str, path: str | Path | None) -> None:
                              "(it is first written beside itself under a longer temporary name)")
 
 
+def same_file(a: str | Path, b: str | Path) -> bool:
+    """Whether two paths name one file: the same file when both exist (links, ``..``, hard links followed), else the
+    same place once their folders' links are resolved."""
+    try:
+        return os.path.samefile(a, b)
+    except (OSError, ValueError):
+        return os.path.realpath(a) == os.path.realpath(b)
+
+
+def check_distinct(outputs: dict[str, str | Path | None], inputs: dict[str, str | Path | None],
+                   may_replace: set[tuple[str, str]] = frozenset()) -> None:
+    """Refuse (``UsageError``), before any work, two output options naming one file, or an output naming an input
+    (the gate file, a baseline): one would silently replace the other. ``may_replace``: (output, input) pairs that
+    may (``--save-baseline`` over the ``--baseline`` it read)."""
+    def shown(option: str, path) -> str:  # "--out o/events.csv" names a file of a folder option: said as it is
+        return option if " " in option else f"{option} {path}"
+
+    given = [(o, p) for o, p in outputs.items() if p is not None]
+    for i, (option, path) in enumerate(given):
+        for other, there in given[i + 1:]:
+            if same_file(path, there):
+                raise UsageError(f"{shown(option, path)} and {shown(other, there)} name one file; give each output its own")
+        for name, source in inputs.items():
+            if source is not None and (option, name) not in may_replace and same_file(path, source):
+                raise UsageError(f"{shown(option, path)} is the {name} file ({source}), which this command reads or "
+                                 "appends to: writing it would replace it; name another file")
+
+
 def check_links(option: str, folder: str | Path | None, names: tuple[str, ...]) -> None:
     """Refuse (``UsageError``) an output folder where a name the command writes (a file, an engine's folder) is a
     symbolic link: it would be written through (``atomic.confined`` refuses it again at the write)."""

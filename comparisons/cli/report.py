@@ -15,12 +15,14 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import shlex
+import sys
 from pathlib import Path
 
 from chatterbench.reference.catalogue import CATALOGUE
+from chatterbench.reference.tables import read_text
 
 from .commands import COMMANDS
-from .common import (ENGINE_TIMEOUT, UsageError, add_judging, add_out, budget_of, engine_list, parse_tolerances,
+from .common import (ENGINE_TIMEOUT, UsageError, add_judging, add_out, budget_of, engine_list, one_line, parse_tolerances,
                      print_table, settings_of, split_overrides)
 from .paths import check_dir, writing
 from .progress import Progress
@@ -44,6 +46,27 @@ def _command_line(args: argparse.Namespace) -> str:
     return " ".join(shlex.quote(w) for w in words)
 
 
+GUIDE_MAX_BYTES = 16 * 2**20  # [bytes] of a guide section: tune writes about 0.3 MiB (four figures)
+
+
+def guide_section(folder: str) -> str:
+    """``FOLDER/guide_section.html`` as the report embeds it: a regular file of at most ``GUIDE_MAX_BYTES``, read
+    without following it past that, made inert (``outputs.inert_html``: no script, nothing loaded, nothing left open);
+    what was left out is said in one note line."""
+    from chatterbench.comparisons.outputs.inert_html import inert_section
+
+    path = Path(folder) / "guide_section.html"
+    if not path.exists() and not path.is_symlink():
+        raise UsageError(f"--tune {folder}: no guide_section.html there (write one with `chatterbench tune ... --out "
+                         f"{folder}`)")
+    text = read_text(path, f"--tune {folder}: guide_section.html", UsageError, limit=GUIDE_MAX_BYTES, kind="HTML")
+    section = inert_section(text)
+    if section.removed:
+        print(f"chatterbench: note: --tune {one_line(folder)}: guide_section.html holds what `chatterbench tune` does not "
+              f"write, left out of the report: {', '.join(section.removed)}", file=sys.stderr)
+    return section.html
+
+
 def cmd_report(args: argparse.Namespace) -> int:
     check_dir("--out", args.out)
     from chatterbench.comparisons.outputs.report import SUMMARY_COLUMNS, SweepSection, build_report  # draws: loads matplotlib (0.7 s), so only when asked
@@ -52,13 +75,7 @@ def cmd_report(args: argparse.Namespace) -> int:
 
     scene_over, engine_over = split_overrides(args.set)
     tol = parse_tolerances(args.tolerance)
-    tuning = []
-    for d in args.tune or ():  # tuning guides are read before any run, so a bad path costs nothing
-        f = Path(d) / "guide_section.html"
-        if not f.is_file():
-            raise UsageError(f"--tune {d}: no guide_section.html there (write one with `chatterbench tune ... --out {d}`)")
-        tuning.append(f.read_text(encoding="utf-8"))
-    tuning = tuple(tuning)
+    tuning = tuple(guide_section(d) for d in args.tune or ())  # read before any run, so a bad path costs nothing
     sweeps = [SweepSection(str(d), load_rows(d)) for d in args.sweep or ()]  # bad input before any run
     scenes, engines = args.scenes or tuple(CATALOGUE), engine_list(args.engines)
     with Progress(len(scenes) * (1 + len(engines)) + 1, "report", unit="step") as bar:  # + 1: the figures and pages

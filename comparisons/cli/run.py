@@ -35,7 +35,7 @@ from chatterbench.reference.scene import Scene, SceneError, load_scene
 from .commands import COMMANDS
 from .common import (UsageError, add_budget, add_dt, add_out, add_set, budget_of, engines_hint, one_line, print_table,
                      settings_of, split_overrides)
-from .paths import check_dir, check_file, writing
+from .paths import check_dir, check_distinct, check_file, writing
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -113,6 +113,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     check_dir("--out", args.out)
     check_file("--events", args.events)
     check_file("--export-model", args.export_model)
+    out_files = {} if args.out is None else {f"--out {Path(args.out, n)}": Path(args.out, n) for n in ("events.csv", "episodes.csv")}
+    check_distinct({"--events": args.events, "--export-model": args.export_model, **out_files},
+                   {"SCENE": args.scene if Path(args.scene).is_file() else None})
     scene_over, engine_over = split_overrides(args.set)
     scene = load_scene(args.scene, scene_over)
     engine = args.engines

@@ -39,7 +39,7 @@ class StripLabel(NamedTuple):
     x: float
     lever: str
     value: str
-    color: str
+    colour: str
 
 
 def _fx(ax, x: float) -> float:
@@ -53,7 +53,7 @@ def write_point_labels(ax, labels: Sequence[tuple[float, float, str, str]]) -> N
     (y0, y1) = ax.get_ylim()
     char, line = LABEL_BOX
     boxes: list[tuple[float, float, float, float, str, float, float]] = []
-    for x, y, text, color in labels:
+    for x, y, text, colour in labels:
         if not (x > 0 and y > 0 and math.isfinite(x) and math.isfinite(y)):
             continue
         fx, fy = _fx(ax, x), math.log(y / y0) / math.log(y1 / y0)
@@ -65,7 +65,7 @@ def write_point_labels(ax, labels: Sequence[tuple[float, float, str, str]]) -> N
             by0 = fy - 0.01 - line if dy < 0 else fy + 0.01
             if not any(bx0 < b[1] and b[0] < bx0 + w and by0 < b[3] and b[2] < by0 + line for b in boxes):
                 ax.annotate(text, (x, y), xytext=(4 * dx, -9 if dy < 0 else 4), textcoords="offset points", fontsize=FONT,
-                            color=color, ha="left" if dx > 0 else "right")
+                            color=colour, ha="left" if dx > 0 else "right")
                 boxes.append((bx0, bx0 + w, by0, by0 + line, text, fx, fy))
                 break
 
@@ -80,15 +80,15 @@ def write_strip_labels(ax, points: Sequence[StripLabel], taken: Sequence[tuple[f
     clusters: list[tuple[float, float, str, str, list[str]]] = []  # (fx, x, lever, colour, values)
     for p in sorted((p for p in points if p.x > 0 and math.isfinite(p.x)), key=lambda p: p.x):
         fx = _fx(ax, p.x)
-        last = next((c for c in reversed(clusters) if (c[2], c[3]) == (p.lever, p.color)), None)
+        last = next((c for c in reversed(clusters) if (c[2], c[3]) == (p.lever, p.colour)), None)
         if last is not None and fx - last[0] < char * (len(f"{last[2]}=" + ", ".join(last[4])) + 2):
             if p.value not in last[4]:
                 last[4].append(p.value)
             continue
-        clusters.append((fx, p.x, p.lever, p.color, [p.value]))
+        clusters.append((fx, p.x, p.lever, p.colour, [p.value]))
     rows: list[list[tuple[float, float]]] = [list(taken)] + [[] for _ in range(STRIP_ROWS - 1)]
     written = []
-    for fx, x, lever, color, values in clusters:
+    for fx, x, lever, colour, values in clusters:
         text = f"{lever}=" + ", ".join(values)
         start, end = fx + 0.01, fx + 0.01 + char * len(text)
         row = next((k for k, used in enumerate(rows) if not any(start < b and a < end for a, b in used)), None)
@@ -96,5 +96,5 @@ def write_strip_labels(ax, points: Sequence[StripLabel], taken: Sequence[tuple[f
             continue  # no free place: the marker stays, as a coinciding point's label does
         rows[row].append((start, end))
         written.append(ax.annotate(text, (x, STRIP_Y), xycoords=strip, xytext=(4, -5 - _ROW_PT * row), va="top",
-                                   textcoords="offset points", fontsize=FONT, color=color, annotation_clip=False))
+                                   textcoords="offset points", fontsize=FONT, color=colour, annotation_clip=False))
     return written
