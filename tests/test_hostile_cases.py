@@ -132,6 +132,15 @@ def _dataset(kind: str) -> Callable[[Path], dict[str, str]]:
     return setup
 
 
+def _trajectory_file(root: Path) -> dict[str, str]:
+    """``t.csv``: the exact bouncing ball sampled at 1 ms, as another simulator would write it."""
+    from chatterbench.comparisons import reference_trajectory, trajectory_table
+    from chatterbench.reference.scene import load_scene
+
+    trajectory_table(reference_trajectory(load_scene("bouncing-ball"), dt=1e-3)).to_csv(root / "t.csv", index=False)
+    return {}
+
+
 def _full_step_summary(root: Path) -> dict[str, str]:
     full = root / "full"
     full.mkdir()
@@ -170,6 +179,13 @@ def _previous_kept(got: Outcome) -> str:
 def _elsewhere_untouched(got: Outcome) -> str:
     assert sorted(p.name for p in (got.root / "elsewhere").iterdir()) == ["victim.txt"]
     return "elsewhere/: untouched (before: scene.py written there through d/pybullet)"
+
+
+def _label_inside(got: Outcome) -> str:
+    assert sorted(p.name for p in (got.root / "elsewhere").iterdir()) == ["victim.txt"]
+    written = sorted(p.name for p in (got.root / "o").iterdir() if "elsewhere" in p.name)
+    assert written and all(p.startswith(("events__.._.._elsewhere_x-", "impacts__.._.._elsewhere_x-")) for p in written)
+    return f"elsewhere/: untouched; o/: {', '.join(written)}"
 
 
 def _gate_file_kept(got: Outcome) -> str:
@@ -264,6 +280,8 @@ CASES = [
          interrupt=("chatterbench.comparisons.outputs.report_page:report_markdown", signal.SIGINT),
          after=_nothing_new("r")),
     # security: a link planted in an output folder, a guide section to embed
+    Case("judge --engine a path", "an engine label that is a path (before: elsewhere/x.csv written, outside --out)", ["judge", "bouncing-ball", "t.csv", "--engine", "/../../elsewhere/x", "--out", "o",
+                            "--no-figures"], 0, ("/../../elsewhere/x",), setup=_trajectory_file, after=_label_inside),
     Case("tune planted link", "tune --out d where d/pybullet is a link out of d (before: scene.py written through it)",
          [*TUNE, "--out", "d"], 2, ("--out d: d/pybullet is a symbolic link (-> ../elsewhere)",), setup=_planted_link,
          after=_elsewhere_untouched),

@@ -166,7 +166,8 @@ def staged(folder: str | Path, last: Sequence[str] = ()) -> Iterator[Path]:
                 with contextlib.suppress(FileNotFoundError):
                     os.unlink(folder / rel)
             for rel in files:
-                _no_links(folder / rel)
+                _no_links(folder / rel)  # inside ``confined``: its folders made following no link
+                (folder / rel).parent.mkdir(parents=True, exist_ok=True)
                 os.replace(stage / rel, folder / rel)
     except OSError as exc:  # name the file the user will look for, not its staged copy
         name = Path(exc.filename) if exc.filename else None

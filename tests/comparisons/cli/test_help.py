@@ -62,3 +62,15 @@ def test_the_listing_is_the_table_and_each_subcommand_says_the_same():
     assert helps == COMMANDS  # one text per subcommand: the table's, which `chatterbench --help` lists
     listing = " ".join(build_parser([]).format_help().split())  # the top level, no subcommand loaded
     assert all(f"{name} {text}" in listing for name, text in COMMANDS.items())
+
+
+@pytest.mark.slow
+def test_bench_help_times_every_help_against_its_goal():
+    from helpers import cli
+
+    done = cli(["bench", "help", "--repeats", "1"])
+    assert done.code in (0, 1), done.err  # 1: a help over its goal (the figures are measured, never asserted)
+    timed = [" ".join(line.split()[:-2]) for line in done.out.splitlines() if line.strip().startswith("chatterbench ")]
+    assert timed == ["chatterbench --help", *(f"chatterbench {name} --help" for name in COMMANDS)], done.out
+    goal = [line for line in done.out.splitlines() if line.startswith(("PASS: best_s", "FAIL: best_s"))]
+    assert len(goal) == 1 and "(goal <= 1:" in goal[0], done.out
