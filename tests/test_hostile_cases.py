@@ -344,7 +344,11 @@ def run_case(case: Case) -> tuple[Outcome, str]:
     return got, said
 
 
-@pytest.mark.parametrize("case", CASES, ids=[c.id for c in CASES])
+SLOW = {"report --tune hostile"}  # besides the interrupted ones: a run of several seconds before the check
+
+
+@pytest.mark.parametrize("case", [pytest.param(c, marks=[pytest.mark.slow] if c.interrupt or c.id in SLOW else [])
+                                  for c in CASES], ids=[c.id for c in CASES])
 def test_hostile_case(case):
     got, _ = run_case(case)
     assert got.code == case.code, (got.code, got.output[-3000:])

@@ -77,6 +77,7 @@ def test_a_check_missing_from_the_baseline_points_at_its_header(tmp_path, monkey
     assert f"file=gate.toml,line={_line_of(GATE, '[[check]]   # the one that fails')}," in errors[0]
 
 
+@pytest.mark.slow
 def test_a_gate_takes_the_columns_the_report_prints(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     shown = cli(["report", "bouncing-ball", "--engines", "pybullet", "--set", "duration=1.6", "--out", "r"])
