@@ -14,7 +14,7 @@ run in a child process, MuJoCo Warp compiling its kernels) still shows its time 
 Where no bar is drawn (CI, a pipe, a file), ``heartbeat`` (around every command, ``main``)
 prints one plain line after ``LINE_EVERY_S`` seconds without one: what runs, n of N done, and
 the seconds since the command started (``chatterbench: progress: tune pybullet on feigin-pair:
-search, 12 of at most 400 candidates done; 63.0 s elapsed``), so a log is never silent for
+the search, 12 candidates done; budget 600 runs; 63.0 s elapsed``), so a log is never silent for
 longer than that, whatever the command does. ``note`` lines (what a step will cost, e.g. a
 kernel compile, the reference's first numba compile) are printed on every stream, terminal
 or not: a log says why it paused.
@@ -126,14 +126,13 @@ class Progress:
     """A tqdm bar on stderr (module docstring); ``total`` None: a counter with elapsed time."""
 
     def __init__(self, total: int | None, desc: str, unit: str = "step", enabled: bool | None = None, file=None,
-                 eta: bool = False, at_most: int | None = None, initial: int = 0):
+                 eta: bool = False, initial: int = 0):
         """``eta``: show a rate and the time left (units of like cost: strikes); False: elapsed time only (stages of
-        unlike cost, where a rate would promise nothing). ``at_most``: a bound on an unknown ``total`` (tune's
-        budget), said in the plain lines. ``initial``: units done before (a resumed sweep)."""
+        unlike cost, where a rate would promise nothing). ``initial``: units done before (a resumed sweep)."""
         from tqdm import tqdm  # only the long commands pay its import
 
         self.file = file or sys.stderr
-        self.desc, self.unit, self.at_most = desc, unit, at_most
+        self.desc, self.unit = desc, unit
         self.what = ""
         self.postfix = ""
         fmt = None if eta else ("{desc} |{bar}| {n_fmt}/{total_fmt} " + unit + "s done [{elapsed}]" if total is not None
@@ -159,10 +158,10 @@ class Progress:
         return self._n
 
     def describe(self) -> str:
-        """What runs and how far it is, for a plain progress line: ``tune pybullet: search, 12 of at most 400
-        candidates done``."""
+        """What runs and how far it is, for a plain progress line: ``sweep feigin-pair, 40 of 216 runs done;
+        failed 0``."""
         total = self.bar.total
-        of = f" of {total}" if total is not None else f" of at most {self.at_most}" if self.at_most else ""
+        of = f" of {total}" if total is not None else ""
         return (f"{self.desc}{': ' + self.what if self.what else ''}, {self._n}{of} {self.unit}s done"
                 f"{'; ' + self.postfix if self.postfix else ''}")
 
