@@ -380,6 +380,10 @@ CASES: list[tuple[str, str, list[str], str | None, tuple[str, ...]]] = [
      ("'bouncing-ball'", "more than once")),
     ("report-same-name", "two scene files of one name", ["report", "feigin-pair", FILE], _file(**{'name = "pair"': 'name = "feigin-pair"'}),
      ("'feigin-pair'", "more than once", "name")),
+    # issue 33: a misspelt subcommand or option gets the nearest name (before: the list of choices, or nothing)
+    ("repot", "a misspelt subcommand (before: no did-you-mean)", ["repot"], None, ("'repot'", "did you mean 'report'")),
+    ("--dtt", "a misspelt option (before: no did-you-mean, and 'see chatterbench --help')", ["run", "feigin-pair", "--dtt",
+     "1e-3"], None, ("--dtt: did you mean '--dt'", "see chatterbench run --help")),
 ]
 
 
@@ -560,6 +564,16 @@ def markdown() -> str:
         shown = "" if content is None else f"`{_cell(describe_file(content))}`"
         got = outputs.run_cli(argv, content)
         out.append(f"| `{cid}` | {_cell(what)} | `{_cell(command)}` | {shown} | {_cell(message(got.stderr))} ({got.code}) |")
+    import test_hostile_cases as hostile  # gate outputs and baselines, interruptions, planted links, guide sections
+
+    out += ["", "## Gate outputs, baselines, interruptions, links and guide sections", "",
+            "From `tests/test_hostile_cases.py`: each case prepares its scratch directory (a one-check gate file",
+            "`gate.toml`, a named pipe `apipe`, a folder `elsewhere/` outside every output, and what the case says), runs",
+            "the command and checks the disk after; an interrupted case gets a real SIGINT or SIGTERM from its own",
+            "process right after the function named. The message column holds the command's own lines about it and",
+            "what was on disk after. (The full-disk case needs root to mount a tmpfs: tested, not shown.)", "",
+            "| case | what is wrong | command | what it says and leaves (exit code) |", "|---|---|---|---|",
+            *hostile.markdown_rows()]
     out += [
         "",
         "Every message is one stderr line: argparse's refusals too (no usage line), a newline typed into",

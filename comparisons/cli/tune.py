@@ -16,14 +16,13 @@ from pathlib import Path
 
 from chatterbench.comparisons.pipeline.atomic import write_frame, write_text
 from chatterbench.comparisons.pipeline.budget import check_engine_run, check_reference
-from chatterbench.comparisons.outputs.engine_files import write_engine_files
-from chatterbench.comparisons.studies.tune import (MAX_RUNS, neighbourhood_fails, recommended, search_space, searched_text,
-                                                   tune)
+from chatterbench.comparisons.studies.limits import MAX_RUNS
 from chatterbench.reference.scene import load_scene
 
+from .commands import COMMANDS
 from .common import (UsageError, add_budget, add_out, add_scene, add_set, add_tolerance, budget_of, local_workers,
                      engine_list, integer_type, parse_tolerances, positive_int, print_table, split_overrides)
-from .paths import check_dir, writing
+from .paths import check_dir, check_links, writing
 from .progress import CountingExecutor, Progress, waited_s
 
 SHOW = ["stage", "settings", "verdict", "robust", "neighbourhood", "worst_ratio", "failed", "steps_per_sim_s",
@@ -31,7 +30,12 @@ SHOW = ["stage", "settings", "verdict", "robust", "neighbourhood", "worst_ratio"
 SHOW_CHECKED = 12  # rows of the terminal's table
 
 
+WRITTEN = ("recommended.json", "guide.md", "guide.html", "guide_section.html", "candidates.csv")  # and figures, ENGINE/
+
+
 def cmd_tune(args: argparse.Namespace) -> int:
+    from chatterbench.comparisons.studies.tune import search_space, searched_text, tune
+
     check_dir("--out", args.out)
     scene_over, engine_over = split_overrides(args.set)
     if engine_over:
@@ -40,6 +44,7 @@ def cmd_tune(args: argparse.Namespace) -> int:
     if len(engines) != 1:
         raise UsageError(f"--engines {args.engines}: tune takes one engine at a time")
     engine = engines[0]
+    check_links("--out", args.out, (*WRITTEN, engine))  # a link planted in DIR: refused before the search
     scene = load_scene(args.scene, scene_over)
     tol = parse_tolerances(args.tolerance)
     budget = budget_of(args)  # the reference, then the finest candidate, before any run
@@ -48,6 +53,8 @@ def cmd_tune(args: argparse.Namespace) -> int:
     check_engine_run(scene, engine, min(space["dt"]), budget)
     with Progress(None, f"tune {engine} on {scene.name}", unit="candidate") as bar, \
             ProcessPoolExecutor(max_workers=local_workers(args.workers, budget.max_memory)) as pool:
+        bar.stage("the search")
+        bar.set_postfix(budget=f"{args.max_runs} runs")
         result = tune(scene, engine, tol, space=space, executor=CountingExecutor(pool, bar), repeats=args.repeats,
                       max_runs=args.max_runs)
     checked = result.table[result.table["robust"].notna()].head(SHOW_CHECKED)
@@ -58,32 +65,50 @@ def cmd_tune(args: argparse.Namespace) -> int:
     for line in answer_lines(result):
         print(line)
     if args.out:
-        out = Path(args.out)
-        # draws and reruns the chosen settings (the ladder, R(v)): only when files are asked for
-        from chatterbench.comparisons.outputs.figures import write_figure
-        from chatterbench.comparisons.outputs.guide import FIGURE_FILES, guide_figures, guide_html, guide_markdown, guide_section_html
-        from chatterbench.comparisons.studies.tune_evidence import evidence
-
-        rec = recommended(result)
-        figures = guide_figures(result, evidence(result))
-        with writing("--out", out):
-            if rec is not None:  # first: the guide's files are written from what it says
-                write_text(out / "recommended.json", json.dumps(rec, indent=2) + "\n")
-            write_text(out / "guide.md", guide_markdown(result, figures))
-            write_text(out / "guide.html", guide_html(result, figures))
-            write_text(out / "guide_section.html", guide_section_html(result, figures))  # for `report --tune DIR`
-            write_frame(out / "candidates.csv", result.table)
-            for name, fig in figures.items():
-                write_figure(fig, out, FIGURE_FILES[name])
-            exported = write_engine_files(result, out)  # at recommended.json's settings (tune_evidence.chosen_settings)
-        print(f"wrote {out / 'guide.md'}, " + ("recommended.json, " if rec else "") + "guide.html, guide_section.html, "
-              "candidates.csv, " + ", ".join([*(f"{FIGURE_FILES[n]}.png/.svg" for n in figures), *exported]))
+        with Progress(1, f"tune {engine} on {scene.name}", unit="step") as bar:
+            bar.stage("the guide: its figures and the chosen settings' runs")
+            wrote = write_tune_files(result, Path(args.out))
+        print(wrote)
     print(f"tune took {waited_s():.1f} s since the command started (the search {result.extra['wall_time_s']:.1f} s)")
     return 0 if result.best is not None else 1
 
 
+def write_tune_files(result, out: Path) -> str:
+    """Write the guide, the candidates, the figures and the engine's files under ``out``, as one set; returns the line
+    that says what was written.
+
+    They are staged in a hidden folder under ``out`` and moved in together, ``recommended.json``
+    last (its old copy removed first): a tune killed or interrupted at any point leaves ``out``
+    as it was, or a ``recommended.json`` beside the files of the same tune, never one beside an
+    older tune's guide. Nothing is written through a link (``paths.writing``).
+    """
+    # draws and reruns the chosen settings (the ladder, R(v)): only when files are asked for
+    from chatterbench.comparisons.outputs.engine_files import write_engine_files
+    from chatterbench.comparisons.outputs.figures import write_figure
+    from chatterbench.comparisons.outputs.guide import FIGURE_FILES, guide_figures, guide_html, guide_markdown, guide_section_html
+    from chatterbench.comparisons.studies.tune import recommended
+    from chatterbench.comparisons.studies.tune_evidence import evidence
+
+    rec = recommended(result)
+    figures = guide_figures(result, evidence(result))
+    with writing("--out", out, together=["recommended.json"]) as stage:
+        if rec is not None:  # moved in last (``staged``): it says the rest is this tune's
+            write_text(stage / "recommended.json", json.dumps(rec, indent=2) + "\n")
+        write_text(stage / "guide.md", guide_markdown(result, figures))
+        write_text(stage / "guide.html", guide_html(result, figures))
+        write_text(stage / "guide_section.html", guide_section_html(result, figures))  # for `report --tune DIR`
+        write_frame(stage / "candidates.csv", result.table)
+        for name, fig in figures.items():
+            write_figure(fig, stage, FIGURE_FILES[name])
+        exported = write_engine_files(result, stage)  # at recommended.json's settings (tune_evidence.chosen_settings)
+    return (f"wrote {out / 'guide.md'}, " + ("recommended.json, " if rec else "") + "guide.html, guide_section.html, "
+            "candidates.csv, " + ", ".join([*(f"{FIGURE_FILES[n]}.png/.svg" for n in figures), *exported]))
+
+
 def answer_lines(result) -> list[str]:
     """The answer as the terminal says it: the robust setting and its margin, the fragile pass beside it, or none."""
+    from chatterbench.comparisons.studies.tune import neighbourhood_fails
+
     c, f = result.chosen, result.fragile
     if c is None:
         return ["no candidate ran: every one was refused"]
@@ -108,8 +133,7 @@ def answer_lines(result) -> list[str]:
 
 def register(sub, formatter) -> None:
     """Add ``tune`` to the ``chatterbench`` subparsers."""
-    p = sub.add_parser("tune", help="find the cheapest engine settings whose episodes all match within the tolerances",
-                       formatter_class=formatter)
+    p = sub.add_parser("tune", help=COMMANDS["tune"], formatter_class=formatter)
     add_scene(p)
     p.add_argument("--engines", "--engine", required=True, metavar="E", help="the engines to tune: one at a time")
     add_tolerance(p)

@@ -89,6 +89,7 @@ from chatterbench.reference.errors import InputError, check_integer, check_numbe
 from chatterbench.reference.scene import Scene, load_scene, scene_from_dict
 from chatterbench.reference.simulate import simulate
 
+from .limits import ABOVE, DECADES_BELOW, DEFAULT_POINTS, MAX_POINTS  # the speed grid `calibrate --help` shows
 from ..pipeline.compare import judge_run
 from ..pipeline.extract import free_relative_acceleration
 from ..pipeline.impacts import restitution_error
@@ -107,10 +108,6 @@ EXTEND = 4  # [-] each further try runs this many times longer after the strike
 TRIES = 4  # [-] runs at most per speed: 256, 1024, 4096, 16384 steps after the strike
 JUMP_FRACTION = 0.1  # [-] of the strike speed: a velocity jump between two free samples this large is an impact
 REST_FRACTION = 1e-3  # [-] of the strike speed: below it a contact is at rest, a parting is no rebound, a jump no impact
-DECADES_BELOW = 2.0  # the default speeds span this many decades below the scene's first impact speed ...
-ABOVE = 2.0  # ... up to this many times it
-DEFAULT_POINTS = 13  # about five speeds a decade over the default 2.3 decades, ends included
-MAX_POINTS = 200  # speeds per engine at most: each is one engine run
 
 
 class CalibrationError(InputError):
