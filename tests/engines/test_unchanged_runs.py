@@ -133,6 +133,11 @@ def hashes(engine: str) -> dict[str, str]:
     return out
 
 
+# the one change the base's loop made, each with its new hash and why: DART's loop commanded a prescribed body 1 to
+# x1(t_k + dt) on the last step of each chunk, the base to x1(t0 + (k + 1) dt), the time of the next step's start
+# (as every other step and engine): the same time to 1 ulp; feigin-pair's last sample (20,001 of 20,001) moves by
+# 8e-17 m in y and 2.5e-13 m/s in y', no contact flag changes (measured against the recorded code)
+CHANGED = {("dart", "long:prescribed@0.0003"): "7b96f12181cb69291512"}
 SLOW = ("drake", "mujoco_warp")  # tens of seconds each (Drake's continuous integrator, warp's CPU device)
 
 
@@ -143,7 +148,8 @@ def test_every_engine_runs_bit_for_bit_as_before_the_base_owned_the_loop(engine)
     if versions(engine) != recorded["versions"]:
         pytest.skip(f"{engine}: hashes recorded with {recorded['versions']}, installed {versions(engine)}")
     got = hashes(engine)
-    changed = {case: (h, got.get(case)) for case, h in recorded["runs"].items() if got.get(case) != h}
+    want = {case: CHANGED.get((engine, case), h) for case, h in recorded["runs"].items()}
+    changed = {case: (h, got.get(case)) for case, h in want.items() if got.get(case) != h}
     assert not changed, f"{engine}: trajectories changed (recorded, now): {changed}"
 
 
