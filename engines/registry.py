@@ -241,18 +241,21 @@ class EngineRow:
     reason: str = ""  # why not "ok", one line
 
 
-def engine_rows() -> list[EngineRow]:
-    """Every engine of the table and every refused plugin, each loaded to say its version and status (a plugin in a
-    forked child first: a broken one is its row, never this process's failure)."""
+def engine_rows(names: Sequence[str] | None = None) -> list[EngineRow]:
+    """Every engine of the table and every refused plugin (those called ``names``, when given), each loaded to say
+    its version and status (a plugin in a forked child first: a broken one is its row, never this process's
+    failure)."""
     rows = []
     for e in ENGINES:
+        if names is not None and e.name not in names:
+            continue
         install = f'pip install ".[{e.extra}]"' if e.extra else (e.plugin or "chatterbench")
         source = f"plugin {e.plugin} {_PLUGINS[e.name].version}" if e.plugin else "built in"
         reason = unavailable_reason(e.name)
         status = "ok" if not reason else "broken" if e.plugin else "not installed"
         rows.append(EngineRow(e.name, source, install, _version(e.name) if status == "ok" else "-", status, reason))
     for d in DECLARED:
-        if d.refused:
+        if d.refused and (names is None or d.name in names):
             rows.append(EngineRow(d.name, f"plugin {d.package} {d.version}", d.package, "-", "broken",
                                   load_plugin(d)))
     return rows

@@ -19,13 +19,13 @@ import sys
 from chatterbench.reference.errors import InputError
 
 from . import interrupt, quiet_interrupts
-from . import bench, calibrate, chart, compare, gate, platemap, report, run, scenes, sweep, tune
+from . import bench, calibrate, chart, compare, engines, gate, platemap, report, run, scenes, sweep, tune
 from . import judge
 from .common import HelpFormatter, Parser, UsageError, check_settings, held_warnings, one_line
 from .paths import write_error
 
 # in the order ``chatterbench --help`` lists them
-SUBCOMMANDS = (scenes, run, compare, judge, report, gate, platemap, tune, calibrate, sweep, chart, bench)
+SUBCOMMANDS = (scenes, engines, run, compare, judge, report, gate, platemap, tune, calibrate, sweep, chart, bench)
 
 
 def build_parser() -> Parser:

@@ -20,7 +20,8 @@ makes it the run's ``error`` status (``crashed`` for a signal: ``SiconosCrash``)
 samples before it; a child that sends what is not the protocol is killed at once (it could
 otherwise block on a full pipe that nobody reads); a child still running at the run's time
 limit (``isolate.run_limit``: the command's ``--timeout``) is killed, with every process it
-started (its own session), and the run is ``timeout`` (``SiconosTimeout``); a run cut short by
+started (its own session), and the run is ``timeout`` (``SiconosTimeout``; inside an isolated run
+the isolation's own limit does it, and the child dies with its parent); a run cut short by
 the base (a blow-up) or by an exception kills its child. An interpreter whose answer to the
 probe is not a version (bytes that are not UTF-8, say) is no Siconos, said in one line.
 Sample k is the state after k steps; the contact force of a wall at sample k is the LCP's
@@ -32,6 +33,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import json
+import math
 import os
 import re
 import shutil
@@ -47,7 +49,7 @@ import numpy as np
 from chatterbench.reference.scene import Scene
 
 from ..base import Crashed, EngineAdapter, Recording, TimedOut
-from ..isolate import run_limit
+from ..isolate import inside, run_limit
 from ..trajectory import Trajectory
 from ..window import CHUNK
 from .protocol import ProtocolError, read_frames, request
@@ -135,11 +137,12 @@ def unavailable() -> str:
 
 class Child:
     """One ``child.py`` process under ``python`` answering ``request``, in a session of its own, killed with every
-    process it started when the run's time limit ``limit`` [s] passes (default ``isolate.run_limit``); a context
+    process it started when the run's time limit ``limit`` [s] passes (default ``isolate.run_limit``; none inside
+    an isolated run, whose own limit kills its process and so the child, ``child.die_with_parent``); a context
     manager that kills it on exit."""
 
     def __init__(self, python: str, request: dict, limit: float | None = None) -> None:
-        self.limit = run_limit() if limit is None else limit
+        self.limit = (math.inf if inside() else run_limit()) if limit is None else limit
         self.timed_out = False
         self.stderr = tempfile.TemporaryFile()
         self.proc = subprocess.Popen([python, str(CHILD)], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
@@ -147,7 +150,8 @@ class Child:
                                      start_new_session=True)
         self.timer = threading.Timer(self.limit, self._time_up)
         self.timer.daemon = True
-        self.timer.start()
+        if math.isfinite(self.limit):
+            self.timer.start()
         try:
             self.proc.stdin.write(json.dumps(request).encode())
             self.proc.stdin.close()
