@@ -62,7 +62,7 @@ from chatterbench.reference.errors import check_integer
 from chatterbench.reference.scene import Scene
 
 from .faults import inject_planned
-from .isolate import Outcome, inside, run_isolated, run_limit
+from .isolate import Outcome, call_isolated, inside
 from .settings import SettingsError
 from .stepping import bare_seconds as stepping_bare_seconds
 from .stepping import run_steps
@@ -71,6 +71,7 @@ from .window import Recorder
 
 _ROUNDING = 1e-12  # [-] relative slack of duration / dt, so that 2.0 / 1e-4 gives 20000 steps
 MAXVAL = 1e10  # [m, m/s] a larger |position| or |velocity| is a blow-up (MuJoCo's mjMAXVAL, for every engine)
+GRID_SLACK = 1e-3  # [steps] how far a sample's time may be from t0 + k dt (rounding, an accumulated t += dt)
 
 
 class Status(enum.StrEnum):
@@ -168,9 +169,11 @@ class Recording:
         """The next samples, in order: times ``t`` [s], per wall the force on body 2 [N] (contact where > 0),
         body 2 as ``x2, v2`` or relative to body 1 as ``y, vy`` (then x2 = x1 + y), body 1 as ``x1, v1``
         (None for an infinite body 1: its prescribed motion, or rest at x1), ``bad``: samples the engine
-        knows to be broken. Cuts at the first bad, non-finite or huge sample; returns whether to go on."""
+        knows to be broken. Cuts at the first bad, non-finite or huge sample; returns whether to go on.
+        ValueError for samples off the run's time grid t0 + k dt, k = 0..n (out of order, or too many)."""
         if self.cut:
             return False
+        self._check_times(np.asarray(t, dtype=float))
         state = [a for a in (x1, v1, y, vy, x2, v2) if a is not None]
         broken = ~np.logical_and.reduce([np.isfinite(a) for a in (*state, *force.values())])
         broken |= np.logical_or.reduce([np.abs(a) > MAXVAL for a in state])
@@ -188,6 +191,16 @@ class Recording:
             x2, v2 = x1 + y, v1 + vy
         self.recorder.add(t, x1, v1, x2, v2, {w: f > 0.0 for w, f in force.items()}, force)
         return not self.cut
+
+    def _check_times(self, t: np.ndarray) -> None:
+        """The samples handed over are the next ones of the run's grid, to ``GRID_SLACK`` of a step."""
+        k, dt = self.recorder.count, self.settings.dt
+        grid = self.scene.initial.t + dt * np.arange(k, k + len(t))
+        off = ~(np.abs(t - grid) <= GRID_SLACK * dt)
+        if off.any() or k + len(t) > self.n + 1:
+            i = int(np.argmax(off)) if off.any() else self.n + 1 - k
+            shown = f"t = {t[i]:.9g} s, not t0 + k dt = {grid[i]:.9g} s" if off.any() else "past the run's end"
+            raise ValueError(f"sample {k + i}: {shown} (the samples are t0 + k dt, k = 0..{self.n}, in order)")
 
     def body1(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Position [m] and velocity [m/s] of an infinite body 1 at times ``t``: prescribed, or at rest."""
@@ -226,7 +239,7 @@ class BenchmarkResult:
     n_steps: int  # steps per repeat
     repeats: int  # best of
     adapter_steps_per_s: float  # ``run`` as a user calls it (step, record, classify), its fixed cost taken off
-    raw_steps_per_s: float  # the engine's own loop on the same model and forces, nothing recorded
+    raw_steps_per_s: float  # the bare loop on the same model and forces, nothing recorded (``bare_seconds``)
     status: Status  # of the adapter's last run
     details: dict[str, Any] = dataclasses.field(default_factory=dict)  # the engine's own figures (device, build time)
 
@@ -377,7 +390,7 @@ class EngineAdapter:
         """
         s = self.settings(settings)
         if self.isolated and not inside():
-            done = _in_child(self.run, scene, s, compact_above)
+            done = call_isolated(self.run, scene, s, compact_above, refused=SettingsError)
             if isinstance(done, Outcome):
                 return failed_trajectory(self.name, scene, Status(done.status), _first_line(self.name, done), 
                                          dataclasses.asdict(s), done.wall_time)
@@ -423,7 +436,7 @@ class EngineAdapter:
         check_integer("repeats", repeats, lo=1)
         s = self.settings(settings)
         if self.isolated and not inside():  # the whole benchmark in one child: its bare loop is the engine's too
-            done = _in_child(self.benchmark, scene, s, n_steps, repeats)
+            done = call_isolated(self.benchmark, scene, s, n_steps, repeats, refused=SettingsError)
             if isinstance(done, Outcome):
                 return BenchmarkResult(self.name, scene.name, 0, repeats, math.nan, math.nan, Status(done.status),
                                        {"message": _first_line(self.name, done)})
@@ -449,27 +462,6 @@ class EngineAdapter:
     def version(self) -> str:
         """The engine package's version."""
         return version_of(self.package)
-
-
-def _answer(fn: Any, *args: Any) -> tuple[str, Any]:
-    """``fn(*args)`` in an isolated child: ("ok", value), or ("refused", message) for a SettingsError, which the
-    parent raises again (a user's mistake is not the engine's failure)."""
-    try:
-        return "ok", fn(*args)
-    except SettingsError as exc:
-        return "refused", str(exc)
-
-
-def _in_child(fn: Any, *args: Any) -> Any:
-    """``fn(*args)``'s value, computed in a forked child under the run limit; the ``Outcome`` when the child failed
-    (crashed, timeout, error); SettingsError raised again here."""
-    outcome = run_isolated(_answer, fn, *args, timeout=run_limit())
-    if outcome.status != "ok":
-        return outcome
-    kind, value = outcome.value
-    if kind == "refused":
-        raise SettingsError(value)
-    return value
 
 
 def _first_line(engine: str, outcome: Outcome) -> str:

@@ -166,3 +166,24 @@ def run_isolated(fn: Callable[..., Any], *args: Any, timeout: float = math.inf) 
         raise
     finally:
         recv.close()
+
+
+def _answer(fn: Callable[..., Any], refused: type[BaseException], *args: Any) -> tuple[str, Any]:
+    """``fn(*args)`` in the child: ("ok", value), or ("refused", message) for a ``refused`` exception."""
+    try:
+        return "ok", fn(*args)
+    except refused as exc:
+        return "refused", str(exc)
+
+
+def call_isolated(fn: Callable[..., Any], *args: Any, refused: type[BaseException]) -> Any:
+    """``fn(*args)``'s value, computed in a forked child under ``run_limit``; the ``Outcome`` when the child failed
+    (crashed, timeout, error). A ``refused`` exception in the child (a user's mistake, not the call's failure) is
+    raised again here with its message."""
+    outcome = run_isolated(_answer, fn, refused, *args, timeout=run_limit())
+    if outcome.status != "ok":
+        return outcome
+    kind, value = outcome.value
+    if kind == "refused":
+        raise refused(value)
+    return value

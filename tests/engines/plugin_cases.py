@@ -18,8 +18,11 @@ The plugins: ``line`` (the README's from-scratch engine with a ``fault`` setting
 ``exit`` (``os._exit(0)``), ``hang`` in its step, anything else refused with a ValueError); the
 five broken at load: ``broken_import`` (imports a module that is not there), ``nodt`` (settings
 without ``dt``), ``plain`` (settings not a dataclass), ``nostep`` (``build`` without ``step``) and
-``pybullet`` (a built-in engine's name); ``reference`` (the reserved name); and three that die
-while loading: ``crash_load`` (SIGSEGV), ``exit_load`` (``os._exit(0)``), ``hang_load`` (sleeps).
+``pybullet`` (a built-in engine's name); ``reference`` (the reserved name); three that die while
+loading: ``crash_load`` (SIGSEGV), ``exit_load`` (``os._exit(0)``), ``hang_load`` (sleeps); and the
+other hostile entries of issue 34: ``nomodule`` (its module not installed), ``noclass``,
+``nocolon`` (entry points naming no class), ``unchecked`` (any ``dt`` accepted), ``misnamed`` (an
+adapter calling itself ``other``), ``backwards`` (a whole-run adapter whose times go back).
 And three pythons for Siconos's child (``$CHATTERBENCH_SICONOS_PYTHON``) that need no Siconos:
 one whose child never answers, one whose child writes garbage until its pipe is full, one that
 answers the probe with bytes that are not UTF-8.
@@ -93,8 +96,15 @@ def _adapter(name: str, settings: str = "Settings", steps: str = _STEPS) -> str:
     return f"class Engine(EngineAdapter):\n    name, package, settings_type = {name!r}, 'cbtest-{name}', {settings}\n\n{steps}"
 
 
-PLUGINS = {  # engine name -> module source (the module is cbtest_NAME, the class Engine: line's is LineEngine)
-    "line": None,  # the README's engine (_line_engine), written when installed
+_BACKWARDS = ("class Engine(EngineAdapter):\n    name, package, settings_type = 'backwards', 'cbtest-backwards', Settings\n\n"
+              "    def simulate(self, run):  # a whole-run engine that hands its samples over in the wrong order\n"
+              "        import numpy as np\n"
+              "        t = run.scene.initial.t + run.settings.dt * np.arange(run.n + 1)[::-1]\n"
+              "        zero = np.zeros(run.n + 1)\n"
+              "        run.add(t, {w: zero for w in run.scene.gap.walls}, y=zero + run.scene.initial.y, vy=zero)\n")
+
+PLUGINS = {  # engine name -> module source (the module is cbtest_NAME, the class Engine; None: no module written)
+    "line": "",  # the README's engine (_line_engine), written when installed; its class is LineEngine
     "broken_import": "import chatterbench_no_such_dependency  # noqa: F401\n" + _HEAD + _SETTINGS + _adapter("broken_import"),
     "nodt": _HEAD + "@dataclass(frozen=True)\nclass Settings:\n    step: float = 1e-3\n\n\n" + _adapter("nodt"),
     "plain": _HEAD + "class Settings:\n    dt = 1e-3\n\n\n" + _adapter("plain"),
@@ -104,7 +114,15 @@ PLUGINS = {  # engine name -> module source (the module is cbtest_NAME, the clas
     "crash_load": "import ctypes\nctypes.string_at(0)\n",
     "exit_load": "import os\nos._exit(0)\n",
     "hang_load": "import time\nwhile True:\n    time.sleep(1.0)\n",
+    "nomodule": None,  # its entry point names a module that is not installed
+    "noclass": _HEAD + _SETTINGS + _adapter("noclass"),
+    "nocolon": _HEAD + _SETTINGS + _adapter("nocolon"),
+    "unchecked": _HEAD + "@dataclass(frozen=True)\nclass Settings:\n    dt: float = 1e-3\n\n\n" + _adapter("unchecked"),
+    "misnamed": _HEAD + _SETTINGS + _adapter("other"),
+    "backwards": _HEAD + _SETTINGS + _BACKWARDS,
 }
+LOADING = ("line", "backwards")  # the plugins that load (their faults are in their runs); every other one is broken
+ENTRIES = {"line": "cbtest_line:LineEngine", "noclass": "cbtest_noclass:Missing", "nocolon": "cbtest_nocolon"}
 
 
 # pythons that pass the Siconos probe (a version on stdout) and then run BODY instead of the child (module docstring)
@@ -127,13 +145,14 @@ def install(folder: str | Path, names=tuple(PLUGINS)) -> Path:
     for name in names:
         module = f"cbtest_{name}"
         source = _line_engine() if name == "line" else PLUGINS[name]
-        (folder / module).mkdir(parents=True, exist_ok=True)
-        (folder / module / "__init__.py").write_text(source)
+        if source is not None:
+            (folder / module).mkdir(parents=True, exist_ok=True)
+            (folder / module / "__init__.py").write_text(source)
         info = folder / f"{module}-0.1.dist-info"
         info.mkdir(exist_ok=True)
         (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: cbtest-{name}\nVersion: 0.1\n")
-        cls = "LineEngine" if name == "line" else "Engine"
-        (info / "entry_points.txt").write_text(f"[chatterbench.engines]\n{name} = {module}:{cls}\n")
+        entry = ENTRIES.get(name, f"{module}:Engine")
+        (info / "entry_points.txt").write_text(f"[chatterbench.engines]\n{name} = {entry}\n")
     return folder
 
 
@@ -158,6 +177,22 @@ CASES = [
          2, ("plugin cbtest-plain (engine 'plain')", "is not a dataclass")),
     Case("plugin-no-step", "a plugin that writes build but no step", ["compare", "bouncing-ball", "--engines", "nostep"],
          2, ("plugin cbtest-nostep (engine 'nostep')", "writes build but not step")),
+    Case("plugin-no-module", "a plugin whose entry point names a module that is not installed",
+         ["compare", "bouncing-ball", "--engines", "nomodule"], 2,
+         ("plugin cbtest-nomodule (engine 'nomodule')", "cannot import cbtest_nomodule: ModuleNotFoundError")),
+    Case("plugin-no-class", "a plugin whose entry point names a class its module lacks",
+         ["compare", "bouncing-ball", "--engines", "noclass"], 2, ("plugin cbtest-noclass", "module cbtest_noclass has no Missing")),
+    Case("plugin-no-colon", "a plugin whose entry point names no class (no colon)",
+         ["compare", "bouncing-ball", "--engines", "nocolon"], 2,
+         ("plugin cbtest-nocolon", "entry point nocolon = 'cbtest_nocolon' names no class (module:Class)")),
+    Case("plugin-dt-unchecked", "a plugin whose settings accept any dt",
+         ["compare", "bouncing-ball", "--engines", "unchecked"], 2, ("plugin cbtest-unchecked", "dt is not checked")),
+    Case("plugin-name-mismatch", "a plugin whose adapter calls itself by another name",
+         ["compare", "bouncing-ball", "--engines", "misnamed"], 2,
+         ("plugin cbtest-misnamed", "Engine.name is 'other', not the name it is registered under ('misnamed')")),
+    Case("plugin-times-backwards", "a whole-run plugin that hands its samples over in the wrong order",
+         ["compare", "bouncing-ball", "--engines", "backwards"], 0,
+         ("backwards", "error", "sample 0: t = 2 s, not t0 + k dt = 0 s")),
     Case("plugin-name-clash", "a plugin named as a built-in engine", ["engines", "pybullet"],
          2, ("plugin cbtest-pybullet (engine 'pybullet')", "the name of a built-in engine")),
     Case("plugin-reserved", "a plugin named reference", ["engines", "reference"],
