@@ -30,10 +30,15 @@ answers the probe with bytes that are not UTF-8.
 
 from __future__ import annotations
 
+import atexit
+import functools
 import os
 import re
+import shutil
 import subprocess
 import sys
+import tempfile
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import NamedTuple
 
@@ -234,6 +239,17 @@ def run_case(case: Case, folder: str | Path, timeout: float = 300) -> subprocess
     env = {**os.environ, "PYTHONPATH": path, **case.env}
     return subprocess.run([sys.executable, "-m", "chatterbench.comparisons.cli", *case.argv], capture_output=True,
                           text=True, timeout=timeout, env=env, cwd=folder)
+
+
+@functools.cache
+def outcomes() -> dict[str, subprocess.CompletedProcess]:
+    """Every case's command run once per process, a few at a time, with the plugins installed in a temporary
+    folder: case id -> what it did (the tests and the doc read the same runs)."""
+    folder = install(tempfile.mkdtemp(prefix="cbtest-site-"))
+    atexit.register(shutil.rmtree, folder, ignore_errors=True)
+    with ThreadPoolExecutor(max_workers=3) as pool:  # the cases mostly wait (limits, imports): overlap them
+        done = dict(zip((c.id for c in CASES), pool.map(lambda c: run_case(c, folder), CASES)))
+    return done
 
 
 def said(case: Case, done: subprocess.CompletedProcess) -> str:
