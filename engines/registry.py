@@ -135,15 +135,7 @@ def load(name: str) -> EngineAdapter:
     """Import engine ``name``'s adapter, check it against the contract and make it (``adapter`` keeps it)."""
     entry = _TABLE[check_engine(name)]
     if entry.plugin:
-        if name not in _BROKEN:
-            got = load_plugin(_PLUGINS[name])
-            if isinstance(got, str):
-                _BROKEN[name] = got
-        if name in _BROKEN:
-            raise PluginError(_BROKEN[name])
-        made = got()
-        made.isolated = True  # its runs go to a forked child under the command's run limit
-        return made
+        return _plugin(name)
     reason = unavailable_reason(name)
     if reason:
         raise EngineUnavailable(reason)
@@ -153,6 +145,22 @@ def load(name: str) -> EngineAdapter:
     if broken:
         raise TypeError(f"engine {name!r}: {entry.adapter} breaks the engine contract: {broken}")
     return found()
+
+
+def _plugin(name: str) -> EngineAdapter:
+    """Plugin ``name``'s adapter, marked ``isolated`` (``plugins.load_plugin``); PluginError with its one line, once
+    known (a load forks a child: it is not tried twice)."""
+    if name not in _BROKEN:
+        got = load_plugin(_PLUGINS[name])
+        if not isinstance(got, str):
+            try:
+                made = got()
+                made.isolated = True  # its runs go to a forked child under the command's run limit
+                return made
+            except Exception as exc:  # noqa: BLE001  the plugin's own __init__: its failure, in one line
+                got = f"{_PLUGINS[name].label}: {got.__name__}() failed: {type(exc).__name__}: {exc}".splitlines()[0]
+        _BROKEN[name] = got
+    raise PluginError(_BROKEN[name])
 
 
 def make_settings(name: str, dt: float | None = None, overrides: Sequence[str] | dict = ()) -> Any:
