@@ -574,6 +574,7 @@ def markdown() -> str:
             "what was on disk after. (The full-disk case needs root to mount a tmpfs: tested, not shown.)", "",
             "| case | what is wrong | command | what it says and leaves (exit code) |", "|---|---|---|---|",
             *hostile.markdown_rows()]
+    out += plugin_rows()
     out += [
         "",
         "Every message is one stderr line: argparse's refusals too (no usage line), a newline typed into",
@@ -582,6 +583,27 @@ def markdown() -> str:
         "gate file lists every problem, one per line.",
     ]
     return "\n".join(out) + "\n"
+
+
+def plugin_rows() -> list[str]:
+    """The doc's section of engine plugins and engines' own child processes (``tests/engines/plugin_cases.py``)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent / "engines"))
+    import plugin_cases as plugins
+
+    out = ["", "## Engine plugins and engines' own processes", "",
+           "From `tests/engines/plugin_cases.py` (checked by `tests/engines/test_plugin_faults.py`): every command runs",
+           "in its own process with all of that module's test plugins installed at once (`cbtest-NAME`: broken ones, and",
+           "`line`, the README's engine with a `fault` setting), and, for Siconos, a python that answers the probe and",
+           "then misbehaves (`CHATTERBENCH_SICONOS_PYTHON`). A broken plugin is one line only where it is named; a",
+           "fault inside a run is that run's status, and the engines beside it are judged as ever.", "",
+           "| case | what is wrong | command | what chatterbench says (exit code) |", "|---|---|---|---|"]
+    for case in plugins.CASES:
+        done = plugins.outcomes()[case.id]
+        env = "".join(f"{k}={v} " for k, v in case.env.items())
+        command = env + "chatterbench " + " ".join(case.argv)
+        out.append(f"| `{case.id}` | {_cell(case.what)} | `{_cell(command)}` | "
+                   f"{_cell(plugins.said(case, done))} ({done.returncode}) |")
+    return out
 
 
 if __name__ == "__main__":

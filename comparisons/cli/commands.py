@@ -12,6 +12,7 @@ costs the imports of what it describes, not pandas, numba or the engines (issue 
 
 COMMANDS = {
     "scenes": "list the built-in scenes",
+    "engines": "list every engine (built in and plugins): extra or package, version, status",
     "run": "run one scene in the reference or an engine; print its episodes",
     "compare": "run the reference and the engines on a scene; judge every episode",
     "judge": "judge any simulator's trajectory file (CSV, Parquet) against the reference",

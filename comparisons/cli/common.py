@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any, Sequence
 
 from chatterbench.comparisons.pipeline.budget import GIB, MAX_MEMORY, MAX_STEPS, Budget
 from chatterbench.comparisons.pipeline.tolerances import Tolerances, tolerances_from_items
+from chatterbench.engines.isolate import set_run_limit
 from chatterbench.engines.registry import DEFAULT_ENGINES, ENGINE_NAMES, check_engine, make_settings
 from chatterbench.reference.errors import InputError, did_you_mean
 from chatterbench.reference.scene import split_assignment
@@ -111,6 +112,8 @@ def check_settings(args: argparse.Namespace) -> None:
     ``--set ENGINE.dt``. Options given once are argparse's (``_StoreOnce``).
     """
     args.__dict__.pop("_given_once", None)
+    if getattr(args, "timeout", None) is not None:  # a plugin's load and runs, and an engine's own child, are held to it
+        set_run_limit(args.timeout)
     for option in ("set", "tolerance"):
         seen: dict[str, str] = {}
         for item in getattr(args, option, None) or []:

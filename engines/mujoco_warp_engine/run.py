@@ -1,8 +1,8 @@
-"""Running MuJoCo Warp: many worlds stepped together on a warp device, each world one run, float32 throughout.
+"""Running MuJoCo Warp: the adapter, many worlds stepped together on a warp device, each world one run, float32.
 
-    >>> from chatterbench.engines.mujoco_warp_engine import MujocoWarpSettings, run
+    >>> from chatterbench.engines.mujoco_warp_engine import MujocoWarpEngine, MujocoWarpSettings
     >>> from chatterbench.reference.scene import load_scene
-    >>> traj = run(load_scene("bouncing-ball", ["duration=0.2"]), MujocoWarpSettings(dt=1e-3, device="cpu"))
+    >>> traj = MujocoWarpEngine().run(load_scene("bouncing-ball", ["duration=0.2"]), MujocoWarpSettings(dt=1e-3, device="cpu"))
     >>> traj.status, traj.engine, traj.settings["precision"], traj.settings["device"]
     ('ok', 'mujoco_warp', 'float32', 'cpu')
 
@@ -42,7 +42,8 @@ import numpy as np
 from chatterbench.reference.errors import check_integer
 from chatterbench.reference.scene import Scene
 
-from ..base import MAXVAL, Diverged, EngineAdapter, Recording, n_steps
+from .. import mujoco_common
+from ..base import MAXVAL, Diverged, EngineAdapter, Recording, n_steps, version_of
 from ..mujoco_common import Prepared, prepare, rollout_controls, take, warning_note
 from ..trajectory import Trajectory
 from ..window import CHUNK
@@ -219,17 +220,52 @@ def device(s: MujocoWarpSettings) -> str:
         raise SettingsError(str(exc)) from None
 
 
-def simulate(run: Recording) -> None:
-    """One run as a model of one world; ``Diverged`` for MuJoCo's acceleration warning."""
-    (failure,) = _group([run], [prepare(run.scene, run.settings, run.n)], run.record["device"])
-    if failure is not None:
-        raise failure
+class MujocoWarpEngine(EngineAdapter):
+    """MuJoCo Warp behind the engine contract (``base.EngineAdapter``): MuJoCo's soft contact in float32."""
 
+    name = "mujoco_warp"
+    package = "mujoco-warp"
+    settings_type = MujocoWarpSettings
+    compliant = True
+    precision = "float32"
+    batches = True
+    bytes_per_step = 250.0  # per world: MuJoCo's samples (float64 on the host) and float32 copies on the device
+    bench_step_cap = 2_000  # a step's cost is flat after the first few (launch-bound on the cpu device)
+    same_model_as = "mujoco"  # MuJoCo's own MjSpec model (mujoco_common), stepped by warp in float32
+    first_run_note = ("the first run on a machine compiles MuJoCo Warp's kernels (about a minute on the CPU; cached "
+                      "under ~/.cache/warp), then steps at 1.5-3 ms a step on the CPU device")
 
-def bare_seconds(scene: Scene, settings: MujocoWarpSettings) -> float:
-    """Seconds of the bare ``mujoco_warp.step`` loop over the run, one world."""
-    figures = world_steps_per_s(scene, settings, nworld=1, repeats=1)
-    return figures["seconds"]
+    def simulate(self, run: Recording) -> None:
+        """One run as a model of one world; ``Diverged`` for MuJoCo's acceleration warning."""
+        (failure,) = _group([run], [prepare(run.scene, run.settings, run.n)], run.record["device"])
+        if failure is not None:
+            raise failure
+
+    def run_batch(self, jobs: Sequence[tuple[Scene, MujocoWarpSettings]]) -> list[Trajectory]:
+        """Compatible runs as the worlds of one MuJoCo Warp model (``roll_batch``)."""
+        return roll_batch(self, list(jobs))
+
+    def bare_seconds(self, scene: Scene, settings: MujocoWarpSettings, traj: Trajectory) -> float:
+        """Seconds of the bare ``mujoco_warp.step`` loop over the run, one world."""
+        return world_steps_per_s(scene, settings, nworld=1, repeats=1)["seconds"]
+
+    def validate(self, scene: Scene, settings: MujocoWarpSettings) -> None:
+        """MuJoCo's MjSpec build refuses what the scene cannot run with; a device warp does not find is refused."""
+        mujoco_common.build_spec(scene, settings)
+        device(settings)
+
+    def record(self, scene: Scene, settings: MujocoWarpSettings) -> dict[str, Any]:
+        """MuJoCo's record, and what computed the run: precision, device, versions."""
+        return {**mujoco_common.record(scene, settings), "precision": settings.precision, "device": device(settings),
+                "mujoco_warp_version": version_of("mujoco-warp"), "warp_version": warp_modules()[0].__version__}
+
+    def contact_scales(self, scene: Scene, settings: MujocoWarpSettings) -> tuple[float, float]:
+        """MuJoCo's (``mujoco_common.contact_scales``): the same model."""
+        return mujoco_common.contact_scales(scene, settings)
+
+    def snippet(self, scene: Scene, settings: MujocoWarpSettings | None = None) -> str:
+        """The scene's model as MJCF (``mujoco_common.export_mjcf``), to load with ``mujoco_warp.put_model``."""
+        return mujoco_common.export_mjcf(scene, settings or MujocoWarpSettings())
 
 
 def world_steps_per_s(scene: Scene, settings: MujocoWarpSettings | None = None, nworld: int = 1,

@@ -230,3 +230,80 @@ def test_a_run_too_big_for_memory_is_an_error_result_in_every_engine(name):
     traj = run_engine(name, scene, make_settings(name))
     assert traj.status == "error" and "MemoryError" in traj.message
     assert len(traj.t) == 1
+
+
+# -- the contract checked when an adapter is registered (engines/contract.py), known answers both ways ----------
+def _readme_engine():
+    """The README's plugin engine (``EulerEngine``, ``EulerSettings``), loaded from its code block."""
+    import types
+
+    from plugin_cases import readme_block
+
+    module = types.ModuleType("chatterbench_euler")
+    sys.modules[module.__name__] = module
+    exec(compile(readme_block("# chatterbench_euler.py"), "README.md", "exec"), module.__dict__)
+    return module
+
+
+def _broken(kind: str):
+    """The README's engine with one thing of the contract broken (``kind``)."""
+    euler = _readme_engine()
+    base = euler.EulerEngine
+    settings = {
+        "not frozen": dataclasses.dataclass(type("S", (), {"__annotations__": {"dt": float}, "dt": 1e-3})),
+        "no dt": dataclasses.dataclass(frozen=True)(type("S", (), {"__annotations__": {"h": float}, "h": 1e-3})),
+        "dt unchecked": dataclasses.dataclass(frozen=True)(type("S", (), {"__annotations__": {"dt": float}, "dt": 1e-3})),
+        "no default": dataclasses.dataclass(frozen=True)(type("S", (), {"__annotations__": {"k": int, "dt": float},
+                                                                         "dt": 1e-3, "__post_init__": euler.EulerSettings.__post_init__})),
+    }
+    if kind in settings:
+        return type("E", (base,), {"settings_type": settings[kind]})
+    if kind == "no step":
+        return type("E", (EngineAdapter,), {"name": "euler", "package": "p", "settings_type": euler.EulerSettings,
+                                            "build": base.build})
+    if kind == "nothing":
+        return type("E", (EngineAdapter,), {"name": "euler", "package": "p", "settings_type": euler.EulerSettings})
+    if kind == "wrong name":
+        return type("E", (base,), {"name": "eulr"})
+    if kind == "bad precision":
+        return type("E", (base,), {"precision": "float16"})
+    if kind == "exports without kind":
+        return type("E", (base,), {"exports": ("model.txt",)})
+    return int  # not an adapter at all
+
+
+@pytest.mark.parametrize("kind, words", [
+    ("not frozen", "S) is not a frozen dataclass"),
+    ("no dt", "has no field 'dt'"),
+    ("dt unchecked", "(dt=-1.0) was accepted: dt is not checked"),
+    ("no default", "field 'k' has no default"),
+    ("no step", "writes build but not step"),
+    ("nothing", "writes neither build and step nor simulate"),
+    ("wrong name", "E.name is 'eulr', not the name it is registered under ('euler')"),
+    ("bad precision", "E.precision = 'float16': must be one of float32, float64"),
+    ("exports without kind", "E.export_kind: what its model file is"),
+    ("not an adapter", "int is not an EngineAdapter subclass"),
+])
+def test_the_contract_names_what_an_adapter_is_missing(kind, words):
+    from chatterbench.engines.contract import problem
+
+    assert problem(_readme_engine().EulerEngine, "euler") == ""  # the README's engine keeps it
+    found = problem(_broken(kind), "euler")
+    assert words in found and "\n" not in found, found
+
+
+@pytest.mark.parametrize("name", INSTALLED)
+def test_every_installed_adapter_keeps_the_contract(name):
+    from chatterbench.engines.contract import problem
+
+    assert problem(type(adapter(name)), name) == ""
+
+
+def test_the_engine_rows_list_every_built_in_engine():
+    from chatterbench.engines.registry import BUILT_IN, engine_rows
+
+    rows = {r.name: r for r in engine_rows() if r.source == "built in"}
+    assert set(rows) == {e.name for e in BUILT_IN}
+    for name, row in rows.items():
+        assert (row.status == "ok") == (name in INSTALLED) and (row.status == "ok") == (row.reason == "")
+        assert row.status in ("ok", "not installed") and (row.version != "-") == (row.status == "ok")

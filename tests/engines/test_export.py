@@ -11,11 +11,11 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 
-from chatterbench.engines.mujoco_engine import MujocoSettings, run
+from chatterbench.engines.mujoco_engine import MujocoEngine, MujocoSettings
 from chatterbench.engines.mujoco_engine.export import harmonic_controls
 from chatterbench.engines.mujoco_engine.model import controls
 from chatterbench.engines.pybullet_engine import PybulletSettings
-from chatterbench.engines.pybullet_engine import run as pybullet_run
+from chatterbench.engines.pybullet_engine import PybulletEngine
 from chatterbench.reference import load_scene
 from chatterbench.reference.catalogue import CATALOGUE
 
@@ -44,7 +44,7 @@ def test_exported_mjcf_loads_and_reproduces_the_run_bit_for_bit(tmp_path, gap_mo
                "--set", f"mujoco.gap_model={gap_model}", "--export-model", str(tmp_path / "m.xml"))
     assert done.returncode == 0, done.stderr
     scene, settings = load_scene("bouncing-ball"), MujocoSettings(dt=3e-4, w0_dt=0.1, gap_model=gap_model)
-    traj = run(scene, settings, compact_above=math.inf)
+    traj = MujocoEngine().run(scene, settings, compact_above=math.inf)
     n = len(traj.t) - 1
     stepped = subprocess.run([sys.executable, "-c", STEP_MODEL, str(tmp_path / "m.xml"), str(n), str(tmp_path / "y.npy")],
                              capture_output=True, text=True)
@@ -89,7 +89,7 @@ def test_exported_pybullet_script_runs_the_adapters_bounces(tmp_path):
     t = np.array([float(w[1].split("=")[1]) for w in lines])
     e = np.array([float(w[4].split("=")[1]) for w in lines])
     # the adapter's run: its contacts start at the same steps (the same world, settings and forces)
-    traj = pybullet_run(load_scene("bouncing-ball"), PybulletSettings(dt=1e-3), compact_above=math.inf)
+    traj = PybulletEngine().run(load_scene("bouncing-ball"), PybulletSettings(dt=1e-3), compact_above=math.inf)
     on = traj.contact["lower"]
     starts = traj.t[1:][on[1:] & ~on[:-1]] - 1e-3  # the step a contact starts in begins one dt before its sample
     np.testing.assert_allclose(t[:5], starts[:5], atol=1e-9)

@@ -13,14 +13,16 @@ import pytest
 from chatterbench.comparisons import compare
 from chatterbench.comparisons.pipeline.conformance import conformance, parting
 from chatterbench.engines.mujoco_engine import MujocoSettings
-from chatterbench.engines.mujoco_engine import run_batch as mujoco_batch
+from chatterbench.engines.mujoco_engine import MujocoEngine
 from chatterbench.engines.registry import make_settings
 from chatterbench.engines.settings import SettingsError
 from chatterbench.reference.scene import load_scene
 
 pytest.importorskip("mujoco_warp")
 
-from chatterbench.engines.mujoco_warp_engine import MujocoWarpSettings, run, run_batch, world_steps_per_s  # noqa: E402
+from chatterbench.engines.mujoco_warp_engine import MujocoWarpEngine, MujocoWarpSettings, world_steps_per_s  # noqa: E402
+
+run, run_batch, mujoco_batch = MujocoWarpEngine().run, MujocoWarpEngine().run_batch, MujocoEngine().run_batch
 from chatterbench.engines.mujoco_warp_engine.worlds import device_name  # noqa: E402
 
 DT = 1e-3  # [s] short runs: 2000 steps of the bouncing ball
