@@ -39,6 +39,12 @@ def _profile() -> str:
 
 settings.load_profile(_profile())
 
+# A command that runs 5 s without a word prints a plain progress line on stderr (cli/progress.py). On a loaded
+# machine any command may, so tests that read stderr line by line would read a line the load put there: they run
+# without these lines (inherited by the commands they start); tests/comparisons/cli/test_progress_lines.py turns
+# them on where it tests them.
+os.environ["CHATTERBENCH_PROGRESS_LINES"] = "off"
+
 
 @pytest.fixture
 def engine_runs(monkeypatch, tmp_path_factory):

@@ -2,7 +2,7 @@
 
     >>> from chatterbench.comparisons.cli.commands import COMMANDS
     >>> list(COMMANDS)[:3], COMMANDS["scenes"]
-    (['scenes', 'run', 'compare'], 'list the built-in scenes')
+    (['scenes', 'engines', 'run'], 'list the built-in scenes')
 
 Each is the module ``cli/NAME.py`` (its ``register`` adds its parser, with this help). The
 table imports nothing, so ``chatterbench --help`` lists every subcommand without loading one,

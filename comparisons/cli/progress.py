@@ -15,7 +15,9 @@ Where no bar is drawn (CI, a pipe, a file), ``heartbeat`` (around every command,
 prints one plain line after ``LINE_EVERY_S`` seconds without one: what runs, n of N done, and
 the seconds since the command started (``chatterbench: progress: tune pybullet on feigin-pair:
 the search, 12 candidates done; budget 600 runs; 63.0 s elapsed``), so a log is never silent for
-longer than that, whatever the command does. ``note`` lines (what a step will cost, e.g. a
+longer than that, whatever the command does (``CHATTERBENCH_PROGRESS_LINES=off`` in the
+environment turns these lines off, for a harness that compares stderr line by line; the test
+suite does so, except where it tests them). ``note`` lines (what a step will cost, e.g. a
 kernel compile, the reference's first numba compile) are printed on every stream, terminal
 or not: a log says why it paused.
 """
@@ -37,6 +39,7 @@ REFRESH_S = 1.0  # [s] how often the bar is redrawn while one step runs
 # 10 s promised (issue 33), so that a line late by a loaded machine or a C call holding the GIL still keeps it
 LINE_EVERY_S = 5.0
 IMPORTS_S = 2.0  # [s] of a process's start counted as the command's silence before its first line
+LINES_ENV = "CHATTERBENCH_PROGRESS_LINES"  # "off": no plain progress lines (the bar on a terminal is unaffected)
 
 _LOADED = time.perf_counter()  # the fallback's origin where /proc is missing
 
@@ -88,6 +91,9 @@ class _Heartbeat:
         # silent since the process started, its imports included (at most IMPORTS_S of them: a long-lived process, a
         # notebook, runs its first command as a fresh one would)
         self.command, self.bars, self.last = command, [], time.monotonic() - min(waited_s(), IMPORTS_S)
+        if os.environ.get(LINES_ENV, "").strip().lower() == "off":
+            yield
+            return
         stop = threading.Event()
 
         def run() -> None:

@@ -21,7 +21,7 @@ from pathlib import Path
 import pytest
 
 from chatterbench.comparisons.cli import progress as progress_module
-from chatterbench.comparisons.cli.progress import LINE_EVERY_S, Progress, heartbeat
+from chatterbench.comparisons.cli.progress import LINE_EVERY_S, LINES_ENV, Progress, heartbeat
 
 PROMISE_S = 10.0  # [s] the longest silence issue 33 allows in a log
 ELAPSED = re.compile(r"^chatterbench: progress: .*; (\d+\.\d) s elapsed$")
@@ -42,7 +42,7 @@ def _logged(args: list[str], cwd: Path) -> tuple[list[float], float, str]:
     seconds the command says it took, stderr)."""
     with open(cwd / "out.log", "w") as out, open(cwd / "err.log", "w") as err:
         proc = subprocess.run([sys.executable, "-m", "chatterbench.comparisons.cli", *args], cwd=cwd, stdout=out,
-                              stderr=err, timeout=900)
+                              stderr=err, timeout=900, env={**os.environ, LINES_ENV: "on"})
     stdout, stderr = (cwd / "out.log").read_text(), (cwd / "err.log").read_text()
     assert proc.returncode in (0, 1), stderr
     assert "\r" not in stderr and "%|" not in stderr  # plain lines, no bar drawn into the file
@@ -78,6 +78,21 @@ def test_sweep_writing_to_a_file_says_where_it_is_at_least_every_10_s(tmp_path):
     assert all(counts), stderr
     done = [int(m[1]) for m in counts]
     assert done == sorted(done)  # n of N only grows
+
+
+@pytest.fixture(autouse=True)
+def lines_on(monkeypatch):
+    """The suite runs with the plain lines off (tests/conftest.py); here they are what is tested."""
+    monkeypatch.setenv(LINES_ENV, "on")
+
+
+def test_the_lines_are_off_where_the_environment_says_so(monkeypatch):
+    monkeypatch.setenv(LINES_ENV, "off")
+    monkeypatch.setattr(sys, "stderr", io.StringIO())
+    monkeypatch.setattr(progress_module, "LINE_EVERY_S", 0.0)  # a line at every look, were they on
+    with heartbeat("chatterbench compare"):
+        time.sleep(1.0)
+    assert sys.stderr.getvalue() == ""
 
 
 def test_a_plain_line_says_what_runs_how_far_and_since_when(monkeypatch):
