@@ -170,28 +170,29 @@ def test_benchmark_has_one_signature_and_one_result(name):
     assert result.n_steps == 300 and result.adapter_steps_per_s > 0 and result.raw_steps_per_s > 0
 
 
-@pytest.mark.parametrize("name", DEFAULT_ENGINES)
-def test_benchmark_agrees_with_a_stopwatch_around_run(name):
-    # replaces two tests that recomputed ratio = adapter / raw from the benchmark's own figures (they could not
-    # fail): here the answer is independent, the per-step cost of the public ``run`` timed from outside by the
-    # difference of an N-step and a 2N-step run (the fixed cost cancels), best of 3
-    scene, settings, n = load_scene("feigin-pair"), make_settings(name, 1e-4), 20_000
-    result = adapter(name).benchmark(scene, settings, n_steps=n, repeats=3)
+def test_benchmark_divides_the_steps_by_their_seconds(monkeypatch):
+    # a known answer without a stopwatch: the clock the benchmark reads advances 1 us per engine step and stands
+    # still otherwise, so every figure is exactly 1e6 steps/s (the adapter's with its one-step fixed cost taken off:
+    # n / (n - 1) of it), whatever the machine's load. A figure off by the repeats, by a run of another length, or
+    # by a unit (ms for s) is off by that factor. Before: a factor-3 band around a stopwatch, which load could break.
+    from chatterbench.engines.pybullet_engine.run import PybulletEngine
 
-    def best(steps: int) -> float:
-        short = dataclasses.replace(scene, duration=steps * settings.dt)
-        times = []
-        for _ in range(3):
-            start = time.perf_counter()
-            adapter(name).run(short, settings, compact_above=math.inf)
-            times.append(time.perf_counter() - start)
-        return min(times)
+    steps = [0]
+    real_step = PybulletEngine.step
 
-    stopwatch = n / (best(2 * n) - best(n))
-    # measured on a 2-core machine: benchmark / stopwatch 1.1 to 1.5 (MuJoCo, PyBullet); a factor 3 either way
-    # leaves room for a loaded machine and still catches a figure off by the repeats, by a run of another
-    # length, or by a unit (ms for s)
-    assert 1 / 3 < result.adapter_steps_per_s / stopwatch < 3, (result, stopwatch)
+    def counted(self, world, forces):
+        steps[0] += 1
+        return real_step(self, world, forces)
+
+    monkeypatch.setattr(PybulletEngine, "step", counted)
+    monkeypatch.setattr(time, "perf_counter", lambda: steps[0] * 1e-6)
+    n = 3000
+    result = adapter("pybullet").benchmark(load_scene("feigin-pair"), make_settings("pybullet", 1e-4), n_steps=n,
+                                           repeats=3)
+    assert result.n_steps == n and result.repeats == 3
+    assert result.raw_steps_per_s == pytest.approx(1e6, rel=1e-9)
+    assert result.adapter_steps_per_s == pytest.approx(1e6 * n / (n - 1), rel=1e-9)
+    assert result.details["fixed_s"] == pytest.approx(1e-6, rel=1e-9)  # the one-step run: one step
 
 
 def test_a_failed_run_keeps_the_initial_state():
