@@ -142,6 +142,9 @@ def _finite_rows(table: TableFile, data: dict[str, np.ndarray], where: str) -> i
     n = len(table.frame)
     if n < 2:
         raise TrajectoryError(f"{where}: {n} rows; at least 2 samples are needed")
+    empty = next((c for c, v in data.items() if not np.isfinite(v).any()), None)
+    if empty is not None:
+        raise TrajectoryError(f"{where}: column {empty!r} has no finite value in any of its {n} rows")
     bad = ~np.all([np.isfinite(v) for v in data.values()], axis=0)
     last_good = n - int(np.argmax(~bad[::-1])) if not bad.all() else 0
     if bad[:last_good].any():
@@ -241,7 +244,8 @@ def judge_trajectory(scene: Scene | str | Path, table_or_path: str | Path | pd.D
     read = read_trajectory(table_or_path, scene, engine, precision)
     traj = read.trajectory
     ref = solution if solution is not None else solve(scene)
-    check_body1(scene, traj, tol.penetration * ref.length_scale, f"trajectory {read.source}")
+    check_body1(scene, traj, tol.penetration * ref.length_scale,
+                "trajectory" if read.source == "table" else f"trajectory {read.source}")
     options = options or ExtractionOptions(
         jump_atol=max(ExtractionOptions().jump_atol, float(np.max(rounding(read.precision, traj.v1, traj.v2)))),
         position_rounding=float(np.max(rounding(read.precision, traj.x1, traj.x2))) / ROUNDING)
