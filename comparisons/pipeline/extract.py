@@ -20,12 +20,18 @@ Per wall, with n = +1 (lower) or -1 (upper): the distance d = n (y - y_wall) [m]
 velocity u = n y' and the free acceleration a = n y''_free; a < 0 presses into the wall.
 
 1. **Contact** at a sample: the trajectory's contact flag (the wall's force is on), or
-   d <= 0 where a trajectory carries no flag. A contact is a run of contact samples.
+   d <= 0 where a trajectory carries no flag. A contact is a run of contact samples. A
+   contact skin (``offsets``: the body rests that far off the wall) moves d's zero there.
 2. **Impacts**: the onset of each contact, and every step between two free samples whose
    velocity jump J = u[k+1] - u[k] - (a[k] + a[k+1]) dt / 2 exceeds
    max(``jump_atol``, min(``jump_factor``, ``floor_steps``) |a| dt) (a jump of k |a| dt is a
    flight of k steps: one the samples resolve is never hidden) with the wall within one step's travel (an
-   impact between two samples, as the exact reference has them). Each impact has its
+   impact between two samples, as the exact reference has them), where the body comes to the
+   wall: moving towards it (u[k] < 0), or carried there within the step by the free motion.
+   A body rising from the wall all through the step is lifting off, whatever its jump: where
+   the file's forcing runs ahead of the scene's, the scene's y'' still presses while the body
+   leaves, and those jumps are no impacts (issue 34: they once pulled early exits towards the
+   reference's). Each impact has its
    incoming and rebound speeds (``v_minus``, ``v_plus``; for a contact, where the body
    crosses the wall's undeformed surface, d = 0, on its way in and out: the free flight of
    the last free sample before and the first after, from two samples' positions where the
@@ -35,7 +41,9 @@ velocity u = n y' and the free acceleration a = n y''_free; a < 0 presses into t
    exit pulling the body out of a resting penetration, the speed at release), its release (the contact force's zero, interpolated linearly from the
    last two force samples, else the middle of the step after the last contact sample; the
    impact time itself for an impact between samples) and the highest point of the flight
-   after it, ``apex`` [m], the largest sampled d until the next impact on the wall. Its
+   after it, ``apex`` [m], the largest sampled d until the next impact on the wall, and
+   ``t_bound`` [s], how far its time may be off (0 where the free parabola reaches the wall,
+   else the step it lies in). Its
    ``flight`` runs from the release to the next impact on the wall; ``flight_seen`` is that
    flight as both its ends see it, no longer than the free flight the rebound speed and the
    next impact's incoming speed each imply (2 |v| / |a| while a < 0): a "flight" that spans
@@ -62,7 +70,8 @@ velocity u = n y' and the free acceleration a = n y''_free; a < 0 presses into t
    already at rest in a contact (|y'| <= |a| f_min / 2). A stretch whose bodies part less
    than f_min after its sticking start (rule 4) is no stick: they never came to rest, its
    impacts are bounces (an engine that keeps kicking off after each Zeno point chatters).
-4. **Times.** The sticking start comes from the engine's own ladder (``sticking_start``):
+4. **Times** (``sticking.py``, with how far the samples let each be off: ``sticks``).
+   The sticking start comes from the engine's own ladder (``sticking_start``):
    from the onset, the bounces (a contact shorter than the flight after it) whose flights
    keep shrinking, i .. K, down to the last the samples see (flights of about two steps:
    rule 2's jump); when they shrank by more than a step, their mean ratio rho =
@@ -73,13 +82,19 @@ velocity u = n y' and the free acceleration a = n y''_free; a < 0 presses into t
    to see. Otherwise (one bounce, or flights that did not shrink by a step) the onset's
    rebound is extrapolated with Feigin's ladder, 2 v+ / ((1 - R) |a|) (0 for a single
    contact): exact for a trajectory that follows R, off by at most f_min / (1 - R) for one
-   that does not. The exit is the release of the last contact of the stuck stretch.
+   that does not. The samples at rest overrule both: a stretch that ends in a contact lasting
+   to its exit or to the end of the data sticks no later than that contact's first sample
+   (where the ladder says later, at that contact's onset). The exit is the release of the
+   last contact of the stuck stretch.
 
 Estimator errors (exact samples, step dt; an engine adds its own): impact time
 O(|a'| dt^3 / |u|) (the smallest root of the free parabola from the last free sample;
 the onset sample's time, error <= dt, when the parabola does not reach the wall); speeds
 O(|a'| dt^2); exit O(dt^2) where the force decays linearly, else <= dt; sticking start
-O(f_min^2 |a'| / |a|) from the ladder's changing |a|.
+O(f_min^2 |a'| / |a|) from the ladder's changing |a|. Positions rounded to
+``position_rounding`` (a float32 file's) move an impact between samples by up to
+2 rounding / |u|, which ``v_error`` takes in, and blur a velocity taken from two positions,
+which is then taken from the samples' own velocity.
 
 Promises: the log is sorted by time (at one time: exit, impact, stick); every stick is
 followed by an exit on its own wall, f_min or more later, unless the data end stuck; impacts inside a stuck stretch (the

@@ -88,14 +88,19 @@ class RestingOffset:
         """A steady offset: its spread under a quarter of it (a slop or skin, not a load-dependent spring)."""
         return self.spread < abs(self.offset) / 4
 
-    def describe(self, unit: float = 1e-3) -> str:
+    def describe(self) -> str:
         """One line: where the body rests, and what the judge does with it."""
         where = "above" if self.skin else "inside"
         what = ("a contact skin: the wall's surface is taken there" if self.skin else
                 "a steady penetration: contact ends where the body leaves it" if self.steady else
                 "a penetration that changes with the load (a soft contact): contact ends at the wall")
-        return (f"body 2 rests {abs(self.offset) / unit:.3g} mm {where} the {self.wall} wall ({self.samples} held samples,"
-                f" spread {self.spread / unit:.2g} mm): {what}")
+        return (f"body 2 rests {_length(abs(self.offset))} {where} the {self.wall} wall ({self.samples} held samples, "
+                f"spread {_length(self.spread)}): {what}")
+
+
+def _length(metres: float) -> str:
+    """A length for a message: in mm from 0.1 mm up, else in micrometres."""
+    return f"{metres * 1e3:.3g} mm" if metres >= 1e-4 or metres == 0 else f"{metres * 1e6:.3g} um"
 
 
 def _held(u: np.ndarray, a: np.ndarray, h: np.ndarray) -> np.ndarray:

@@ -24,7 +24,11 @@ and in timesteps (``_steps``):
   (``impacts.py``), with ``resolved_impacts``, ``ref_resolved_impacts`` and
   ``unmeasured_impacts`` (paired resolved impacts the step cannot measure to the tolerance);
 - ``penetration_max`` [m]: the deepest penetration of any wall from the end of the
-  previous reference visit to this one's exit.
+  previous reference visit to this one's exit;
+- ``first_impact_bound``, ``stick_bound``, ``exit_bound`` [s]: how far the samples let the
+  engine's time be off (``sticking.py``): the extrapolated part of a ladder, the step an
+  exit or an impact lies in;
+- ``reason``: why the episode is not ``match``, in one line ("" when it is).
 
 Verdicts (``vocabulary.py``), the first that applies:
 
@@ -33,18 +37,25 @@ Verdicts (``vocabulary.py``), the first that applies:
    ``crashed`` for episodes the run did not finish;
 2. ``penetrated``: ``penetration_max`` > ``penetration`` x the scene's length scale;
 3. the reference sticks, the engine does not: ``endless`` (``endless_impacts`` or more
-   engine impacts inside the reference's sliding) or ``missed``;
+   engine impacts inside the reference's sliding), ``unresolved`` where the reference's
+   sliding is shorter than the samples can show (``sliding_min``), else ``missed``;
 4. the engine sticks, the reference does not: ``spurious``;
 5. ``early`` / ``late``: |stick_error_rel| > ``stick``, |first_impact_error_rel| >
    ``first_impact``, |exit_error_rel| > ``exit``, or one of the two stays stuck to the end
-   of the run and the other does not (the sign says which);
-6. ``rebound``: timing within tolerance, but a measurable resolved impact's |e / R - 1|
-   exceeds ``restitution`` (the allowance is the tolerance, whatever the step), or the
-   resolved impact counts differ by more than ``impact_count``;
-7. ``unmeasured``: all of the above holds, but the visit's paired resolved impacts are all
+   of the run and the other does not (the sign says which). Where a time's bound exceeds its
+   tolerance, only an error beyond the tolerance with the bound taken off counts (``timing``):
+   never a confident early or late that the step cannot tell;
+6. ``rebound``: timing within tolerance (or unresolved), but a measurable resolved impact's
+   |e / R - 1| exceeds ``restitution`` (the allowance is the tolerance, whatever the step), or
+   the resolved impact counts differ by more than ``impact_count`` (``reason`` says which);
+7. ``unresolved``: a time's bound exceeds its tolerance, and its error is neither beyond
+   the tolerance with the bound taken off nor within it with the bound added: the samples
+   cannot say (a finer step can: ``reason`` gives the bound and the step that would resolve
+   it; the step is the sampling's times the tolerance over the bound, as the bounds scale);
+8. ``unmeasured``: all of the above holds, but the visit's paired resolved impacts are all
    unmeasured (their uncertainty exceeds ``restitution``: ``impacts.py``), so nothing says
    whether they follow R; unmeasured impacts beside measured ones are counted, not judged;
-8. ``match``.
+9. ``match``.
 
 A failure never agrees: when the run failed (status, divergence, penetration) and no
 episode row says so, a run row (wall "") carries the failure verdict. Engine episodes that
