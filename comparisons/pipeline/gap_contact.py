@@ -108,11 +108,11 @@ def _held(u: np.ndarray, a: np.ndarray, h: np.ndarray) -> np.ndarray:
     held = (a < 0.0) & (np.abs(u) <= 0.5 * np.abs(a) * h)
     edges = np.diff(np.concatenate(([0], held.astype(np.int8), [0])))
     starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
-    out = np.zeros(len(u), bool)
-    for s, e in zip(starts, stops):
-        if e - s >= HELD_SAMPLES:
-            out[s:e] = True
-    return out
+    long = stops - starts >= HELD_SAMPLES
+    marks = np.zeros(len(u) + 1, np.int64)  # +1 where a long run starts, -1 past its end: their running sum
+    np.add.at(marks, starts[long], 1)
+    np.add.at(marks, stops[long], -1)
+    return np.cumsum(marks[:-1]) > 0
 
 
 def resting_offsets(scene: Scene, t: np.ndarray, y: np.ndarray, vy: np.ndarray, acc: np.ndarray,

@@ -104,8 +104,8 @@ def sticking_start(imp: dict, i: int, j: int, restitution: float, dt: float) -> 
         k += 1
     if k > i and np.isfinite(flight[i]) and flight[i] - flight[k] > dt:
         # the last flight the samples see may span bounces too short to see: no longer than its rebound implies
-        a_k = float(imp["a_release"][k])
-        f_k = min(float(flight[k]), 2.0 * float(imp["v_plus"][k]) / -a_k) if a_k < 0 else float(flight[k])
+        a_k, v_k = float(imp["a_release"][k]), float(imp["v_plus"][k])
+        f_k = min(float(flight[k]), 2.0 * v_k / -a_k) if a_k < 0 and v_k > 0 else float(flight[k])
         rho = (f_k / flight[i]) ** (1.0 / (k - i))
         rest = f_k * rho / (1.0 - rho)  # the extrapolated part, past what the samples see
         return Stick(max(t_on, float(imp["t_release"][k]) + f_k + rest), rest, "ladder")
