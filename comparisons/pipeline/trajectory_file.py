@@ -290,4 +290,4 @@ def gap_difference(read: Judged, ref: ReferenceSolution, tol: Tolerances, option
     a, b = differ[0] if differ else (None, None)
     where = f" ({a.wall} episode at {a.ref_t_stick:.4g} s: {b.verdict}, {b.reason or 'within tolerance'})" if a else ""
     return [f"from the force columns: {combine(table['verdict'])}; from the gap alone it would be "
-            f"{combine(other['verdict'])}{where}: the force lets go where the positions do not show it"]
+            f"{combine(other['verdict'])}{where}: the force and the positions disagree on when body 2 touches the wall"]
