@@ -27,11 +27,13 @@ Promises (each one a refusal, ``TableFileError``, in one line that names the fil
 from __future__ import annotations
 
 import bz2
+import codecs
 import gzip
 import io
 import lzma
 import os
 import stat
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
@@ -45,7 +47,8 @@ from chatterbench.reference.tables import printable
 MAX_TABLE_BYTES = 256 * 2**20  # [bytes] of table data, decompressed: about 2 million samples of 7 full-precision columns
 MAX_LINE_BYTES = 2**20  # [bytes] of one CSV line (a real one holds a few hundred)
 PARQUET = (".parquet", ".pq")
-_STREAMS = {".gz": gzip.GzipFile, ".bz2": bz2.BZ2File, ".xz": lzma.LZMAFile}
+_STREAMS = {".gz": lambda f: gzip.GzipFile(fileobj=f, mode="rb"), ".bz2": lambda f: bz2.BZ2File(f, "rb"),
+            ".xz": lambda f: lzma.LZMAFile(f, "rb")}  # a decompressing stream over an open file
 _CHUNK = 4 * 2**20
 NAN_TEXT = ["", "nan", "NaN", "NAN", "-nan", "+nan"]  # the cells read as missing values; no other text
 
@@ -90,12 +93,13 @@ def _too_big(shown: str, what: str = "") -> TableFileError:
 
 
 class _Text:
-    """Checks CSV bytes a chunk at a time as they are read: no NUL byte, no line past ``MAX_LINE_BYTES``."""
+    """Checks CSV bytes a chunk at a time as they are read: UTF-8, no NUL byte, no line past ``MAX_LINE_BYTES``."""
 
     def __init__(self, shown: str) -> None:
         self.shown, self.read, self.line, self.since = shown, 0, 1, 0  # bytes so far, line number, bytes since its start
+        self.utf8 = codecs.getincrementaldecoder("utf-8")()  # its text is thrown away: only its errors count
 
-    def check(self, chunk: bytes) -> None:
+    def check(self, chunk: bytes, final: bool = False) -> None:
         nul = chunk.find(b"\0")
         if nul >= 0:
             raise TableFileError(f"trajectory {self.shown}: not a CSV text file (a NUL byte at byte {self.read + nul}: "
@@ -107,6 +111,11 @@ class _Text:
         if longest > MAX_LINE_BYTES:
             raise TableFileError(f"trajectory {self.shown}: a line near line {self.line} is longer than "
                                  f"{MAX_LINE_BYTES // 2**20} MiB; not a CSV table of samples")
+        try:
+            self.utf8.decode(chunk, final)
+        except UnicodeDecodeError as exc:
+            raise TableFileError(f"trajectory {self.shown}: not UTF-8 text ({exc.reason} near byte "
+                                 f"{self.read + max(exc.start, 0)})") from None
         self.line += len(ends)
         self.since = len(chunk) - last - 1 if last >= 0 else self.since + len(chunk)
         self.read += len(chunk)
@@ -119,22 +128,15 @@ def _read_bounded(stream, shown: str, what: str) -> bytes:
     while True:
         try:
             chunk = stream.read(_CHUNK)
-        except (OSError, EOFError, lzma.LZMAError) as exc:
-            raise TableFileError(f"trajectory {shown}: cannot be decompressed ({exc})") from None
+        except (OSError, EOFError, lzma.LZMAError, zlib.error) as exc:
+            raise TableFileError(f"trajectory {shown}: cannot be decompressed ({printable(str(exc))[:120]})") from None
         if not chunk:
+            text.check(b"", final=True)  # a last line without its newline, a character cut short
             return bytes(out)
         if len(out) + len(chunk) > MAX_TABLE_BYTES:
             raise _too_big(shown, what)
         text.check(chunk)
         out += chunk
-
-
-def _check_text(data: bytes, shown: str) -> None:
-    """UTF-8 text (the NUL bytes and line lengths were checked as it was read)."""
-    try:
-        data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise TableFileError(f"trajectory {shown}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
 
 
 def _read_parquet(fd: int, shown: str, columns: Sequence[str] | None) -> pd.DataFrame:
@@ -167,9 +169,8 @@ def _read_csv(fd: int, path: Path, shown: str, columns: Sequence[str] | None) ->
         if os.fstat(raw.fileno()).st_size > MAX_TABLE_BYTES:
             raise _too_big(shown)
         opener = _STREAMS.get(suffix)
-        data = _read_bounded(opener(fileobj=raw) if opener else raw, shown,
+        data = _read_bounded(opener(raw) if opener else raw, shown,
                              "decompressed, " if opener else "")
-    _check_text(data, shown)
     try:
         names = [str(c).strip() for c in pd.read_csv(io.BytesIO(data), nrows=0).columns]
         frame = pd.read_csv(io.BytesIO(data), usecols=lambda c: columns is None or str(c).strip() in columns,
