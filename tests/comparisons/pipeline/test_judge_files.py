@@ -19,6 +19,7 @@ from chatterbench.comparisons import judge_trajectory, reference_trajectory, tra
 from chatterbench.comparisons.cli.main import main
 from chatterbench.comparisons.pipeline.solution import solve
 from chatterbench.comparisons.pipeline.trajectory_file import TrajectoryError
+from chatterbench.reference.scene import load_scene
 
 from helpers import solution
 from synthetic import SCENES
@@ -80,6 +81,15 @@ def test_a_fixed_body_1_that_moves_is_refused():
     # within the allowance (10% of the 1 m length scale) it is the scene's floor, and the ball matches
     assert _judge("bouncing-ball", table.assign(x1=table["x1"] + 0.05, x2=table["x2"] + 0.05)).table["verdict"].tolist() \
         == ["match"]
+
+
+def test_a_prescribed_body_1_must_follow_its_motion():
+    # the ball's floor driven at 0.2 m, 3 rad/s: the exact file passes; the same gap with a still floor is refused
+    scene = load_scene("bouncing-ball", ["prescribed.amplitude=0.2", "prescribed.omega=3", "initial.v1=0.6", "duration=1"])
+    table = trajectory_table(reference_trajectory(scene, 1e-3))
+    assert judge_trajectory(scene, table).runs["engine"].status == "ok"
+    with pytest.raises(TrajectoryError, match=r"the scene prescribes body 1's motion, but the file's x1 is 0 m"):
+        judge_trajectory(scene, table.assign(x1=0.0, x2=table["x2"] - table["x1"]))
 
 
 # -- item 2: exits from the samples' own motion ----------------------------------------------------
