@@ -17,6 +17,9 @@ import banner), and absurd values that must end (refused, or a classified run) r
 
 from __future__ import annotations
 
+import functools
+import gzip
+import math
 import os
 import subprocess
 import sys
@@ -32,6 +35,7 @@ FILE = "bad.toml"  # argv placeholder for the case's scene file
 AFILE, ADIR = "afile", "adir"  # in every scratch directory: a file where a directory is wanted, and the reverse
 APIPE = "apipe"  # and a named pipe where a file is wanted
 CSV = "bad.csv"  # argv placeholder for a case's dataset (chart, report --sweep)
+CSVGZ = "bad.csv.gz"  # ... and for a compressed trajectory (judge)
 ROWS = "engine,dt,verdict,cost_per_sim_s,restitution\nmujoco,0.0001,match,0.02,0.5\npybullet,0.0001,late,0.2,0.5\n"
 
 GOOD_FILE = """\
@@ -49,6 +53,42 @@ on = "body1"
 amplitude = 1.0
 omega = 1.0
 """
+
+
+class Generated(str):
+    """A case file too big or too binary to spell out: ``make(path)`` writes it; the doc shows this text."""
+
+    def __new__(cls, text: str, make):
+        made = str.__new__(cls, text)
+        made.make = make
+        return made
+
+
+@functools.cache
+def _gzip_member() -> bytes:
+    """32 MiB of CSV rows, gzip-compressed once (33 kB)."""
+    return gzip.compress(b"0.001,0,0.5,0,0\n" * 2**21, 9)
+
+
+def _gzip_bomb(path: Path) -> None:
+    # a header and ten members of 32 MiB each: 320 MiB decompressed, over the judge's 256 MiB
+    path.write_bytes(gzip.compress(b"t,x1,x2,v1,v2\n") + _gzip_member() * 10)
+
+
+def _sparse(size: int):
+    def make(path: Path) -> None:
+        with open(path, "wb") as f:
+            f.truncate(size)  # a hole: no disk used, NUL bytes when read
+    return make
+
+
+def _ball_csv(edit=None) -> str:
+    """The bouncing ball's exact samples every 10 ms as a CSV trajectory (``judge``), changed by ``edit``."""
+    from chatterbench.comparisons import reference_trajectory, trajectory_table
+    from chatterbench.reference.scene import load_scene
+
+    table = trajectory_table(reference_trajectory(load_scene("bouncing-ball"), 0.01))[["t", "x1", "x2", "v1", "v2"]]
+    return (edit(table) if edit else table).to_csv(index=False)
 
 
 def _file(**replace: str) -> str:
@@ -384,6 +424,41 @@ CASES: list[tuple[str, str, list[str], str | None, tuple[str, ...]]] = [
     ("repot", "a misspelt subcommand (before: no did-you-mean)", ["repot"], None, ("'repot'", "did you mean 'report'")),
     ("--dtt", "a misspelt option (before: no did-you-mean, and 'see chatterbench --help')", ["run", "feigin-pair", "--dtt",
      "1e-3"], None, ("--dtt: did you mean '--dt'", "see chatterbench run --help")),
+    # issue 34: judge files, bounded before they are read and refused by kind; rows as a user counts them
+    ("judge /dev/zero", "a device for a trajectory (before: \"no such file\")", ["judge", "bouncing-ball", "/dev/zero"], None,
+     ("'/dev/zero'", "is a device")),
+    ("judge adir", "a directory for a trajectory (before: \"no such file\")", ["judge", "bouncing-ball", ADIR], None,
+     ("'adir'", "is a directory")),
+    ("judge apipe", "a named pipe for a trajectory (before: \"no such file\")", ["judge", "bouncing-ball", APIPE], None,
+     ("'apipe'", "is a named pipe")),
+    ("judge-escapes", "a trajectory name with terminal escapes (before: echoed raw)", ["judge", "bouncing-ball",
+     "\x1b[2J\x1b[31mred.csv"], None, ("'\\x1b[2J\\x1b[31mred.csv'", "no such file")),
+    ("judge-gzip-bomb", "a .csv.gz of 320 MiB decompressed (before: read whole: 2.85 GiB for a 2 GiB bomb)",
+     ["judge", "bouncing-ball", CSVGZ], Generated("(10 gzip members of 32 MiB of rows each, 0.3 MB compressed)", _gzip_bomb),
+     ("'bad.csv.gz'", "decompressed, larger than 256 MiB")),
+    ("judge-sparse-64MB", "a 64 MB sparse file, all NUL bytes (before: read whole: 3.7 GB, 38 s, then judged)",
+     ["judge", "bouncing-ball", CSV], Generated("(a 64 MB hole: NUL bytes)", _sparse(64 * 10**6)), ("'bad.csv'", "NUL byte")),
+    ("judge-sparse-2GB", "a 2 GB sparse file (before: read whole: 2.23 GiB)", ["judge", "bouncing-ball", CSV],
+     Generated("(a 2 GB hole: NUL bytes)", _sparse(2 * 10**9)), ("'bad.csv'", "larger than 256 MiB")),
+    ("judge-t-1e300", "times scaled by 1e300 (before: an OverflowError traceback)", ["judge", "bouncing-ball", CSV],
+     _ball_csv(lambda f: f.assign(t=f["t"] * 1e300)), ("column 't', row 2 (line 3)", "outside the scene's time")),
+    ("judge-n/a", "a cell \"n/a\" (before: \"row 2: np.float64(nan) before the end\")", ["judge", "bouncing-ball", CSV],
+     _ball_csv(lambda f: f.astype(object).assign(x2=f["x2"].astype(object).where(f.index != 2, "n/a"))),
+     ("column 'x2', row 3 (line 4)", "'n/a' is not a number")),
+    ("judge-nan", "a NaN before the last rows (before: \"row 2: np.float64(nan)\", rows counted from 0)",
+     ["judge", "bouncing-ball", CSV], _ball_csv(lambda f: f.assign(v2=f["v2"].where(f.index != 2))),
+     ("column 'v2', row 3 (line 4): nan before the end",)),
+    ("judge-x1-empty", "an all-empty x1 column (before: \"fewer than 2 finite samples\")", ["judge", "bouncing-ball", CSV], _ball_csv(lambda f: f.assign(x1=None)),
+     ("column 'x1'", "no finite value")),
+    ("judge-fixed-body-moves", "body 1, fixed by the scene, swinging 0.3 m in the file (before: judged \"match\")",
+     ["judge", "bouncing-ball", CSV], _ball_csv(lambda f: f.assign(x1=0.3 * (f["t"] * 6.283).map(math.sin),
+                                                                   x2=f["x2"] + 0.3 * (f["t"] * 6.283).map(math.sin))),
+     ("column 'x1'", "fixes body 1 at x1 = 0 m", "did not run this scene")),
+    ("judge-engine-path", "an engine label that is a path (before: wrote x.csv outside --out)",
+     ["judge", "bouncing-ball", CSV, "--engine", "/../../../../outside/x", "--out", "o"], _ball_csv(),
+     ("--engine '/../../../../outside/x'", "no '/'")),
+    ("judge-precision", "a precision the judge does not know", ["judge", "bouncing-ball", CSV, "--precision", "float16"],
+     _ball_csv(), ("--precision", "float32")),
 ]
 
 
@@ -395,7 +470,9 @@ def _scratch(content: str | None, name: str = FILE):
         Path(tmp, AFILE).write_text("a file\n")
         Path(tmp, ADIR).mkdir()
         os.mkfifo(Path(tmp, APIPE))
-        if content is not None:
+        if isinstance(content, Generated):
+            content.make(Path(tmp, name))
+        elif content is not None:
             Path(tmp, name).write_text(content)
         os.chdir(tmp)
         try:
@@ -413,7 +490,7 @@ def run_cli(argv: list[str], content: str | None) -> tuple[int, str]:
 
     A refusal writes nothing: the scratch directory must hold what it held before.
     """
-    with _scratch(content, CSV if CSV in argv else FILE) as tmp:
+    with _scratch(content, next((a for a in argv if a in (CSV, CSVGZ)), FILE)) as tmp:
         before = _tree(tmp)
         done = cli(argv)
         left = _tree(tmp) - before
@@ -518,6 +595,8 @@ def _cell(text: str) -> str:
 
 def describe_file(content: str) -> str:
     """Short form of a case's file: the lines changed from GOOD_FILE, or the whole content."""
+    if isinstance(content, Generated):
+        return str(content)
     good, lines = GOOD_FILE.splitlines(), content.splitlines()
     if len(set(good) & set(lines)) >= 5:
         added = [ln for ln in lines if ln not in good]
