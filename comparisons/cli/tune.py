@@ -65,13 +65,14 @@ def cmd_tune(args: argparse.Namespace) -> int:
         from chatterbench.comparisons.studies.tune_evidence import evidence
 
         rec = recommended(result)
-        figures = guide_figures(result, evidence(result))
+        ev = evidence(result)
+        figures = guide_figures(result, ev)
         with writing("--out", out):
             if rec is not None:  # first: the guide's files are written from what it says
                 write_text(out / "recommended.json", json.dumps(rec, indent=2) + "\n")
-            write_text(out / "guide.md", guide_markdown(result, figures))
-            write_text(out / "guide.html", guide_html(result, figures))
-            write_text(out / "guide_section.html", guide_section_html(result, figures))  # for `report --tune DIR`
+            write_text(out / "guide.md", guide_markdown(result, figures, ev))
+            write_text(out / "guide.html", guide_html(result, figures, ev))
+            write_text(out / "guide_section.html", guide_section_html(result, figures, ev))  # for `report --tune DIR`
             write_frame(out / "candidates.csv", result.table)
             for name, fig in figures.items():
                 write_figure(fig, out, FIGURE_FILES[name])
