@@ -16,9 +16,8 @@ from chatterbench.comparisons.outputs.engine_files import write_engine_files
 from chatterbench.comparisons.pipeline.extract import extract
 from chatterbench.comparisons.outputs.guide import guide_markdown
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
-from chatterbench.comparisons.studies.restitution_curve import impact_restitutions
 from chatterbench.comparisons.studies.tune import tune
-from chatterbench.comparisons.studies.tune_evidence import chosen_settings
+from chatterbench.comparisons.studies.tune_evidence import chosen_settings, evidence
 from chatterbench.engines.registry import run_engine
 from chatterbench.reference import load_scene
 
@@ -77,15 +76,17 @@ def test_tune_files_print_the_runs_impacts_with_the_guides_restitution(tuned, sc
     ref = result.extra["solution"]
     found = extract(run_engine(engine, scene, settings), scene, ref.stick_tolerance(result.tolerance.stick))
     assert len(printed) == int((found.log["kind"] == "impact").sum()) >= 5
-    # at every impact the guide lists (the run's resolved impacts, the judge's pairs), the printed e is the guide's
-    # number within 1% (measured: to the 6 digits printed; the script's run repeats the adapter's, to rounding)
-    judged = impact_restitutions(engine, settings, scene, ref, result.tolerance)
-    assert len(judged) >= 3
+    # at every impact the guide lists (the run's resolved impacts as the judge measures them), the printed e is the
+    # guide's number within 1% (measured: to the 4 digits the guide prints; the script's run repeats the adapter's)
+    text = guide_markdown(result, ev=evidence(result, speeds=[1.0]))
+    claim = next(line for line in text.splitlines() if line.startswith("**The run's impacts:**"))
+    listed = [tuple(map(float, m)) for m in re.findall(r"#\d+ at t = (\S+) s, (\S+) m/s: e = (\d\.\d{4})", claim)]
+    assert len(listed) >= 3 and f"`{expected[-1]}` prints each of them" in claim
     times = [t for t, *_ in printed]
-    for row in judged.itertuples():
-        t, v_in, v_out, e = printed[min(range(len(times)), key=lambda i: abs(times[i] - row.t))]
-        assert t == pytest.approx(row.t, abs=1e-5) and abs(v_in) == pytest.approx(row.speed, rel=1e-4)
-        assert e == pytest.approx(row.restitution_effective, rel=0.01)
+    for t_guide, v_guide, e_guide in listed:
+        t, v_in, v_out, e = printed[min(range(len(times)), key=lambda i: abs(times[i] - t_guide))]
+        assert t == pytest.approx(t_guide, abs=1e-4) and abs(v_in) == pytest.approx(v_guide, rel=5e-3)
+        assert e == pytest.approx(e_guide, rel=0.01) and e == pytest.approx(e_guide, abs=6e-5)  # 4 printed digits
 
 
 def test_tunes_mujoco_model_starts_where_the_scene_starts_and_reproduces_the_run(tuned):
