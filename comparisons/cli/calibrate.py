@@ -3,7 +3,7 @@
     $ chatterbench calibrate mujoco pybullet --restitution 0.5 --out out/calibrate
     $ chatterbench calibrate mujoco --gravity 9.81 --speeds 0.01,10 --points 25 --set mujoco.w0_dt=0.1
 
-Prints three tables: e at each speed (strikes at ``PHASES`` places in a step per speed, where in
+Prints three tables: e at each speed (strikes at ``STRIKES`` places in a step per speed, 8 through it and its two ends, where in
 a step the impact falls moving e: min, median and max, three columns per engine:
 ``studies/restitution_curve.py``), e under ``--scene``'s own forces at the speeds it reaches
 (strikes from the reference's state before each impact the judge resolves, at the same places in
@@ -28,7 +28,7 @@ from chatterbench.comparisons.pipeline.atomic import write_frame
 from chatterbench.comparisons.pipeline.budget import check_comparison
 from chatterbench.comparisons.pipeline.solution import solve
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
-from chatterbench.comparisons.studies.restitution_curve import (ABOVE, DEFAULT_POINTS, DECADES_BELOW, MAX_POINTS, PHASES,
+from chatterbench.comparisons.studies.restitution_curve import (ABOVE, DEFAULT_POINTS, DECADES_BELOW, MAX_POINTS, STRIKES,
                                                                default_speeds, impact_restitutions, log_speeds,
                                                                pinned_settings, restitution_band, restitution_curve)
 from chatterbench.comparisons.studies.scene_restitution import scene_restitution
@@ -108,7 +108,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     forces = f"under gravity g = {args.gravity:g} m/s^2" if args.gravity else "no other forces"
     print_table(_wide_band(curve, engines),
                 title=f"effective restitution e = -v+/v- per speed [m/s] on {scene.name}'s bodies, {forces}, struck at "
-                      f"{PHASES} places in a step (where in a step the impact falls moves e): min, median, max; nominal "
+                      f"{STRIKES} places in a step (where in a step the impact falls moves e): min, median, max; nominal "
                       f"R = {scene.restitution:g} (0: no rebound)")
     for row in curve[curve["status"] != "ok"].itertuples():
         print(f"{row.engine} at {row.speed:.4g} m/s, {row.phase:g} of a step: {row.status}: {row.message}")
@@ -120,7 +120,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         print_table(restitution_band(strikes)[["engine", "impact", "wall", "speed", "e_min", "e_median", "e_max",
                                                "error_worst", "restitution_uncertainty"]].round(4),
                     title=f"{scene.name}'s own forces: strikes from the reference's state before each impact the judge "
-                          f"resolves, at {PHASES} places in a step (speed [m/s]; e min, median, max; error_worst: e/R - 1 "
+                          f"resolves, at {STRIKES} places in a step (speed [m/s]; e min, median, max; error_worst: e/R - 1 "
                           f"of largest magnitude; the judge holds a run to R where the uncertainty u <= {tol.restitution:g})")
         impacts = pd.concat([impact_restitutions(n, s, scene, ref, tol, trajectory=runs[n]) for n, s in settings.items()],
                             ignore_index=True)

@@ -51,8 +51,8 @@ CAPTIONS = {
                 "its verdict; the answer circled, fragile passes (isolated: a neighbour fails) crossed.",
     "ladder": "The chosen settings on the scene: each impact's incoming speed per wall visit, the reference's "
               "geometric ladder to its Zeno point and the engine's impacts over it, where each starts sticking.",
-    "restitution_curve": "The chosen settings' effective restitution against impact speed, each speed struck at 8 places "
-                         "in a step (where in a step an impact falls moves e): with no force (the contact law alone: median "
+    "restitution_curve": "The chosen settings' effective restitution against impact speed, each speed struck at 10 places "
+                         "in a step, 8 through it and its 2 ends (where in a step an impact falls moves e): with no force (the contact law alone: median "
                          "line, min to max band), under the scene's own forces at each impact the judge resolves (median "
                          "markers, min to max bars, labelled with the range), the run's resolved impacts (open markers, "
                          "numbered) and the restitution tolerance around R (grey band).",

@@ -154,7 +154,7 @@ def _draw_curves(ax, curve: pd.DataFrame, engines: list[str], colours: dict[str,
 
 
 def _phases(band: pd.DataFrame) -> str:
-    """"strikes at 8 places in a step" (the most strikes measured at one speed)."""
+    """"strikes at 10 places in a step" (the most strikes measured at one speed)."""
     n = int(band["phases"].max()) if len(band) else 0
     return f"strikes at {n} places in a step" if n > 1 else "one strike"
 

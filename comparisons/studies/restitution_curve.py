@@ -3,8 +3,8 @@
     >>> from chatterbench.comparisons.studies.restitution_curve import restitution_band, restitution_curve
     >>> from chatterbench.engines.registry import make_settings
     >>> curve = restitution_curve("pybullet", make_settings("pybullet", dt=1e-4), 0.5, [0.1, 1.0])
-    >>> len(curve), sorted(set(curve["phase"]))[:2]       # 2 speeds x 8 places in a step: 1/16, 3/16, ...
-    (16, [0.0625, 0.1875])
+    >>> len(curve), curve["aim"].round(4).tolist()[:10]   # 2 speeds x (8 places through a step and its 2 ends)
+    (20, [0.0625, 0.1875, 0.3125, 0.4375, 0.5625, 0.6875, 0.8125, 0.9375, 0.002, 0.998])
     >>> restitution_band(curve)[["speed", "e_min", "e_max"]].round(6).values.tolist()   # a Newton law: R everywhere
     [[0.1, 0.5, 0.5], [1.0, 0.5, 0.5]]
     >>> curve = restitution_curve("pybullet", make_settings("pybullet", 1e-4, ["pybullet.restitution_velocity_threshold=0.5"]),
@@ -20,18 +20,21 @@ with the speed (its e climbs as impacts get slower); PyBullet's
 ``restitution_velocity_threshold`` cuts e to zero below it. And where in a step an impact
 falls moves e: a time-stepper meets the contact a fraction of a step after a sample, and a
 soft contact of a few steps resolves it differently each time (MuJoCo at w0 dt = 0.3, force-free:
-0.459 to 0.530 over the step at any speed; under gravity at 1.03 m/s: 0.455 to 0.529; at w0 dt =
-0.1: 0.471 to 0.496). ``restitution_curve`` shows all of it, for any engine of the registry
+0.455 to 0.537 over the step at any speed; under gravity at 1.03 m/s: 0.449 to 0.532; at w0 dt =
+0.1: 0.469 to 0.497), e jumping where the contact's start crosses a sample. ``restitution_curve`` shows all of it, for any engine of the registry
 with any settings:
 
-- **single impacts at each speed, at ``PHASES`` places in a step** (``impact_scene``,
-  ``strike_phases``): the scene's bodies (masses, lower wall) with no forces but an optional
+- **single impacts at each speed, at ``STRIKES`` places in a step** (``impact_scene``,
+  ``strike``): the scene's bodies (masses, lower wall) with no forces but an optional
   ``gravity`` [m/s^2] pressing body 2 into the lower wall (the ball's case), started
-  ``APPROACH_STEPS`` timesteps of free flight and a fraction (i + 1/2) / ``PHASES`` of a step
-  away, with the velocity that makes them strike at exactly ``speed``; without gravity this is
-  the contact law alone, with it the ball dropped so that it arrives at that speed. Every
-  figure, claim and check reports the band over the phases (``restitution_band``: min, median,
-  max), never one strike: a run's impacts fall anywhere in a step;
+  ``APPROACH_STEPS`` timesteps of free flight and a fraction of a step away, with the velocity
+  that makes them strike at exactly ``speed``: ``PHASES`` aimed through the step, (i + 1/2) /
+  ``PHASES`` after a sample (``strike_phases``), and two at its ends, ``EDGE`` after a sample and
+  before the next, where e jumps (``aim_ends``: aimed through the engine's own drift from the
+  exact flight, which moves a strike's place in its step); without gravity this is the contact
+  law alone, with it the ball dropped so that it arrives at that speed. Every figure, claim and
+  check reports the band over the places (``restitution_band``: min, median, max), never one
+  strike: a run's impacts fall anywhere in a step;
 - **measured by the judge's rule** (``wall_rebound``): e = -v+ / v- of the strike's first
   impact as the judge finds it (``pipeline/extract.py``), v- where the body reaches the wall's
   surface and v+ where it leaves it again, each from the free flight of two samples' positions
@@ -69,7 +72,8 @@ impact speed names it in its settings as ``calibration_speed`` [m/s] (column
 Columns of the curve (``CURVE_COLUMNS``): engine, forces ("none", "gravity", or "scene" for
 ``scene_restitution``'s strikes), impact, t [s] and wall (the scene's impact a strike
 repeats; NaN, NaN, "lower" here), speed (the incoming relative speed set [m/s], > 0), phase
-(where in its step the strike falls, a fraction of a step after a sample [-]), restitution
+(where in its step the engine met the wall's surface, a fraction of a step after a sample [-]),
+aim (the phase the strike was started for [-]), restitution
 (nominal R), restitution_effective (e = -v+ / v- [-]; 0 when no rebound), restitution_error
 (e / R - 1), restitution_uncertainty (``sampling_uncertainty``: what a run's samples would
 leave of e at this speed), v_minus and v_plus (the measured relative velocities at the
@@ -89,7 +93,7 @@ import numpy as np
 import pandas as pd
 
 from chatterbench.engines.registry import run_engine_batch
-from chatterbench.engines.sampled_impacts import wall_impacts
+from chatterbench.engines.sampled_impacts import first_root, surface_velocity, wall_impacts
 from chatterbench.engines.trajectory import Trajectory
 from chatterbench.reference.errors import InputError, check_integer, check_number, is_number
 from chatterbench.reference.scene import Scene, load_scene, scene_from_dict
@@ -102,14 +106,16 @@ from ..pipeline.solution import ReferenceSolution, solve
 from ..pipeline.summary import worst_signed
 from ..pipeline.tolerances import Tolerances
 
-CURVE_COLUMNS = ["engine", "forces", "impact", "t", "wall", "speed", "phase", "restitution", "restitution_effective",
+CURVE_COLUMNS = ["engine", "forces", "impact", "t", "wall", "speed", "phase", "aim", "restitution", "restitution_effective",
                  "restitution_error", "restitution_uncertainty", "v_minus", "v_plus", "rebound", "gravity", "dt", "calibration_speed", "status", "message"]
 BAND_COLUMNS = ["engine", "forces", "impact", "t", "wall", "speed", "restitution", "phases", "e_min", "e_median", "e_max",
                 "error_worst", "restitution_uncertainty", "dt"]
 IMPACT_COLUMNS = ["engine", "impact", "t", "speed", "ref_speed", "restitution", "restitution_effective",
                   "restitution_error", "restitution_uncertainty", "worst"]
 APPROACH_STEPS = 20  # [steps] free flight sampled before the strike (the extraction carries the last free sample to the wall)
-PHASES = 8  # [-] strikes per speed, at the phases (i + 1/2) / PHASES of a step: where in a step an impact falls moves e
+PHASES = 8  # [-] strikes per speed at the phases (i + 1/2) / PHASES of a step: where in a step an impact falls moves e
+EDGE = 0.002  # [-] of a step: and two at its ends, this far after a sample and before the next (e jumps at a sample)
+STRIKES = PHASES + 2  # [-] strikes per speed in every R(v) figure, claim and check
 AFTER_STEPS = 256  # [steps] run after the strike at the first try (MuJoCo's default contact lasts ~105)
 EXTEND = 4  # [-] each further try runs this many times longer after the strike
 TRIES = 4  # [-] runs at most per speed: 256, 1024, 4096, 16384 steps after the strike
@@ -154,16 +160,17 @@ def default_speeds(scene: Scene, points: int = DEFAULT_POINTS) -> np.ndarray:
 
 
 def strike_phases(phases: int = PHASES) -> list[float]:
-    """Where in a step the strikes fall [-], as fractions of a step after a sample: (i + 1/2) / ``phases``, never
-    on a sample (where rounding would decide which sample touches first)."""
+    """Where in a step the strikes are aimed [-], as fractions of a step after a sample: (i + 1/2) / ``phases``, never
+    on a sample (where rounding would decide which sample touches first); ``strike`` adds the step's two ends."""
     check_integer("phases", phases, lo=1, hi=MAX_POINTS, error=CalibrationError)
     return [(i + 0.5) / phases for i in range(phases)]
 
 
 def approach_time(dt: float, phase: float, most: float = math.inf) -> float:
     """(n + ``phase``) dt [s]: ``APPROACH_STEPS`` whole steps of free flight and the phase, or fewer steps where the
-    flight before the strike is shorter than that (``most`` [s]); ``most`` itself where not even the phase fits."""
-    n = APPROACH_STEPS if not math.isfinite(most) else min(APPROACH_STEPS, math.floor(most / dt - phase))
+    flight before the strike is shorter than that (``most`` [s]: n = floor(most / dt) - 1, the same for every phase,
+    so that the strikes of one speed drift alike); ``most`` itself where not even a step fits."""
+    n = APPROACH_STEPS if not math.isfinite(most) else min(APPROACH_STEPS, math.floor(most / dt) - 1)
     return (n + phase) * dt if n >= 0 else most
 
 
@@ -235,6 +242,7 @@ class Rebound:
     restitution_effective: float  # e = -v_plus / v_minus; NaN: not yet known
     rebound: bool  # the body left the wall faster than REST_FRACTION of the strike
     status: str = "ok"  # "ok", "no impact", "unfinished"
+    t: float = math.nan  # [s] when the free flight reached the wall's surface (a rigid engine may stop it past); NaN: none
 
 
 def wall_rebound(traj: Trajectory, scene: Scene, wall: str, speed: float) -> Rebound:
@@ -261,51 +269,93 @@ def wall_rebound(traj: Trajectory, scene: Scene, wall: str, speed: float) -> Reb
     if not impacts or impacts[0]["first"] == 0:
         return Rebound(math.nan, math.nan, math.nan, False, "no impact")
     v_minus, v_plus = impacts[0]["v_minus"], impacts[0]["v_plus"]
+    above = np.flatnonzero(d[:impacts[0]["first"]] > 0.0)  # the free flight's last sample above the surface
+    k = int(above[-1]) if len(above) else -1
+    # where that flight meets the surface [s]: its parabola through the positions of k - 1 and k (a semi-implicit
+    # step's sampled velocity is half a step off the positions' parabola, enough to miss a crossing just before k + 1)
+    v_k = surface_velocity(t.tolist(), d.tolist(), u.tolist(), a.tolist(), k, k - 1) if k >= 1 else math.nan
+    s_in = first_root(d[k], v_k, a[k], 2.0 * (t[k + 1] - t[k])) if 1 <= k < len(t) - 1 else math.nan
+    t_hit = t[k] + s_in if math.isfinite(s_in) else impacts[0]["t"]
     if math.isfinite(v_plus):
-        return Rebound(v_minus, v_plus, v_plus / -v_minus, bool(v_plus > REST_FRACTION * speed))
+        return Rebound(v_minus, v_plus, v_plus / -v_minus, bool(v_plus > REST_FRACTION * speed), t=t_hit)
     tail = np.abs(u[impacts[0]["first"]:][-max(2, (len(u) - impacts[0]["first"]) // 4):])
     if tail.max() <= REST_FRACTION * speed:  # held, at rest: no rebound
-        return Rebound(v_minus, 0.0, 0.0, False)
-    return Rebound(v_minus, math.nan, math.nan, False, "unfinished")
+        return Rebound(v_minus, 0.0, 0.0, False, t=t_hit)
+    return Rebound(v_minus, math.nan, math.nan, False, "unfinished", t=t_hit)
 
 
 def strike(engine: str, settings: Any, make_scene: Callable[[int, float], Scene], wall: str, speed: float,
-           phases: Sequence[float] = (0.5,)) -> list[dict]:
-    """Run ``make_scene(after_steps, phase)`` at each of ``phases`` and measure its first strike on ``wall``
+           phases: Sequence[float] = (0.5,), ends: bool = False) -> list[dict]:
+    """Run ``make_scene(after_steps, aim)`` at each aim of ``phases`` and measure its first strike on ``wall``
     (``wall_rebound``), running longer (``EXTEND`` times, ``TRIES`` runs at most) those still in a moving contact
-    at the end; the phases of one try go to the engine together (``run_engine_batch``: MuJoCo rolls them out as
-    one batch, each bit for bit as alone).
+    at the end; the strikes of one try go to the engine together (``run_engine_batch``: MuJoCo rolls them out as
+    one batch, each bit for bit as alone). ``ends``: two more strikes, aimed so that the engine meets the wall
+    ``EDGE`` of a step after a sample and ``EDGE`` before the next (``aim_ends``).
 
-    Returns per phase, in order, the curve's measured columns: phase, v_minus, v_plus (relative velocities in y
-    [m/s]), restitution_effective, rebound, status, message.
+    Returns per strike, in order, the curve's measured columns: phase (where in its step the engine met the
+    wall [-]), aim (the phase it was started for [-]), v_minus, v_plus (relative velocities in y [m/s]),
+    restitution_effective, rebound, status, message.
     """
+    rows = _struck(engine, settings, make_scene, wall, speed, list(phases))
+    return rows + aim_ends(engine, settings, make_scene, wall, speed, rows) if ends else rows
+
+
+def aim_ends(engine: str, settings: Any, make_scene: Callable[[int, float], Scene], wall: str, speed: float,
+             rows: list[dict]) -> list[dict]:
+    """Strikes at the two ends of a step, where e jumps (the contact starts just after a sample, or just before the
+    next): aimed at phases ``EDGE`` and 1 - ``EDGE`` corrected by how far the engine's own free flight moved the
+    impacts of ``rows`` from their aims (a semi-implicit step drifts from the exact flight by |y''| dt^2 / 2 a step),
+    aimed once more where one misses by more than ``EDGE`` / 2; [] when none of ``rows`` was measured."""
+    shifts = [_wrapped(r["phase"] - r["aim"]) for r in rows if math.isfinite(r["phase"])]
+    if not shifts:
+        return []
+    shift = float(np.median(shifts))
+    targets = [EDGE, 1.0 - EDGE]
+    ends = _struck(engine, settings, make_scene, wall, speed, [(t - shift) % 1.0 for t in targets])
+    for i, (target, row) in enumerate(zip(targets, ends)):
+        miss = _wrapped(row["phase"] - target) if math.isfinite(row["phase"]) else 0.0
+        if abs(miss) > 0.5 * EDGE:
+            ends[i] = _struck(engine, settings, make_scene, wall, speed, [(row["aim"] - miss) % 1.0])[0]
+    return ends
+
+
+def _wrapped(x: float) -> float:
+    """``x`` [steps] brought into [-1/2, 1/2): a difference of phases."""
+    return (x + 0.5) % 1.0 - 0.5
+
+
+def _struck(engine: str, settings: Any, make_scene: Callable[[int, float], Scene], wall: str, speed: float,
+            aims: list[float]) -> list[dict]:
+    """One strike per aim (``strike``), the tries of each batched."""
     n = 1.0 if wall == "lower" else -1.0
-    rows = {phase: {"phase": phase, "v_minus": math.nan, "v_plus": math.nan, "restitution_effective": math.nan,
-                    "rebound": False, "status": "unfinished",
-                    "message": f"still in a moving contact {AFTER_STEPS * EXTEND**(TRIES - 1)} steps after the strike"}
-            for phase in phases}
-    waiting = list(phases)
+    rows = [{"phase": math.nan, "aim": aim, "v_minus": math.nan, "v_plus": math.nan, "restitution_effective": math.nan,
+             "rebound": False, "status": "unfinished",
+             "message": f"still in a moving contact {AFTER_STEPS * EXTEND**(TRIES - 1)} steps after the strike"}
+            for aim in aims]
+    waiting = list(range(len(aims)))
     for attempt in range(TRIES):
         if not waiting:
             break
-        starts = [make_scene(AFTER_STEPS * EXTEND**attempt, phase) for phase in waiting]
+        starts = [make_scene(AFTER_STEPS * EXTEND**attempt, aims[i]) for i in waiting]
         runs = run_engine_batch(engine, [(start, settings) for start in starts])
         still = []
-        for phase, start, traj in zip(waiting, starts, runs):
-            row = rows[phase]
+        for i, start, traj in zip(waiting, starts, runs):
+            row = rows[i]
             if traj.status != "ok" or len(traj.t) < 2:
                 row.update(status=traj.status, message=traj.message)
                 continue
             got = wall_rebound(traj, start, wall, speed)
+            if math.isfinite(got.t):
+                row["phase"] = ((got.t - start.initial.t) / float(settings.dt)) % 1.0  # samples at t0 + k dt
             if got.status == "no impact":
                 row.update(status="no impact", message=f"no impact on the {wall} wall in {start.duration:.3g} s")
             elif got.status == "ok":
                 row.update(v_minus=n * got.v_minus, v_plus=n * got.v_plus, restitution_effective=got.restitution_effective,
                            rebound=got.rebound, status="ok", message="")
             else:
-                still.append(phase)
+                still.append(i)
         waiting = still
-    return [rows[phase] for phase in phases]
+    return rows
 
 
 def restitution_curve(engine: str, settings: Any, restitution: float, speeds: Sequence[float], scene: Scene | None = None,
@@ -327,12 +377,14 @@ def restitution_curve(engine: str, settings: Any, restitution: float, speeds: Se
     gravity : float
         [m/s^2] >= 0, pressing body 2 into the wall; 0: the contact law alone.
     phases : int
-        Strikes per speed, at ``strike_phases(phases)`` of a step (>= 1; ``PHASES``).
+        Strikes per speed aimed through a step, at ``strike_phases(phases)`` (>= 1; ``PHASES``), and two more at its
+        ends (``aim_ends``).
 
     Returns
     -------
     DataFrame
-        ``CURVE_COLUMNS``, one row per speed and phase, speeds in the order given (``restitution_band``: per speed).
+        ``CURVE_COLUMNS``, one row per speed and strike (``phases`` + 2), speeds in the order given
+        (``restitution_band``: per speed).
     """
     restitution = check_restitution(restitution)
     gravity = check_number("gravity", gravity, lo=0.0, unit=" [m/s^2]", error=CalibrationError)
@@ -342,7 +394,7 @@ def restitution_curve(engine: str, settings: Any, restitution: float, speeds: Se
     rows = []
     for v in speeds:
         struck = strike(engine, settings, lambda steps, phase, v=v: impact_scene(scene, restitution, v, settings.dt, gravity,
-                                                                                 steps, phase), "lower", v, at)
+                                                                                 steps, phase), "lower", v, at, ends=True)
         for row in struck:
             rows.append({"engine": engine, "forces": "gravity" if gravity > 0 else "none", "impact": math.nan,
                          "t": math.nan, "wall": "lower", "speed": v, "restitution": restitution,

@@ -5,16 +5,16 @@
     >>> from chatterbench.comparisons.pipeline.solution import solve
     >>> from chatterbench.engines.registry import make_settings
     >>> strikes = scene_restitution("pybullet", make_settings("pybullet", dt=1e-4), solve(load_scene("bouncing-ball")))
-    >>> misses = miss_summary(strikes, 0.05)      # the ball's impacts 1..9, 4.43 m/s down to 0.0173 m/s, 8 strikes each
+    >>> misses = miss_summary(strikes, 0.05)      # the ball's impacts 1..9, 4.43 m/s down to 0.0173 m/s, 10 strikes each
     >>> sorted(set(misses.held["impact"])), round(misses.value, 3)   # where the judge holds it to R: Newton's law, and
-    ([1, 2, 3, 4, 5, 6, 7], -0.019)
-    >>> # gravity over the part of the impulse's step after the contact: R (1 +- g dt / v), 1.9% at 0.069 m/s
+    ([1, 2, 3, 4, 5, 6, 7], 0.021)
+    >>> # gravity over the part of the impulse's step after the contact: R (1 +- g dt / v), 2.1% at 0.069 m/s
 
 ``restitution_curve`` strikes the scene's bodies with no force at all (the contact law
 alone) or under a constant gravity. The scene's own forces are what a user's model has:
 under gravity a soft contact spends part of its rebound lifting the weight (MuJoCo's
-spring-damper: e ~ R (1 - c g / (w0 v)), 0.415 to 0.444 at the ball's 0.138 m/s with dt = 3e-4 and
-w0 dt = 0.1, where the force-free law gives 0.485 to 0.508); a harmonic forcing presses with a
+spring-damper: e ~ R (1 - c g / (w0 v)), 0.415 to 0.447 at the ball's 0.138 m/s with dt = 3e-4 and
+w0 dt = 0.1, where the force-free law gives 0.484 to 0.510); a harmonic forcing presses with a
 different force at each impact. ``scene_restitution`` measures e there:
 
 - **the scene itself, restarted from the reference** (``strike_scene``): every force and
@@ -23,9 +23,9 @@ different force at each impact. ``scene_restitution`` measures e there:
   steps and a fraction of a step, the strike that fraction of a step after a sample; at most
   ``APPROACH_SHARE`` of the flight before it, so that the body is on its way to the wall), so
   the engine strikes at the reference's speed, time and forces, with none of the run's drift;
-- **at every place in a step** (``restitution_curve.strike_phases``: ``PHASES`` strikes per
-  impact, (i + 1/2) / ``PHASES`` of a step after a sample): a run's impact falls anywhere in a
-  step, and where it falls moves e;
+- **at every place in a step** (``restitution_curve.strike``: ``STRIKES`` strikes per impact,
+  aimed at (i + 1/2) / ``PHASES`` of a step after a sample and at the step's two ends, where e
+  jumps): a run's impact falls anywhere in a step, and where it falls moves e;
 - **at the impacts the judge resolves** (``struck_impacts``): the reference impacts whose
   flight after them lasts ``resolved_steps`` timesteps (``pipeline/impacts.py``: the ones
   the judge pairs, on every wall and visit), ``MOST`` at most, spread over their speeds
@@ -145,8 +145,15 @@ def scene_restitution(engine: str, settings: Any, solution: ReferenceSolution, r
     for imp in struck_impacts(solution, dt, resolved_steps, most).itertuples():
         if sampling_uncertainty(scene.restitution, imp.pressing, dt, imp.speed) > most_uncertain:
             continue
-        starts = strike_starts(solution, imp.t, imp.t_before, dt, at, f"{scene.name}-impact-{imp.impact}")
-        struck = strike(engine, settings, lambda steps, phase, starts=starts: starts[phase](steps), imp.wall, imp.speed, at)
+        name = f"{scene.name}-impact-{imp.impact}"
+        starts = strike_starts(solution, imp.t, imp.t_before, dt, at, name)  # the reference sampled once for these
+
+        def make(steps: int, phase: float, starts=starts, imp=imp, name=name) -> Scene:
+            if phase not in starts:  # the ends of the step, aimed after the others
+                starts.update(strike_starts(solution, imp.t, imp.t_before, dt, [phase], name))
+            return starts[phase](steps)
+
+        struck = strike(engine, settings, make, imp.wall, imp.speed, at, ends=True)
         for row in struck:
             rows.append({"engine": engine, "forces": "scene", "impact": int(imp.impact), "t": float(imp.t),
                          "wall": imp.wall, "speed": float(imp.speed), "restitution": scene.restitution,

@@ -20,11 +20,11 @@ against the scene's length scale), and one the judge cannot make from a whole ru
 **restitution under the scene's forces** (``scene_restitution``), the worst e / R - 1 of the
 settings struck from the reference's state before each impact the judge resolves where its
 sampling uncertainty is within the restitution tolerance (where it holds a time-stepper to R),
-each at ``PHASES`` places in a step (``scene_strikes``): a run's impacts fall anywhere in a step
+each at ``STRIKES`` places in a step (``scene_strikes``): a run's impacts fall anywhere in a step
 and carry the drift of the run, and where in a step an impact falls moves e (MuJoCo's
-spring-damper at w0 dt = 0.1, dt = 3e-4 gives e = 0.437 to 0.464, -12.5% to -7.2%, at the
-ball's 0.277 m/s under gravity over the 8 phases; the whole run's 5th impact there measures
-0.452, -9.6%). A run with an episode that has no error to measure
+spring-damper at w0 dt = 0.1, dt = 3e-4 gives e = 0.436 to 0.467, -12.8% to -6.7%, at the
+ball's 0.277 m/s under gravity over the step; the whole run's 5th impact there measures 0.452,
+-9.6%). A run with an episode that has no error to measure
 (``missed``, ``endless``, ``spurious``, a failure, or ``unmeasured``: no resolved impact measurable to the
 restitution tolerance) has ``worst_ratio`` = inf: no tolerance of the other checks makes it pass.
 """
@@ -40,7 +40,7 @@ from ..pipeline.solution import ReferenceSolution
 from ..pipeline.summary import worst_signed
 from ..pipeline.tolerances import Tolerances
 from ..pipeline.vocabulary import VERDICTS
-from .restitution_curve import PHASES, pinned_settings
+from .restitution_curve import pinned_settings
 from .scene_restitution import miss_summary, scene_restitution
 
 # check -> (the Tolerances field, how the guide names the measure, the scale it is a fraction of, a short name)
@@ -56,8 +56,8 @@ CHECKS = {
 RATIO_COLUMNS = [f"{name}_ratio" for name in CHECKS] + ["worst_ratio"]
 # where the strikes under the scene's forces (scene_strikes: at every phase of a step) meet R: r_holds_from [m/s]
 # (every faster strike within the tolerance at every phase; 0: all, inf: none), r_held_from [m/s] (the slowest strike
-# the judge holds to R), r_struck ("N impacts, V1 to V2 m/s, each at 8 places in a step"), r_misses (the strikes beyond
-# the tolerance at some phase, their bands in words); NaN / "" without strikes
+# the judge holds to R), r_struck ("N impacts, V1 to V2 m/s, each at 10 places in a step"), r_misses (the strikes beyond
+# the tolerance at some place in a step, their bands in words); NaN / "" without strikes
 STRIKE_COLUMNS = ["r_holds_from", "r_held_from", "r_struck", "r_misses"]
 MEASURED = ("agree", "timing", "impacts")  # verdict groups whose episodes have every error measured
 UNMEASURED = ("unmeasured",)  # in a measured group, but with no restitution error: the step measures no impact
@@ -103,7 +103,7 @@ def check_values(table: pd.DataFrame, impacts: pd.DataFrame, allowance: float,
 
 def scene_strikes(engine: str, settings: Any, solution: ReferenceSolution, tol: Tolerances,
                   record: dict[str, Any] | None = None, held_only: bool = True) -> pd.DataFrame:
-    """The settings struck under the scene's own forces at the impacts the judge resolves, at ``PHASES`` places in a
+    """The settings struck under the scene's own forces at the impacts the judge resolves, at ``STRIKES`` places in a
     step each (``scene_restitution``): for the check, only where the judge holds a run to R (``held_only``: sampling
     uncertainty within the restitution tolerance; the others cannot count against a candidate), every one for a claim.
 

@@ -7,15 +7,15 @@
     >>> ev = evidence(result, speeds=[0.5, 4.0])
     >>> ev.comparison.table["verdict"].tolist(), ev.curve["restitution_effective"].round(3).unique().tolist()
     (['match'], [0.5])
-    >>> len(ev.curve)                                       # 2 speeds x 8 places in a step
-    16
+    >>> len(ev.curve)                                       # 2 speeds x 10 places in a step (8 through it, 2 ends)
+    20
     >>> ev.strikes["forces"].iloc[0], len(ev.strikes) > 3      # under gravity, at the ball's own impacts
     ('scene', True)
 
 For the chosen candidate (``TuneResult.chosen``: the recommendation, or the best reachable
 one when nothing passes): ``comparison``, the scene through ``compare`` with those settings
 (its episodes, impacts and the chatter ladder's data), ``curve``, the effective restitution
-of strikes at ``PHASES`` places in a step at each speed with those settings
+of strikes at ``STRIKES`` places in a step at each speed with those settings
 (``studies.restitution_curve``, the contact law alone: no other force) over
 ``default_speeds(scene)``, ``strikes``, the same under the scene's own forces at the speeds
 the scene reaches (``studies.scene_restitution``: from the reference's state before each

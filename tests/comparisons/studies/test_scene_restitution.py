@@ -9,7 +9,7 @@ import pytest
 from chatterbench.comparisons.outputs.guide import guide_markdown
 from chatterbench.comparisons.outputs.restitution_curve import restitution_curve_figure
 from chatterbench.comparisons.pipeline.solution import solve
-from chatterbench.comparisons.studies.restitution_curve import PHASES, restitution_band, restitution_curve
+from chatterbench.comparisons.studies.restitution_curve import STRIKES, restitution_band, restitution_curve
 from chatterbench.comparisons.studies.scene_restitution import miss_summary, scene_restitution
 from chatterbench.comparisons.studies.tune import choose, tune
 from chatterbench.comparisons.studies.tune_evidence import evidence
@@ -21,22 +21,25 @@ TOL = 0.05  # the default restitution tolerance
 
 
 def test_a_newton_impulse_meets_r_under_gravity_at_every_place_in_a_step():
-    # PyBullet's impulse is Newton's law: within 1.5% of R where the judge holds it to R (gravity's g dt / v over the
-    # step: e = 0.4996 to 0.5004 at 4.43 m/s, 0.493 to 0.507 at 0.277 m/s), whatever the phase
+    # PyBullet's impulse is Newton's law: within 2% of R where the judge holds it to R (gravity's g dt / v over the
+    # step: e = 0.4995 to 0.5005 at 4.43 m/s, 0.492 to 0.508 at 0.277 m/s), whatever the phase
     m = miss_summary(scene_restitution("pybullet", make_settings("pybullet", 3e-4), BALL), TOL)
-    assert len(m.held) == 5 * PHASES and m.held["speed"].max() == pytest.approx(math.sqrt(2 * 9.81), rel=1e-3)
-    assert abs(m.value) <= 0.015 and m.held.groupby("impact").size().eq(PHASES).all()
+    assert len(m.held) == 5 * STRIKES and m.held["speed"].max() == pytest.approx(math.sqrt(2 * 9.81), rel=1e-3)
+    assert abs(m.value) <= 0.02 and m.held.groupby("impact").size().eq(STRIKES).all()
 
 
 def test_a_stiff_soft_contact_is_caught_at_some_place_in_every_step():
     # the case: MuJoCo at w0 dt = 0.3 (dt = 3e-4) struck halfway through a step gave e within 3% at 4.43 m/s;
-    # over the step it gives 0.458 to 0.530 (-8.5%..+5.9%): the claim now says so, and no impact is within 5% at
-    # every phase
+    # over the step it gives 0.453 to 0.536 (-9.3%..+7.1%), its ends included (the user measured 0.452 and
+    # 0.533): the claim now says so, and no impact is within 5% at every phase
     m = miss_summary(scene_restitution("mujoco", make_settings("mujoco", 3e-4, ["mujoco.w0_dt=0.3"]), BALL), TOL)
     assert m.holds_from == math.inf and m.value < -TOL
-    assert m.describe().startswith("e = 0.458-0.530 (-8.5%..+5.9%) at 4.43 m/s (impact 1)")
-    fastest = m.strikes[m.strikes["impact"] == 1]["restitution_effective"]
-    assert len(fastest) == PHASES and fastest.max() - fastest.min() > 0.07
+    assert m.describe().startswith("e = 0.453-0.536 (-9.3%..+7.1%) at 4.43 m/s (impact 1)")
+    fastest = m.strikes[m.strikes["impact"] == 1]
+    assert len(fastest) == STRIKES and fastest["restitution_effective"].max() - fastest["restitution_effective"].min() > 0.08
+    # the two ends of the step, where e jumps: aimed at 0.002 of a step after a sample and before the next
+    ends = sorted(fastest["phase"])
+    assert ends[0] == pytest.approx(0.002, abs=1e-3) and ends[-1] == pytest.approx(0.998, abs=1e-3)
 
 
 def test_the_guide_setting_misses_at_slow_impacts_with_numbers():
@@ -44,29 +47,29 @@ def test_the_guide_setting_misses_at_slow_impacts_with_numbers():
     strikes = scene_restitution("mujoco", settings, BALL)
     m = miss_summary(strikes, TOL)
     # held to R (u <= 5%) down to the ball's 5th impact, 0.277 m/s, where the spring-damper lifting the
-    # ball loses 7.2% to 12.5% over the step (measured; the from-scratch model: 0.458 at 0.3 m/s)
+    # ball loses 6.7% to 12.8% over the step (measured; the from-scratch model: 0.458 at 0.3 m/s)
     assert m.held_from == pytest.approx(0.2768, rel=1e-3)
     assert m.value < -0.12 and m.speed == pytest.approx(0.2768, rel=1e-3)
-    assert "e = 0.437-0.464 (-12.5%..-7.2%) at 0.277 m/s (impact 5)" in m.describe()
-    # R holds at every phase from 2.21 m/s: the first miss is impact 3 at some place in the step (-5.6%)
-    assert m.holds_from == pytest.approx(2.2147, rel=1e-3) and m.describe().startswith("e = 0.472-0.496")
-    # the same setting force-free: the contact law alone gives R within 3% at every speed and phase (0.485 to 0.508)
+    assert "e = 0.436-0.467 (-12.8%..-6.7%) at 0.277 m/s (impact 5)" in m.describe()
+    # R holds at every phase from 2.21 m/s: the first miss is impact 3 at some place in the step (-6.0%)
+    assert m.holds_from == pytest.approx(2.2147, rel=1e-3) and m.describe().startswith("e = 0.470-0.497")
+    # the same setting force-free: the contact law alone gives R within 3.5% at every speed and phase (0.484 to 0.510)
     free = restitution_curve("mujoco", settings, 0.5, strikes["speed"].unique(), BALL.scene)
-    assert (free["restitution_error"].abs() < 0.03).all() and len(free) == 8 * PHASES
+    assert (free["restitution_error"].abs() < 0.035).all() and len(free) == 8 * STRIKES
 
 
 def test_tune_counts_the_miss_and_the_guide_says_so():
     space = {"dt": (3e-4,), "mujoco.w0_dt": (0.1,), "mujoco.integrator": ("euler",)}
     result = tune(BALL.scene, "mujoco", 0.2, space=space, workers=1, refine_steps=0)
     c = result.chosen
-    # the check strikes the impacts the judge holds to R (u <= the restitution tolerance 0.05: impacts 1 to 5), at 8
+    # the check strikes the impacts the judge holds to R (u <= the restitution tolerance 0.05: impacts 1 to 5), at 10
     # places in a step each; the worst is impact 5 at its worst place in the step (struck halfway: -9.1%)
-    assert c["scene_restitution_ratio"] > 1.0 and "restitution under the scene's forces -0.125 at 0.277 m/s" in c["failed"]
-    assert c["r_struck"] == "5 impacts, 4.43 to 0.277 m/s, each at 8 places in a step"
+    assert c["scene_restitution_ratio"] > 1.0 and "restitution under the scene's forces -0.128 at 0.277 m/s" in c["failed"]
+    assert c["r_struck"] == "5 impacts, 4.43 to 0.277 m/s, each at 10 places in a step"
     ev = evidence(result, speeds=[0.5, 4.0])
     text = guide_markdown(result, ev=ev)
-    assert "**Restitution under the scene's forces:**" in text and "8 impacts, 4.43 to 0.0346 m/s, each at 8 places" in text
-    assert "e = 0.415-0.444 (-16.9%..-11.2%) at 0.138 m/s (impact 6)" in text and "to R at 0.277 m/s and faster" in text
+    assert "**Restitution under the scene's forces:**" in text and "8 impacts, 4.43 to 0.0346 m/s, each at 10 places" in text
+    assert "e = 0.415-0.447 (-17.1%..-10.5%) at 0.138 m/s (impact 6)" in text and "to R at 0.277 m/s and faster" in text
     # and the run's own impacts as the judge measures them, which mujoco/run.py prints
     assert "**The run's impacts:**" in text and "(`mujoco/run.py` prints each of them, the same e)" in text
     assert "#5 at t = 1.3126 s, 0.249 m/s: e = 0.4521" in text
@@ -94,7 +97,7 @@ def test_figure_labels_every_marker_without_overlap_and_draws_the_band():
     numbered = {t.get_text() for t in texts if t.get_text().startswith("#")}
     assert numbered == {f"#{k}" for k in impacts["impact"]}  # every run impact numbered, the slow ones too
     band = restitution_band(strikes)
-    # one label per struck impact: the range of e over the 8 places in a step, as the band says it
+    # one label per struck impact: the range of e over the 10 places in a step, as the band says it
     ranges = [t.get_text() for t in texts if not t.get_text().startswith("#")]
     assert sorted(ranges) == sorted(f"{lo:.3f}-{hi:.3f}" for lo, hi in zip(band["e_min"], band["e_max"]))
     renderer = fig.canvas.get_renderer()
