@@ -311,6 +311,8 @@ CASES: list[tuple[str, str, list[str], str | None, tuple[str, ...]]] = [
      "--export-model", "m.xml"], None, ("--export-model", "mujoco, pybullet")),
     ("run-export-suffix", "--export-model naming a file of another kind", ["run", "bouncing-ball", "--engine", "pybullet",
      "--export-model", "m.xml"], None, ("--export-model m.xml", ".py")),
+    ("run-export-over-scene", "--export-model naming the scene file the run reads", ["run", FILE, "--engine", "pybullet",
+     "--export-model", FILE], GOOD_FILE, ("--export-model bad.toml", "the scene file this run reads")),
     ("run-chatter-engine", "--chatter on an engine run", ["run", "feigin-pair", "--engine", "pybullet", "--chatter", "exhaustive"],
      None, ("--chatter",)),
     ("engines-repeated", "the same engine twice", ["compare", "feigin-pair", "--engines", "pybullet,pybullet"], None,
@@ -601,7 +603,7 @@ def describe_file(content: str) -> str:
     if len(set(good) & set(lines)) >= 5:
         added = [ln for ln in lines if ln not in good]
         removed = [ln for ln in good if ln not in lines]
-        shown = "; ".join([*(f"+ {ln}" for ln in added), *(f"- {ln}" for ln in removed)])
+        shown = "; ".join([*(f"+ {ln}" for ln in added), *(f"- {ln}" for ln in removed)]) or "(the valid scene as it is)"
     else:
         shown = repr(content) if content else "(empty file)"
     return shown if len(shown) <= 200 else f"{shown[:120]}... ({len(content)} characters)"

@@ -3,13 +3,14 @@
     $ chatterbench calibrate mujoco pybullet --restitution 0.5 --out out/calibrate
     $ chatterbench calibrate mujoco --gravity 9.81 --speeds 0.01,10 --points 25 --set mujoco.w0_dt=0.1
 
-Prints three tables: e at each speed (one strike per speed, one column per engine:
+Prints three tables: e at each speed (strikes at ``STRIKES`` places in a step per speed, 8 through it and its two ends, where in
+a step the impact falls moving e: min, median and max, three columns per engine:
 ``studies/restitution_curve.py``), e under ``--scene``'s own forces at the speeds it reaches
-(a strike from the reference's state before each impact the judge resolves:
-``studies/scene_restitution.py``), and the restitution of the first ``--impacts`` resolved
+(strikes from the reference's state before each impact the judge resolves, at the same places in
+a step: ``studies/scene_restitution.py``), and the restitution of the first ``--impacts`` resolved
 impacts of the scene's run per engine, from the judge's paired impacts, with its worst impact
 (the one the report's restitution error is) added when it is not among them. ``--out``
-writes calibration.csv (the first two tables, one row per engine and strike,
+writes calibration.csv (the first two tables, one row per engine, strike and place in a step,
 ``CURVE_COLUMNS``; ``forces`` tells them apart), impacts.csv (every resolved impact,
 ``IMPACT_COLUMNS``) and restitution_curve.png/.svg (every engine in one picture, with the
 restitution tolerance). ``--restitution`` sets R for all (default: the scene's).
@@ -18,6 +19,7 @@ restitution tolerance). ``--restitution`` sets R for all (default: the scene's).
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 from chatterbench.comparisons.pipeline.atomic import write_frame
@@ -71,10 +73,25 @@ def gravity_value(text: str) -> float:
     return value
 
 
+def _wide_band(curve, engines):
+    """One row per speed: each engine's e over the phases of a step as columns ENGINE min, ENGINE median, ENGINE max."""
+    import pandas as pd
+
+    from chatterbench.comparisons.studies.restitution_curve import restitution_band
+
+    band = restitution_band(curve)
+    wide = pd.DataFrame({"speed": [float(f"{v:.4g}") for v in dict.fromkeys(curve["speed"])]})
+    for name in engines:
+        rows = band[band["engine"] == name].set_index("speed")
+        for col, label in (("e_min", "min"), ("e_median", "median"), ("e_max", "max")):
+            wide[f"{name} {label}"] = [round(float(rows[col].get(v, math.nan)), 4) for v in dict.fromkeys(curve["speed"])]
+    return wide
+
+
 def cmd_calibrate(args: argparse.Namespace) -> int:
     import pandas as pd
 
-    from chatterbench.comparisons.studies.restitution_curve import default_speeds, log_speeds
+    from chatterbench.comparisons.studies.restitution_curve import STRIKES, default_speeds, log_speeds, restitution_band
 
     check_dir("--out", args.out)
     engines = engine_list(",".join(args.engine))
@@ -89,20 +106,20 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     speeds = log_speeds(*args.speeds, args.points) if args.speeds else default_speeds(scene, args.points)
     with Progress(len(engines) * (4 if args.impacts else 2), f"calibrate {scene.name}", unit="step") as bar:
         curve, strikes, impacts = _calibrations(scene, settings, speeds, args, bar)
-    wide = curve.pivot(index="speed", columns="engine", values="restitution_effective")[list(engines)].round(4).reset_index()
-    wide["speed"] = [float(f"{v:.4g}") for v in wide["speed"]]
     forces = f"under gravity g = {args.gravity:g} m/s^2" if args.gravity else "no other forces"
-    print_table(wide, title=f"effective restitution e = -v+/v- of one strike per speed [m/s] on {scene.name}'s bodies, "
-                            f"{forces}; nominal R = {scene.restitution:g} (0: no rebound)")
+    print_table(_wide_band(curve, engines),
+                title=f"effective restitution e = -v+/v- per speed [m/s] on {scene.name}'s bodies, {forces}, struck at "
+                      f"{STRIKES} places in a step (where in a step the impact falls moves e): min, median, max; nominal "
+                      f"R = {scene.restitution:g} (0: no rebound)")
     for row in curve[curve["status"] != "ok"].itertuples():
-        print(f"{row.engine} at {row.speed:.4g} m/s: {row.status}: {row.message}")
+        print(f"{row.engine} at {row.speed:.4g} m/s, {row.phase:g} of a step: {row.status}: {row.message}")
     tol = Tolerances()
     if args.impacts:
-        print_table(strikes[["engine", "impact", "wall", "speed", "restitution_effective", "restitution_error",
-                             "restitution_uncertainty"]].round(4),
-                    title=f"{scene.name}'s own forces: one strike from the reference's state before each impact the "
-                          f"judge resolves (speed [m/s]; error e/R - 1; the judge holds a run to R where the "
-                          f"uncertainty u <= {tol.restitution:g})")
+        print_table(restitution_band(strikes)[["engine", "impact", "wall", "speed", "e_min", "e_median", "e_max",
+                                               "error_worst", "restitution_uncertainty"]].round(4),
+                    title=f"{scene.name}'s own forces: strikes from the reference's state before each impact the judge "
+                          f"resolves, at {STRIKES} places in a step (speed [m/s]; e min, median, max; error_worst: e/R - 1 "
+                          f"of largest magnitude; the judge holds a run to R where the uncertainty u <= {tol.restitution:g})")
         shown = impacts[(impacts.groupby("engine").cumcount() < args.impacts) | impacts["worst"]]
         print_table(shown[["engine", "impact", "speed", "restitution_effective", "restitution_error",
                            "restitution_uncertainty", "worst"]].round(4),

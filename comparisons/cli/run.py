@@ -19,10 +19,12 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from chatterbench.comparisons.outputs.engine_files import flight_band
 from chatterbench.comparisons.pipeline.atomic import write_frame, write_text
 from chatterbench.comparisons.pipeline.budget import Budget, check_engine_run, check_reference
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
@@ -54,10 +56,11 @@ def run_engine_events(scene: Scene, engine: str, settings: Any, export_model: st
 
     check_engine_run(scene, engine, settings.dt, budget)
     check_reference(scene, budget)  # its sticking resolution is the reference's
-    if export_model:
+    solution = solve(scene)
+    if export_model:  # its impacts are the ones counted below
         with writing("--export-model", export_model):
-            write_text(Path(export_model), model_file(engine, scene, settings))
-    resolution = solve(scene).stick_tolerance(Tolerances().stick)
+            write_text(Path(export_model), model_file(engine, scene, settings, flight_band(solution, Tolerances())))
+    resolution = solution.stick_tolerance(Tolerances().stick)
     traj = run_engine(engine, scene, settings)
     log = extract_events(traj, scene, resolution) if len(traj.t) > 1 else log_frame([])
     n_imp = int((log["kind"] == "impact").sum())
@@ -68,10 +71,12 @@ def run_engine_events(scene: Scene, engine: str, settings: Any, export_model: st
     return log, episodes(log).drop(columns="t_plate_entry"), summary  # an engine has no plate (pipeline/extract.py)
 
 
-def _check_export(engine: str, path: str | None) -> None:
-    """--export-model: an engine that exports, and the file suffix of what it writes."""
+def _check_export(engine: str, path: str | None, scene: str) -> None:
+    """--export-model: not the scene file the run reads, an engine that exports, and the suffix of what it writes."""
     if not path:
         return
+    if Path(path).exists() and Path(scene).exists() and os.path.samefile(path, scene):  # links included
+        raise UsageError(f"--export-model {path}: is the scene file this run reads ({scene}); name another file")
     try:
         check_exportable(engine)
     except SettingsError as exc:
@@ -122,7 +127,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if engine not in SIMULATORS:
         check_choice("--engines", engine, SIMULATORS, error=UsageError)
     if engine != "reference":
-        _check_export(engine, args.export_model)
+        _check_export(engine, args.export_model, args.scene)
     result = None
     if engine == "reference":
         for given, option in ((engine_over, f"--set {engine_over[0] if engine_over else ''}"),

@@ -90,13 +90,14 @@ def write_tune_files(result, out: Path) -> str:
     from chatterbench.comparisons.studies.tune_evidence import evidence
 
     rec = recommended(result)
-    figures = guide_figures(result, evidence(result))
+    ev = evidence(result)
+    figures = guide_figures(result, ev)
     with writing("--out", out, together=["recommended.json"]) as stage:
         if rec is not None:  # moved in last (``staged``): it says the rest is this tune's
             write_text(stage / "recommended.json", json.dumps(rec, indent=2) + "\n")
-        write_text(stage / "guide.md", guide_markdown(result, figures))
-        write_text(stage / "guide.html", guide_html(result, figures))
-        write_text(stage / "guide_section.html", guide_section_html(result, figures))  # for `report --tune DIR`
+        write_text(stage / "guide.md", guide_markdown(result, figures, ev))
+        write_text(stage / "guide.html", guide_html(result, figures, ev))
+        write_text(stage / "guide_section.html", guide_section_html(result, figures, ev))  # for `report --tune DIR`
         write_frame(stage / "candidates.csv", result.table)
         for name, fig in figures.items():
             write_figure(fig, stage, FIGURE_FILES[name])
