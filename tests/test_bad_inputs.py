@@ -312,7 +312,7 @@ CASES: list[tuple[str, str, list[str], str | None, tuple[str, ...]]] = [
     ("run-export-suffix", "--export-model naming a file of another kind", ["run", "bouncing-ball", "--engine", "pybullet",
      "--export-model", "m.xml"], None, ("--export-model m.xml", ".py")),
     ("run-export-over-scene", "--export-model naming the scene file the run reads", ["run", FILE, "--engine", "pybullet",
-     "--export-model", FILE], GOOD_FILE, ("--export-model bad.toml", "the scene file this run reads")),
+     "--export-model", FILE], GOOD_FILE, ("--export-model bad.toml", "is the SCENE file", "name another file")),
     ("run-chatter-engine", "--chatter on an engine run", ["run", "feigin-pair", "--engine", "pybullet", "--chatter", "exhaustive"],
      None, ("--chatter",)),
     ("engines-repeated", "the same engine twice", ["compare", "feigin-pair", "--engines", "pybullet,pybullet"], None,

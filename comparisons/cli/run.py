@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -71,12 +70,11 @@ def run_engine_events(scene: Scene, engine: str, settings: Any, export_model: st
     return log, episodes(log).drop(columns="t_plate_entry"), summary  # an engine has no plate (pipeline/extract.py)
 
 
-def _check_export(engine: str, path: str | None, scene: str) -> None:
-    """--export-model: not the scene file the run reads, an engine that exports, and the suffix of what it writes."""
+def _check_export(engine: str, path: str | None) -> None:
+    """--export-model: an engine that exports, and the suffix of what it writes (not the scene file the run reads:
+    ``paths.check_distinct``)."""
     if not path:
         return
-    if Path(path).exists() and Path(scene).exists() and os.path.samefile(path, scene):  # links included
-        raise UsageError(f"--export-model {path}: is the scene file this run reads ({scene}); name another file")
     try:
         check_exportable(engine)
     except SettingsError as exc:
@@ -127,7 +125,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if engine not in SIMULATORS:
         check_choice("--engines", engine, SIMULATORS, error=UsageError)
     if engine != "reference":
-        _check_export(engine, args.export_model, args.scene)
+        _check_export(engine, args.export_model)
     result = None
     if engine == "reference":
         for given, option in ((engine_over, f"--set {engine_over[0] if engine_over else ''}"),

@@ -204,7 +204,8 @@ def test_export_refuses_the_scene_file_it_reads(tmp_path):
     (tmp_path / "link.py").symlink_to(scene_file)
     for target in (scene_file, tmp_path / "link.py"):
         done = cli("run", str(scene_file), "--engines", "pybullet", "--export-model", str(target))
-        assert done.returncode == 2 and "is the scene file this run reads" in done.stderr, done.stderr
+        assert done.returncode == 2 and "is the SCENE file" in done.stderr and "name another file" in done.stderr, \
+            done.stderr
     assert scene_file.read_text() == before
     done = cli("run", str(scene_file), "--engines", "pybullet", "--dt", "1e-3", "--export-model", str(tmp_path / "t.py"))
     assert done.returncode == 0, done.stderr  # another name: written
