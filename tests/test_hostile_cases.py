@@ -181,11 +181,10 @@ def _elsewhere_untouched(got: Outcome) -> str:
     return "elsewhere/: untouched (before: scene.py written there through d/pybullet)"
 
 
-def _label_inside(got: Outcome) -> str:
+def _label_refused(got: Outcome) -> str:
     assert sorted(p.name for p in (got.root / "elsewhere").iterdir()) == ["victim.txt"]
-    written = sorted(p.name for p in (got.root / "o").iterdir() if "elsewhere" in p.name)
-    assert written and all(p.startswith(("events__.._.._elsewhere_x-", "impacts__.._.._elsewhere_x-")) for p in written)
-    return f"elsewhere/: untouched; o/: {', '.join(written)}"
+    assert not (got.root / "o").exists()
+    return "elsewhere/: untouched; o/: not made"
 
 
 def _gate_file_kept(got: Outcome) -> str:
@@ -281,7 +280,7 @@ CASES = [
          after=_nothing_new("r")),
     # security: a link planted in an output folder, a guide section to embed
     Case("judge --engine a path", "an engine label that is a path (before: elsewhere/x.csv written, outside --out)", ["judge", "bouncing-ball", "t.csv", "--engine", "/../../elsewhere/x", "--out", "o",
-                            "--no-figures"], 0, ("/../../elsewhere/x",), setup=_trajectory_file, after=_label_inside),
+                            "--no-figures"], 2, ("--engine '/../../elsewhere/x'", "no '/'"), setup=_trajectory_file, after=_label_refused),
     Case("tune planted link", "tune --out d where d/pybullet is a link out of d (before: scene.py written through it)",
          [*TUNE, "--out", "d"], 2, ("--out d: d/pybullet is a symbolic link (-> ../elsewhere)",), setup=_planted_link,
          after=_elsewhere_untouched),
