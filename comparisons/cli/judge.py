@@ -20,15 +20,14 @@ import argparse
 import re
 from pathlib import Path
 
-from chatterbench.comparisons.pipeline.gap_contact import PRECISIONS
-from chatterbench.comparisons.pipeline.trajectory_file import judge_trajectory
-from chatterbench.comparisons.pipeline.vocabulary import combine
-from chatterbench.reference.scene import load_scene
 from chatterbench.reference.tables import printable
 
+from .commands import COMMANDS
 from .common import UsageError, add_out, add_scene, add_tolerance, parse_tolerances, print_table
 from .compare import EPISODE_SHOW, SUMMARY_SHOW
 from .paths import check_dir, writing
+
+PRECISIONS = ("float64", "float32")  # --precision: pipeline.gap_contact.PRECISIONS's keys (tested), read without numpy
 
 AGREE = ("match", "none")  # the run's combined verdict that exits 0
 LABEL = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.+-]{0,63}")  # an engine's name in tables and file names (events_NAME.csv)
@@ -44,6 +43,10 @@ def engine_label(text: str) -> str:
 
 
 def cmd_judge(args: argparse.Namespace) -> int:
+    from chatterbench.comparisons.pipeline.trajectory_file import judge_trajectory  # with the work, not with --help
+    from chatterbench.comparisons.pipeline.vocabulary import combine
+    from chatterbench.reference.scene import load_scene
+
     check_dir("--out", args.out)
     scene = load_scene(args.scene)
     tol = parse_tolerances(args.tolerance)
@@ -80,15 +83,14 @@ def _stem(path: Path) -> str:
 
 def register(sub, formatter) -> None:
     """Add ``judge`` to the ``chatterbench`` subparsers."""
-    p = sub.add_parser("judge", help="judge any simulator's trajectory file (CSV, Parquet) against the reference",
-                       formatter_class=formatter)
+    p = sub.add_parser("judge", help=COMMANDS["judge"], formatter_class=formatter)
     add_scene(p)
     p.add_argument("trajectory", help="CSV (or .csv.gz, .bz2, .xz) or Parquet: t, x1, x2, v1, v2 [, force_lower, "
                                       "force_upper: signed, compressive positive] in SI units")
     p.add_argument("--engine", "--engines", dest="engine", default=argparse.SUPPRESS, metavar="NAME",
                    help="the judged engine's name in the tables and file names, as --engines names the engines "
                         "compare runs (default: the file's name up to its first dot)")
-    p.add_argument("--precision", choices=tuple(PRECISIONS), default=argparse.SUPPRESS,
+    p.add_argument("--precision", choices=PRECISIONS, default=argparse.SUPPRESS,
                    help="the floating-point type the positions were written in (default: inferred from the values: "
                         "all float32 numbers, or their shortest text, is float32)")
     add_tolerance(p)
