@@ -26,7 +26,10 @@ path that leads out of OUT (``..``, an absolute name),
 and missing directories are made one at a time, so nothing is written outside OUT through a
 link planted in it. ``staged(OUT)`` makes a set of files appear together: written into a
 hidden folder under OUT, moved into place when the block ends (the files named ``last`` after
-the rest, their old copies removed first), removed if it fails (Ctrl-C included).
+the rest, their old copies removed first), removed if it fails (Ctrl-C included). Only a kill can
+leave that folder; it is named with its process's id (``.staged.PID.TTTTTTTTXXXXXXXX``), and the
+next ``staged`` in the same folder removes those whose process is gone (one whose process still
+runs, or a name of another pattern, is kept).
 
     >>> from chatterbench.comparisons.pipeline.atomic import confined, staged
     >>> with confined(tmp / "out"), staged(tmp / "out", last=["done.json"]) as stage:
@@ -58,6 +61,8 @@ TEMP_NAME_EXTRA = len("..TTTTTTTTXXXXXXXX.tmp")  # bytes a temp file's name adds
 # a temp file's name: group "tag" is the writing process's temp_tag()
 TEMP_PATTERN = re.compile(r"\..+\.(?P<tag>[a-z0-9_]{8})[a-z0-9_]{8}\.tmp")
 _TRIES = 100  # names drawn before giving up (a collision is 1 in 37**8 per existing temp file)
+# a staged set's hidden folder: group "pid" is the process that made it (``staged``)
+STAGE_PATTERN = re.compile(r"\.staged\.(?P<pid>[0-9]+)\.[a-z0-9_]{16}")
 _ROOTS: ContextVar[tuple[str, ...]] = ContextVar("output_folders", default=())  # ``confined``'s folders, absolute
 
 
@@ -153,8 +158,9 @@ def staged(folder: str | Path, last: Sequence[str] = ()) -> Iterator[Path]:
     removed and ``folder`` keeps what it held.
     """
     folder = Path(folder)
-    stage = folder / f".staged.{_TAG}{_draw(8)}"
+    stage = folder / f".staged.{os.getpid()}.{_TAG}{_draw(8)}"
     _no_links(stage / "x")  # OUT's folders on the way, made without following a link
+    _remove_killed_stages(folder)
     stage.mkdir(parents=True, exist_ok=True)
     try:
         yield stage
@@ -176,6 +182,26 @@ def staged(folder: str | Path, last: Sequence[str] = ()) -> Iterator[Path]:
         raise
     finally:
         shutil.rmtree(stage, ignore_errors=True)
+
+
+def _remove_killed_stages(folder: Path) -> None:
+    """Remove the hidden folders that ``staged`` sets of killed processes left in ``folder`` (``STAGE_PATTERN``, a
+    process id no process has now; a folder, never a link)."""
+    for entry in os.scandir(folder):
+        found = STAGE_PATTERN.fullmatch(entry.name)
+        if found and entry.is_dir(follow_symlinks=False) and not _alive(int(found["pid"])):
+            shutil.rmtree(entry.path, ignore_errors=True)
+
+
+def _alive(pid: int) -> bool:
+    """Whether a process ``pid`` exists (another user's counts: it may be the writer)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError):
+        return True
+    return True
 
 
 def write_with(path: Path, writer: Callable[[Path], None]) -> Path:

@@ -104,3 +104,26 @@ def test_a_staged_set_appears_whole_or_not_at_all(tmp_path):
         write_text(stage / "pybullet" / "scene.py", "new scene")
     assert (out / "recommended.json").read_text() == "new answer" and (out / "pybullet" / "scene.py").read_text() == "new scene"
     assert sorted(p.name for p in out.iterdir()) == ["guide.md", "pybullet", "recommended.json"]  # no staging folder
+
+
+def test_a_killed_tunes_staged_folder_is_removed_by_the_next_set_and_only_it(tmp_path):
+    # before: a SIGKILL mid-set left OUT/.staged.* for ever; now the next staged set in OUT removes a folder whose
+    # process is gone, and keeps one whose process runs (a concurrent writer) and any other name
+    from chatterbench.comparisons.pipeline.atomic import staged
+
+    out = tmp_path / "out"
+    gone = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    runs = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(600)"])
+    try:
+        killed = out / f".staged.{int(gone.stdout)}.abcdefgh12345678"
+        running = out / f".staged.{runs.pid}.abcdefgh12345678"
+        other = out / ".staged.mine"
+        for folder in (killed, running, other):
+            write_text(folder / "guide.md", "half a set")
+        with staged(out) as stage:
+            write_text(stage / "guide.md", "a whole set")
+        assert not killed.exists() and running.exists() and other.exists()
+        assert (out / "guide.md").read_text() == "a whole set"
+    finally:
+        runs.kill()
+        runs.wait()
