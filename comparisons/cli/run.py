@@ -23,7 +23,6 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from chatterbench.comparisons.outputs.engine_files import flight_band
 from chatterbench.comparisons.pipeline.atomic import write_frame, write_text
 from chatterbench.comparisons.pipeline.budget import Budget, check_engine_run, check_reference
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
@@ -49,6 +48,7 @@ def run_engine_events(scene: Scene, engine: str, settings: Any, export_model: st
                       budget: Budget) -> tuple[pd.DataFrame, pd.DataFrame, str]:
     """Run ``scene`` in ``engine`` with its ``settings`` object (refused first when over ``budget``); returns (event log,
     episodes, one-line summary)."""
+    from chatterbench.comparisons.outputs.engine_files import flight_band  # with the work, not with --help
     from chatterbench.comparisons.pipeline.extract import extract_events
     from chatterbench.comparisons.pipeline.solution import solve
     from chatterbench.reference.log import episodes, log_frame
