@@ -155,6 +155,10 @@ def test_a_blow_up_is_judged_diverged_not_raised():
 
 
 def test_world_steps_per_second_is_measured_on_the_device_found():
-    figures = world_steps_per_s(load_scene("bouncing-ball", ["duration=0.02"]), WARP, nworld=8, repeats=1)
-    assert figures["device"] == "cpu" and figures["nworld"] == 8 and figures["steps"] == 21
-    assert figures["world_steps_per_s"] == pytest.approx(8 * 21 / figures["seconds"])
+    scene = load_scene("bouncing-ball", ["duration=0.02"])  # 20 steps, 21 with the last sample's sensors
+    plain = world_steps_per_s(scene, WARP, nworld=8, repeats=1, captured=False)
+    assert plain["device"] == "cpu" and plain["nworld"] == 8 and plain["steps"] == 21 and not plain["captured"]
+    assert plain["world_steps_per_s"] == pytest.approx(8 * 21 / plain["seconds"])
+    captured = world_steps_per_s(scene, WARP, nworld=8, repeats=1)  # whole graphs of STEPS_PER_GRAPH steps
+    if captured["captured"]:
+        assert captured["steps"] == 32 and captured["world_steps_per_s"] == pytest.approx(8 * 32 / captured["seconds"])
