@@ -417,11 +417,17 @@ class EngineAdapter:
         return [self.run(scene, settings) for scene, settings in jobs]
 
     def iter_batch(self, jobs: Sequence[tuple[Scene, Any]]) -> Iterator[tuple[int, Trajectory]]:
-        """``batch``'s trajectories with each one's index in ``jobs``, handed over as they are done: an engine that
-        runs a large batch in parts (MuJoCo Warp: blocks of worlds within its host memory) yields each part as it
-        finishes, so that a caller keeping only what it needs of each run holds one part at a time. The base: all
-        of ``batch`` at once."""
+        """``batch``'s (index in ``jobs``, trajectory) as they are done: an engine that runs a batch in parts (MuJoCo
+        Warp: blocks within its host memory) yields each part when done. The base: ``batch`` at once."""
         yield from enumerate(self.batch(jobs))
+
+    def forks(self, settings: Any) -> bool:
+        """Whether a run at ``settings`` may be made in a fork of a process that ran the engine (a CUDA one: no)."""
+        return True
+
+    def unit_runs(self, settings: Any) -> int | None:
+        """Runs a sweep hands the engine at once (MuJoCo Warp on a GPU: thousands); None: the sweep's own choice."""
+        return None
 
     def batch(self, jobs: Sequence[tuple[Scene, Any]]) -> list[Trajectory]:
         """``run_batch``, or one isolated run after another for an ``isolated`` adapter (whose own batch would run in

@@ -52,6 +52,9 @@ from .settings import MujocoWarpSettings
 from .worlds import device_model, device_name, warp_model, warp_modules
 
 
+GPU_UNIT_RUNS = 4096  # [runs] a sweep's unit of work on a GPU: one batch of worlds (``unit_runs``)
+
+
 def device(s: MujocoWarpSettings) -> str:
     """The warp device of settings ``s``; a device that is not there is the user's SettingsError."""
     from ..settings import SettingsError
@@ -115,6 +118,15 @@ class MujocoWarpEngine(EngineAdapter):
         one block's samples at a time, within ``host_bytes``."""
         for block in iter_blocks(self, list(jobs), self.host_bytes):
             yield from block
+
+    def forks(self, settings: MujocoWarpSettings) -> bool:
+        """On the CPU device a run may be forked; on cuda not (a CUDA context does not survive a fork)."""
+        return self.device_of(settings) != "cuda"
+
+    def unit_runs(self, settings: MujocoWarpSettings) -> int | None:
+        """On cuda, ``GPU_UNIT_RUNS`` worlds per unit (a step of thousands costs about what one costs); else the
+        sweep's own choice."""
+        return GPU_UNIT_RUNS if self.device_of(settings) == "cuda" else None
 
     def device_of(self, settings: MujocoWarpSettings) -> str:
         """The warp device ``settings`` run on (``cuda`` or ``cpu``); SettingsError for one that is not there."""

@@ -46,8 +46,8 @@ _DEVICE_MODELS = Kept(MOST_DEVICE_MODELS)
 
 @functools.cache
 def warp_modules() -> tuple[Any, Any]:
-    """``(warp, mujoco_warp)``, imported on first use; warp's log keeps its warnings only (its banner and
-    one "Module ... load" line per kernel would otherwise interleave with every table)."""
+    """``(warp, mujoco_warp)``, imported on first use and warp initialised; warp's log keeps its warnings only (its
+    banner and one "Module ... load" line per kernel would otherwise interleave with every table)."""
     import warp as wp
 
     wp.config.log_level = max(wp.config.log_level, wp.LOG_WARNING)
@@ -57,14 +57,45 @@ def warp_modules() -> tuple[Any, Any]:
     return wp, mjw
 
 
+def _counted_here() -> int:
+    """CUDA devices warp finds, asked in this process (which then holds a CUDA context if there is a GPU)."""
+    import warp as wp
+
+    wp.config.log_level = max(wp.config.log_level, wp.LOG_WARNING)
+    wp.init()
+    return int(wp.get_cuda_device_count())
+
+
+@functools.cache
+def gpu_count() -> int:
+    """CUDA devices warp finds. Asked in a forked child unless warp is already initialised here: a process that
+    only asks (a sweep choosing its units, a progress note) holds no CUDA context, which a fork would break for
+    the workers it starts afterwards; 0 where the child fails."""
+    import sys
+
+    from ..isolate import run_isolated
+
+    if "warp" in sys.modules:
+        try:
+            from warp._src import context  # where warp keeps its runtime (None until ``wp.init``)
+        except ImportError:  # another layout: ask in a child, as below
+            context = None
+        if getattr(context, "runtime", None) is not None:
+            return _counted_here()
+    outcome = run_isolated(_counted_here, timeout=120.0)
+    return int(outcome.value) if outcome.status == "ok" else 0
+
+
 def device_name(requested: str) -> str:
     """The warp device for settings ``device`` ``"auto"``, ``"cpu"`` or ``"cuda"``: ``"cuda"`` when asked for
-    or, for ``"auto"``, when warp finds a GPU; else ``"cpu"``. Raises ``RuntimeError`` for ``"cuda"`` without one."""
-    wp, _ = warp_modules()
-    gpus = wp.get_cuda_device_count()
+    or, for ``"auto"``, when warp finds a GPU (``gpu_count``); else ``"cpu"``. Raises ``RuntimeError`` for
+    ``"cuda"`` without one."""
+    if requested == "cpu":
+        return "cpu"
+    gpus = gpu_count()
     if requested == "cuda" and not gpus:
         raise RuntimeError("mujoco_warp.device = 'cuda': warp finds no CUDA device here (use 'cpu' or 'auto')")
-    return "cuda" if requested == "cuda" or (requested == "auto" and gpus) else "cpu"
+    return "cuda" if gpus else "cpu"
 
 
 def warp_model(model: mujoco.MjModel) -> mujoco.MjModel:
