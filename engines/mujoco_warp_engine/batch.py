@@ -35,8 +35,9 @@ import numpy as np
 
 from chatterbench.reference.scene import Scene
 
-from ..base import Diverged, EngineAdapter, Recording, n_steps
+from ..base import Diverged, EngineAdapter, Recording, n_steps, settings_fields
 from ..mujoco_common import Prepared, prepare, warning_note
+from ..settings import SettingsError
 from ..trajectory import Trajectory
 from ..window import CHUNK
 from .kernels import STEPS_PER_GRAPH, Stepper, load_kernels
@@ -145,28 +146,41 @@ def _signature(p: Prepared) -> tuple:
 def iter_blocks(engine: EngineAdapter, jobs: Sequence[tuple[Scene, Any]],
                 host_bytes: float = HOST_BYTES) -> Iterator[list[tuple[int, Trajectory]]]:
     """The jobs' trajectories, block by block (module docstring): each block's as (index in ``jobs``, trajectory).
-    Raises SettingsError, like ``run``, before anything runs (a device that is not there is such an error)."""
-    checked = [engine.settings(s) for _, s in jobs]
-    for (scene, _), s in zip(jobs, checked):
-        engine.validate(scene, s)  # settings errors first, for every job
+    Raises SettingsError, like ``run``, before anything runs: ``prepare`` refuses what ``validate`` refuses (an
+    unstable w0 dt, a scene MuJoCo cannot compile), ``device_of`` a device that is not there."""
     groups: dict[tuple, list[tuple[int, Prepared]]] = {}
-    alone = []
-    for i, ((scene, _), s) in enumerate(zip(jobs, checked)):
-        try:  # the compiled structure, contact law and initial state
+    failed = []
+    for i, (scene, given) in enumerate(jobs):
+        s = engine.settings(given)
+        device = engine.device_of(s)
+        try:  # the compiled structure, contact law and initial state: what ``validate`` checks, found once
             p = prepare(scene, s, n_steps(scene.duration, s.dt))
-        except Exception:  # noqa: BLE001  alone, its failure is its own result
-            alone.append((i, engine.run(scene, s)))
+        except SettingsError:
+            raise
+        except Exception:  # noqa: BLE001  run alone once every job is checked: its failure is its own result
+            failed.append(i)
             continue
-        groups.setdefault((engine.device_of(s), _signature(p)), []).append((i, p))
-    if alone:
-        yield alone
+        groups.setdefault((device, _signature(p)), []).append((i, p))
+    if failed:
+        yield [(i, engine.run(*jobs[i])) for i in failed]
     for (device, _), members in groups.items():
         first = members[0][1]
         plan = block_plan(len(members), first.nstep, len(first.scene.gap.walls),
                           first.structure.model.nq + first.structure.model.nv + first.structure.model.nsensordata,
                           host_bytes)
         for b0 in range(0, len(members), plan.worlds):
-            block = members[b0:b0 + plan.worlds]
-            runs = [engine.open(p.scene, p.settings) for _, p in block]
-            failures = run_block(runs, [p for _, p in block], device, plan.chunk)
-            yield [(i, r.trajectory(f)) for (i, _), r, f in zip(block, runs, failures)]
+            block, alone = [], []
+            for i, p in members[b0:b0 + plan.worlds]:
+                try:
+                    block.append((i, p, _opened(engine, p)))
+                except MemoryError:  # its samples cannot fit: the run's own result says so
+                    alone.append((i, engine.run(p.scene, p.settings)))
+            failures = run_block([r for _, _, r in block], [p for _, p, _ in block], device, plan.chunk) if block else []
+            yield alone + [(i, r.trajectory(f)) for (i, _, r), f in zip(block, failures)]
+
+
+def _opened(engine: EngineAdapter, p: Prepared) -> Recording:
+    """``engine.open`` for a prepared run, whose settings ``prepare`` and ``device_of`` have checked already."""
+    s = p.settings
+    record = {**settings_fields(s), **engine.record(p.scene, s)}
+    return Recording(engine.name, p.scene, s, record, None, engine.contact_scales(p.scene, s))

@@ -266,3 +266,16 @@ def test_the_kernels_load_is_timed_and_said():
     load = kernels.KernelLoad("cuda", 84.2, True, "/root/.cache/warp/1.19.0")
     assert load.describe() == ("MuJoCo Warp compiled its kernels for device cuda in 84.2 s "
                                "(cache: /root/.cache/warp/1.19.0)")
+
+
+def test_a_batch_refuses_any_jobs_bad_settings_before_running_one(monkeypatch):
+    ran = []
+    monkeypatch.setattr(warp_batch, "run_block", lambda *a: ran.append(a) or [None] * len(a[0]))
+    ok = (load_scene("bouncing-ball", ["duration=0.01"]), WARP)
+    unstable = (load_scene("bouncing-ball", ["duration=0.01", "restitution=0.1"]), dataclasses.replace(WARP, w0_dt=1.4))
+    with pytest.raises(SettingsError, match=r"mujoco_warp\.w0_dt = 1\.4: must be in \(0, 0\.7046\]"):
+        MujocoWarpEngine().run_batch([ok, unstable])
+    if device_name("auto") != "cuda":
+        with pytest.raises(SettingsError, match="no CUDA device"):
+            MujocoWarpEngine().run_batch([ok, (ok[0], dataclasses.replace(WARP, device="cuda"))])
+    assert not ran
