@@ -31,13 +31,16 @@ from .base import MAXVAL, Recording
 
 
 def add_many(runs: Sequence[Recording], t: np.ndarray, force: Mapping[str, np.ndarray], *, y: np.ndarray,
-             vy: np.ndarray, x1: np.ndarray, v1: np.ndarray, bad: np.ndarray | None = None) -> None:
+             vy: np.ndarray, x1: np.ndarray, v1: np.ndarray, bad: np.ndarray | None = None,
+             lengths: np.ndarray | None = None) -> None:
     """``Recording.add`` of one chunk for many runs at once (a batch's worlds): arrays of shape (len(runs), c), per
     run its times [s], ``force`` per wall of any run (a run takes its own walls; give zeros where it has none),
     ``y, vy`` [m, m/s], ``x1, v1`` body 1 [m, m/s] (read for a finite body 1 only: an infinite one's is the base's,
-    as ``add`` fills it), ``bad`` samples the engine knows to be broken. Each run not stopped gets what ``add`` would
-    give it, the same samples, cut and message (``tests/engines/test_stepping.py``), the checks made for all runs
-    together; a run recorded compact (``window.Recorder``), or whose ``add`` is wrapped, takes its ``add``."""
+    as ``add`` fills it), ``bad`` samples the engine knows to be broken; ``lengths`` (len(runs),): how many of the
+    chunk's samples each run takes (a run that ends inside the chunk; 0: none; default all). Each run not stopped
+    gets what ``add`` would give it for its samples, the same samples, cut and message
+    (``tests/engines/test_batch_recording.py``), the checks made for all runs together; a run recorded compact
+    (``window.Recorder``), or whose ``add`` is wrapped, takes its ``add``."""
     finite1 = np.array([not r.scene.body1_infinite for r in runs])[:, None]
     state = (y, vy)
     held = (np.abs(y) <= MAXVAL) & (np.abs(vy) <= MAXVAL)  # False for NaN and inf too: ``add``'s two checks in one
@@ -48,18 +51,20 @@ def add_many(runs: Sequence[Recording], t: np.ndarray, force: Mapping[str, np.nd
     if bad is not None:
         broken |= bad
     c = t.shape[1]
+    lengths = np.full(len(runs), c) if lengths is None else np.minimum(lengths, c)
     first = np.where(broken.any(axis=1), np.argmax(broken, axis=1), c)
     for w, r in enumerate(runs):
-        if r.cut:
+        n = int(lengths[w])
+        if r.cut or n <= 0:
             continue
         walls = r.scene.gap.walls
         if r.recorder.compact or "add" in vars(r):  # compact; or its ``add`` wrapped (the contract test's faults)
-            r.add(t[w], {wall: force[wall][w] for wall in walls}, y=y[w], vy=vy[w], bad=None if bad is None else bad[w],
-                  **({"x1": x1[w], "v1": v1[w]} if finite1[w, 0] else {}))
+            r.add(t[w, :n], {wall: force[wall][w, :n] for wall in walls}, y=y[w, :n], vy=vy[w, :n],
+                  bad=None if bad is None else bad[w, :n], **({"x1": x1[w, :n], "v1": v1[w, :n]} if finite1[w, 0] else {}))
             continue
-        r._check_times(t[w])
-        m = int(first[w])
-        if m < c:
+        r._check_times(t[w, :n])
+        m = min(int(first[w]), n)
+        if m < n:
             r.cut = f"non-finite or huge state at t = {t[w, m]:.6g} s (sample {r.recorder.count + m})"
         tw = t[w, :m]
         b1 = (x1[w, :m], v1[w, :m]) if finite1[w, 0] else r.body1(tw)

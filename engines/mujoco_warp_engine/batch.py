@@ -76,12 +76,13 @@ def block_plan(nworld: int, samples: int, walls: int, row_floats: int, host_byte
 
 
 def roll_worlds(worlds: Worlds, ps: Sequence[Prepared], runs: Sequence[Recording], chunk: int) -> dict[str, Any]:
-    """Step every world ``nstep`` times from its initial state with its controls, ``chunk`` steps of all of them at a
+    """Step every world its ``nstep`` times from its initial state with its controls (all of them the longest run's
+    steps: a world past its end steps on unread), ``chunk`` steps of all of them at a
     time, each chunk handed to the runs (``samples.hand_over``). Returns ``warned`` (per world: MuJoCo's
     mjWARN_BADQACC), ``wall`` (stepping and reading back [s]), ``load`` (``kernels.KernelLoad``) and ``capture_s``."""
     wp, mjw = warp_modules()
     mjm = warp_model(ps[0].structure.model)
-    nw, nstep = len(ps), ps[0].nstep
+    nw, nstep = len(ps), max(p.nstep for p in ps)
     warned = [False] * nw
     with wp.ScopedDevice(worlds.device):
         load = load_kernels(worlds.model, mjw.put_data(mjm, mujoco.MjData(mjm)), worlds.device)
@@ -99,6 +100,8 @@ def roll_worlds(worlds: Worlds, ps: Sequence[Prepared], runs: Sequence[Recording
         wall = 0.0
         for k0 in range(0, nstep, chunk):
             k1 = min(nstep, k0 + chunk)
+            if all(r.stopped or r.recorder.count == r.n + 1 for r in runs):  # every run cut, or at its end
+                break
             ctrl, mocap = controls_of(ps, k0, k1, chunk)
             start = time.perf_counter()
             ctrl_in.assign(ctrl)
@@ -130,17 +133,19 @@ def run_block(runs: Sequence[Recording], ps: Sequence[Prepared], device: str, ch
     except Exception as exc:  # noqa: BLE001  an engine failure is a result, not a crash
         return [exc] * len(runs)
     load = done["load"]
-    for r in runs:
-        r.wall_time = done["wall"] / len(runs)
+    steps = sum(p.nstep for p in ps)
+    for r, p in zip(runs, ps):
+        r.wall_time = done["wall"] * p.nstep / steps  # its share of the block's steps
         r.record.update(batch_size=len(runs), warmup_s=load.seconds, kernels="compiled" if load.compiled else "cached",
                         capture_s=done["capture_s"])
     return [Diverged(warning_note({"mjWARN_BADQACC"}, r.settings)) if w else None for r, w in zip(runs, done["warned"])]
 
 
 def _signature(p: Prepared) -> tuple:
-    """What must agree for runs to share one model: sizes, steps, controls (MuJoCo's ``run._signature``)."""
+    """What must agree for runs to share one model: sizes and controls (MuJoCo's ``run._signature`` without the step
+    count: a batch steps its longest run's steps, each world read to its own end)."""
     m = p.structure.model
-    return (m.signature, p.nstep, m.nu, m.nmocap)
+    return (m.signature, m.nu, m.nmocap)
 
 
 def iter_blocks(engine: EngineAdapter, jobs: Sequence[tuple[Scene, Any]],
@@ -164,8 +169,9 @@ def iter_blocks(engine: EngineAdapter, jobs: Sequence[tuple[Scene, Any]],
     if failed:
         yield [(i, engine.run(*jobs[i])) for i in failed]
     for (device, _), members in groups.items():
-        first = members[0][1]
-        plan = block_plan(len(members), first.nstep, len(first.scene.gap.walls),
+        members.sort(key=lambda m: m[1].nstep)  # blocks of like lengths: a block steps its longest run's steps
+        first = members[-1][1]
+        plan = block_plan(len(members), first.nstep, max(len(p.scene.gap.walls) for _, p in members),
                           first.structure.model.nq + first.structure.model.nv + first.structure.model.nsensordata,
                           host_bytes)
         for b0 in range(0, len(members), plan.worlds):

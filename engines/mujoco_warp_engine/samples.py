@@ -75,10 +75,11 @@ def hand_over(runs: Sequence[Recording], ps: Sequence[Prepared], k0: int, before
     """Samples k0 .. k0 + c - 1 to each run not yet stopped, from ``before`` (the states at sample k0, then moved on
     to k0 + c) and the chunk's ``qpos`` (nworld, c, nq), ``qvel`` (nworld, c, nv) after each step and ``sens``
     (nworld, c, nsensordata) at its start (float32 from the device); ``bad_acc`` (nworld,): the first step whose
-    acceleration was past MAXVAL (the states after it are dropped). Returns each world's MuJoCo warning (True:
-    mjWARN_BADQACC in this chunk)."""
+    acceleration was past MAXVAL (the states after it are dropped). A run takes the samples up to its own end
+    (``Prepared.nstep``). Returns each world's MuJoCo warning (True: mjWARN_BADQACC in this chunk)."""
     nw, c = qpos.shape[:2]
-    warned = [bool(b < k0 + c) and not r.stopped for b, r in zip(bad_acc, runs)]
+    lengths = np.array([p.nstep - k0 for p in ps])  # a run's samples in this chunk: to its own end
+    warned = [bool(b < k0 + min(c, n)) and not r.stopped for b, r, n in zip(bad_acc, runs, lengths)]
 
     def at_samples(chunk: np.ndarray, first: np.ndarray) -> np.ndarray:
         """(nworld, c) float64: the state at samples k0 .. k0 + c - 1, ``first`` at k0, then after each step."""
@@ -96,7 +97,7 @@ def hand_over(runs: Sequence[Recording], ps: Sequence[Prepared], k0: int, before
     t0 = np.array([p.scene.initial.t for p in ps])[:, None]
     dt = np.array([p.settings.dt for p in ps])[:, None]
     t = t0 + dt * np.arange(k0, k0 + c)[None, :]  # = each run's sample_times(scene, dt)[k0:k0 + c]
-    add_many(runs, t, _forces(ps, y, sens), y=y, vy=vy, x1=x1, v1=v1, bad=bad)
+    add_many(runs, t, _forces(ps, y, sens), y=y, vy=vy, x1=x1, v1=v1, bad=bad, lengths=lengths)
     return warned
 
 

@@ -67,3 +67,16 @@ def test_samples_off_the_time_grid_are_refused_as_add_refuses_them():
     t, force, cols, bad = next(_chunks(runs))
     with pytest.raises(ValueError, match="sample 0: t = 0.0005 s, not t0 \\+ k dt = 0 s"):
         add_many(runs, t + 0.5 * DT, force, bad=bad, **cols)
+
+
+def test_a_run_that_ends_inside_the_chunk_takes_its_samples_only():
+    runs, alone = _runs()[:3], _runs()[:3]
+    t, force, cols, bad = next(_chunks(runs))
+    add_many(runs, t, force, bad=bad, lengths=np.array([C, 7, 0]), **cols)
+    for w, n in enumerate((C, 7)):
+        body1 = {} if alone[w].scene.body1_infinite else {"x1": cols["x1"][w, :n], "v1": cols["v1"][w, :n]}
+        alone[w].add(t[w, :n], {wall: force[wall][w, :n] for wall in alone[w].scene.gap.walls}, y=cols["y"][w, :n],
+                     vy=cols["vy"][w, :n], bad=bad[w, :n], **body1)
+    assert [r.recorder.count for r in runs] == [C, 7, 0]
+    for a, b in zip(runs[:2], alone[:2]):
+        np.testing.assert_array_equal(a.trajectory().x2, b.trajectory().x2)

@@ -279,3 +279,18 @@ def test_a_batch_refuses_any_jobs_bad_settings_before_running_one(monkeypatch):
         with pytest.raises(SettingsError, match="no CUDA device"):
             MujocoWarpEngine().run_batch([ok, (ok[0], dataclasses.replace(WARP, device="cuda"))])
     assert not ran
+
+
+def test_runs_of_different_lengths_share_a_batch_each_read_to_its_own_end():
+    # a strike study's or a plate map's runs end at different times: one batch steps the longest, each world is read
+    # to its own end, bit for bit the run alone
+    jobs = [(load_scene("feigin-pair", [f"duration={d}", f"initial.vy={v}"]), WARP)
+            for d, v in ((0.05, -0.3), (0.3, 0.4), (0.137, -0.2), (0.3, 0.1))]
+    batch = MujocoWarpEngine().run_batch(jobs)
+    assert [len(t.t) for t in batch] == [51, 301, 138, 301] and {t.settings["batch_size"] for t in batch} == {4}
+    for (scene, s), traj in zip(jobs, batch):
+        alone = run(scene, s)
+        assert traj.status == alone.status == "ok"
+        for k in ("t", "x1", "x2", "v1", "v2"):
+            np.testing.assert_array_equal(getattr(alone, k), getattr(traj, k))
+    assert batch[0].wall_time < batch[1].wall_time  # each charged its share of the steps
