@@ -133,8 +133,10 @@ class MujocoWarpEngine(EngineAdapter):
         return device(settings)
 
     def bare_seconds(self, scene: Scene, settings: MujocoWarpSettings, traj: Trajectory) -> float:
-        """Seconds of the bare ``mujoco_warp.step`` loop over the run, one world, captured where warp can."""
-        return world_steps_per_s(scene, settings, nworld=1, repeats=1)["seconds"]
+        """Seconds of the bare ``mujoco_warp.step`` loop over the run, one world, captured where warp can (scaled to
+        the run's steps: a captured loop steps whole graphs)."""
+        bare = world_steps_per_s(scene, settings, nworld=1, repeats=1)
+        return bare["seconds"] * (n_steps(scene.duration, settings.dt) + 1) / bare["steps"]
 
     def validate(self, scene: Scene, settings: MujocoWarpSettings) -> None:
         """MuJoCo's MjSpec build refuses what the scene cannot run with (compiled once per structure:
