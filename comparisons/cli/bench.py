@@ -78,7 +78,7 @@ def _world_counts(text: str) -> tuple[int, ...]:
     return tuple(_world_count(w) for w in text.split(",") if w.strip())
 
 
-_world_count = integer_type(1, 65_536)
+_world_count = integer_type(1, 262_144)  # the largest measured batch; blocks keep any within the host's memory
 
 
 def _warp_stage() -> str:
@@ -224,7 +224,7 @@ def register(sub, formatter) -> None:
                    help="`bench sweep`: only the sweep overhead (--points), or only the adaptive map (--refine), or only "
                         "mujoco_warp's world-steps per second (--worlds; needs the warp extra); None: all")
     p.add_argument("--worlds", type=_world_counts, default=None, metavar="N[,N...]",
-                   help="`bench sweep`: worlds per mujoco_warp batch, each in [1, 65536], timed on the device warp finds "
+                   help="`bench sweep`: worlds per mujoco_warp batch, each in [1, 262144], timed on the device warp finds "
                         "(cuda, else cpu); None: 1,16,256")
     p.add_argument("--strikes", type=integer_type(1, 10**7), default=None,
                    help="strikes for `bench platemap`, in [1, 1e7]; None: 100000")
