@@ -5,11 +5,12 @@
     >>> plan.worlds, plan.chunk     # feigin-pair over 2 pi s at dt = 1e-3: 65,536 worlds in 19 blocks of 3,450
     (3450, 1136)
 
-``iter_blocks(engine, jobs)`` is the adapter's batch: the jobs' settings are checked first
-(``SettingsError`` before anything runs), each job is prepared (``mujoco_common.prepare``: no
-compile, no MjData), and the jobs that can share one MuJoCo Warp model (same device, sizes,
-step count and control layout) are grouped; each group goes in blocks of ``BlockPlan.worlds``
-worlds (``block_plan``: every world's recorded samples and the chunk read back within
+``iter_blocks(engine, jobs)`` is the adapter's batch: every job is checked and prepared first
+(``mujoco_common.prepare``: its compiled structure, no compile of its own, no MjData;
+``SettingsError`` before anything runs), and the jobs that can share one MuJoCo Warp model
+(same device, sizes and control layout; any lengths: a block steps its longest run, each world
+read to its own end) are grouped; each group goes in blocks of ``BlockPlan.worlds`` worlds
+(``block_plan``: every world's recorded samples and the chunk read back within
 ``HOST_BYTES``), and each block is one model of that many worlds (``worlds.put_worlds``)
 stepped ``BlockPlan.chunk`` steps at a time (``kernels.Stepper``: captured where warp can)
 and read back after each chunk (``samples.hand_over``). Each block's trajectories are handed
@@ -17,7 +18,7 @@ on as soon as it is done, so a caller that keeps only a summary of each (``bench
 holds one block at a time: host memory within ``HOST_BYTES`` at any number of worlds.
 
 ``settings["batch_size"]`` says how many worlds shared the block, ``wall_time`` is the run's
-share of the block's stepping and reading back, ``settings["warmup_s"]`` the kernels' loading
+share of the block's stepping and reading back (by its steps), ``settings["warmup_s"]`` the kernels' loading
 (``kernels.load_kernels``: compiling, the first time on a machine) and ``settings["kernels"]``
 whether they were ``compiled`` or ``cached``; a world whose acceleration passed MAXVAL is
 ``diverged`` with MuJoCo's warning, as in MuJoCo C.

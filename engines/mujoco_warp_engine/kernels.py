@@ -1,8 +1,10 @@
 """MuJoCo Warp's step and the adapter's per-step recording on a device: kernels loaded and timed, steps captured.
 
-    >>> from chatterbench.engines.mujoco_warp_engine.kernels import graphs
-    >>> graphs("cpu") in (True, False)        # warp >= 1.17 captures on the CPU device too
-    True
+    >>> from chatterbench.engines.mujoco_warp_engine.kernels import KernelLoad, STEPS_PER_GRAPH
+    >>> KernelLoad("cuda", 84.2, True, "~/.cache/warp/1.19.0").describe()    # what a command says of a compile
+    'MuJoCo Warp compiled its kernels for device cuda in 84.2 s (cache: ~/.cache/warp/1.19.0)'
+    >>> STEPS_PER_GRAPH                       # steps captured in one graph, replayed with one launch
+    16
 
 ``load_kernels`` loads every kernel a model's step needs (warp compiles them the first time on
 a machine and caches them under ``warp.config.kernel_cache_dir``), timed: a ``KernelLoad``
