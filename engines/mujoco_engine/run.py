@@ -87,8 +87,10 @@ def roll_batch(engine: EngineAdapter, jobs: Sequence[tuple[Scene, Any]]) -> list
     may differ in anything rollout takes per model: restitution, masses, gap, initial
     state and time, forcing, w0 dt, solver options, integrator) go through ``_roll`` as one
     group, a chunk of each in turn (so that at most a chunk of each is in memory); the others
-    run alone. Each trajectory is the one ``run`` gives, bit for bit (every run has its own
-    MjData); its ``wall_time`` is its share of its group's stepping time (group wall / group
+    run alone. Runs that differ only in start, length and contact law share one compiled model
+    (``compiled.shared_model``: one compile for a batch of strikes). Each trajectory is the one
+    ``run`` gives, bit for bit (its full physics state, warm start and warnings are its own at
+    every call: ``_roll``); its ``wall_time`` is its share of its group's stepping time (group wall / group
     size) and ``settings["batch_size"]`` says how many shared it. A group in which MuJoCo
     warned or a state blew up is rerun one run at a time, so that a diverged run is
     classified alone; a group of one already is that run. Raises SettingsError, like ``run``,
