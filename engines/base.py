@@ -54,7 +54,7 @@ import functools
 import math
 import time
 from importlib.metadata import version as package_version
-from typing import Any, ClassVar, Mapping, Sequence
+from typing import Any, ClassVar, Iterator, Mapping, Sequence
 
 import numpy as np
 
@@ -374,7 +374,7 @@ class EngineAdapter:
             raise SettingsError(f"engine {self.name!r} cannot move a prescribed body 1 (its adapter writes no drive); "
                                 "give body 1 a finite mass or run another engine")
         self.validate(scene, s)
-        record = {**dataclasses.asdict(s), **self.record(scene, s)}
+        record = {**settings_fields(s), **self.record(scene, s)}
         return Recording(self.name, scene, s, record, compact_above, self.contact_scales(scene, s))
 
     def run(self, scene: Scene, settings: Any = None, compact_above: float | None = None) -> Trajectory:
@@ -415,6 +415,19 @@ class EngineAdapter:
     def run_batch(self, jobs: Sequence[tuple[Scene, Any]]) -> list[Trajectory]:
         """Run many (scene, settings) pairs; one trajectory per pair, in order (one by one unless the engine batches)."""
         return [self.run(scene, settings) for scene, settings in jobs]
+
+    def iter_batch(self, jobs: Sequence[tuple[Scene, Any]]) -> Iterator[tuple[int, Trajectory]]:
+        """``batch``'s (index in ``jobs``, trajectory) as they are done: an engine that runs a batch in parts (MuJoCo
+        Warp: blocks within its host memory) yields each part when done. The base: ``batch`` at once."""
+        yield from enumerate(self.batch(jobs))
+
+    def forks(self, settings: Any) -> bool:
+        """Whether a run at ``settings`` may be made in a fork of a process that ran the engine (a CUDA one: no)."""
+        return True
+
+    def unit_runs(self, settings: Any) -> int | None:
+        """Runs a sweep hands the engine at once (MuJoCo Warp on a GPU: thousands); None: the sweep's own choice."""
+        return None
 
     def batch(self, jobs: Sequence[tuple[Scene, Any]]) -> list[Trajectory]:
         """``run_batch``, or one isolated run after another for an ``isolated`` adapter (whose own batch would run in
@@ -462,6 +475,17 @@ class EngineAdapter:
     def version(self) -> str:
         """The engine package's version."""
         return version_of(self.package)
+
+
+_fields_kept = functools.lru_cache(maxsize=256)(dataclasses.asdict)  # a batch's runs share a few settings objects
+
+
+def settings_fields(settings: Any) -> dict[str, Any]:
+    """``dataclasses.asdict(settings)``, a new dict each call, made once per (hashable) settings value."""
+    try:
+        return dict(_fields_kept(settings))
+    except TypeError:  # unhashable settings (a list in a field): made each time
+        return dataclasses.asdict(settings)
 
 
 def _first_line(engine: str, outcome: Outcome) -> str:

@@ -78,20 +78,36 @@ def _world_counts(text: str) -> tuple[int, ...]:
     return tuple(_world_count(w) for w in text.split(",") if w.strip())
 
 
-_world_count = integer_type(1, 65_536)
+_world_count = integer_type(1, 262_144)  # the issue's largest measured batch; blocks keep any within the host's memory
 
 
-def _print_warp(worlds: tuple[int, ...]) -> None:
-    """MuJoCo Warp's world-steps per second on the device it finds, per number of worlds (``bench_warp``)."""
+def _warp_stage() -> str:
+    """The progress stage of MuJoCo Warp's benchmark, naming the device it runs on."""
+    from chatterbench.engines.mujoco_warp_engine.worlds import device_name
+
+    return f"mujoco_warp on device {device_name('auto')}"
+
+
+def _print_warp(worlds: tuple[int, ...], bar: Progress | None = None) -> None:
+    """MuJoCo Warp's world-steps per second on the device it finds, per number of worlds, beside MuJoCo C's
+    (``bench_warp``): the table, then the kernels' warm-up apart."""
     reason = unavailable_reason("mujoco_warp")
     if reason:
         print(f"mujoco_warp world-steps per second: not measured: {reason}")
         return
     from chatterbench.comparisons.studies.bench import bench_warp
+    from chatterbench.engines.mujoco_warp_engine.worlds import device_name
 
+    device = device_name("auto")
+    if bar is not None:
+        bar.stage(_warp_stage())
     figures = bench_warp(worlds=worlds)
-    print_table(figures, title=f"mujoco_warp world-steps per second on device {figures['device'].iloc[0]} "
-                               f"({figures['precision'].iloc[0]}), feigin-pair, dt = 1e-3, against MuJoCo C (1 thread):")
+    shown = figures.drop(columns=["device", "precision", "warmup_s", "kernels"])
+    print_table(shown, title=f"mujoco_warp world-steps per second on device {device} ({figures['precision'].iloc[0]}), "
+                             "feigin-pair, dt = 1e-3: the adapter (every sample recorded) against its bare step loop "
+                             "(Python launches; captured graph) and MuJoCo C's bare rollout (1 thread; threads):")
+    print(f"mujoco_warp kernels on {device}: {figures['kernels'].iloc[0] or 'loaded'} in {figures['warmup_s'].iloc[0]:.2f} s "
+          "before the first run (warm-up: not in any rate above; cached by warp under ~/.cache/warp)")
 
 
 # each option: the benchmarks it applies to and its default; given to another benchmark it is refused, not ignored
@@ -158,7 +174,7 @@ def _run_bench(args: argparse.Namespace, bar: Progress):
         figures = bench_help(args.repeats, bar)
         print_table(figures.round(3), title="seconds each --help takes in a fresh process (best and median of --repeats):")
         return figures
-    first = {None: "overhead", "overhead": "overhead", "refine": "refine", "warp": "mujoco_warp"}[args.only]
+    first = {None: "overhead", "overhead": "overhead", "refine": "refine"}.get(args.only) or _warp_stage()
     bar.stage(first if args.what == "sweep" else "timing")
     if args.what == "reference":
         figures = bench_reference(periods=args.periods, repeats=args.repeats)
@@ -178,9 +194,7 @@ def _run_bench(args: argparse.Namespace, bar: Progress):
             print_table(per_engine, title="fine cells per engine whose verdict the adaptive map gets right:")
             figures.update({f"refine_{k}": v for k, v in refined.items()})
         if args.only in (None, "warp"):
-            if args.only is None:
-                bar.stage("mujoco_warp")
-            _print_warp(args.worlds)
+            _print_warp(args.worlds, bar if args.only is None else None)
     elif args.what == "tune":
         figures = bench_tune(workers=args.workers, max_runs=args.max_runs)
         print_table(figures, title="tune per case (runs, and wall time from the reference to the answer):")
@@ -210,7 +224,7 @@ def register(sub, formatter) -> None:
                    help="`bench sweep`: only the sweep overhead (--points), or only the adaptive map (--refine), or only "
                         "mujoco_warp's world-steps per second (--worlds; needs the warp extra); None: all")
     p.add_argument("--worlds", type=_world_counts, default=None, metavar="N[,N...]",
-                   help="`bench sweep`: worlds per mujoco_warp batch, each in [1, 65536], timed on the device warp finds "
+                   help="`bench sweep`: worlds per mujoco_warp batch, each in [1, 262144], timed on the device warp finds "
                         "(cuda, else cpu); None: 1,16,256")
     p.add_argument("--strikes", type=integer_type(1, 10**7), default=None,
                    help="strikes for `bench platemap`, in [1, 1e7]; None: 100000")

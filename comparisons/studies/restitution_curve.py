@@ -47,8 +47,9 @@ with any settings:
   in a contact whose relative speed has stayed below ``REST_FRACTION`` of the impact
   speed over the last quarter of the run. A contact still moving at the end is run again
   ``EXTEND`` times longer (``TRIES`` runs at most: 256 ... 16,384 timesteps after the
-  strike); a run that fails or finds no impact keeps its status and a NaN e. The phases of
-  one speed go to the engine as one batch (``run_engine_batch``).
+  strike); a run that fails or finds no impact keeps its status and a NaN e. The strikes of
+  every speed go to the engine as one batch per try (``strike_all``, ``run_engine_batch``: MuJoCo
+  rolls them out on one compiled model).
 
 **The contact is the scene's.** An engine whose contact is made from the scene it runs
 (Drake: stiffness and dissipation from the scene's first impact, when its settings leave
@@ -281,39 +282,62 @@ def wall_rebound(traj: Trajectory, scene: Scene, wall: str, speed: float) -> Reb
     return Rebound(v_minus, math.nan, math.nan, False, "unfinished", t=t_hit)
 
 
+@dataclass(frozen=True)
+class Target:
+    """What strikes aim at: their scene as a function of (timesteps after the strike, aim), the wall, the speed [m/s]."""
+
+    make_scene: Callable[[int, float], Scene]
+    wall: str
+    speed: float
+
+
 def strike(engine: str, settings: Any, make_scene: Callable[[int, float], Scene], wall: str, speed: float,
            phases: Sequence[float] = (0.5,), ends: bool = False) -> list[dict]:
     """Run ``make_scene(after_steps, aim)`` at each aim of ``phases`` and measure its first strike on ``wall``
     (``wall_rebound``), running longer (``EXTEND`` times, ``TRIES`` runs at most) those still in a moving contact
-    at the end; the strikes of one try go to the engine together (``run_engine_batch``: MuJoCo rolls them out as
-    one batch, each bit for bit as alone). ``ends``: two more strikes, aimed so that the engine meets the wall
-    ``EDGE`` of a step after a sample and ``EDGE`` before the next (``aim_ends``).
+    at the end. ``ends``: two more strikes, aimed so that the engine meets the wall ``EDGE`` of a step after a
+    sample and ``EDGE`` before the next (``aim_ends``). ``strike_all`` with one target.
 
     Returns per strike, in order, the curve's measured columns: phase (where in its step the engine met the
     wall [-]), aim (the phase it was started for [-]), v_minus, v_plus (relative velocities in y [m/s]),
     restitution_effective, rebound, status, message.
     """
-    rows = _struck(engine, settings, make_scene, wall, speed, list(phases))
-    return rows + aim_ends(engine, settings, make_scene, wall, speed, rows) if ends else rows
+    return strike_all(engine, settings, [Target(make_scene, wall, speed)], phases, ends)[0]
 
 
-def aim_ends(engine: str, settings: Any, make_scene: Callable[[int, float], Scene], wall: str, speed: float,
-             rows: list[dict]) -> list[dict]:
-    """Strikes at the two ends of a step, where e jumps (the contact starts just after a sample, or just before the
-    next): aimed at phases ``EDGE`` and 1 - ``EDGE`` corrected by how far the engine's own free flight moved the
-    impacts of ``rows`` from their aims (a semi-implicit step drifts from the exact flight by |y''| dt^2 / 2 a step),
-    aimed once more where one misses by more than ``EDGE`` / 2; [] when none of ``rows`` was measured."""
-    shifts = [_wrapped(r["phase"] - r["aim"]) for r in rows if math.isfinite(r["phase"])]
-    if not shifts:
-        return []
-    shift = float(np.median(shifts))
-    targets = [EDGE, 1.0 - EDGE]
-    ends = _struck(engine, settings, make_scene, wall, speed, [(t - shift) % 1.0 for t in targets])
-    for i, (target, row) in enumerate(zip(targets, ends)):
-        miss = _wrapped(row["phase"] - target) if math.isfinite(row["phase"]) else 0.0
-        if abs(miss) > 0.5 * EDGE:
-            ends[i] = _struck(engine, settings, make_scene, wall, speed, [(row["aim"] - miss) % 1.0])[0]
-    return ends
+def strike_all(engine: str, settings: Any, targets: Sequence[Target], phases: Sequence[float] = (0.5,),
+               ends: bool = False) -> list[list[dict]]:
+    """``strike`` for each of ``targets`` (per target its rows, in order), the strikes of all of them handed to the
+    engine together: one batch per try (``run_engine_batch``: MuJoCo rolls them out as one batch on one compiled
+    model, each bit for bit as alone), one for the ends of every target's step and one for their re-aims."""
+    rows = _struck(engine, settings, [(target, list(phases)) for target in targets])
+    if not ends:
+        return rows
+    return [r + e for r, e in zip(rows, aim_ends(engine, settings, targets, rows))]
+
+
+def aim_ends(engine: str, settings: Any, targets: Sequence[Target], rows: Sequence[list[dict]]) -> list[list[dict]]:
+    """Per target, strikes at the two ends of a step, where e jumps (the contact starts just after a sample, or just
+    before the next): aimed at phases ``EDGE`` and 1 - ``EDGE`` corrected by how far the engine's own free flight
+    moved the impacts of its ``rows`` from their aims (a semi-implicit step drifts from the exact flight by
+    |y''| dt^2 / 2 a step), aimed once more where one misses by more than ``EDGE`` / 2; [] for a target none of
+    whose rows was measured."""
+    edges = [EDGE, 1.0 - EDGE]
+    aimed: list[tuple[int, list[float]]] = []
+    for i, target_rows in enumerate(rows):
+        shifts = [_wrapped(r["phase"] - r["aim"]) for r in target_rows if math.isfinite(r["phase"])]
+        if shifts:
+            shift = float(np.median(shifts))
+            aimed.append((i, [(edge - shift) % 1.0 for edge in edges]))
+    out: list[list[dict]] = [[] for _ in targets]
+    for (i, _), ends in zip(aimed, _struck(engine, settings, [(targets[i], aims) for i, aims in aimed])):
+        out[i] = ends
+    again = [(i, j, (row["aim"] - _wrapped(row["phase"] - edge)) % 1.0)
+             for i, ends in enumerate(out) for j, (edge, row) in enumerate(zip(edges, ends))
+             if math.isfinite(row["phase"]) and abs(_wrapped(row["phase"] - edge)) > 0.5 * EDGE]
+    for (i, j, _), (row,) in zip(again, _struck(engine, settings, [(targets[i], [aim]) for i, _, aim in again])):
+        out[i][j] = row
+    return out
 
 
 def _wrapped(x: float) -> float:
@@ -321,36 +345,35 @@ def _wrapped(x: float) -> float:
     return (x + 0.5) % 1.0 - 0.5
 
 
-def _struck(engine: str, settings: Any, make_scene: Callable[[int, float], Scene], wall: str, speed: float,
-            aims: list[float]) -> list[dict]:
-    """One strike per aim (``strike``), the tries of each batched."""
-    n = 1.0 if wall == "lower" else -1.0
-    rows = [{"phase": math.nan, "aim": aim, "v_minus": math.nan, "v_plus": math.nan, "restitution_effective": math.nan,
-             "rebound": False, "status": "unfinished",
-             "message": f"still in a moving contact {AFTER_STEPS * EXTEND**(TRIES - 1)} steps after the strike"}
-            for aim in aims]
-    waiting = list(range(len(aims)))
+def _struck(engine: str, settings: Any, jobs: Sequence[tuple[Target, list[float]]]) -> list[list[dict]]:
+    """Per (target, aims) of ``jobs``, one strike per aim (``strike``); the strikes of all jobs in one batch per try."""
+    rows = [[{"phase": math.nan, "aim": aim, "v_minus": math.nan, "v_plus": math.nan, "restitution_effective": math.nan,
+              "rebound": False, "status": "unfinished",
+              "message": f"still in a moving contact {AFTER_STEPS * EXTEND**(TRIES - 1)} steps after the strike"}
+             for aim in aims] for _, aims in jobs]
+    waiting = [(i, j) for i, (_, aims) in enumerate(jobs) for j in range(len(aims))]
     for attempt in range(TRIES):
         if not waiting:
             break
-        starts = [make_scene(AFTER_STEPS * EXTEND**attempt, aims[i]) for i in waiting]
+        starts = [jobs[i][0].make_scene(AFTER_STEPS * EXTEND**attempt, jobs[i][1][j]) for i, j in waiting]
         runs = run_engine_batch(engine, [(start, settings) for start in starts])
         still = []
-        for i, start, traj in zip(waiting, starts, runs):
-            row = rows[i]
+        for (i, j), start, traj in zip(waiting, starts, runs):
+            target, row = jobs[i][0], rows[i][j]
             if traj.status != "ok" or len(traj.t) < 2:
                 row.update(status=traj.status, message=traj.message)
                 continue
-            got = wall_rebound(traj, start, wall, speed)
+            got = wall_rebound(traj, start, target.wall, target.speed)
             if math.isfinite(got.t):
                 row["phase"] = ((got.t - start.initial.t) / float(settings.dt)) % 1.0  # samples at t0 + k dt
+            n = 1.0 if target.wall == "lower" else -1.0
             if got.status == "no impact":
-                row.update(status="no impact", message=f"no impact on the {wall} wall in {start.duration:.3g} s")
+                row.update(status="no impact", message=f"no impact on the {target.wall} wall in {start.duration:.3g} s")
             elif got.status == "ok":
                 row.update(v_minus=n * got.v_minus, v_plus=n * got.v_plus, restitution_effective=got.restitution_effective,
                            rebound=got.rebound, status="ok", message="")
             else:
-                still.append(i)
+                still.append((i, j))
         waiting = still
     return rows
 
@@ -389,9 +412,9 @@ def restitution_curve(engine: str, settings: Any, restitution: float, speeds: Se
     at = strike_phases(phases)
     scene = scene if scene is not None else load_scene("bouncing-ball")
     rows = []
-    for v in speeds:
-        struck = strike(engine, settings, lambda steps, phase, v=v: impact_scene(scene, restitution, v, settings.dt, gravity,
-                                                                                 steps, phase), "lower", v, at, ends=True)
+    targets = [Target(lambda steps, phase, v=v: impact_scene(scene, restitution, v, settings.dt, gravity, steps, phase),
+                      "lower", v) for v in speeds]
+    for v, struck in zip(speeds, strike_all(engine, settings, targets, at, ends=True)):
         for row in struck:
             rows.append({"engine": engine, "forces": "gravity" if gravity > 0 else "none", "impact": math.nan,
                          "t": math.nan, "wall": "lower", "speed": v, "restitution": restitution,

@@ -23,9 +23,10 @@ different force at each impact. ``scene_restitution`` measures e there:
   steps and a fraction of a step, the strike that fraction of a step after a sample; at most
   ``APPROACH_SHARE`` of the flight before it, so that the body is on its way to the wall), so
   the engine strikes at the reference's speed, time and forces, with none of the run's drift;
-- **at every place in a step** (``restitution_curve.strike``: ``STRIKES`` strikes per impact,
+- **at every place in a step** (``restitution_curve.strike_all``: ``STRIKES`` strikes per impact,
   aimed at (i + 1/2) / ``PHASES`` of a step after a sample and at the step's two ends, where e
-  jumps): a run's impact falls anywhere in a step, and where it falls moves e;
+  jumps): a run's impact falls anywhere in a step, and where it falls moves e; the strikes of
+  every impact go to the engine together (one batch per try: MuJoCo's share one compiled model);
 - **at the impacts the judge resolves** (``struck_impacts``): the reference impacts whose
   flight after them lasts ``resolved_steps`` timesteps (``pipeline/impacts.py``: the ones
   the judge pairs, on every wall and visit), ``MOST`` at most, spread over their speeds
@@ -60,8 +61,8 @@ from chatterbench.reference.scene import Scene, scene_from_dict
 from ..pipeline.extract import free_relative_acceleration
 from ..pipeline.impacts import restitution_error
 from ..pipeline.solution import ReferenceSolution
-from .restitution_curve import (CURVE_COLUMNS, PHASES, approach_time, calibration_speed, restitution_band,
-                                sampling_uncertainty, strike, strike_phases)
+from .restitution_curve import (CURVE_COLUMNS, PHASES, Target, approach_time, calibration_speed, restitution_band,
+                                sampling_uncertainty, strike_all, strike_phases)
 
 APPROACH_SHARE = 0.4  # [-] of the flight before an impact, at most: a restart after its apex, moving towards the wall
 MOST = 12  # [-] strikes per scene at most (each one short engine run), spread over the resolved impacts' speeds
@@ -141,10 +142,10 @@ def scene_restitution(engine: str, settings: Any, solution: ReferenceSolution, r
     """
     scene, dt = solution.scene, float(settings.dt)
     at = strike_phases(phases)
-    rows = []
-    for imp in struck_impacts(solution, dt, resolved_steps, most).itertuples():
-        if sampling_uncertainty(scene.restitution, imp.pressing, dt, imp.speed) > most_uncertain:
-            continue
+    impacts = [imp for imp in struck_impacts(solution, dt, resolved_steps, most).itertuples()
+               if sampling_uncertainty(scene.restitution, imp.pressing, dt, imp.speed) <= most_uncertain]
+    targets = []
+    for imp in impacts:
         name = f"{scene.name}-impact-{imp.impact}"
         starts = strike_starts(solution, imp.t, imp.t_before, dt, at, name)  # the reference sampled once for these
 
@@ -153,7 +154,9 @@ def scene_restitution(engine: str, settings: Any, solution: ReferenceSolution, r
                 starts.update(strike_starts(solution, imp.t, imp.t_before, dt, [phase], name))
             return starts[phase](steps)
 
-        struck = strike(engine, settings, make, imp.wall, imp.speed, at, ends=True)
+        targets.append(Target(make, imp.wall, imp.speed))
+    rows = []
+    for imp, struck in zip(impacts, strike_all(engine, settings, targets, at, ends=True)):  # every impact in one batch
         for row in struck:
             rows.append({"engine": engine, "forces": "scene", "impact": int(imp.impact), "t": float(imp.t),
                          "wall": imp.wall, "speed": float(imp.speed), "restitution": scene.restitution,

@@ -58,8 +58,8 @@ from __future__ import annotations
 
 from .export import export_mjcf
 from .model import build, build_spec, controls
-from .run import MujocoEngine
+from .run import MujocoEngine, rollout_steps_per_s
 from .settings import GAP_MODELS, INTEGRATORS, SOLVERS, MujocoSettings, stability_limit
 
 __all__ = ["GAP_MODELS", "INTEGRATORS", "SOLVERS", "MujocoEngine", "MujocoSettings", "build", "build_spec", "controls",
-           "export_mjcf", "stability_limit"]
+           "export_mjcf", "rollout_steps_per_s", "stability_limit"]

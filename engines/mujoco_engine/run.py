@@ -25,6 +25,7 @@ from __future__ import annotations
 import time
 from typing import Any, Sequence
 
+import mujoco
 import numpy as np
 from mujoco import rollout as mj_rollout
 
@@ -35,20 +36,23 @@ from ..base import Diverged, EngineAdapter, Recording, n_steps
 from ..mujoco_common import Prepared, prepare, quiet_log, rollout_controls, take, warned, warning_note
 from ..trajectory import Trajectory
 from ..window import CHUNK
-from .model import build_spec
+from .compiled import structure
 from .settings import MujocoSettings, stability_limit
 
 
 def _roll(ps: list[Prepared], runs: list[Recording]) -> tuple[list[set[str]], float]:
     """Roll ``ps`` out, ``CHUNK`` steps of each in turn, each from where its last chunk ended, into ``runs``.
 
-    Each run has its own MjData: a chunk starts from the full physics state the last one ended
-    in and its solver warm start (``initial_warmstart``), so the samples are bit for bit those of
-    one call, and MuJoCo's warnings are each run's own. A run that goes bad stops there.
-    Returns each run's MuJoCo warnings and the stepping wall time [s].
+    A chunk starts from the full physics state the last one ended in and its solver warm start
+    (``initial_warmstart``; zero at a run's start, as a fresh MjData has it), so the samples are
+    bit for bit those of one call. The runs share one MjData (rollout sets the whole physics
+    state and the warm start at each call); its warnings are cleared before each call, so each
+    run's are its own. A run that goes bad stops there. Returns each run's MuJoCo warnings and the
+    stepping wall time [s].
     """
+    data = mujoco.MjData(ps[0].structure.model)  # same sizes for all (``_signature``)
     states = [p.initial_state for p in ps]
-    warm: list[np.ndarray | None] = [None] * len(ps)  # None: MjData's own (zero) warm start, as one call starts
+    warm = [np.zeros((1, p.structure.model.nv)) for p in ps]
     names: list[set[str]] = [set() for _ in ps]
     nstep, wall = ps[0].nstep, 0.0
     for k0 in range(0, nstep, CHUNK):
@@ -57,13 +61,14 @@ def _roll(ps: list[Prepared], runs: list[Recording]) -> tuple[list[set[str]], fl
             if r.stopped:
                 continue
             control = rollout_controls(p, k0, k1)
+            data.warning.number[:] = 0
             start = time.perf_counter()
-            state, sensordata = mj_rollout.rollout(p.model, p.data, states[b], control, control_spec=p.control_spec,
+            state, sensordata = mj_rollout.rollout(p.model, data, states[b], control, control_spec=p.control_spec,
                                                    nstep=k1 - k0, initial_warmstart=warm[b])
             wall += time.perf_counter() - start
-            names[b] |= warned(p.data)
+            names[b] |= warned(data)
             take(r, p, k0, states[b][0], state[0], sensordata[0])
-            states[b], warm[b] = state[:, -1].copy(), p.data.qacc_warmstart[None].copy()
+            states[b], warm[b] = state[:, -1].copy(), data.qacc_warmstart[None].copy()
         if all(r.stopped for r in runs):
             break
     return names, wall
@@ -71,7 +76,8 @@ def _roll(ps: list[Prepared], runs: list[Recording]) -> tuple[list[set[str]], fl
 
 def _signature(p: Prepared) -> tuple:
     """What must agree for runs to share one ``rollout`` call: sizes, steps, control layout."""
-    return (p.model.signature, p.initial_state.shape[1], p.nstep, p.control_spec, p.model.nu, p.model.nmocap)
+    m = p.structure.model
+    return (m.signature, p.initial_state.shape[1], p.nstep, p.control_spec, m.nu, m.nmocap)
 
 
 def roll_batch(engine: EngineAdapter, jobs: Sequence[tuple[Scene, Any]]) -> list[Trajectory]:
@@ -81,8 +87,10 @@ def roll_batch(engine: EngineAdapter, jobs: Sequence[tuple[Scene, Any]]) -> list
     may differ in anything rollout takes per model: restitution, masses, gap, initial
     state and time, forcing, w0 dt, solver options, integrator) go through ``_roll`` as one
     group, a chunk of each in turn (so that at most a chunk of each is in memory); the others
-    run alone. Each trajectory is the one ``run`` gives, bit for bit (every run has its own
-    MjData); its ``wall_time`` is its share of its group's stepping time (group wall / group
+    run alone. Runs that differ only in start, length and contact law share one compiled model
+    (``compiled.shared_model``: one compile for a batch of strikes). Each trajectory is the one
+    ``run`` gives, bit for bit (its full physics state, warm start and warnings are its own at
+    every call: ``_roll``); its ``wall_time`` is its share of its group's stepping time (group wall / group
     size) and ``settings["batch_size"]`` says how many shared it. A group in which MuJoCo
     warned or a state blew up is rerun one run at a time, so that a diverged run is
     classified alone; a group of one already is that run. Raises SettingsError, like ``run``,
@@ -152,13 +160,15 @@ class MujocoEngine(EngineAdapter):
         """Seconds of one bare ``mujoco.rollout`` call over the run, its controls made beforehand."""
         p = prepare(scene, settings, n_steps(scene.duration, settings.dt))
         control = rollout_controls(p, 0, p.nstep)
+        data = mujoco.MjData(p.model)
         start = time.perf_counter()
-        mj_rollout.rollout(p.model, p.data, p.initial_state, control, control_spec=p.control_spec, nstep=p.nstep)
+        mj_rollout.rollout(p.model, data, p.initial_state, control, control_spec=p.control_spec, nstep=p.nstep)
         return time.perf_counter() - start
 
     def validate(self, scene: Scene, settings: MujocoSettings) -> None:
-        """Settings the scene cannot run with are refused by the MjSpec build (``model.build_spec``)."""
-        build_spec(scene, settings)
+        """Settings the scene cannot run with are refused by the MjSpec build (``model.build_spec``), compiled once
+        for every run that shares its structure (``compiled.structure``)."""
+        structure(scene, settings)
 
     def record(self, scene: Scene, settings: MujocoSettings) -> dict[str, Any]:
         """w0, zeta and the solref / solimp they make, MuJoCo's version (``mujoco_common.record``)."""
@@ -198,3 +208,29 @@ class MujocoEngine(EngineAdapter):
         w0_dts = [base.w0_dt] + [w for w in (0.1, 0.3) if w < stiffest] + [round(stiffest, 3)]
         return {"dt": (1e-3, 3e-4, 1e-4, 3e-5, 1e-5), "mujoco.w0_dt": tuple(w0_dts),
                 "mujoco.integrator": (base.integrator, "implicitfast"), "mujoco.impedance": (base.impedance, 0.9, 0.9999)}
+
+
+def rollout_steps_per_s(jobs: Sequence[tuple[Scene, MujocoSettings]], threads: int = 1, repeats: int = 1) -> dict[str, Any]:
+    """Steps per second of bare ``mujoco.rollout`` over the runs ``jobs`` in one call: each run's compiled model,
+    initial state and controls made beforehand (``mujoco_common.prepare``), nothing recorded, on ``threads`` threads
+    (a ``mujoco.rollout.Rollout`` pool; 1: the calling thread), best of ``repeats``. The runs must share a size
+    signature and step count (ValueError). Returns ``runs``, ``steps`` (per run), ``threads``, ``seconds``,
+    ``steps_per_s`` (all runs' steps per second)."""
+    ps = [prepare(scene, s, n_steps(scene.duration, s.dt)) for scene, s in jobs]
+    if len({_signature(p) for p in ps}) != 1:
+        raise ValueError("rollout_steps_per_s: the runs must share sizes, steps and controls")
+    p0 = ps[0]
+    state0 = np.concatenate([p.initial_state for p in ps])
+    controls = [rollout_controls(p, 0, p.nstep) for p in ps]
+    control = np.concatenate(controls) if controls[0] is not None else None
+    warm = np.zeros((len(ps), p0.structure.model.nv))
+    datas = [mujoco.MjData(p0.model) for _ in range(max(1, threads))]
+    best = float("inf")
+    with mj_rollout.Rollout(nthread=threads if threads > 1 else 0) as pool:
+        for _ in range(repeats):
+            start = time.perf_counter()
+            pool.rollout([p.model for p in ps], datas if threads > 1 else datas[0], state0, control,
+                         control_spec=p0.control_spec, nstep=p0.nstep, initial_warmstart=warm)
+            best = min(best, time.perf_counter() - start)
+    return {"runs": len(ps), "steps": p0.nstep, "threads": threads, "seconds": best,
+            "steps_per_s": len(ps) * p0.nstep / best}

@@ -14,15 +14,20 @@ the same ``MjSpec`` with the same contact law, forces and controls, so that the 
 differ only in what executes the model: MuJoCo C in float64, MuJoCo Warp in float32.
 
 Modules: ``settings`` (``MujocoWarpSettings``: MuJoCo's fields plus ``precision`` and
-``device``), ``worlds`` (many MuJoCo models as one MuJoCo Warp model of many worlds),
-``run`` (the adapter: whole runs as worlds stepped together, each world's samples handed to its
-run as MuJoCo's are handed over).
+``device``), ``worlds`` (many runs as one MuJoCo Warp model of many worlds: one compiled
+structure, per-world timestep and solref set on the device), ``kernels`` (the step and the
+per-step recording: kernels loaded and timed, steps captured as a graph and replayed),
+``samples`` (controls out and samples back, per chunk, for all worlds at once), ``batch``
+(compatible runs grouped, in blocks within the host's memory), ``run`` (the adapter).
 
-What to expect: the first run on a machine compiles MuJoCo Warp's kernels (about a minute on
-the CPU device; warp caches them under ``~/.cache/warp``). On the CPU device a step of any
-number of worlds up to a few hundred costs about the same (1.5 to 3 ms on the 2-core machine
-this was written on: each of its ~90 kernel launches costs Python time), so the engine is
-slow for one run and pays off in batches (``run_batch``: a sweep unit's compatible points).
+What to expect: the first run on a machine compiles MuJoCo Warp's kernels for its device
+(about a minute on the CPU device, minutes on a GPU; warp caches them under
+``~/.cache/warp``). With the steps captured as a graph (CUDA, and the CPU device from warp
+1.17), one world steps at about 10,000 steps/s through the adapter on the CPU device of the
+2-core machine this was written on, and a batch of 1,024 worlds at about 230,000
+world-steps/s (``chatterbench bench sweep --only warp``); on a GPU a step of thousands of
+worlds costs about what one costs, so the engine pays off in batches (``run_batch``: a sweep
+unit's compatible points, up to 4,096 worlds on cuda).
 """
 
 from __future__ import annotations

@@ -128,3 +128,27 @@ def test_guide_html_shows_the_restitution_figure_at_full_width():
     # an HTML reader's view of it: the R(v) image is not in a narrow flex column, it spans the page
     img = re.search(r'<img alt="restitution_curve"([^>]*)>', page).group(1)
     assert 'style="width: 100%"' in img and "flex: 1 1 45%" not in page
+
+
+def test_the_strikes_of_every_impact_go_to_the_engine_together_with_the_same_rows(monkeypatch):
+    # before: one batch per impact and try, and one for each impact's step ends (26 for the ball at dt = 3e-4, each
+    # compiling MuJoCo's model anew); now one per try for all impacts, one for every impact's ends, one for re-aims
+    from chatterbench.comparisons.studies import restitution_curve as rc
+    from chatterbench.comparisons.studies.restitution_curve import Target, strike, strike_all
+    from chatterbench.comparisons.studies.scene_restitution import strike_starts, struck_impacts
+
+    batches = []
+    real = rc.run_engine_batch
+    monkeypatch.setattr(rc, "run_engine_batch", lambda engine, jobs: batches.append(len(jobs)) or real(engine, jobs))
+    settings = make_settings("mujoco", 3e-4, ["mujoco.w0_dt=0.1"])
+    impacts = struck_impacts(BALL, 3e-4, 10.0, most=3)
+    targets = [Target(lambda steps, phase, imp=imp: strike_starts(BALL, imp.t, imp.t_before, 3e-4, [phase])[phase](steps),
+                      imp.wall, imp.speed) for imp in impacts.itertuples()]
+    together = strike_all("mujoco", settings, targets, [0.25, 0.75], ends=True)
+    n_together = len(batches)
+    assert batches[0] == 2 * len(targets)  # the first try: every impact's strikes at once
+    one_by_one = [strike("mujoco", settings, t.make_scene, t.wall, t.speed, [0.25, 0.75], ends=True) for t in targets]
+    assert len(batches) - n_together >= 2 * len(targets) > n_together  # alone: at least two batches per impact
+    assert [[r["restitution_effective"] for r in rows] for rows in together] == \
+        [[r["restitution_effective"] for r in rows] for rows in one_by_one]  # bit for bit: MuJoCo's runs are
+    assert pd.DataFrame([r for rows in together for r in rows]).equals(pd.DataFrame([r for rows in one_by_one for r in rows]))
