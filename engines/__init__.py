@@ -1,4 +1,4 @@
-"""Engine adapters: every engine of the table (built in: MuJoCo, PyBullet, Drake, MuJoCo Warp; plugins too) runs the scenes.
+"""Engine adapters: every engine of the table (seven built in, and plugins) runs the scenes behind one contract.
 
     >>> from chatterbench.engines import make_settings, run_engine
     >>> from chatterbench.reference.scene import load_scene
@@ -8,11 +8,15 @@
 
 Each adapter builds a minimal 1-D model (slide/prismatic joints, no friction, no rotation)
 from a ``Scene`` and returns a ``Trajectory``, behind one contract (``base.EngineAdapter``):
-the base owns the run (settings record, failure classes, divergence, recording, benchmark),
-the adapter builds its world and steps it. The engines are one table (``registry.ENGINES``).
-To add an engine: a package with a frozen settings dataclass (a ``dt`` field) and an
-``EngineAdapter`` subclass, declared in the entry-point group ``chatterbench.engines`` of its
-own ``pyproject.toml``; ``examples/engine_plugin`` is such a package, complete.
+the base owns the run (forces, settings record, failure classes, divergence, recording,
+benchmark), the adapter builds its world and steps it (``build``, ``step``), or runs a whole
+run at once (``simulate``). The engines are one table (``registry.ENGINES``): seven built in
+(``registry.BUILT_IN``: MuJoCo and PyBullet always; Drake, MuJoCo Warp, PhysX and DART with
+their extras; Siconos with Debian's ``python3-siconos``) and any a plugin adds. To add an
+engine: a package with a frozen settings dataclass (a checked ``dt``) and an ``EngineAdapter``
+subclass, declared in the entry-point group ``chatterbench.engines`` of its own
+``pyproject.toml``; ``examples/engine_plugin`` is such a package, complete, and the README's
+"Write an engine plugin" says what it uses.
 """
 
 from .base import BenchmarkResult, EngineAdapter, Recording, Status, n_steps, sample_times

@@ -10,52 +10,68 @@
     (True, 'the process running the engine died (a signal, or out of memory)')
 
 ``EngineAdapter.run`` is every engine's run, the way scipy's ``OdeSolver.step()`` is every
-solver's step: it checks the settings (``SettingsError`` before the engine starts), makes
-the settings record, opens a ``Recording`` (samples through ``window.Recorder``, so every
-long run comes back compact), calls the adapter's ``simulate`` and classifies what
-happened. An adapter writes only its engine's work: ``simulate`` builds its world and steps
-it, handing the samples to ``Recording.add`` chunk by chunk (``window.CHUNK`` is a good size)
-and stopping when ``Recording.stopped``; and it declares its facts (``compliant``,
-``precision``, ``cost_lever``, ``tuning_space``, ``contact_scales``). The base then keeps
-these promises for every engine, and ``tests/engines/test_contract.py`` checks them:
+solver's step and a solver writes only ``_step_impl``: an adapter writes
+
+- ``build(scene, settings) -> world``: its engine's model of the scene at ``scene.initial``;
+- ``step(world, forces) -> (state, wall_forces)``: one step of ``settings.dt`` under the forces
+  [N] on body 1 and body 2, the state (x1, v1, x2, v2) after it and what each wall pushed
+  body 2 with during it; and ``drive(world, x1, v1, x1_end)`` when it can move a prescribed
+  body 1;
+
+and the base does the rest (``stepping.py``): it checks the settings (``SettingsError`` before
+the engine starts), makes the settings record, applies the scene's forces every step (its
+force model as an affine map, ``force_plan``), records the samples chunk by chunk (through
+``window.Recorder``, so every long run comes back compact), times the steps, classifies
+what happened, and steps the same world with no recording for the benchmark's bare loop. An
+engine that runs a whole run at once (MuJoCo's rollout, Drake's integrator, a child process)
+writes ``simulate(run)`` instead, handing its samples to ``Recording.add``. Either way the
+adapter declares its facts (``compliant``, ``precision``, ``cost_lever``, ``tuning_space``,
+``contact_scales``), checked when it is registered (``contract.py``). The base keeps these
+promises for every engine, and ``tests/engines/test_contract.py`` checks them:
 
 - ``run`` samples the scene at ``sample_times(scene, settings.dt)``: sample 0 is the initial
   state, sample k the state after k steps, the last one at or before the scene's end;
 - a user mistake in the settings is refused (``SettingsError``) before the engine starts;
   anything that goes wrong inside the engine is a ``status`` (``Status``), never an
-  exception: any exception of ``simulate`` is ``error`` (``Diverged``: ``diverged``; ``Crashed``: ``crashed``), a
-  sample with a non-finite or huge (> ``MAXVAL``) state or a non-finite force ends the run
-  as ``diverged`` there, a run that stops short is ``error``; the samples before are kept;
+  exception: any exception of the engine is ``error`` (``Diverged``: ``diverged``; ``Crashed``:
+  ``crashed``; ``TimedOut``: ``timeout``), a sample with a non-finite or huge (> ``MAXVAL``)
+  state or a non-finite force ends the run as ``diverged`` there, a run that stops short is
+  ``error``; the samples before are kept;
 - body 1 of infinite mass is filled in by the base (its prescribed motion, or at rest);
 - the trajectory carries the contact law's own scales (``Trajectory.contact_time``,
   ``contact_frequency``) for reports; the judge never reads them;
-- ``benchmark`` has one signature and one result (``BenchmarkResult``) for every engine.
+- ``benchmark`` has one signature and one result (``BenchmarkResult``) for every engine;
+- an adapter marked ``isolated`` (every plugin, ``plugins.py``) runs, batches and benchmarks in
+  a forked child under the command's run limit (``isolate.run_limit``): its crash, hang or
+  ``os._exit`` is that run's ``crashed`` or ``timeout``, never the command's.
 """
 
 from __future__ import annotations
 
-import abc
 import dataclasses
 import enum
 import functools
 import math
 import time
 from importlib.metadata import version as package_version
-from typing import Any, ClassVar, Mapping, Sequence
+from typing import Any, ClassVar, Iterator, Mapping, Sequence
 
 import numpy as np
 
 from chatterbench.reference.errors import check_integer
-from chatterbench.reference.forces import ForceModel
 from chatterbench.reference.scene import Scene
 
 from .faults import inject_planned
+from .isolate import Outcome, call_isolated, inside
 from .settings import SettingsError
+from .stepping import bare_seconds as stepping_bare_seconds
+from .stepping import run_steps
 from .trajectory import Trajectory
 from .window import Recorder
 
 _ROUNDING = 1e-12  # [-] relative slack of duration / dt, so that 2.0 / 1e-4 gives 20000 steps
 MAXVAL = 1e10  # [m, m/s] a larger |position| or |velocity| is a blow-up (MuJoCo's mjMAXVAL, for every engine)
+GRID_SLACK = 1e-3  # [steps] how far a sample's time may be from t0 + k dt (rounding, an accumulated t += dt)
 
 
 class Status(enum.StrEnum):
@@ -80,7 +96,7 @@ STATUS_MESSAGE = {
     Status.OK: "the run reached the end of the scene",
     Status.ERROR: "the engine raised, refused the model or stopped short; the samples before are kept",
     Status.DIVERGED: "a state or force became non-finite or huge; the samples before it are kept",
-    Status.TIMEOUT: "the run passed its wall-clock limit and was stopped (isolated runs only)",
+    Status.TIMEOUT: "the run passed its wall-clock limit and was stopped (an isolated run, or the engine's own child)",
     Status.CRASHED: "the process running the engine died (a signal, or out of memory)",
 }
 
@@ -94,6 +110,11 @@ class Crashed(RuntimeError):
     by a signal, as Siconos's): the run is ``crashed``, as an isolated run whose own process dies."""
 
 
+class TimedOut(RuntimeError):
+    """Raised by an adapter's ``simulate`` when it stopped its engine at the run's time limit (``isolate.run_limit``:
+    a child process of the adapter killed, as Siconos's): the run is ``timeout``, as an isolated run past its limit."""
+
+
 def n_steps(duration: float, dt: float) -> int:
     """Steps of ``dt`` [s] covering ``duration`` [s]: the largest n with n dt <= duration (to rounding), >= 1."""
     return max(1, int(math.floor(duration / dt * (1.0 + _ROUNDING))))
@@ -105,29 +126,6 @@ _count_steps = n_steps  # ``EngineAdapter.benchmark``'s argument has the name
 def sample_times(scene: Scene, dt: float) -> np.ndarray:
     """The sample times of a run [s], t0 + k dt for k = 0..n_steps(duration, dt); shape (n + 1,)."""
     return scene.initial.t + dt * np.arange(n_steps(scene.duration, dt) + 1)
-
-
-def force_plan(scene: Scene, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The scene's forces at the step starts ``t`` [s] as the affine map an engine loop applies each step
-    (``ForceModel.body_forces``): the time parts on body 1 and body 2 [N] (shape of ``t``) and the (2 x 4) gain
-    on (x1, v1, x2, v2); none on an infinite body 1 (its prescription, or rest, moves it)."""
-    time1, time2, gain = ForceModel.from_scene(scene).body_forces(t)
-    time1 = np.broadcast_to(time1, t.shape).astype(float)
-    time2 = np.broadcast_to(time2, t.shape).astype(float)
-    if scene.body1_infinite:
-        time1[:] = 0.0
-        gain[0, :] = 0.0
-    return time1, time2, gain
-
-
-def replayed_forces(scene: Scene, traj: Trajectory) -> tuple[np.ndarray, np.ndarray]:
-    """The forces [N] on body 1 and body 2 at each sample of the run ``traj`` (``force_plan`` at its states), summed
-    as the loops that apply them do, time part + (gain . state): a bare loop replays them bit for bit."""
-    time1, time2, g = force_plan(scene, traj.t)
-    s = (traj.x1, traj.v1, traj.x2, traj.v2)
-    f1, f2 = (part + (g[i, 0] * s[0] + g[i, 1] * s[1] + g[i, 2] * s[2] + g[i, 3] * s[3])
-              for i, part in enumerate((time1, time2)))
-    return f1, f2
 
 
 def failed_trajectory(engine: str, scene: Scene, status: str, message: str, settings: dict[str, Any] | None = None,
@@ -171,9 +169,11 @@ class Recording:
         """The next samples, in order: times ``t`` [s], per wall the force on body 2 [N] (contact where > 0),
         body 2 as ``x2, v2`` or relative to body 1 as ``y, vy`` (then x2 = x1 + y), body 1 as ``x1, v1``
         (None for an infinite body 1: its prescribed motion, or rest at x1), ``bad``: samples the engine
-        knows to be broken. Cuts at the first bad, non-finite or huge sample; returns whether to go on."""
+        knows to be broken. Cuts at the first bad, non-finite or huge sample; returns whether to go on.
+        ValueError for samples off the run's time grid t0 + k dt, k = 0..n (out of order, or too many)."""
         if self.cut:
             return False
+        self._check_times(np.asarray(t, dtype=float))
         state = [a for a in (x1, v1, y, vy, x2, v2) if a is not None]
         broken = ~np.logical_and.reduce([np.isfinite(a) for a in (*state, *force.values())])
         broken |= np.logical_or.reduce([np.abs(a) > MAXVAL for a in state])
@@ -192,6 +192,16 @@ class Recording:
         self.recorder.add(t, x1, v1, x2, v2, {w: f > 0.0 for w, f in force.items()}, force)
         return not self.cut
 
+    def _check_times(self, t: np.ndarray) -> None:
+        """The samples handed over are the next ones of the run's grid, to ``GRID_SLACK`` of a step."""
+        k, dt = self.recorder.count, self.settings.dt
+        grid = self.scene.initial.t + dt * np.arange(k, k + len(t))
+        off = ~(np.abs(t - grid) <= GRID_SLACK * dt)
+        if off.any() or k + len(t) > self.n + 1:
+            i = int(np.argmax(off)) if off.any() else self.n + 1 - k
+            shown = f"t = {t[i]:.9g} s, not t0 + k dt = {grid[i]:.9g} s" if off.any() else "past the run's end"
+            raise ValueError(f"sample {k + i}: {shown} (the samples are t0 + k dt, k = 0..{self.n}, in order)")
+
     def body1(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Position [m] and velocity [m/s] of an infinite body 1 at times ``t``: prescribed, or at rest."""
         scene = self.scene
@@ -205,8 +215,8 @@ class Recording:
         """The recorded samples with their status (module docstring: how a run is classified)."""
         status, message = Status.OK, ""
         if failure is not None:
-            status = (Status.DIVERGED if isinstance(failure, Diverged) else
-                      Status.CRASHED if isinstance(failure, Crashed) else Status.ERROR)
+            status = (Status.DIVERGED if isinstance(failure, Diverged) else Status.CRASHED if isinstance(failure, Crashed)
+                      else Status.TIMEOUT if isinstance(failure, TimedOut) else Status.ERROR)
             message = f"{self.engine}: {type(failure).__name__}: {failure}".splitlines()[0]
         if self.cut:
             status, message = Status.DIVERGED, "; ".join(filter(None, (self.cut, message)))
@@ -229,7 +239,7 @@ class BenchmarkResult:
     n_steps: int  # steps per repeat
     repeats: int  # best of
     adapter_steps_per_s: float  # ``run`` as a user calls it (step, record, classify), its fixed cost taken off
-    raw_steps_per_s: float  # the engine's own loop on the same model and forces, nothing recorded
+    raw_steps_per_s: float  # the bare loop on the same model and forces, nothing recorded (``bare_seconds``)
     status: Status  # of the adapter's last run
     details: dict[str, Any] = dataclasses.field(default_factory=dict)  # the engine's own figures (device, build time)
 
@@ -239,9 +249,10 @@ class BenchmarkResult:
         return self.adapter_steps_per_s / self.raw_steps_per_s
 
 
-class EngineAdapter(abc.ABC):
-    """One engine behind the suite's contract (module docstring). Subclasses set the class facts and write
-    ``simulate`` and ``bare_seconds``; the base writes the run, the batch, the record and the benchmark."""
+class EngineAdapter:
+    """One engine behind the suite's contract (module docstring). Subclasses set the class facts and write ``build``
+    and ``step`` (or ``simulate``, a whole run at once); the base writes the run, the batch, the record and the
+    benchmark."""
 
     name: ClassVar[str]  # the registry name, "mujoco"
     package: ClassVar[str]  # the distribution whose version is reported
@@ -259,19 +270,58 @@ class EngineAdapter(abc.ABC):
     # the files ``export`` writes a scene as, the model file first (``run --export-model``, ``tune --out``); (): none
     exports: ClassVar[tuple[str, ...]] = ()
     export_kind: ClassVar[str] = ""  # what the model file is, for messages: "an MJCF model"
+    # how the base sums a step's force, time part + gain . (x1, v1, x2, v2) (``stepping.py``): "grouped", the state
+    # part first, or "in order", term by term (DART's loop summed so; kept so that its runs stay bit for bit)
+    force_sum: ClassVar[str] = "grouped"
+    isolated: bool = False  # every run in a forked child under ``isolate.run_limit`` (the registry's plugins)
 
-    # -- what an adapter writes -------------------------------------------------------------------
-    @abc.abstractmethod
+    # -- what an adapter writes: its world and one step of it (or a whole run, ``simulate``) ---------
+    def build(self, scene: Scene, settings: Any) -> Any:
+        """The engine's world for ``scene`` at ``settings``, at ``scene.initial`` (t0, x1, v1, x2 = x1 + y, v2 = v1 +
+        vy), the walls on body 1 where y = x2 - x1 meets ``scene.gap.lower`` (and ``upper``), no scene force in it
+        (the base applies them). A world with a ``close()`` method is closed when the run ends."""
+        raise NotImplementedError(f"{type(self).__name__} writes neither build and step nor simulate")
+
+    def step(self, world: Any, forces: tuple[float, float]) -> tuple[tuple, tuple[float, ...]]:
+        """Advance ``world`` one step of ``settings.dt`` [s] with ``forces`` = (on body 1, on body 2) [N] along x
+        applied over it. Returns ``(x1, v1, x2, v2)`` after the step [m, m/s] (x1, v1: None for an infinite body 1,
+        which the base fills in) and per wall of ``scene.gap.walls`` the force [N] it pushed body 2 with in the
+        step (> 0: a contact), or () when no wall touched body 2."""
+        raise NotImplementedError(f"{type(self).__name__} writes neither build and step nor simulate")
+
+    def drive(self, world: Any, x1: float, v1: float, x1_end: float) -> None:
+        """Before a step, move a prescribed (infinite) body 1: it is at ``x1`` [m] with velocity ``v1`` [m/s] at the
+        step's start and at ``x1_end`` [m] at its end. An adapter without it refuses prescribed scenes."""
+        raise NotImplementedError(f"{type(self).__name__} cannot move a prescribed body 1")
+
     def simulate(self, run: Recording) -> None:
-        """Build the engine's world for ``run.scene`` and ``run.settings``, step it ``run.n`` times and hand the
-        samples (the initial state first) to ``run.add``, stopping when it returns False; add the stepping
-        wall time to ``run.wall_time``. Raise (anything) for a failure of the engine, ``Diverged`` for a blow-up
-        the engine reports itself, ``Crashed`` when a process the adapter runs its engine in died."""
+        """The whole run: the base's step loop over ``build`` and ``step`` (``stepping.run_steps``). An adapter that
+        runs its engine a whole run at once overrides it: step ``run.n`` times and hand the samples (the initial
+        state first) to ``run.add``, stopping when it returns False; add the stepping wall time to
+        ``run.wall_time``. Raise (anything) for a failure of the engine, ``Diverged`` for a blow-up the engine
+        reports itself, ``Crashed`` when a process the adapter runs its engine in died, ``TimedOut`` when it
+        stopped one at the run's time limit."""
+        if not self.steps():
+            raise NotImplementedError(f"{type(self).__name__} writes neither build and step nor simulate")
+        run_steps(self, run)
 
-    @abc.abstractmethod
     def bare_seconds(self, scene: Scene, settings: Any, traj: Trajectory) -> float:
-        """Seconds of the engine's own loop over the run ``traj`` (full; the adapter's own run of ``scene``):
-        the same model and forces with no recording."""
+        """Seconds of the engine's own loop over the run ``traj`` (full; the adapter's own run of ``scene``): the
+        same model and forces with no recording. The base's: ``step`` on a fresh world with the run's forces
+        (``stepping.bare_seconds``); for a whole-run adapter that writes none, the run's own stepping time."""
+        if self.steps():
+            return stepping_bare_seconds(self, scene, settings, traj)
+        return traj.wall_time
+
+    @classmethod
+    def steps(cls) -> bool:
+        """Whether the adapter writes ``build`` and ``step`` (the base's step loop runs it)."""
+        return cls.build is not EngineAdapter.build and cls.step is not EngineAdapter.step
+
+    @classmethod
+    def whole_runs(cls) -> bool:
+        """Whether the adapter writes ``simulate``, a whole run at once (a fast path, or its only way)."""
+        return cls.simulate is not EngineAdapter.simulate
 
     def export(self, scene: Scene, settings: Any, command: str | None = None) -> dict[str, str]:
         """File name (each of ``exports``) -> text: ``scene`` at ``settings`` as files that run in the engine alone,
@@ -319,8 +369,12 @@ class EngineAdapter(abc.ABC):
     def open(self, scene: Scene, settings: Any = None, compact_above: float | None = None) -> Recording:
         """Check the settings and start a run's recording (``MemoryError`` for a run that cannot fit)."""
         s = self.settings(settings)
+        if scene.prescribed is not None and scene.body1_infinite and not self.whole_runs() and \
+                type(self).drive is EngineAdapter.drive:
+            raise SettingsError(f"engine {self.name!r} cannot move a prescribed body 1 (its adapter writes no drive); "
+                                "give body 1 a finite mass or run another engine")
         self.validate(scene, s)
-        record = {**dataclasses.asdict(s), **self.record(scene, s)}
+        record = {**settings_fields(s), **self.record(scene, s)}
         return Recording(self.name, scene, s, record, compact_above, self.contact_scales(scene, s))
 
     def run(self, scene: Scene, settings: Any = None, compact_above: float | None = None) -> Trajectory:
@@ -335,6 +389,12 @@ class EngineAdapter(abc.ABC):
             Settings the scene cannot run with, before the engine starts.
         """
         s = self.settings(settings)
+        if self.isolated and not inside():
+            done = call_isolated(self.run, scene, s, compact_above, refused=SettingsError)
+            if isinstance(done, Outcome):
+                return failed_trajectory(self.name, scene, Status(done.status), _first_line(self.name, done), 
+                                         dataclasses.asdict(s), done.wall_time)
+            return done
         try:
             run = self.open(scene, s, compact_above)
         except MemoryError as exc:  # the samples of the run do not fit: a result
@@ -356,6 +416,26 @@ class EngineAdapter(abc.ABC):
         """Run many (scene, settings) pairs; one trajectory per pair, in order (one by one unless the engine batches)."""
         return [self.run(scene, settings) for scene, settings in jobs]
 
+    def iter_batch(self, jobs: Sequence[tuple[Scene, Any]]) -> Iterator[tuple[int, Trajectory]]:
+        """``batch``'s (index in ``jobs``, trajectory) as they are done: an engine that runs a batch in parts (MuJoCo
+        Warp: blocks within its host memory) yields each part when done. The base: ``batch`` at once."""
+        yield from enumerate(self.batch(jobs))
+
+    def forks(self, settings: Any) -> bool:
+        """Whether a run at ``settings`` may be made in a fork of a process that ran the engine (a CUDA one: no)."""
+        return True
+
+    def unit_runs(self, settings: Any) -> int | None:
+        """Runs a sweep hands the engine at once (MuJoCo Warp on a GPU: thousands); None: the sweep's own choice."""
+        return None
+
+    def batch(self, jobs: Sequence[tuple[Scene, Any]]) -> list[Trajectory]:
+        """``run_batch``, or one isolated run after another for an ``isolated`` adapter (whose own batch would run in
+        the command's process)."""
+        if self.isolated:
+            return EngineAdapter.run_batch(self, jobs)
+        return self.run_batch(jobs)
+
     def benchmark(self, scene: Scene, settings: Any = None, n_steps: int = 20_000, repeats: int = 3) -> BenchmarkResult:
         """Steps per second of ``run`` and of the bare engine loop on the same run, ``n_steps`` steps (at most
         ``bench_step_cap``), the best of ``repeats`` each, interleaved (slower repeats measure the machine's
@@ -368,6 +448,12 @@ class EngineAdapter(abc.ABC):
         check_integer("n_steps", n_steps, lo=1)
         check_integer("repeats", repeats, lo=1)
         s = self.settings(settings)
+        if self.isolated and not inside():  # the whole benchmark in one child: its bare loop is the engine's too
+            done = call_isolated(self.benchmark, scene, s, n_steps, repeats, refused=SettingsError)
+            if isinstance(done, Outcome):
+                return BenchmarkResult(self.name, scene.name, 0, repeats, math.nan, math.nan, Status(done.status),
+                                       {"message": _first_line(self.name, done)})
+            return done
         steps = min(n_steps, self.bench_step_cap or n_steps)
         short = dataclasses.replace(scene, duration=steps * s.dt)
         one = dataclasses.replace(scene, duration=s.dt)
@@ -389,6 +475,23 @@ class EngineAdapter(abc.ABC):
     def version(self) -> str:
         """The engine package's version."""
         return version_of(self.package)
+
+
+_fields_kept = functools.lru_cache(maxsize=256)(dataclasses.asdict)  # a batch's runs share a few settings objects
+
+
+def settings_fields(settings: Any) -> dict[str, Any]:
+    """``dataclasses.asdict(settings)``, a new dict each call, made once per (hashable) settings value."""
+    try:
+        return dict(_fields_kept(settings))
+    except TypeError:  # unhashable settings (a list in a field): made each time
+        return dataclasses.asdict(settings)
+
+
+def _first_line(engine: str, outcome: Outcome) -> str:
+    """A failed child's message in one line, naming the engine: ``pymunk: killed by SIGSEGV``."""
+    lines = outcome.message.strip().splitlines()
+    return f"{engine}: {lines[0] if lines else outcome.status}"
 
 
 @functools.cache

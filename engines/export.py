@@ -13,8 +13,9 @@ Which engines export, and what, is a fact each adapter declares (``EngineAdapter
 loads it with plain MuJoCo (``run.py``), PyBullet a complete script (``scene.py``).
 ``chatterbench run --export-model PATH`` writes the model file (``model_file``);
 ``chatterbench tune --out DIR`` writes ``export_files`` into ``DIR/<engine>/``. Every runnable
-file prints one line per impact, ``impact t=... v_in=... v_out=... e=...`` (``impact_lines``).
-Adapters are imported on first use.
+file prints the impacts of its run as the judge finds them, one line each, ``impact t=... v_in=...
+v_out=... e=...`` (``impact_lines``), with the judge's sticking resolution when the caller gives it
+(``flight_band``). Names go into the files escaped (``printable``). Adapters are imported on first use.
 """
 
 from __future__ import annotations
@@ -26,8 +27,20 @@ from typing import Any
 
 from chatterbench.reference.scene import Scene
 
+from .base import EngineAdapter
+from .impact_lines import judged_by
 from .registry import adapter, available_engines, check_engine
 from .settings import SettingsError
+
+
+class ExportError(SettingsError):
+    """An engine's adapter that does not write the files it declares (``EngineAdapter.exports``)."""
+
+
+def printable(text: str) -> str:
+    """``text`` with every character that is not printable (a newline, a tab, NUL, BEL, ESC, U+FFFE, a lone
+    surrogate: what XML cannot hold or reads back changed) written as its Python escape (``\\n``, ``\\x07``)."""
+    return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in text)
 
 
 def exporting_engines() -> tuple[str, ...]:
@@ -54,17 +67,32 @@ def making_command() -> str | None:
     return None
 
 
-def export_files(engine: str, scene: Scene, settings: Any) -> dict[str, str]:
+def export_files(engine: str, scene: Scene, settings: Any, flight_band: float | None = None) -> dict[str, str]:
     """File name -> text, what ``tune --out DIR`` writes into ``DIR/<engine>/`` (module docstring); the files keep
-    ``making_command``."""
+    ``making_command``. ``flight_band`` [s]: the judge's band x sticking tolerance x (1 - R) of the comparison the
+    files are to agree with (``impact_lines.judged_by``; None: the sampling floor alone)."""
     check_exportable(engine)
-    return adapter(engine).export(scene, settings, command=making_command())
+    return adapter_files(adapter(engine), scene, settings, flight_band)
 
 
-def model_file(engine: str, scene: Scene, settings: Any) -> str:
+def adapter_files(engine: EngineAdapter, scene: Scene, settings: Any, flight_band: float | None = None) -> dict[str, str]:
+    """``engine.export``'s files, in the order it declares them (``exports``); an ``ExportError`` naming what is
+    missing when it does not write each of them as text (a third party's adapter that returns nothing)."""
+    with judged_by(flight_band):
+        files = engine.export(scene, settings, command=making_command())
+    names = list(engine.exports)
+    missing = [name for name in names if not isinstance(files, dict) or not isinstance(files.get(name), str)]
+    if missing:
+        got = (", ".join(map(repr, files)) or "an empty dict") if isinstance(files, dict) else repr(type(files).__name__)
+        raise ExportError(f"engine {engine.name!r}: its adapter's export() wrote no {', '.join(map(repr, missing))} "
+                          f"(it declares {', '.join(map(repr, names))}; it returned {got})")
+    return {name: files[name] for name in names}
+
+
+def model_file(engine: str, scene: Scene, settings: Any, flight_band: float | None = None) -> str:
     """The engine's model file for ``scene`` at ``settings`` (the first of its ``exports``): MuJoCo's MJCF (holding
     ``making_command``), PyBullet's script."""
-    return export_files(engine, scene, settings)[export_files_names(engine)[0]]
+    return export_files(engine, scene, settings, flight_band)[export_files_names(engine)[0]]
 
 
 def measurement(engine: str) -> str:

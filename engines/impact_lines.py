@@ -1,36 +1,65 @@
-"""The impact printer of the exported scripts: Python lines that turn "the wall pushed in this step" into impacts.
+"""The impact printer of the exported scripts: Python lines that record the run's samples and print its impacts as the judge finds them.
 
-    >>> from chatterbench.engines.impact_lines import detection_lines, state_lines
-    >>> code = "\\n".join(["ks = [False] * 3 + [True] + [False] * 4", *state_lines(max_contact_steps=5),
-    ...                    "for k, pushing in enumerate(ks):", "    t0, v0 = k * 0.1, (-2.0 - 0.1 * k if k < 4 else 1.0)",
-    ...                    *detection_lines("    ")])
+    >>> from chatterbench.engines.impact_lines import record_lines, report_lines, setup_lines
+    >>> code = "\\n".join([*setup_lines({"lower": 0.0}, 0.5, 0.0, 0.0, 1e-3, 900), "for k in range(STEPS + 1):",
+    ...                    "    t = T0 + k * DT; v1 = (2 * 9.81) ** 0.5; t1 = v1 / 9.81",   # a ball that bounces with R
+    ...                    "    y = 1 - 9.81 * t * t / 2 if t < t1 else 0.5 * v1 * (t - t1) - 9.81 * (t - t1) ** 2 / 2",
+    ...                    "    vy = -9.81 * t if t < t1 else 0.5 * v1 - 9.81 * (t - t1)", "    a = -9.81",
+    ...                    *record_lines("    "), '    forces["lower"].append(0.0)', *report_lines()])
     >>> exec(code, {})
-    # impact: a contact entered at |v_in| > 3 |dv| (dv: the largest velocity change over a free step so far, |y''| dt) ...
-    impact t=0.300000 v_in=-2.3 v_out=1 e=0.434783
+    # impact: every impact of chatterbench's judge ...
+    impact t=0.451524 v_in=-4.42945 v_out=2.21472 e=0.5
 
 Every exported script (``mujoco_engine.export``, ``pybullet_engine.export``) steps its engine
-and, per step k, knows ``t0`` and ``v0`` (the time [s] and the relative velocity y' [m/s] the
-step starts from) and ``pushing`` (a wall's normal force was positive in the step). A contact
-is the run of pushing steps; its impact is printed, ``impact t=... v_in=... v_out=... e=...``,
-with v_in the velocity before its first step and v_out after its last (e = -v_out / v_in),
-once the bodies have then flown apart for ``MIN_FLIGHT_STEPS`` steps. The script's first line,
-``# impact: ...`` (``HEADER``), says which contacts count. Not printed: a contact entered slower
-than ``MIN_SPEED_STEPS`` x the largest velocity change over a free step seen so far (|y''| dt:
-a speed the step cannot resolve; it is a resting or sliding body that the solver lets go and
-touches again, e.g. where a sliding phase ends, seen before as ``v_in=-1.07e-07 ... e=1.98``),
-a contact longer than ``max_contact_steps`` (the bodies came to rest against the wall and
-later left it: a stick and an exit, not an impact), one followed by a shorter flight (a body
-at rest that the solver alternately pushes and releases every step or two), and one still
-pushing when the run ends.
+and records each sample k (``record_lines``: the gap y = x2 - x1 [m], y' [m/s] and y'' of the
+free motion ``a`` [m/s^2], and each wall's normal force on body 2 in ``forces``), at times
+T0 + k DT as chatterbench's adapters sample them. Once the run is over (``report_lines``) it
+prints the impacts of the judge's event log (``sampled_impacts.judged_impacts``, whose
+source the script carries: it needs neither numpy nor chatterbench), one line each,
+``impact t=... v_in=... v_out=... e=...``: t [s] the impact, v_in and v_out the relative
+velocity y' = x2' - x1' where body 2 crosses the wall's surface on its way in and out [m/s],
+e = -v_out / v_in; ``HEADER`` first. So the script's impact count is the run's (``chatterbench
+run`` counts the log's impacts) and each e is the judge's. The judge's sticking tolerance
+decides which late bounces are a rest (``sampled_impacts``: the flight band): ``judged_by``
+hands it to the exporters, which write it into the script; without it, the sampling floor.
 """
 
 from __future__ import annotations
 
-MIN_FLIGHT_STEPS = 3  # steps apart after a contact for it to count as an impact (rest jitter is 1-2 steps)
-MIN_SPEED_STEPS = 3  # an impact's |v_in| exceeds this many free steps' velocity change (|y''| dt)
-HEADER = (f"# impact: a contact entered at |v_in| > {MIN_SPEED_STEPS} |dv| (dv: the largest velocity change over a free "
-          "step so far, |y''| dt) that the bodies leave within {LONGEST_CONTACT} steps and fly apart for "
-          f"{MIN_FLIGHT_STEPS}; slower contacts (a sliding or resting body let go and touched again) are not impacts")
+import ast
+import contextlib
+import contextvars
+import inspect
+import math
+
+from chatterbench.reference.forces import ForceModel
+from chatterbench.reference.scene import Scene
+
+from . import sampled_impacts
+
+HEADER = ("# impact: every impact of chatterbench's judge (its event log): each contact's onset and each velocity jump "
+          "between two free samples near a wall; v_in and v_out where body 2 crosses the wall's surface (the free flight "
+          "of the last free samples before it and the first after, carried to the surface), e = -v_out / v_in; bounces "
+          "inside a stuck stretch (flights shorter than f_min = {f_min:.6g} s after a slow impact, until the bodies "
+          "separate) are a rest, not impacts")
+_FLIGHT_BAND: contextvars.ContextVar[float] = contextvars.ContextVar("flight_band", default=0.0)
+
+
+@contextlib.contextmanager
+def judged_by(flight_band: float | None):
+    """Within the block, exported scripts take ``flight_band`` [s] (the judge's band x sticking tolerance x (1 - R),
+    ``sampled_impacts``) as what decides a rest; None or NaN: 0, the sampling floor alone."""
+    value = 0.0 if flight_band is None or not math.isfinite(flight_band) else max(float(flight_band), 0.0)
+    token = _FLIGHT_BAND.set(value)
+    try:
+        yield
+    finally:
+        _FLIGHT_BAND.reset(token)
+
+
+def flight_band() -> float:
+    """The flight band [s] the exporters write now (``judged_by``; 0 outside it)."""
+    return _FLIGHT_BAND.get()
 
 
 def docstring(lines: list[str]) -> list[str]:
@@ -39,35 +68,77 @@ def docstring(lines: list[str]) -> list[str]:
     return ['"""' + text, '"""']
 
 
-def state_lines(max_contact_steps: int) -> list[str]:
-    """The printer's state, set once before the loop."""
-    return [f"LONGEST_CONTACT = {int(max_contact_steps)}  # steps; a longer contact is a rest, not an impact",
-            f"MIN_FLIGHT = {MIN_FLIGHT_STEPS}  # steps apart after a contact for it to count as an impact",
-            f"MIN_SPEED = {MIN_SPEED_STEPS}  # |v_in| > MIN_SPEED * dv: slower is a sliding or resting body's lift-off",
-            f"print(f{HEADER!r})",
-            "touching, pending, flight = False, False, 0",
-            "v_last, dv = None, 0.0  # y' before the last step; the largest |change of y'| over a free step [m/s]",
-            "k_in = k_out = 0",
-            "t_in = v_in = v_out = 0.0"]
+def functions_source() -> str:
+    """``sampled_impacts`` as script text: its code without the module docstring (which imports chatterbench)."""
+    source = inspect.getsource(sampled_impacts)
+    body = ast.parse(source).body
+    first = body[1] if isinstance(body[0], ast.Expr) else body[0]  # the statement after the docstring
+    return "\n".join(source.splitlines()[first.lineno - 1:]).rstrip() + "\n"
 
 
-def detection_lines(indent: str) -> list[str]:
-    """The per-step lines, after the step (``t0``, ``v0``, ``pushing`` and ``k`` known)."""
-    lines = [
-        "if v_last is not None and flight >= 2:  # the last step and the one before were free: v0 - v_last = y'' dt",
-        "    dv = max(dv, abs(v0 - v_last))",
-        "v_last = v0",
-        "if pushing:",
-        "    if not touching:",
-        "        touching, pending, k_in, t_in, v_in = True, False, k, t0, v0",
-        "    flight = 0",
-        "else:",
-        "    if touching:  # the contact ended before this step: v0 is its exit velocity",
-        "        touching, pending, k_out, v_out = False, True, k, v0",
-        "    flight += 1",
-        "    if pending and flight >= MIN_FLIGHT:",
-        "        pending = False",
-        "        if k_out - k_in <= LONGEST_CONTACT and abs(v_in) > MIN_SPEED * dv and v_in != 0.0:",
-        '            print(f"impact t={t_in:.6f} v_in={v_in:.6g} v_out={v_out:.6g} e={-v_out / v_in:.6g}")',
+def _num(v: float) -> str:
+    return repr(float(v))
+
+
+def _time_part(constant: float, harmonics) -> str:
+    """constant + sum A sin(w t + phase) as a Python expression in ``t``."""
+    return _num(constant) + "".join(f" + {_num(a)} * math.sin({_num(w)} * t + {_num(ph)})"
+                                    for a, w, ph in harmonics if a != 0.0)
+
+
+def force_lines(scene: Scene, indent: str) -> list[str]:
+    """``f1`` (a finite body 1) and ``f2`` [N], the forces on the bodies at time ``t`` and state ``x1, v1, x2, v2``,
+    as the scene's force model gives them (``ForceModel.body_forces``: F1 + F12 and F2 - F12)."""
+    f = ForceModel.from_scene(scene)
+    b1, b2, c = f.body1, f.body2, f.coupling
+    neg = [(-a, w, ph) for a, w, ph in c.harmonics]
+    time1 = _time_part(b1.spring_force + b1.constant - c.spring_force + c.constant, [*b1.harmonics, *c.harmonics])
+    time2 = _time_part(b2.spring_force + b2.constant + c.spring_force - c.constant, [*b2.harmonics, *neg])
+    _, _, gain = f.body_forces(0.0)
+
+    def affine(row: int, time: str) -> str:
+        return time + "".join(f" + {_num(g)} * {s}" for g, s in zip(gain[row], ("x1", "v1", "x2", "v2")) if g != 0.0)
+
+    lines = [] if scene.body1_infinite else [f"{indent}f1 = {affine(0, time1)}"]
+    return lines + [f"{indent}f2 = {affine(1, time2)}"]
+
+
+def acceleration_line(scene: Scene, indent: str) -> str:
+    """``a``: y'' of the free motion [m/s^2] from ``f1``, ``f2`` (Feigin (1.2)), or with body 1's prescribed x1''(t)."""
+    if not scene.body1_infinite:
+        return f"{indent}a = f2 / {_num(scene.mass2)} - f1 / {_num(scene.mass1)}"
+    p = scene.prescribed
+    if p is None:
+        return f"{indent}a = f2 / {_num(scene.mass2)}"
+    return (f"{indent}a = f2 / {_num(scene.mass2)} + {_num(p.amplitude * p.omega**2)} * math.sin({_num(p.omega)} * t + "
+            f"{_num(p.phase)})  # body 1's prescribed x1'' subtracted")
+
+
+def setup_lines(walls: dict[str, float], restitution: float, flight_band: float, t0: float, dt: float,
+                steps: int) -> list[str]:
+    """The judge's functions and the recording's state, before the loop: ``walls`` name -> position in y [m]."""
+    return [functions_source(),
+            "",
+            f"T0, DT, STEPS = {_num(t0)}, {_num(dt)}, {int(steps)}  # samples at T0 + k DT, k = 0 .. STEPS",
+            f"WALLS = {dict((w, float(y)) for w, y in walls.items())!r}  # the walls' positions in y = x2 - x1 [m]",
+            f"R = {_num(restitution)}  # Newton's restitution of the scene",
+            f"FLIGHT_BAND = {_num(flight_band)}  # [s] the judge's band x sticking tolerance x (1 - R): shorter "
+            "flights do not matter",
+            "ys, vys, accs = [], [], []  # per sample: y [m], y' [m/s], y'' of the free motion [m/s^2]",
+            "forces = {wall: [] for wall in WALLS}  # per sample: each wall's normal force on body 2 [N]"]
+
+
+def record_lines(indent: str) -> list[str]:
+    """Record sample k: ``y``, ``vy`` and ``a`` (the script appends each wall's force itself)."""
+    return [f"{indent}ys.append(y)", f"{indent}vys.append(vy)", f"{indent}accs.append(a)"]
+
+
+def report_lines() -> list[str]:
+    """After the loop: the judge's impacts of the recorded run, one line each, after ``HEADER``."""
+    return [
+        "t = [T0 + k * DT for k in range(len(ys))]",
+        f"print({HEADER!r}.format(f_min=max(FLOOR_STEPS * DT, FLIGHT_BAND)))",
+        "for t_i, wall, v_in, v_out in judged_impacts(t, ys, vys, accs, forces, WALLS, R, FLIGHT_BAND):",
+        "    e = -v_out / v_in if v_in != 0.0 else math.nan",
+        '    print(f"impact t={t_i:.6f} v_in={v_in:.6g} v_out={v_out:.6g} e={e:.6g}")',
     ]
-    return [indent + line for line in lines]

@@ -14,6 +14,11 @@ process dies (a signal such as SIGSEGV, or ``os._exit``) -> ``crashed``; it runs
 ``timeout`` seconds -> the child is killed (SIGKILL) and the outcome is ``timeout``.
 The caller's process is never touched, so a sweep goes on after any of them.
 
+The command's limit on one engine run (``run_limit``, ``set_run_limit``: ``--timeout``, a sweep's
+``timeout``; ``RUN_LIMIT`` where none is set) is what a plugin's isolated run (``base.EngineAdapter.isolated``),
+a plugin's load (``plugins.py``) and an engine's own child process (Siconos's) are held to. Inside a child of
+``run_isolated`` (``inside``) a run is already isolated and is not forked again.
+
 How: ``os.fork`` and a one-way ``multiprocessing`` pipe carrying the pickled result.
 Forking keeps everything the caller already loaded (engine modules, numba-compiled
 kernels), so a child starts in about a millisecond. ``multiprocessing.Process`` is
@@ -41,6 +46,25 @@ from typing import Any, Callable
 
 OUTCOMES = ("ok", "error", "crashed", "timeout")
 _PR_SET_PDEATHSIG = 1  # linux/prctl.h
+RUN_LIMIT = 600.0  # [s] the limit on one engine run where the command sets none (the command line's --timeout default)
+_STATE = {"limit": RUN_LIMIT, "inside": False}  # this process's run limit; whether it is a child of run_isolated
+
+
+def run_limit() -> float:
+    """The command's wall-clock limit on one engine run [s] (``set_run_limit``; ``RUN_LIMIT`` by default)."""
+    return _STATE["limit"]
+
+
+def set_run_limit(seconds: float) -> None:
+    """Make ``seconds`` (> 0, finite) the limit on every engine run of this process from now on."""
+    if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not 0 < seconds < math.inf:
+        raise ValueError(f"run limit = {seconds!r}: must be a number of seconds > 0")
+    _STATE["limit"] = float(seconds)
+
+
+def inside() -> bool:
+    """Whether this process is a child of ``run_isolated`` (its runs are isolated already)."""
+    return _STATE["inside"]
 
 
 @dataclass(frozen=True)
@@ -72,6 +96,7 @@ def die_with_parent() -> None:
 def _child(fn: Callable[..., Any], args: tuple, send, parent: int) -> None:
     """Body of the forked child: never returns (``os._exit``), so no parent cleanup runs twice."""
     code = 0
+    _STATE["inside"] = True
     try:
         die_with_parent()
         # a crash is reported in the outcome; a faulthandler dump would only scribble over the progress bar
@@ -141,3 +166,24 @@ def run_isolated(fn: Callable[..., Any], *args: Any, timeout: float = math.inf) 
         raise
     finally:
         recv.close()
+
+
+def _answer(fn: Callable[..., Any], refused: type[BaseException], *args: Any) -> tuple[str, Any]:
+    """``fn(*args)`` in the child: ("ok", value), or ("refused", message) for a ``refused`` exception."""
+    try:
+        return "ok", fn(*args)
+    except refused as exc:
+        return "refused", str(exc)
+
+
+def call_isolated(fn: Callable[..., Any], *args: Any, refused: type[BaseException]) -> Any:
+    """``fn(*args)``'s value, computed in a forked child under ``run_limit``; the ``Outcome`` when the child failed
+    (crashed, timeout, error). A ``refused`` exception in the child (a user's mistake, not the call's failure) is
+    raised again here with its message."""
+    outcome = run_isolated(_answer, fn, refused, *args, timeout=run_limit())
+    if outcome.status != "ok":
+        return outcome
+    kind, value = outcome.value
+    if kind == "refused":
+        raise refused(value)
+    return value

@@ -29,12 +29,14 @@ from .base import Recording
 from .restitution import contact_duration
 
 if TYPE_CHECKING:
+    from .mujoco_engine.compiled import Structure
     from .mujoco_engine.settings import MujocoSettings
 
 __all__ = ["Prepared", "WARNINGS", "build", "build_spec", "contact_scales", "export_mjcf", "prepare", "quiet_log", "record",
-           "rollout_controls", "take", "warned", "warning_note"]
+           "rollout_controls", "structure", "take", "warned", "warning_note"]
 
 WARNINGS = ("mjWARN_BADQPOS", "mjWARN_BADQVEL", "mjWARN_BADQACC")  # MuJoCo's warnings of a blow-up
+_WARNING_INDEX = tuple(int(getattr(mujoco.mjtWarning, w)) for w in WARNINGS)
 
 
 # The model's modules are imported when first used: ``mujoco_engine`` imports this module as it loads.
@@ -50,6 +52,14 @@ def build_spec(scene: Scene, s: MujocoSettings) -> mujoco.MjSpec:
     from .mujoco_engine.model import build_spec as spec
 
     return spec(scene, s)
+
+
+def structure(scene: Scene, s: MujocoSettings) -> Structure:
+    """The scene's compiled structure, shared by runs that differ in start, length and contact law
+    (``mujoco_engine.compiled``); SettingsError, as ``build_spec``, for settings the scene cannot run with."""
+    from .mujoco_engine.compiled import structure as compiled_structure
+
+    return compiled_structure(scene, s)
 
 
 def export_mjcf(scene: Scene, s: MujocoSettings) -> str:
@@ -75,37 +85,44 @@ def quiet_log():
 
 @dataclass
 class Prepared:
-    """A compiled model with everything ``rollout`` needs, built before the clock starts."""
+    """A run's model with everything ``rollout`` needs, made before the clock starts (no compile, no MjData:
+    ``mujoco_engine.compiled``)."""
 
     scene: Scene
     settings: MujocoSettings
-    model: mujoco.MjModel
-    data: mujoco.MjData
-    initial_state: np.ndarray  # (1, nstate)
+    structure: Structure  # the compiled structure it shares with runs that differ in start, length and contact law
+    law: tuple[float, float, float]  # its timestep [s] and contact solref (``compiled.contact``)
+    initial_state: np.ndarray  # (1, nstate), rollout's layout
     control_spec: int
     nstep: int  # steps rolled out: n + 1 (the last gives the final sample's sensors)
 
+    @property
+    def model(self) -> mujoco.MjModel:
+        """The run's compiled model (``compiled.shared_model``: shared, not to be changed)."""
+        return variant_model(self.structure, self.law)
+
 
 def prepare(scene: Scene, s: MujocoSettings, n: int) -> Prepared:
-    """The model of ``scene``, its MjData at the initial state, rollout's control layout, for ``n`` steps."""
-    model = build(scene, s)
-    data = mujoco.MjData(model)
-    ini = scene.initial
-    data.time = ini.t
-    if scene.body1_infinite:
-        data.qpos[0], data.qvel[0] = ini.y, ini.vy
-    else:
-        data.qpos[:] = [ini.x1, ini.y]
-        data.qvel[:] = [ini.v1, ini.vy]
-    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
-    state0 = np.empty(mujoco.mj_stateSize(model, spec))
-    mujoco.mj_getState(model, data, state0, spec)
+    """The model of ``scene`` (its shared structure and contact law), its initial state, rollout's control layout,
+    for ``n`` steps."""
+    from .mujoco_engine.compiled import contact, initial_state, structure
+
+    st = structure(scene, s)
+    model = st.model
     control_spec = 0
     if model.nu:
         control_spec |= mujoco.mjtState.mjSTATE_CTRL
     if model.nmocap:
         control_spec |= mujoco.mjtState.mjSTATE_MOCAP_POS
-    return Prepared(scene, s, model, data, state0[None], int(control_spec) or int(mujoco.mjtState.mjSTATE_CTRL), n + 1)
+    return Prepared(scene, s, st, contact(scene, s, st), initial_state(st, scene),
+                    int(control_spec) or int(mujoco.mjtState.mjSTATE_CTRL), n + 1)
+
+
+def variant_model(st: Structure, law: tuple[float, float, float]) -> mujoco.MjModel:
+    """The structure ``st`` with timestep and solref ``law``, kept (``compiled.shared_model``)."""
+    from .mujoco_engine.compiled import kept_variant
+
+    return kept_variant(st, law)
 
 
 def rollout_controls(p: Prepared, k0: int, k1: int) -> np.ndarray | None:
@@ -114,9 +131,10 @@ def rollout_controls(p: Prepared, k0: int, k1: int) -> np.ndarray | None:
     from .mujoco_engine.model import controls
 
     parts = []
-    if p.model.nu:
+    model = p.structure.model  # sizes: every variant's
+    if model.nu:
         parts.append(controls(p.scene, p.settings, t))
-    if p.model.nmocap:  # mocap_pos comes after ctrl in mjtState order; held over step k at x1(t_{k})
+    if model.nmocap:  # mocap_pos comes after ctrl in mjtState order; held over step k at x1(t_{k})
         mpos = np.zeros((len(t), 3))
         mpos[:, 0] = p.scene.prescribed.position(t)
         parts.append(mpos)
@@ -139,7 +157,7 @@ def take(run: Recording, p: Prepared, k0: int, before: np.ndarray, state: np.nda
     """Hand samples k0 .. k0 + c - 1 to ``run`` from ``before`` (the state at sample k0), ``state`` (c rows of
     rollout's layout: time, qpos, qvel after each step) and ``sensordata`` (c rows, at the start of each step,
     i.e. at the samples). A sensor that is not finite or a time that went back (a reset) is a blow-up."""
-    scene, s, nq = p.scene, p.settings, p.model.nq
+    scene, s, nq = p.scene, p.settings, p.structure.model.nq
     c = len(state)
     rows = np.concatenate([before[None], state[:c - 1]])  # the state at samples k0 .. k0 + c - 1
     qpos, qvel, sens = rows[:, 1:1 + nq], rows[:, 1 + nq:1 + 2 * nq], sensordata
@@ -164,7 +182,8 @@ def take(run: Recording, p: Prepared, k0: int, before: np.ndarray, state: np.nda
 
 def warned(data: mujoco.MjData) -> set[str]:
     """The blow-up warnings MuJoCo raised on ``data``."""
-    return {w for w in WARNINGS if data.warning[int(getattr(mujoco.mjtWarning, w))].number > 0}
+    number = data.warning.number  # a view of every warning's count
+    return {w for w, i in zip(WARNINGS, _WARNING_INDEX) if number[i] > 0}
 
 
 def warning_note(names: set[str], s: MujocoSettings) -> str:

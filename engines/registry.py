@@ -10,15 +10,18 @@
 
 One table (``ENGINES``: name, adapter, extra, default or not) says which engines there are;
 ``ENGINE_NAMES``, ``DEFAULT_ENGINES`` and ``EXTRAS`` are read from it. Other packages add
-engines through the entry-point group ``chatterbench.engines`` (``examples/engine_plugin``:
-``NAME = "module:AdapterClass"``). Adapters are imported on first use, so asking for one
-engine never loads the other.
+engines through the entry-point group ``chatterbench.engines`` (``plugins.py``;
+``examples/engine_plugin``: ``NAME = "module:AdapterClass"``). Adapters are imported on first
+use, so asking for one engine never loads another, and every adapter is checked against the
+contract as it loads (``contract.py``). A plugin is loaded only when named, checked in a forked
+child first, and runs isolated; whatever is wrong with it is one line (``PluginError``, exit 2
+on the command line) naming its package, and no other engine or command notices.
+``engine_rows`` is the table as ``chatterbench engines`` shows it.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import functools
 import importlib
 import importlib.metadata
 import importlib.util
@@ -29,12 +32,12 @@ from chatterbench.reference.errors import did_you_mean
 from chatterbench.reference.scene import Scene
 
 from .base import EngineAdapter, Status, failed_trajectory
+from .contract import problem
 from .faults import inject_planned
 from .isolate import run_isolated
+from .plugins import ENTRY_POINT_GROUP, declared, load_plugin  # noqa: F401  (ENTRY_POINT_GROUP: as before)
 from .settings import SettingsError, settings_with_overrides
 from .trajectory import Trajectory
-
-ENTRY_POINT_GROUP = "chatterbench.engines"  # a third party's package adds an engine here: NAME = "module:AdapterClass"
 
 
 @dataclass(frozen=True)
@@ -64,17 +67,10 @@ BUILT_IN = (
 )
 
 
-def _plugins(known: Sequence[str]) -> tuple[Engine, ...]:
-    """The engines other packages declare in ``ENTRY_POINT_GROUP`` (a name already taken is skipped)."""
-    found = []
-    for ep in sorted(importlib.metadata.entry_points(group=ENTRY_POINT_GROUP), key=lambda e: e.name):
-        if ep.name not in known and ep.name not in [e.name for e in found]:
-            found.append(Engine(ep.name, ep.value, plugin=ep.dist.name if ep.dist else ep.module))
-    return tuple(found)
-
-
-ENGINES = BUILT_IN + _plugins([e.name for e in BUILT_IN])  # the engine table: every list of engines reads it
+DECLARED = declared([e.name for e in BUILT_IN])  # every plugin installed, refused names included
+ENGINES = BUILT_IN + tuple(Engine(d.name, d.value, plugin=d.package) for d in DECLARED if not d.refused)  # the table
 _TABLE = {e.name: e for e in ENGINES}
+_PLUGINS = {d.name: d for d in DECLARED if not d.refused}
 ENGINE_NAMES = tuple(_TABLE)  # every engine the suite knows, built in first
 DEFAULT_ENGINES = tuple(e.name for e in ENGINES if e.default)  # what commands and sweeps run when no engine is named
 # optional engines: the Python module an engine needs, and the pyproject extra that installs it
@@ -85,6 +81,15 @@ class EngineUnavailable(SettingsError):
     """An optional engine's extra is not installed; the message says which ``pip install`` adds it."""
 
 
+class PluginError(EngineUnavailable):
+    """A plugin cannot be loaded (its import, its class, the contract, a crash or hang while loading); the message
+    is one line naming its package and what is wrong."""
+
+
+_ADAPTERS: dict[str, EngineAdapter] = {}  # the adapters loaded in this process
+_BROKEN: dict[str, str] = {}  # plugins that failed to load here, and why (a load forks a child: once is enough)
+
+
 def check_engine(name: str) -> str:
     """Return ``name`` if it is a known engine, else raise SettingsError with a suggestion."""
     if name not in _TABLE:
@@ -93,8 +98,15 @@ def check_engine(name: str) -> str:
 
 
 def unavailable_reason(name: str) -> str:
-    """Why engine ``name`` cannot run here ("" when it can): the missing extra and how to install it."""
+    """Why engine ``name`` cannot run here ("" when it can): the missing extra and how to install it, or what is
+    wrong with a plugin (which this loads)."""
     entry = _TABLE[check_engine(name)]
+    if entry.plugin:
+        try:
+            adapter(name)
+        except PluginError as exc:
+            return str(exc)
+        return ""
     if entry.extra and importlib.util.find_spec(entry.module) is None:
         return (f"engine {name!r} needs the optional extra {entry.extra!r}: pip install \".[{entry.extra}]\" "
                 f"(module {entry.module} not found)")
@@ -105,21 +117,50 @@ def unavailable_reason(name: str) -> str:
 
 
 def available_engines() -> tuple[str, ...]:
-    """The engines that can run on this machine (every non-optional one, and the optional ones installed)."""
+    """The engines that can run on this machine (every non-optional one, the optional ones installed, the plugins
+    that load)."""
     return tuple(n for n in ENGINE_NAMES if not unavailable_reason(n))
 
 
-@functools.cache
 def adapter(name: str) -> EngineAdapter:
-    """The adapter of engine ``name`` (imported on first use); EngineUnavailable when its extra is missing."""
+    """The adapter of engine ``name``, loaded once per process (``load``); EngineUnavailable when it cannot run here
+    (PluginError for a plugin that does not load)."""
+    made = _ADAPTERS.get(name)
+    if made is None:
+        made = _ADAPTERS[name] = load(name)
+    return made
+
+
+def load(name: str) -> EngineAdapter:
+    """Import engine ``name``'s adapter, check it against the contract and make it (``adapter`` keeps it)."""
+    entry = _TABLE[check_engine(name)]
+    if entry.plugin:
+        return _plugin(name)
     reason = unavailable_reason(name)
     if reason:
         raise EngineUnavailable(reason)
-    module, _, cls = _TABLE[name].adapter.partition(":")
-    made = getattr(importlib.import_module(module), cls)()
-    if not isinstance(made, EngineAdapter) or made.name != name:
-        raise TypeError(f"engine {name!r}: {_TABLE[name].adapter} is not an EngineAdapter named {name!r}")
-    return made
+    module, _, cls = entry.adapter.partition(":")
+    found = getattr(importlib.import_module(module), cls)
+    broken = problem(found, name)
+    if broken:
+        raise TypeError(f"engine {name!r}: {entry.adapter} breaks the engine contract: {broken}")
+    return found()
+
+
+def _plugin(name: str) -> EngineAdapter:
+    """Plugin ``name``'s adapter, marked ``isolated`` (``plugins.load_plugin``); PluginError with its one line, once
+    known (a load forks a child: it is not tried twice)."""
+    if name not in _BROKEN:
+        got = load_plugin(_PLUGINS[name])
+        if not isinstance(got, str):
+            try:
+                made = got()
+                made.isolated = True  # its runs go to a forked child under the command's run limit
+                return made
+            except Exception as exc:  # noqa: BLE001  the plugin's own __init__: its failure, in one line
+                got = f"{_PLUGINS[name].label}: {got.__name__}() failed: {type(exc).__name__}: {exc}".splitlines()[0]
+        _BROKEN[name] = got
+    raise PluginError(_BROKEN[name])
 
 
 def make_settings(name: str, dt: float | None = None, overrides: Sequence[str] | dict = ()) -> Any:
@@ -128,8 +169,16 @@ def make_settings(name: str, dt: float | None = None, overrides: Sequence[str] |
     Overrides for the other engine are ignored, so one ``--set`` list serves both.
     """
     cls = adapter(name).settings_type
-    base = cls() if dt is None else cls(dt=dt)
-    return settings_with_overrides(base, overrides, prefix=name)
+    try:
+        base = cls() if dt is None else cls(dt=dt)
+        return settings_with_overrides(base, overrides, prefix=name)
+    except SettingsError:
+        raise
+    except Exception as exc:  # a plugin's settings that refuse a value with another exception: still one line
+        if not _TABLE[name].plugin:
+            raise
+        raise PluginError(f"{_PLUGINS[name].label}: its settings refused the values given: "
+                          f"{type(exc).__name__}: {exc}".splitlines()[0]) from None
 
 
 def settings_dict(settings: Any) -> dict[str, Any]:
@@ -168,14 +217,61 @@ def run_engine_batch(name: str, jobs: Sequence[tuple[Scene, Any]]) -> list[Traje
     """
     for scene, _ in jobs:
         inject_planned(name, scene)
-    return adapter(name).run_batch(list(jobs))
+    return adapter(name).batch(list(jobs))
 
 
 def can_batch(name: str) -> bool:
-    """Does engine ``name`` run compatible jobs together (see ``run_engine_batch``)?"""
-    return adapter(name).batches
+    """Does engine ``name`` run compatible jobs together (see ``run_engine_batch``; a plugin's runs go one by one,
+    each isolated)?"""
+    made = adapter(name)
+    return made.batches and not made.isolated
+
+
+def is_plugin(name: str) -> bool:
+    """Whether engine ``name`` comes from another package (``plugins.py``): loaded when named, run isolated."""
+    return bool(_TABLE[check_engine(name)].plugin)
 
 
 def engine_version(name: str) -> str:
     """Version string of the engine's Python package."""
     return adapter(name).version()
+
+
+@dataclass(frozen=True)
+class EngineRow:
+    """One engine as ``chatterbench engines`` lists it."""
+
+    name: str  # the name commands take (a refused plugin's declared name)
+    source: str  # "built in", or "plugin DISTRIBUTION VERSION"
+    install: str  # what installs it: "chatterbench", the extra (pip install ".[drake]") or the plugin's distribution
+    version: str  # the engine package's version ("-" where it cannot be loaded)
+    status: str  # "ok", "not installed" (an optional engine) or "broken" (a plugin that does not load)
+    reason: str = ""  # why not "ok", one line
+
+
+def engine_rows(names: Sequence[str] | None = None) -> list[EngineRow]:
+    """Every engine of the table and every refused plugin (those called ``names``, when given), each loaded to say
+    its version and status (a plugin in a forked child first: a broken one is its row, never this process's
+    failure)."""
+    rows = []
+    for e in ENGINES:
+        if names is not None and e.name not in names:
+            continue
+        install = f'pip install ".[{e.extra}]"' if e.extra else (e.plugin or "chatterbench")
+        source = f"plugin {e.plugin} {_PLUGINS[e.name].version}" if e.plugin else "built in"
+        reason = unavailable_reason(e.name)
+        status = "ok" if not reason else "broken" if e.plugin else "not installed"
+        rows.append(EngineRow(e.name, source, install, _version(e.name) if status == "ok" else "-", status, reason))
+    for d in DECLARED:
+        if d.refused and (names is None or d.name in names):
+            rows.append(EngineRow(d.name, f"plugin {d.package} {d.version}", d.package, "-", "broken",
+                                  load_plugin(d)))
+    return rows
+
+
+def _version(name: str) -> str:
+    """The engine package's version, or why it has none (a plugin's ``version`` is its own code)."""
+    try:
+        return str(adapter(name).version())
+    except Exception as exc:  # noqa: BLE001  a plugin's version() that fails is that row's, not the listing's
+        return f"- ({type(exc).__name__})"

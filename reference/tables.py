@@ -126,7 +126,11 @@ def flatten(table: Mapping[str, Any], prefix: str = "", lists: bool = False) -> 
 
 def read_toml(path: str | Path, what: str, error: type[InputError] = InputError) -> dict[str, Any]:
     """The TOML table of ``path``; ``error`` naming ``what`` ("scene file 'x.toml'") when it cannot be had."""
-    text = read_text(path, what, error)
+    return parse_toml(read_text(path, what, error), what, error)
+
+
+def parse_toml(text: str, what: str, error: type[InputError] = InputError) -> dict[str, Any]:
+    """The TOML table of ``text`` (read by ``read_text``), bounded as ``read_toml``'s; ``error`` naming ``what``."""
     try:
         return loads(text)
     except TooDeep as exc:

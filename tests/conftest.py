@@ -15,8 +15,10 @@ R = 0.9 takes a few hundred), not on a regression.
 
 from __future__ import annotations
 
+import functools
 import os
 
+import pytest
 from hypothesis import HealthCheck, settings
 
 _COMMON = dict(deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -36,3 +38,45 @@ def _profile() -> str:
 
 
 settings.load_profile(_profile())
+
+# A command that runs 5 s without a word prints a plain progress line on stderr (cli/progress.py). On a loaded
+# machine any command may, so tests that read stderr line by line would read a line the load put there: they run
+# without these lines (inherited by the commands they start); tests/comparisons/cli/test_progress_lines.py turns
+# them on where it tests them.
+os.environ["CHATTERBENCH_PROGRESS_LINES"] = "off"
+
+
+@pytest.fixture
+def engine_runs(monkeypatch, tmp_path_factory):
+    """The engine runs made while the test ran, as ``["pybullet.run", ...]``: a spy on the adapters' ``run`` and
+    ``run_batch`` (the real engines still run) that logs each call that returned a result; a call refused with an
+    exception (``SettingsError``: settings the scene cannot run with, refused before the engine steps) is no run.
+    It logs to a file, so runs in forked children (isolated runs, process pools) count too. A test of a refusal
+    asserts ``engine_runs() == []``: refused before any engine ran."""
+    from chatterbench.engines import base
+    from chatterbench.engines.registry import adapter
+
+    for name in ("mujoco", "pybullet"):  # the default engines' classes, so that their own overrides are spied too
+        adapter(name)
+    log = tmp_path_factory.mktemp("engine-runs") / "runs.log"
+    log.touch()
+
+    def spy(method: str, original):
+        @functools.wraps(original)
+        def wrapper(self, *args, **kwargs):
+            result = original(self, *args, **kwargs)
+            with open(log, "a", encoding="utf-8") as f:
+                f.write(f"{self.name}.{method}\n")
+            return result
+        return wrapper
+
+    classes, todo = set(), [base.EngineAdapter]
+    while todo:
+        cls = todo.pop()
+        classes.add(cls)
+        todo.extend(cls.__subclasses__())
+    for cls in classes:
+        for method in ("run", "run_batch"):
+            if method in vars(cls):
+                monkeypatch.setattr(cls, method, spy(method, vars(cls)[method]))
+    return lambda: log.read_text(encoding="utf-8").splitlines()

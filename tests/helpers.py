@@ -10,9 +10,10 @@ import functools
 import io
 import subprocess
 import sys
+import time
 from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
-from typing import NamedTuple
+from typing import Callable, NamedTuple
 
 from chatterbench.comparisons.cli.main import main
 from chatterbench.comparisons.pipeline.solution import ReferenceSolution, solve
@@ -90,3 +91,72 @@ MEASURED = ("verdict", "n_episodes", "n_match", "stick_error_max", "stick_error_
 def measured(row) -> dict:
     """A summary row's ``MEASURED`` columns, NaN as "nan" (nothing measured equals nothing measured)."""
     return {k: ("nan" if row[k] != row[k] else row[k]) for k in MEASURED}
+
+
+def wait_until(condition: Callable[[], bool], what: str, limit: float = 120.0, every: float = 0.02) -> None:
+    """Poll ``condition`` until it holds; fail with ``what`` if it has not after ``limit`` [s].
+
+    A hang guard, not a speed test: ``limit`` is far above what the slowest loaded machine needs, and the
+    test goes on to assert the behaviour it waited for (``tests/test_no_wall_clock.py`` allows a clock read
+    only in a polling loop's condition)."""
+    end = time.monotonic() + limit
+    while not condition() and time.monotonic() < end:
+        time.sleep(every)
+    assert condition(), f"{what} (waited {limit:g} s)"
+
+
+class TimedRun(NamedTuple):
+    """A child process's output and two clock readings [s, epoch] that bracket what it printed about its own age:
+    ``started`` at or after the kernel started it (taken in the child between fork and exec), ``ended`` after it
+    exited."""
+
+    proc: subprocess.CompletedProcess
+    before: float  # taken before the child was started
+    started: float  # taken in the child, after the kernel started it, before Python's own start
+    ended: float  # taken after it exited
+
+
+def run_timed(argv: list[str], timeout: float = 300, **kwargs) -> TimedRun:
+    """``argv`` in a child process, with the clock readings that bound any age it prints (``TimedRun``)."""
+    import os
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        mark = os.path.join(tmp, "started")
+
+        def note() -> None:  # runs in the child after fork, before exec
+            with open(mark, "w", encoding="ascii") as f:
+                f.write(repr(time.time()))
+
+        before = time.time()
+        proc = subprocess.run(argv, capture_output=True, text=True, timeout=timeout, preexec_fn=note, **kwargs)
+        ended = time.time()
+        with open(mark, encoding="ascii") as f:
+            started = float(f.read())
+    return TimedRun(proc, before, started, ended)
+
+
+def check_printed_age(printed: float, run: TimedRun, last_write: float, rounding: float) -> None:
+    """``printed`` [s], a child's own "since the command started", is its age at the print: at least from its start to
+    ``last_write`` (the mtime of a file it wrote before printing), at most the time it lived. Both bounds hold on a
+    machine of any load: the start is bounded from below by ``started`` (taken after the kernel started it) and the
+    whole life from above by ``ended - before``; ``rounding`` is the print's, plus 0.02 s for the kernel's clock
+    ticks and the file system's coarse timestamps."""
+    slack = rounding + 0.02
+    assert printed + slack >= last_write - run.started, ("the age printed misses part of the run", printed,
+                                                          last_write - run.started)
+    assert printed - slack <= run.ended - run.before, ("the age printed is more than the process lived", printed,
+                                                       run.ended - run.before)
+
+
+def needs_engine(*names: str) -> None:
+    """Skip the calling test, with the engine's install line as the reason, when an engine it runs is not installed
+    (an optional extra absent, Siconos's interpreter missing): the suite passes with any subset of extras."""
+    import pytest
+
+    from chatterbench.engines.registry import unavailable_reason
+
+    for name in names:
+        reason = unavailable_reason(name)
+        if reason:
+            pytest.skip(reason)

@@ -9,6 +9,7 @@ import types
 from pathlib import Path
 
 import pytest
+from helpers import needs_engine
 
 import chatterbench.comparisons
 import chatterbench.engines
@@ -58,8 +59,21 @@ def test_test_module_examples_run(path, monkeypatch):
     assert result.failed == 0 and result.attempted > 0, f"{result} in {path} (printed above)"
 
 
+def _engine_of(module: str) -> str:
+    """The built-in engine whose adapter package holds ``module`` ("": none): its examples run that engine."""
+    from chatterbench.engines.registry import BUILT_IN
+
+    for row in BUILT_IN:
+        package = row.adapter.partition(":")[0]
+        if module == package or module.startswith(package + "."):
+            return row.name
+    return ""
+
+
 @pytest.mark.parametrize("name", _modules())
 def test_module_examples_run(name, monkeypatch):
+    if _engine_of(name):
+        needs_engine(_engine_of(name))  # an optional engine's examples skip, with its install line, when it is absent
     monkeypatch.chdir(ROOT)  # examples name repository files: gates/default.toml, examples/sweeps/...
     module = importlib.import_module(name)
     result = _run_examples(module)

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import json
 import os
-import time
 from pathlib import Path
 
 import pytest
@@ -63,9 +62,13 @@ def test_nesting_of_any_depth_is_refused_or_read(workdir, reader, kind, depth, f
     line = nested(kind, depth)
     text = TEXTS[reader]
     content = f"{line}\n{text}" if first else f"{text}\n{line}\n"  # at the top, or inside the file's last table
-    t0 = time.monotonic()
     CHECKS[reader](workdir, content.encode(), via_cli=depth > MAX_DEPTH)
-    assert time.monotonic() - t0 < 4, (reader, kind, depth)  # before: tomllib took 4 s on a dotted key 20000 deep
+    if depth > MAX_DEPTH:  # refused by the depth scan, before tomllib reads it (it took 4 s on a dotted key 20000 deep)
+        path = workdir / "deep.toml"
+        path.write_text(content)
+        load, error, _ = LOADERS[reader]
+        with pytest.raises(error, match=f"nested more than {MAX_DEPTH}"):
+            load(path)
 
 
 @HOSTILE
@@ -95,14 +98,12 @@ LOADERS = {"scene": (load_scene, SceneError, "run"), "sweep": (load_sweep, SpecE
 
 def _refused_quickly(reader: str, path: Path, *words: str) -> None:
     load, error, command = LOADERS[reader]
-    t0 = time.monotonic()
     with pytest.raises(error) as exc:
         load(path)
     for word in words:
         assert word in str(exc.value), str(exc.value)
     code, _, err = cli([command, str(path)])
     assert code == 2 and err.startswith("chatterbench: error: ") and "Traceback" not in err, err
-    assert time.monotonic() - t0 < 2, (reader, path)
 
 
 @pytest.fixture
@@ -154,29 +155,27 @@ BAD_BASELINES = {  # before: the 100k-deep one raised RecursionError, the others
 }
 
 
-def _gate_with_baseline(tmp_path: Path, baseline) -> tuple[int, str, float]:
+def _gate_with_baseline(tmp_path: Path, baseline) -> tuple[int, str]:
     (tmp_path / "g.toml").write_text(GATE_ONE)
     (tmp_path / "b.json").write_text(baseline if isinstance(baseline, str) else json.dumps(baseline))
-    t0 = time.monotonic()
     code, _, err = cli(["gate", str(tmp_path / "g.toml"), "--baseline", str(tmp_path / "b.json")])
-    return code, err, time.monotonic() - t0
+    return code, err
 
 
 @pytest.mark.parametrize("case", sorted(BAD_BASELINES))
-def test_a_bad_baseline_is_refused_before_any_run(tmp_path, case):
-    code, err, took = _gate_with_baseline(tmp_path, BAD_BASELINES[case])
+def test_a_bad_baseline_is_refused_before_any_run(tmp_path, case, engine_runs):
+    code, err = _gate_with_baseline(tmp_path, BAD_BASELINES[case])
     assert_clean_refusal(code, err)
     assert "--baseline" in err, err
-    assert took < 2, took  # no engine ran: a gate run of this check takes longer
+    assert engine_runs() == []
 
 
 @pytest.mark.parametrize("place", ["pipe.toml", "zero.toml", "/dev/zero", "dir.toml"])
-def test_a_baseline_that_is_no_file_is_refused_unread(places, tmp_path, place):
+def test_a_baseline_that_is_no_file_is_refused_unread(places, tmp_path, place, engine_runs):
     (tmp_path / "g.toml").write_text(GATE_ONE)
-    t0 = time.monotonic()
     code, _, err = cli(["gate", str(tmp_path / "g.toml"), "--baseline", str(places[place])])
     assert_clean_refusal(code, err)
-    assert time.monotonic() - t0 < 2
+    assert engine_runs() == []
 
 
 JSON = st.recursive(st.none() | st.booleans() | st.floats() | st.integers() | st.text(max_size=8),

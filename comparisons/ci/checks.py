@@ -22,7 +22,7 @@ from typing import Any, Callable, Mapping
 
 from chatterbench.comparisons.pipeline.budget import Budget, check_comparison
 from chatterbench.comparisons.pipeline.compare import compare
-from chatterbench.comparisons.pipeline.summary import summarize
+from chatterbench.comparisons.pipeline.summary import signed_worst, summarize
 from chatterbench.comparisons.pipeline.vocabulary import FAILURES
 from chatterbench.engines.registry import make_settings
 
@@ -102,18 +102,20 @@ def run_check(check: Check, cache: dict[str, tuple[dict, str]] | None = None,
     else:
         c = compare(check.scene, engines=(check.engine,), settings={check.engine: check_settings(check)},
                     tol=check.tolerances, timeout=timeout)
-        row = summarize(c, check.engine, {})
+        # the summary row, with the report's signed worst errors (``summary.SIGNED_COLUMNS``) a limit may name too
+        row = {**summarize(c, check.engine, {}), **signed_worst(c.table[c.table["engine"] == check.engine])}
         if cache is not None:
             cache[key] = (row, row["engine_version"])
     return CheckResult(check=check, row=row, outcomes=CheckResult.outcomes_for(check, row), wall_s=time.perf_counter() - start)
 
 
 def run_gate(gate: Gate, on_check: Callable[[int, CheckResult], None] | None = None, timeout: float | None = None,
-             budget: Budget | None = None) -> GateResult:
+             budget: Budget | None = None, starting: Callable[[int, Check], None] | None = None) -> GateResult:
     """Run every check of a validated gate, in order; checks needing the same run share it.
 
     ``on_check(i, result)`` is called as each check's run ends (``i`` from 1): the CLI decides
-    the check there (``decision.decide_check``) and prints its progress line.
+    the check there (``decision.decide_check``) and prints its progress line; ``starting(i, check)`` as
+    each check's run starts (the CLI's progress says which check runs).
     ``timeout`` [s]: each engine run is isolated in a child with this limit (``run_check``).
     ``budget``: every check's runs are estimated against it before the first one starts.
     """
@@ -124,6 +126,8 @@ def run_gate(gate: Gate, on_check: Callable[[int, CheckResult], None] | None = N
     results = []
     start = time.perf_counter()
     for i, check in enumerate(gate.checks, 1):
+        if starting:
+            starting(i, check)
         result = run_check(check, cache, timeout)
         results.append(result)
         if on_check:

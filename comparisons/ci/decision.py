@@ -30,6 +30,7 @@ limit) and the commands to run next for it.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 import shlex
@@ -41,7 +42,7 @@ import pandas as pd
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
 from chatterbench.reference.tables import toml_literal
 
-from .baseline import BAND, Regression, check_regressions, versions_note
+from .baseline import BAND, Regression, check_regressions, run_fingerprint, versions_note
 from .checks import CheckResult, GateResult, LimitOutcome, fmt_value
 from .gate import Check
 
@@ -61,11 +62,12 @@ class Item:
     baseline: float | None = None  # the baseline's value (kind "regressed")
     note: str = ""  # "grew 900%", "measured in one run only"
     excess: float = 0.0  # how far past its limit (measured / allowed; inf: not a number): ranks failures
+    line: int = 0  # where the gate file says it: the limit's line, else its check's [[check]] line (0: no file)
 
     def message(self) -> str:
         """One line: ``METRIC = MEASURED, limit LIMIT[; NOTE]``."""
         if self.kind == "missing":
-            return f"not in the baseline; {self.note}"
+            return f"not in the baseline{'' if self.measured == 'absent' else ' as this run'}; {self.note}"
         return f"{self.metric} = {fmt_value(self.measured)}, limit {self.limit}" + (f"; {self.note}" if self.note else "")
 
 
@@ -73,11 +75,13 @@ def _rank(i: Item) -> tuple[int, float]:
     return len(KINDS) - KINDS.index(i.kind), i.excess
 
 
-def _limit_item(check: Check, o: LimitOutcome) -> Item:
+def _limit_item(check: Check, o: LimitOutcome, k: int) -> Item:
+    """Item of the ``k``-th outcome (of ``check.limits`` in order, then the implicit one)."""
     failed_run = o.limit not in check.limits  # the implicit limit of a failure class (CheckResult.outcomes_for)
+    line = check.limit_lines[k] if k < len(check.limit_lines) and check.limit_lines[k] else check.line
     return Item("failed run" if failed_run else "limit", o.limit.metric, str(o.limit), o.measured, o.passed,
                 note="the run failed and no limit names its verdict" if failed_run else "",
-                excess=0.0 if o.passed else _excess(o.limit.op, o.measured, o.limit.value))
+                excess=0.0 if o.passed else _excess(o.limit.op, o.measured, o.limit.value), line=line)
 
 
 def _excess(op: str, measured: Any, value: Any) -> float:
@@ -85,6 +89,7 @@ def _excess(op: str, measured: Any, value: Any) -> float:
         return math.inf
     if math.isnan(measured):
         return math.inf
+    measured, value = abs(measured), abs(value)  # a signed error's limit (>= -0.01) ranks by its size too
     num, den = (measured, value) if op in ("<=", "<") else (value, measured) if op in (">=", ">") else (1.0, 0.0)
     return num / den if den > 0 else math.inf
 
@@ -92,6 +97,10 @@ def _excess(op: str, measured: Any, value: Any) -> float:
 def _regression_item(g: Regression, versions: str) -> Item:
     if g.why == "missing":
         return Item("missing", "", "in the baseline", "absent", False, note=versions)
+    if g.why == "other run":  # a baseline from another gate file, or from before the check changed: not comparable
+        return Item("missing", "", "the same run in the baseline", "another run", False,
+                    note=f"the baseline's {g.check!r} measured another scene, engine, dt, settings or tolerances; "
+                         f"{versions}")
     if g.why == "one run":
         return Item("regressed", g.metric, f"{g.metric} measured in both runs", g.now, False,
                     baseline=None if math.isnan(g.base) else g.base, note="measured in one run only", excess=math.inf)
@@ -118,6 +127,11 @@ class CheckDecision:
     @property
     def failures(self) -> tuple[Item, ...]:
         return tuple(i for i in self.items if not i.passed)
+
+    def line(self) -> int:
+        """The gate file's line to point at: its worst failure's (its limit's, else the check's), else the check's."""
+        worst = max(self.failures, key=_rank, default=None)
+        return (worst.line if worst is not None and worst.line else 0) or self.result.check.line
 
     def failure_line(self) -> str:
         """Every failure's ``message`` on one line (JUnit's failure message, the ``::error`` annotation)."""
@@ -165,12 +179,13 @@ class CheckDecision:
 
 def decide_check(result: CheckResult, base: Mapping[str, Any] | None = None, band: float = BAND) -> CheckDecision:
     """Judge one check's run: its limits, a failed run, and (with ``base``, a loaded baseline) its regressions."""
-    items = [_limit_item(result.check, o) for o in result.outcomes]
+    items = [_limit_item(result.check, o, k) for k, o in enumerate(result.outcomes)]
     if base is not None:
         engine = result.check.engine
         note = versions_note({engine: str(result.row.get("engine_version", ""))},
                              {"versions": {k: v for k, v in (base.get("versions") or {}).items() if k == engine}})
-        items += [_regression_item(g, note) for g in check_regressions(result.check.name, result.row, base, band)]
+        items += [dataclasses.replace(_regression_item(g, note), line=result.check.line)
+                  for g in check_regressions(result.check.name, result.row, base, band, run_fingerprint(result.check))]
     return CheckDecision(result, tuple(items))
 
 

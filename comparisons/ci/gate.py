@@ -53,6 +53,12 @@ restitution_error_max       number  |effective R / R - 1| of the worst resolved 
 penetration_max [m]         number  deepest penetration of a wall
 cost_per_sim_s              number  wall-clock s per simulated s (machine-dependent)
 n_match, n_episodes         number  integers
+stick_error_worst [s]       number  the report's columns: the worst error with its sign
+stick_error_rel_worst       number  (engine minus reference; negative: early, or an impact
+exit_error_worst [s]        number  that keeps less than R of its speed), |X_worst| = X_max;
+exit_error_rel_worst        number  bound them both ways (``stick_error_worst >= -0.01``,
+first_impact_error_worst    number  ``stick_error_worst <= 0.01``); the pytest fixture takes
+restitution_error_worst     number  them with an operator only (``("<=", 0.01)``)
 ==========================  ======  =====================================================
 
 The verdicts (``pipeline/vocabulary.py``; ``docs/verdicts.md``) combine into the run's
@@ -71,6 +77,7 @@ reported at once, each naming the file, the check, the key, the value and what i
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import operator
@@ -79,7 +86,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence
 
-from chatterbench.comparisons.pipeline.summary import METRIC_COLUMNS
+from chatterbench.comparisons.pipeline.summary import METRIC_COLUMNS, SIGNED_COLUMNS
 from chatterbench.comparisons.pipeline.tolerances import Tolerances, make_tolerances
 from chatterbench.comparisons.pipeline.vocabulary import FAILURES, NAMES
 from chatterbench.engines.registry import ENGINE_NAMES, make_settings
@@ -87,17 +94,19 @@ from chatterbench.reference.catalogue import CATALOGUE
 from chatterbench.reference.errors import (InputError, check_choice, check_fields, check_number, check_table, check_text,
                                           did_you_mean, is_number, unknown_keys)
 from chatterbench.reference.scene import Scene, load_scene
-from chatterbench.reference.tables import flatten, read_toml
+from chatterbench.reference.tables import flatten, parse_toml, read_text
+
+from .gate_lines import check_lines
 
 TEXT_METRICS = {"verdict": NAMES, "status": ("ok", *FAILURES)}
-NUMBER_METRICS = (*METRIC_COLUMNS, "cost_per_sim_s", "n_match", "n_episodes")
+NUMBER_METRICS = (*METRIC_COLUMNS, *SIGNED_COLUMNS, "cost_per_sim_s", "n_match", "n_episodes")
 METRICS = tuple(TEXT_METRICS) + NUMBER_METRICS
 TEXT_OPS = ("==", "!=", "in")
 NUMBER_OPS = ("<=", "<", ">=", ">", "==", "!=")
 # the operator a bare value means (pytest fixture keywords): an error or a cost is a ceiling,
 # matches a floor, the episode count and the texts exact
 DEFAULT_OPS = {"verdict": "==", "status": "==", "n_match": ">=", "n_episodes": "==",
-               **{m: "<=" for m in NUMBER_METRICS if m not in ("n_match", "n_episodes")}}
+               **{m: "<=" for m in NUMBER_METRICS if m not in ("n_match", "n_episodes", *SIGNED_COLUMNS)}}
 _OPS: dict[str, Callable[[Any, Any], bool]] = {
     "<=": operator.le, "<": operator.lt, ">=": operator.ge, ">": operator.gt, "==": operator.eq, "!=": operator.ne,
     "in": lambda a, b: a in b,
@@ -157,6 +166,8 @@ class Check:
     tolerances: Tolerances
     limits: tuple[Limit, ...]
     source: str = ""  # "FILE, check N" for messages
+    line: int = 0  # the line of its [[check]] header in the gate file (from 1; 0: not read from a file)
+    limit_lines: tuple[int, ...] = ()  # the line each of ``limits`` is written on (0 where unknown)
     scene_source: str = ""  # the scene as the gate names it: a built-in name or a TOML path (resolved against the file)
     engine_settings: Any = None  # the engine's settings object of ``dt`` and ``settings``, made once by ``make_check``
 
@@ -240,6 +251,9 @@ def limits_from_keywords(**limits: Any) -> tuple[Limit, ...]:
             raise GateError(f"limit {metric}={value!r}: unknown metric{did_you_mean(metric, METRICS)}; allowed: {', '.join(METRICS)}")
         if isinstance(value, tuple) and len(value) == 2 and isinstance(value[0], str) and value[0] in _OPS:
             op, v = value
+        elif metric in SIGNED_COLUMNS:  # a bare ceiling on a signed error would pass any early one
+            raise GateError(f"limit {metric}={value!r}: {metric} is signed (negative: early); name the operator, e.g. "
+                            f"{metric}=('>=', -0.01), or limit its magnitude: {metric.replace('_worst', '_max')}={value!r}")
         elif isinstance(value, (list, tuple)) and metric in TEXT_METRICS:
             op, v = "in", list(value)
         else:
@@ -401,11 +415,12 @@ def _read_check(i: int, raw: Mapping[str, Any], defaults: Mapping[str, Any], pat
 
 
 def parse_gate(data: Mapping[str, Any], path: str = "<gate>", base_dir: Path | None = None,
-               base_tolerances: Tolerances | None = None) -> Gate:
+               base_tolerances: Tolerances | None = None, text: str | None = None) -> Gate:
     """Validate gate data (the TOML layout of the module docstring); raises GateError with every problem.
 
     ``base_tolerances`` (the command line's ``--tolerance``) are what a check's own
-    ``tolerances`` table, and the file's ``[defaults]``, are applied over."""
+    ``tolerances`` table, and the file's ``[defaults]``, are applied over. ``text``: the file's
+    text, whose lines each check and limit keeps (``gate_lines``: where annotations point)."""
     problems = [f"{path}: {m} (each check is a [[check]] table)" for m in unknown_keys(data, TOP_KEYS, "top-level key")]
     found: list[str] = []
     top = check_fields({k: v for k, v in data.items() if k in TOP_FIELDS}, TOP_FIELDS, problems=found)
@@ -415,12 +430,17 @@ def parse_gate(data: Mapping[str, Any], path: str = "<gate>", base_dir: Path | N
     if not top.get("check") and not problems:
         problems.append(f"{path}: no checks; add at least one [[check]] table with scene, engine and limits")
     checks, names = [], {}
-    for i, raw in enumerate(top.get("check", []), 1):
+    raws = top.get("check", [])
+    lines = check_lines(text, [[t for t in raw.get("limits", []) if isinstance(t, str)]
+                               if isinstance(raw.get("limits"), list) else [] for raw in raws]) if text else []
+    for i, raw in enumerate(raws, 1):
         try:
             check = _read_check(i, raw, defaults, path, base_dir, base_tolerances)
         except GateError as exc:
             problems.extend(str(exc).splitlines())
             continue
+        if lines:
+            check = dataclasses.replace(check, line=lines[i - 1][0], limit_lines=lines[i - 1][1])
         if check.name in names:
             problems.append(f"{check.source}: name {check.name!r} is already used by check {names[check.name]}; "
                             "give each check a unique name (JUnit reports them by name)")
@@ -435,5 +455,6 @@ def parse_gate(data: Mapping[str, Any], path: str = "<gate>", base_dir: Path | N
 def load_gate(path: str | Path, base_tolerances: Tolerances | None = None) -> Gate:
     """Read and validate a gate file; raises GateError (unreadable, not TOML, or any invalid check)."""
     path = Path(path)
-    data = read_toml(path, f"gate file {str(path)!r}", GateError)
-    return parse_gate(data, str(path), path.parent, base_tolerances)
+    what = f"gate file {str(path)!r}"
+    text = read_text(path, what, GateError)
+    return parse_gate(parse_toml(text, what, GateError), str(path), path.parent, base_tolerances, text)

@@ -7,7 +7,7 @@
     >>> gate = parse_gate({"check": [{"scene": "bouncing-ball", "engine": "pybullet", "dt": 1e-3,
     ...                               "limits": ["verdict == none"]}]})
     >>> decision = decide(run_gate(gate))
-    >>> print(annotations(decision)[0][:60])
+    >>> print(annotations(decision)[0][:60])        # a gate read from a file says where: file=GATE,line=N,
     ::error title=chatter gate bouncing-ball/pybullet::verdict =
     >>> entries = benchmark_entries(decision)
     >>> entries[0]["name"], entries[0]["unit"], entries[0]["extra"][:9]
@@ -18,9 +18,11 @@ Each renders ``decision.Decision`` and decides nothing:
 - ``job_summary``: Markdown for ``$GITHUB_STEP_SUMMARY`` (GitHub shows it on the run's page):
   PASS or FAIL, a row per failure (measured, limit, baseline), the commands to run next,
   every item of every check, the engine versions.
-- ``annotations``: one ``::error title=...::message`` workflow command per failed check (its
-  failures), and a ``::notice`` with the commands to run next, which GitHub Actions turns into
-  annotations on the run (printed when ``GITHUB_ACTIONS=true``).
+- ``annotations``: one ``::error file=GATE,line=N,title=...::message`` workflow command per
+  failed check (its failures; ``N``: the line of its worst failing limit in the gate file, or
+  of its ``[[check]]`` header), and a ``::notice`` with the commands to run next, which GitHub
+  Actions turns into annotations on the run and on the gate file's line (printed when
+  ``GITHUB_ACTIONS=true``).
 - ``benchmark_entries``: every measured number metric of every check in the
   ``customSmallerIsBetter`` format of github-action-benchmark (a JSON list of ``{"name",
   "unit", "value", "extra"}``): errors and cost, all smaller-is-better; NaN (not measured)
@@ -31,6 +33,8 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import stat
 from typing import Any
 
 from chatterbench.comparisons.pipeline.summary import METRIC_COLUMNS
@@ -52,11 +56,13 @@ def _escape(text: str, property_: bool = False) -> str:
 
 def annotations(decision: Decision) -> list[str]:
     """One ``::error`` workflow command per failed check (its failures), then one ``::notice`` with what to run next."""
-    out = []
+    out, path = [], decision.result.gate.path
     for c in decision.checks:
         if not c.passed:
+            where = f"file={_escape(path, property_=True)}," if c.result.check.line else ""
+            where += f"line={c.line()}," if c.line() else ""
             title = _escape(f"chatter gate {c.name}", property_=True)
-            out.append(f"::error title={title}::{_escape(c.failure_line())}")
+            out.append(f"::error {where}title={title}::{_escape(c.failure_line())}")
     steps = decision.next_steps()
     if steps:
         out.append(f"::notice title={_escape('chatter gate: what to run next', property_=True)}::{_escape(chr(10).join(steps))}")
@@ -92,6 +98,32 @@ def job_summary(decision: Decision) -> str:
     if decision.baseline:
         lines += ["", f"Baseline `{decision.baseline}`: {decision.versions}."]
     return "\n".join(lines) + "\n"
+
+
+def append_step_summary(path: str, summary: str) -> str:
+    """Append ``summary`` to GitHub's job summary file ``path``; "" when done, else what went wrong (for one warning
+    line: the file is GitHub's, the verdict must not depend on it).
+
+    Only a regular file (or a new one) is written: a named pipe, opened without waiting for a
+    reader, or a device is refused, so a gate never hangs on it; a full disk is said, not raised.
+    """
+    try:
+        fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NONBLOCK | os.O_CLOEXEC, 0o666)
+    except OSError as exc:  # a pipe with no reader (ENXIO), a directory, a missing folder, a NUL in the name
+        return f"{path}: cannot be opened ({exc.strerror or exc})"
+    except ValueError as exc:
+        return f"{path!r}: cannot be opened ({exc})"
+    try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            return f"{path}: not a regular file (a pipe, a device or a socket); nothing written to it"
+        data = summary.encode("utf-8")
+        while data:
+            data = data[os.write(fd, data):]
+        return ""
+    except OSError as exc:  # a full disk: part of the summary may be there, the verdict is in the log
+        return f"{path}: cannot write ({exc.strerror or exc})"
+    finally:
+        os.close(fd)
 
 
 def benchmark_entries(decision: Decision) -> list[dict[str, Any]]:

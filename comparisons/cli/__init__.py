@@ -46,10 +46,31 @@ if _COMMAND:
     sys.unraisablehook = _unraisable
 
 
+class Terminated(BaseException):
+    """SIGTERM during the work (a cancelled CI job, ``kill``): raised like Ctrl-C's ``KeyboardInterrupt``, so that what
+    the command was writing is removed or finished (``atomic.staged``); ``main`` exits 143."""
+
+
+def _terminate(signum, frame):  # noqa: ARG001 - a signal handler's signature
+    raise Terminated
+
+
+def _default_term_in_child() -> None:
+    """A forked child (a pool's worker, an isolated engine run) dies of SIGTERM, as its parent's pool expects."""
+    if signal.getsignal(signal.SIGTERM) is _terminate:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
 def quiet_interrupts(quiet: bool) -> None:
-    """As the command: Ctrl-C exits at once (``quiet``), or raises ``KeyboardInterrupt`` for ``main`` to catch."""
+    """As the command: Ctrl-C exits at once (``quiet``), or raises ``KeyboardInterrupt`` for ``main`` to catch; SIGTERM
+    kills at once (``quiet``) or raises ``Terminated``."""
     if _COMMAND and signal.getsignal(signal.SIGINT) in (_interrupted, interrupt, signal.default_int_handler):
         signal.signal(signal.SIGINT, _interrupted if quiet else interrupt)
+    if _COMMAND and signal.getsignal(signal.SIGTERM) in (signal.SIG_DFL, _terminate):
+        signal.signal(signal.SIGTERM, signal.SIG_DFL if quiet else _terminate)
+
+
+os.register_at_fork(after_in_child=_default_term_in_child)
 
 
 quiet_interrupts(True)

@@ -3,13 +3,14 @@
     $ chatterbench calibrate mujoco pybullet --restitution 0.5 --out out/calibrate
     $ chatterbench calibrate mujoco --gravity 9.81 --speeds 0.01,10 --points 25 --set mujoco.w0_dt=0.1
 
-Prints three tables: e at each speed (one strike per speed, one column per engine:
+Prints three tables: e at each speed (strikes at ``STRIKES`` places in a step per speed, 8 through it and its two ends, where in
+a step the impact falls moving e: min, median and max, three columns per engine:
 ``studies/restitution_curve.py``), e under ``--scene``'s own forces at the speeds it reaches
-(a strike from the reference's state before each impact the judge resolves:
-``studies/scene_restitution.py``), and the restitution of the first ``--impacts`` resolved
+(strikes from the reference's state before each impact the judge resolves, at the same places in
+a step: ``studies/scene_restitution.py``), and the restitution of the first ``--impacts`` resolved
 impacts of the scene's run per engine, from the judge's paired impacts, with its worst impact
 (the one the report's restitution error is) added when it is not among them. ``--out``
-writes calibration.csv (the first two tables, one row per engine and strike,
+writes calibration.csv (the first two tables, one row per engine, strike and place in a step,
 ``CURVE_COLUMNS``; ``forces`` tells them apart), impacts.csv (every resolved impact,
 ``IMPACT_COLUMNS``) and restitution_curve.png/.svg (every engine in one picture, with the
 restitution tolerance). ``--restitution`` sets R for all (default: the scene's).
@@ -18,24 +19,21 @@ restitution tolerance). ``--restitution`` sets R for all (default: the scene's).
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
-
-import pandas as pd
 
 from chatterbench.comparisons.pipeline.atomic import write_frame
 from chatterbench.comparisons.pipeline.budget import check_comparison
-from chatterbench.comparisons.pipeline.solution import solve
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
-from chatterbench.comparisons.studies.restitution_curve import (ABOVE, DEFAULT_POINTS, DECADES_BELOW, MAX_POINTS, default_speeds,
-                                                               impact_restitutions, log_speeds, pinned_settings,
-                                                               restitution_curve)
-from chatterbench.comparisons.studies.scene_restitution import scene_restitution
+from chatterbench.comparisons.studies.limits import ABOVE, DEFAULT_POINTS, DECADES_BELOW, MAX_POINTS
 from chatterbench.engines.registry import ENGINE_NAMES, run_engine
 from chatterbench.reference.scene import load_scene
 
+from .commands import COMMANDS
 from .common import (UsageError, integer_type, add_budget, add_dt, add_out, add_set, budget_of, engine_list, positive_float, print_table,
                      settings_of, split_overrides)
 from .paths import check_dir, writing
+from .progress import Progress
 
 
 def restitution_value(text: str) -> float:
@@ -75,7 +73,26 @@ def gravity_value(text: str) -> float:
     return value
 
 
+def _wide_band(curve, engines):
+    """One row per speed: each engine's e over the phases of a step as columns ENGINE min, ENGINE median, ENGINE max."""
+    import pandas as pd
+
+    from chatterbench.comparisons.studies.restitution_curve import restitution_band
+
+    band = restitution_band(curve)
+    wide = pd.DataFrame({"speed": [float(f"{v:.4g}") for v in dict.fromkeys(curve["speed"])]})
+    for name in engines:
+        rows = band[band["engine"] == name].set_index("speed")
+        for col, label in (("e_min", "min"), ("e_median", "median"), ("e_max", "max")):
+            wide[f"{name} {label}"] = [round(float(rows[col].get(v, math.nan)), 4) for v in dict.fromkeys(curve["speed"])]
+    return wide
+
+
 def cmd_calibrate(args: argparse.Namespace) -> int:
+    import pandas as pd
+
+    from chatterbench.comparisons.studies.restitution_curve import STRIKES, default_speeds, log_speeds, restitution_band
+
     check_dir("--out", args.out)
     engines = engine_list(",".join(args.engine))
     scene_over, engine_over = split_overrides(args.set)
@@ -87,30 +104,22 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     settings = settings_of(engines, args.dt, engine_over)  # every refusal before any run
     check_comparison(scene, settings, budget_of(args), reference=args.impacts > 0)
     speeds = log_speeds(*args.speeds, args.points) if args.speeds else default_speeds(scene, args.points)
-    # one run of the whole scene per engine: its impacts, and the contact it makes for the scene, which every strike meets
-    runs = {name: run_engine(name, scene, s) for name, s in settings.items()}
-    pinned = {n: pinned_settings(s, runs[n].settings) for n, s in settings.items()}
-    curve = pd.concat([restitution_curve(n, s, scene.restitution, speeds, scene, args.gravity) for n, s in pinned.items()],
-                      ignore_index=True)
-    wide = curve.pivot(index="speed", columns="engine", values="restitution_effective")[list(engines)].round(4).reset_index()
-    wide["speed"] = [float(f"{v:.4g}") for v in wide["speed"]]
+    with Progress(len(engines) * (4 if args.impacts else 2), f"calibrate {scene.name}", unit="step") as bar:
+        curve, strikes, impacts = _calibrations(scene, settings, speeds, args, bar)
     forces = f"under gravity g = {args.gravity:g} m/s^2" if args.gravity else "no other forces"
-    print_table(wide, title=f"effective restitution e = -v+/v- of one strike per speed [m/s] on {scene.name}'s bodies, "
-                            f"{forces}; nominal R = {scene.restitution:g} (0: no rebound)")
+    print_table(_wide_band(curve, engines),
+                title=f"effective restitution e = -v+/v- per speed [m/s] on {scene.name}'s bodies, {forces}, struck at "
+                      f"{STRIKES} places in a step (where in a step the impact falls moves e): min, median, max; nominal "
+                      f"R = {scene.restitution:g} (0: no rebound)")
     for row in curve[curve["status"] != "ok"].itertuples():
-        print(f"{row.engine} at {row.speed:.4g} m/s: {row.status}: {row.message}")
-    impacts, strikes, tol = pd.DataFrame(), pd.DataFrame(), Tolerances()
+        print(f"{row.engine} at {row.speed:.4g} m/s, {row.phase:g} of a step: {row.status}: {row.message}")
+    tol = Tolerances()
     if args.impacts:
-        ref = solve(scene)
-        strikes = pd.concat([scene_restitution(n, s, ref, tol.resolved_steps) for n, s in pinned.items()],
-                            ignore_index=True)
-        print_table(strikes[["engine", "impact", "wall", "speed", "restitution_effective", "restitution_error",
-                             "restitution_uncertainty"]].round(4),
-                    title=f"{scene.name}'s own forces: one strike from the reference's state before each impact the "
-                          f"judge resolves (speed [m/s]; error e/R - 1; the judge holds a run to R where the "
-                          f"uncertainty u <= {tol.restitution:g})")
-        impacts = pd.concat([impact_restitutions(n, s, scene, ref, tol, trajectory=runs[n]) for n, s in settings.items()],
-                            ignore_index=True)
+        print_table(restitution_band(strikes)[["engine", "impact", "wall", "speed", "e_min", "e_median", "e_max",
+                                               "error_worst", "restitution_uncertainty"]].round(4),
+                    title=f"{scene.name}'s own forces: strikes from the reference's state before each impact the judge "
+                          f"resolves, at {STRIKES} places in a step (speed [m/s]; e min, median, max; error_worst: e/R - 1 "
+                          f"of largest magnitude; the judge holds a run to R where the uncertainty u <= {tol.restitution:g})")
         shown = impacts[(impacts.groupby("engine").cumcount() < args.impacts) | impacts["worst"]]
         print_table(shown[["engine", "impact", "speed", "restitution_effective", "restitution_error",
                            "restitution_uncertainty", "worst"]].round(4),
@@ -127,20 +136,49 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
         fig = restitution_curve_figure(curve, impacts if len(impacts) else None, scene.name,
                                        strikes if len(strikes) else None, tol.restitution)
-        with writing("--out", out):
-            write_frame(out / "calibration.csv", pd.concat([curve, strikes], ignore_index=True) if len(strikes) else curve)
+        with writing("--out", out, together=True) as stage:  # every file, or none (Ctrl-C, a full disk)
+            write_frame(stage / "calibration.csv", pd.concat([curve, strikes], ignore_index=True) if len(strikes) else curve)
             if len(impacts):
-                write_frame(out / "impacts.csv", impacts)
-            write_figure(fig, out, "restitution_curve")
+                write_frame(stage / "impacts.csv", impacts)
+            write_figure(fig, stage, "restitution_curve")
         print(f"wrote {out / 'calibration.csv'}{', impacts.csv' if len(impacts) else ''}, restitution_curve.png, "
               "restitution_curve.svg")
     return 0
 
 
+def _calibrations(scene, settings: dict, speeds, args: argparse.Namespace, bar: Progress):
+    """(the curve of one strike per speed, the strikes under the scene's forces, the scene run's impacts) of every
+    engine, each stage said on ``bar``; the last two empty without ``--impacts``."""
+    import pandas as pd
+
+    from chatterbench.comparisons.pipeline.solution import solve
+    from chatterbench.comparisons.studies.restitution_curve import impact_restitutions, pinned_settings, restitution_curve
+    from chatterbench.comparisons.studies.scene_restitution import scene_restitution
+
+    # one run of the whole scene per engine: its impacts, and the contact it makes for the scene, which every strike meets
+    runs, curves, strikes, impacts, tol = {}, [], [], [], Tolerances()
+    for name, s in settings.items():
+        bar.stage(f"{name}: the scene")
+        runs[name] = run_engine(name, scene, s)
+    pinned = {n: pinned_settings(s, runs[n].settings) for n, s in settings.items()}
+    for name, s in pinned.items():
+        bar.stage(f"{name}: {len(speeds)} strikes")
+        curves.append(restitution_curve(name, s, scene.restitution, speeds, scene, args.gravity))
+    if args.impacts:
+        ref = solve(scene)
+        for name, s in pinned.items():
+            bar.stage(f"{name}: strikes under the scene's forces")
+            strikes.append(scene_restitution(name, s, ref, tol.resolved_steps))
+        for name, s in settings.items():
+            bar.stage(f"{name}: the run's impacts against the reference")
+            impacts.append(impact_restitutions(name, s, scene, ref, tol, trajectory=runs[name]))
+    joined = [pd.concat(parts, ignore_index=True) if parts else pd.DataFrame() for parts in (curves, strikes, impacts)]
+    return tuple(joined)
+
+
 def register(sub, formatter) -> None:
     """Add ``calibrate`` to the ``chatterbench`` subparsers."""
-    p = sub.add_parser("calibrate", help="each engine's effective restitution against impact speed (where R drifts)",
-                       formatter_class=formatter)
+    p = sub.add_parser("calibrate", help=COMMANDS["calibrate"], formatter_class=formatter)
     p.add_argument("engine", nargs="+", metavar="ENGINE", help=f"engines to calibrate: {', '.join(ENGINE_NAMES)}")
     p.add_argument("--restitution", type=restitution_value, default=None, metavar="R",
                    help="Newton's R the engines are set up for, in (0, 1); None: the scene's")

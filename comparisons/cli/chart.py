@@ -15,14 +15,14 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import pandas as pd
-
-from chatterbench.comparisons.outputs.sweep_data import check_columns, equals, parameter_columns
-from chatterbench.comparisons.studies.sweep.dataset import load_rows
-
+from .commands import COMMANDS
 from .common import UsageError, add_out, positive_float, print_table
 from .paths import check_dir, writing
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 KINDS = ("work-precision", "stability")
 ERROR_METRICS = ("exit_error_max", "stick_error_max", "stick_error_plate_max", "first_impact_error_max",
@@ -37,6 +37,8 @@ def _where(rows: pd.DataFrame, items: list[str]) -> pd.DataFrame:
     ``--where mujoco.w0_dt=0.03 --where pybullet.restitution_velocity_threshold=0`` keeps
     each engine at one setting.
     """
+    from chatterbench.comparisons.outputs.sweep_data import check_columns, equals, parameter_columns
+
     for item in items:
         key, sep, text = item.partition("=")
         key = key.strip()
@@ -66,13 +68,17 @@ def _default_out(dataset: Path) -> Path:
 def _save(fig, out: Path, stem: str) -> list[Path]:
     from chatterbench.comparisons.outputs.figures import write_figure  # draws: loads matplotlib (0.7 s), so only when asked
 
-    with writing("--out", out):
-        return write_figure(fig, out, stem)
+    with writing("--out", out, together=True) as stage:  # the PNG and the SVG, or neither
+        return [out / p.relative_to(stage) for p in write_figure(fig, stage, stem)]
 
 
 def cmd_chart(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else _default_out(Path(args.dataset))
     check_dir("--out", out)
+    import pandas as pd
+
+    from chatterbench.comparisons.outputs.sweep_data import check_columns
+    from chatterbench.comparisons.studies.sweep.dataset import load_rows
     from chatterbench.comparisons.outputs.stability_map import stability_map_figure, verdict_grid  # draws: loads matplotlib (0.7 s), so only when asked
     from chatterbench.comparisons.outputs.work_precision import (default_error, panel_metrics, pareto_front,
                                                                  work_precision_figure, work_precision_points)
@@ -122,8 +128,7 @@ def cmd_chart(args: argparse.Namespace) -> int:
 
 def register(sub, formatter) -> None:
     """Add ``chart`` to the ``chatterbench`` subparsers."""
-    p = sub.add_parser("chart", help="draw the work-precision chart or a stability map from a finished sweep dataset",
-                       formatter_class=formatter)
+    p = sub.add_parser("chart", help=COMMANDS["chart"], formatter_class=formatter)
     p.add_argument("dataset", metavar="DATASET", help="sweep output directory (rows.parquet), or a .parquet / .csv of rows")
     p.add_argument("--kind", choices=KINDS, required=True, help="work-precision: error against cost; stability: verdict map")
     p.add_argument("--x", metavar="KEY", default=None, help="stability: parameter on the x axis (dt, restitution, mujoco.w0_dt, ...)")

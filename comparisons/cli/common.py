@@ -23,17 +23,18 @@ import re
 import sys
 import warnings
 from contextlib import contextmanager
-from typing import Any, Sequence
-
-import pandas as pd
+from typing import TYPE_CHECKING, Any, Sequence
 
 from chatterbench.comparisons.pipeline.budget import GIB, MAX_MEMORY, MAX_STEPS, Budget
 from chatterbench.comparisons.pipeline.tolerances import Tolerances, tolerances_from_items
-from chatterbench.comparisons.studies.sweep.spec import MAX_TIMEOUT
+from chatterbench.engines.isolate import set_run_limit
 from chatterbench.engines.registry import DEFAULT_ENGINES, ENGINE_NAMES, check_engine, make_settings
-from chatterbench.reference.errors import InputError
+from chatterbench.reference.errors import InputError, did_you_mean
 from chatterbench.reference.scene import split_assignment
 from chatterbench.reference.tables import printable
+
+if TYPE_CHECKING:  # pandas and the sweep's modules load with the work, not with --help (issue 33)
+    import pandas as pd
 
 
 class UsageError(InputError):
@@ -47,13 +48,38 @@ class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
 class Parser(argparse.ArgumentParser):
     """argparse with the CLI's refusal format: one stderr line ``chatterbench: error: ...``, exit 2.
 
-    (argparse's own prints the usage first; the usage is one ``--help`` away.)
+    (argparse's own prints the usage first; the usage is one ``--help`` away.) A misspelt
+    subcommand or option gets the nearest name (``repot``: did you mean 'report'?; ``--dtt``:
+    did you mean '--dt'?), and an unknown option is refused by the subcommand that read it, so
+    the message points at that subcommand's ``--help``.
     """
+
+    _innermost: "Parser | None" = None  # the last parser that read words: a subcommand's, after the top level's
 
     def __init__(self, *args, **kwargs) -> None:
         super().__init__(*args, **kwargs)
         self.register("action", None, _StoreOnce)
         self.register("action", "store", _StoreOnce)
+
+    def parse_known_args(self, args=None, namespace=None):
+        Parser._innermost = self
+        return super().parse_known_args(args, namespace)
+
+    def parse_args(self, args=None, namespace=None):
+        parsed, extras = self.parse_known_args(args, namespace)
+        if extras:
+            inner = Parser._innermost or self
+            options = [o for o in inner._option_string_actions if o.startswith("--")]
+            words = [w.split("=", 1)[0] for w in extras if w.startswith("--")]
+            hints = [f"{w}: {hint[2:-1]}" for w in words if (hint := did_you_mean(w, options))]
+            inner.error(f"unrecognized arguments: {' '.join(extras)}" + (f" ({'; '.join(hints)})" if hints else ""))
+        return parsed
+
+    def _check_value(self, action, value):  # a choice misspelt (a subcommand: ``repot``) gets the nearest one
+        if action.choices is not None and value not in action.choices:
+            choices = ", ".join(map(repr, action.choices))
+            raise argparse.ArgumentError(action, f"invalid choice: {value!r} (choose from {choices})"
+                                                 + did_you_mean(str(value), [str(c) for c in action.choices]))
 
     def error(self, message: str):  # type: ignore[override]
         sub = self.prog.split(" ", 1)[1] if " " in self.prog else ""
@@ -86,6 +112,8 @@ def check_settings(args: argparse.Namespace) -> None:
     ``--set ENGINE.dt``. Options given once are argparse's (``_StoreOnce``).
     """
     args.__dict__.pop("_given_once", None)
+    if getattr(args, "timeout", None) is not None:  # a plugin's load and runs, and an engine's own child, are held to it
+        set_run_limit(args.timeout)
     for option in ("set", "tolerance"):
         seen: dict[str, str] = {}
         for item in getattr(args, option, None) or []:
@@ -291,6 +319,8 @@ ENGINE_TIMEOUT = 600.0  # [s] the command line's limit on one engine run
 
 def timeout_seconds(text: str) -> float:
     """argparse type: a wall-clock limit in seconds, 0 < t <= one day."""
+    from chatterbench.comparisons.studies.sweep.spec import MAX_TIMEOUT
+
     value = positive_float(text)
     if value > MAX_TIMEOUT:
         raise argparse.ArgumentTypeError(f"{text!r}: must be at most {MAX_TIMEOUT:g} s (one day)")

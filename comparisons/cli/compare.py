@@ -14,10 +14,9 @@ import argparse
 import sys
 from pathlib import Path
 
-from chatterbench.comparisons.pipeline.compare import compare
-from chatterbench.comparisons.pipeline.conformance import conformance, describe, same_model_pairs
 from chatterbench.reference.scene import load_scene
 
+from .commands import COMMANDS
 from .common import add_judging, add_out, add_scene, budget_of, engine_list, parse_tolerances, print_table, \
     settings_of, split_overrides
 from .paths import check_dir, writing
@@ -33,6 +32,9 @@ CONFORMANCE_SHOW = ["wall", "ref_t_first_impact", "verdict", "other_verdict", "s
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
+    from chatterbench.comparisons.pipeline.compare import compare
+    from chatterbench.comparisons.pipeline.conformance import conformance, describe, same_model_pairs
+
     check_dir("--out", args.out)
     scene_over, engine_over = split_overrides(args.set)
     scene = load_scene(args.scene, scene_over)
@@ -56,16 +58,15 @@ def cmd_compare(args: argparse.Namespace) -> int:
     if args.out:
         from chatterbench.comparisons.outputs.comparison_files import write_comparison  # draws: loads matplotlib (0.7 s), so only when asked
 
-        with writing("--out", args.out):
-            paths = write_comparison(result, Path(args.out), figures=not args.no_figures)
+        with writing("--out", args.out, together=True) as stage:  # every file, or none (Ctrl-C, a full disk)
+            paths = write_comparison(result, stage, figures=not args.no_figures)
         print(f"wrote {len(paths)} files under {args.out}")
     return 0
 
 
 def register(sub, formatter) -> None:
     """Add ``compare`` to the ``chatterbench`` subparsers."""
-    p = sub.add_parser("compare", help="run the reference and the engines on a scene; judge every episode",
-                       formatter_class=formatter)
+    p = sub.add_parser("compare", help=COMMANDS["compare"], formatter_class=formatter)
     add_scene(p)
     add_judging(p)
     add_out(p, what="write tables (CSV, Parquet), event logs, impacts, provenance and figures under DIR")

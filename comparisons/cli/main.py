@@ -13,28 +13,37 @@ rendered with matplotlib's non-interactive backend, chosen here and nowhere else
 
 from __future__ import annotations
 
+import importlib
 import os
 import sys
+from typing import Iterable
 
 from chatterbench.reference.errors import InputError
 
-from . import interrupt, quiet_interrupts
-from . import bench, calibrate, chart, compare, gate, platemap, report, run, scenes, sweep, tune
-from . import judge
+from . import Terminated, interrupt, quiet_interrupts
+from .commands import COMMANDS
 from .common import HelpFormatter, Parser, UsageError, check_settings, held_warnings, one_line
 from .paths import write_error
+from .progress import heartbeat
 
-# in the order ``chatterbench --help`` lists them
-SUBCOMMANDS = (scenes, run, compare, judge, report, gate, platemap, tune, calibrate, sweep, chart, bench)
+SUBCOMMANDS = tuple(COMMANDS)  # in the order ``chatterbench --help`` lists them; module ``cli/NAME.py`` each
 
 
-def build_parser() -> Parser:
-    """The argument parser with every subcommand registered."""
+def build_parser(commands: Iterable[str] | None = None) -> Parser:
+    """The argument parser; ``commands``: the subcommands registered in full (their modules imported), None: all.
+
+    The others are listed by name and help only (``commands.COMMANDS``), so ``chatterbench NAME ...``
+    and ``chatterbench --help`` load no module but NAME's.
+    """
     parser = Parser(prog="chatterbench", formatter_class=HelpFormatter,
                     description="Cross-validate multibody engines' impact chatter against Feigin's sliding model.")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=Parser)
-    for module in SUBCOMMANDS:
-        module.register(sub, HelpFormatter)
+    full = set(COMMANDS if commands is None else commands)
+    for name, text in COMMANDS.items():
+        if name in full:
+            importlib.import_module(f"{__package__}.{name}").register(sub, HelpFormatter)
+        else:
+            sub.add_parser(name, help=text, add_help=False)
     return parser
 
 
@@ -47,7 +56,8 @@ def main(argv: list[str] | None = None) -> int:
     for stream in (sys.stdout, sys.stderr):  # PYTHONIOENCODING=ascii, a C locale: an emoji name is shown as \U0001f3be
         if hasattr(stream, "reconfigure"):
             stream.reconfigure(errors="backslashreplace")
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser([w for w in argv[:1] if w in COMMANDS])  # the top level has no option but --help
     args = parser.parse_args(argv)
     with held_warnings() as held:  # numpy's overflow warnings, say: shown after the work, never around an error line
         held.keep = (code := _run(args)) != 2
@@ -59,7 +69,8 @@ def _run(args) -> int:
     quiet_interrupts(False)
     try:
         check_settings(args)
-        code = args.func(args)
+        with heartbeat(f"chatterbench {args.command}"):  # a line at least every LINE_EVERY_S s, whatever the output
+            code = args.func(args)
         if interrupt.seen:  # a Ctrl-C whose KeyboardInterrupt a garbage-collection callback swallowed
             raise KeyboardInterrupt
         return code
@@ -76,6 +87,9 @@ def _run(args) -> int:
     except KeyboardInterrupt:
         print("chatterbench: interrupted", file=sys.stderr)
         return 130
+    except Terminated:  # SIGTERM: what was being written is removed (atomic.staged), as for Ctrl-C
+        print("chatterbench: terminated", file=sys.stderr)
+        return 143
     finally:
         quiet_interrupts(True)  # a Ctrl-C while the interpreter shuts down (joining a pool) is one line, exit 130
 

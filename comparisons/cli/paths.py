@@ -31,10 +31,11 @@ and ``pipeline/atomic.py`` leaves no temp file.
 from __future__ import annotations
 
 import os
-from contextlib import contextmanager, suppress
+from contextlib import contextmanager, nullcontext, suppress
 from pathlib import Path
+from typing import Sequence
 
-from chatterbench.comparisons.pipeline.atomic import TEMP_NAME_EXTRA
+from chatterbench.comparisons.pipeline.atomic import TEMP_NAME_EXTRA, confined, staged
 
 from .common import UsageError
 
@@ -108,6 +109,46 @@ def check_file(option: str, path: str | Path | None) -> None:
                              "(it is first written beside itself under a longer temporary name)")
 
 
+def same_file(a: str | Path, b: str | Path) -> bool:
+    """Whether two paths name one file: the same file when both exist (links, ``..``, hard links followed), else the
+    same place once their folders' links are resolved."""
+    try:
+        return os.path.samefile(a, b)
+    except (OSError, ValueError):
+        return os.path.realpath(a) == os.path.realpath(b)
+
+
+def check_distinct(outputs: dict[str, str | Path | None], inputs: dict[str, str | Path | None],
+                   may_replace: set[tuple[str, str]] = frozenset()) -> None:
+    """Refuse (``UsageError``), before any work, two output options naming one file, or an output naming an input
+    (the gate file, a baseline): one would silently replace the other. ``may_replace``: (output, input) pairs that
+    may (``--save-baseline`` over the ``--baseline`` it read)."""
+    def shown(option: str, path) -> str:  # "--out o/events.csv" names a file of a folder option: said as it is
+        return option if " " in option else f"{option} {path}"
+
+    given = [(o, p) for o, p in outputs.items() if p is not None]
+    for i, (option, path) in enumerate(given):
+        for other, there in given[i + 1:]:
+            if same_file(path, there):
+                raise UsageError(f"{shown(option, path)} and {shown(other, there)} name one file; give each output its own")
+        for name, source in inputs.items():
+            if source is not None and (option, name) not in may_replace and same_file(path, source):
+                raise UsageError(f"{shown(option, path)} is the {name} file ({source}), which this command reads or "
+                                 "appends to: writing it would replace it; name another file")
+
+
+def check_links(option: str, folder: str | Path | None, names: tuple[str, ...]) -> None:
+    """Refuse (``UsageError``) an output folder where a name the command writes (a file, an engine's folder) is a
+    symbolic link: it would be written through (``atomic.confined`` refuses it again at the write)."""
+    if folder is None:
+        return
+    for name in names:
+        path = Path(folder, name)
+        if path.is_symlink():
+            raise UsageError(f"{option} {folder}: {path} is a symbolic link (-> {os.readlink(path)}); nothing is "
+                             f"written through a link in {option}: remove it or choose another {option}")
+
+
 def write_error(exc: OSError, under: str | Path | None = None) -> str:
     """One line for an OSError met while writing (a full disk, a permission taken away).
 
@@ -122,10 +163,25 @@ def write_error(exc: OSError, under: str | Path | None = None) -> str:
 
 
 @contextmanager
-def writing(option: str, path: str | Path):
-    """Turn an ``OSError`` met while writing what ``option`` names into a ``UsageError`` (one line, exit 2)."""
+def writing(option: str, path: str | Path, folder: bool | None = None, together: bool | Sequence[str] = False):
+    """Turn an ``OSError`` met while writing what ``option`` names into a ``UsageError`` (one line, exit 2); yields
+    where to write.
+
+    ``folder`` (default: ``option`` is ``--out``): ``path`` is an output folder, every write under it
+    follows no link (``atomic.confined``): a link planted there is refused, nothing written through it.
+    ``together``: the block's files appear in ``path`` together when it ends (``atomic.staged``; a
+    sequence: these files last), written where this yields; an interrupted or failed block
+    leaves ``path`` as it was. Otherwise it yields ``path``.
+    """
+    path = Path(path)
+    confining = confined(path) if (option == "--out" if folder is None else folder) else nullcontext()
     try:
-        yield
+        with confining:
+            if together:
+                with staged(path, last=() if together is True else tuple(together)) as stage:
+                    yield stage
+            else:
+                yield path
     except BrokenPipeError:  # the reader of stdout left (``| head``): ``main`` says nothing more
         raise
     except OSError as exc:

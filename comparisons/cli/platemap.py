@@ -11,16 +11,12 @@ import dataclasses
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from chatterbench.comparisons.pipeline.atomic import write_frame
 from chatterbench.comparisons.pipeline.budget import BudgetError, check_engine_run, check_plate_map
-from chatterbench.comparisons.studies.plate_map import plate_map
-from chatterbench.reference.flow import Flow
-from chatterbench.reference.linear import LinearSystem
 from chatterbench.reference.scene import SceneError, load_scene
-from chatterbench.reference.simulate import Options
 
+from .commands import COMMANDS
 from .common import UsageError, add_budget, add_dt, add_engines, add_out, add_scene, add_set, budget_of, engine_list, \
     engines_hint, positive_float, positive_int, print_table, settings_of, split_overrides
 from .paths import check_dir, writing
@@ -35,6 +31,10 @@ STRIKE_PERIODS = 0.32
 def _check_strike_steps(scene) -> None:
     """Refuse a scene whose strikes the reference cannot follow: each is followed up to one time scale in flow steps
     no longer than the scene's fastest time scale, and the run's own guard (``Options.max_steps``) bounds their count."""
+    from chatterbench.reference.flow import Flow
+    from chatterbench.reference.linear import LinearSystem
+    from chatterbench.reference.simulate import Options
+
     with np.errstate(over="ignore", invalid="ignore"):  # absurd scales overflow the flow: refused below
         step = Flow(LinearSystem.from_scene(scene).free, horizon=scene.time_scale / 4.0).step
     needed, limit = scene.time_scale / step, Options().max_steps
@@ -45,6 +45,10 @@ def _check_strike_steps(scene) -> None:
 
 
 def cmd_platemap(args: argparse.Namespace) -> int:
+    import pandas as pd
+
+    from chatterbench.comparisons.studies.plate_map import plate_map
+
     check_dir("--out", args.out)
     scene_over, engine_over = split_overrides(args.set)
     scene = load_scene(args.scene, scene_over)
@@ -79,21 +83,20 @@ def cmd_platemap(args: argparse.Namespace) -> int:
     print(f"strikes inside Feigin's sufficient plate that do not slide: {outside} (the conditions are sufficient: expect 0)")
     if args.out:
         out = Path(args.out)
-        with writing("--out", out):
-            write_frame(out / "plate_map.csv", table)
+        with writing("--out", out, together=True) as stage:  # every file, or none (Ctrl-C, a full disk)
+            write_frame(stage / "plate_map.csv", table)
             from chatterbench.comparisons.outputs.figures import write_figure  # draws: loads matplotlib (0.7 s), so only when asked
             from chatterbench.comparisons.outputs.plate_map_figure import plate_map_figure
 
             fig = plate_map_figure(table, scene, args.wall)
-            write_figure(fig, out, "plate_map")
+            write_figure(fig, stage, "plate_map")
         print(f"wrote {out / 'plate_map.csv'}, plate_map.png, plate_map.svg")
     return 0
 
 
 def register(sub, formatter) -> None:
     """Add ``platemap`` to the ``chatterbench`` subparsers."""
-    p = sub.add_parser("platemap", help="map which strikes on a wall end in sliding: reference, Feigin's plate, engines",
-                       formatter_class=formatter)
+    p = sub.add_parser("platemap", help=COMMANDS["platemap"], formatter_class=formatter)
     add_scene(p)
     p.add_argument("--wall", choices=("lower", "upper"), default="lower", help="the wall struck")
     p.add_argument("--phases", type=positive_int, default=96, help="strike times over one forcing period")

@@ -15,12 +15,14 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import shlex
+import sys
 from pathlib import Path
 
-from chatterbench.comparisons.studies.sweep.dataset import load_rows
 from chatterbench.reference.catalogue import CATALOGUE
+from chatterbench.reference.tables import read_text
 
-from .common import (ENGINE_TIMEOUT, UsageError, add_judging, add_out, budget_of, engine_list, parse_tolerances,
+from .commands import COMMANDS
+from .common import (ENGINE_TIMEOUT, UsageError, add_judging, add_out, budget_of, engine_list, one_line, parse_tolerances,
                      print_table, settings_of, split_overrides)
 from .paths import check_dir, writing
 from .progress import Progress
@@ -44,21 +46,37 @@ def _command_line(args: argparse.Namespace) -> str:
     return " ".join(shlex.quote(w) for w in words)
 
 
+GUIDE_MAX_BYTES = 16 * 2**20  # [bytes] of a guide section: tune writes about 0.3 MiB (four figures)
+
+
+def guide_section(folder: str) -> str:
+    """``FOLDER/guide_section.html`` as the report embeds it: a regular file of at most ``GUIDE_MAX_BYTES``, read
+    without following it past that, made inert (``outputs.inert_html``: no script, nothing loaded, nothing left open);
+    what was left out is said in one note line."""
+    from chatterbench.comparisons.outputs.inert_html import inert_section
+
+    path = Path(folder) / "guide_section.html"
+    if not path.exists() and not path.is_symlink():
+        raise UsageError(f"--tune {folder}: no guide_section.html there (write one with `chatterbench tune ... --out "
+                         f"{folder}`)")
+    text = read_text(path, f"--tune {folder}: guide_section.html", UsageError, limit=GUIDE_MAX_BYTES, kind="HTML")
+    section = inert_section(text)
+    if section.removed:
+        print(f"chatterbench: note: --tune {one_line(folder)}: guide_section.html holds what `chatterbench tune` does not "
+              f"write, left out of the report: {', '.join(section.removed)}", file=sys.stderr)
+    return section.html
+
+
 def cmd_report(args: argparse.Namespace) -> int:
     check_dir("--out", args.out)
     from chatterbench.comparisons.outputs.report import SUMMARY_COLUMNS, SweepSection, build_report  # draws: loads matplotlib (0.7 s), so only when asked
     from chatterbench.comparisons.outputs.report_page import write_report
     from chatterbench.comparisons.outputs.frontier_chart import read_frontiers
+    from chatterbench.comparisons.studies.sweep.dataset import load_rows
 
     scene_over, engine_over = split_overrides(args.set)
     tol = parse_tolerances(args.tolerance)
-    tuning = []
-    for d in args.tune or ():  # tuning guides are read before any run, so a bad path costs nothing
-        f = Path(d) / "guide_section.html"
-        if not f.is_file():
-            raise UsageError(f"--tune {d}: no guide_section.html there (write one with `chatterbench tune ... --out {d}`)")
-        tuning.append(f.read_text(encoding="utf-8"))
-    tuning = tuple(tuning)
+    tuning = tuple(guide_section(d) for d in args.tune or ())  # read before any run, so a bad path costs nothing
     frontiers = read_frontiers(args.tune or ())  # each tune's recommended.json: the frontier chart per scene
     sweeps = [SweepSection(str(d), load_rows(d)) for d in args.sweep or ()]  # bad input before any run
     scenes, engines = args.scenes or tuple(CATALOGUE), engine_list(args.engines)
@@ -71,8 +89,8 @@ def cmd_report(args: argparse.Namespace) -> int:
         if tuning:
             report = dataclasses.replace(report, tuning=tuning, frontiers=frontiers)
         bar.stage("figures and pages")
-        with writing("--out", args.out):
-            paths = write_report(report, Path(args.out))
+        with writing("--out", args.out, together=True) as stage:  # both pages, or neither (Ctrl-C, a full disk)
+            paths = [Path(args.out) / p.relative_to(stage) for p in write_report(report, stage)]
     print_table(report.summary[SUMMARY_COLUMNS], title=f"summary ({report.wall_time_s:.1f} s of runs; errors in s):")
     print(f"wrote {paths[0]} and {paths[1]}")
     return 0
@@ -80,8 +98,7 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 def register(sub, formatter) -> None:
     """Add ``report`` to the ``chatterbench`` subparsers."""
-    p = sub.add_parser("report", help="every scene on every engine: one self-contained HTML report and a Markdown twin",
-                       formatter_class=formatter)
+    p = sub.add_parser("report", help=COMMANDS["report"], formatter_class=formatter)
     p.add_argument("scenes", nargs="*", metavar="SCENE",
                    help="built-in scene names or scene TOML files; none: every built-in scene")
     add_judging(p)

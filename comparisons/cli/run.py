@@ -21,26 +21,24 @@ import argparse
 import math
 import sys
 from pathlib import Path
-from typing import Any
-
-import pandas as pd
+from typing import TYPE_CHECKING, Any
 
 from chatterbench.comparisons.pipeline.atomic import write_frame, write_text
 from chatterbench.comparisons.pipeline.budget import Budget, check_engine_run, check_reference
-from chatterbench.comparisons.pipeline.extract import extract_events
-from chatterbench.comparisons.pipeline.solution import solve
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
 from chatterbench.engines.export import check_exportable, export_files_names, exporting_engines, model_file
 from chatterbench.engines.registry import ENGINE_NAMES, adapter, run_engine
 from chatterbench.engines.settings import SettingsError
 from chatterbench.reference.errors import check_choice
-from chatterbench.reference.log import episodes, log_frame
 from chatterbench.reference.scene import Scene, SceneError, load_scene
-from chatterbench.reference.simulate import CHATTER_MODES, simulate
 
+from .commands import COMMANDS
 from .common import (UsageError, add_budget, add_dt, add_out, add_set, budget_of, engines_hint, one_line, print_table,
                      settings_of, split_overrides)
-from .paths import check_dir, check_file, writing
+from .paths import check_dir, check_distinct, check_file, writing
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 SIMULATORS = ("reference", *ENGINE_NAMES)
 SHOWN = ["wall", "t_first_impact", "t_plate", "t_stick", "t_exit", "n_impacts", "stick_rule"]  # a reference run's episodes
@@ -50,12 +48,18 @@ def run_engine_events(scene: Scene, engine: str, settings: Any, export_model: st
                       budget: Budget) -> tuple[pd.DataFrame, pd.DataFrame, str]:
     """Run ``scene`` in ``engine`` with its ``settings`` object (refused first when over ``budget``); returns (event log,
     episodes, one-line summary)."""
+    from chatterbench.comparisons.outputs.engine_files import flight_band  # with the work, not with --help
+    from chatterbench.comparisons.pipeline.extract import extract_events
+    from chatterbench.comparisons.pipeline.solution import solve
+    from chatterbench.reference.log import episodes, log_frame
+
     check_engine_run(scene, engine, settings.dt, budget)
     check_reference(scene, budget)  # its sticking resolution is the reference's
-    if export_model:
+    solution = solve(scene)
+    if export_model:  # its impacts are the ones counted below
         with writing("--export-model", export_model):
-            write_text(Path(export_model), model_file(engine, scene, settings))
-    resolution = solve(scene).stick_tolerance(Tolerances().stick)
+            write_text(Path(export_model), model_file(engine, scene, settings, flight_band(solution, Tolerances())))
+    resolution = solution.stick_tolerance(Tolerances().stick)
     traj = run_engine(engine, scene, settings)
     log = extract_events(traj, scene, resolution) if len(traj.t) > 1 else log_frame([])
     n_imp = int((log["kind"] == "impact").sum())
@@ -67,7 +71,8 @@ def run_engine_events(scene: Scene, engine: str, settings: Any, export_model: st
 
 
 def _check_export(engine: str, path: str | None) -> None:
-    """--export-model: an engine that exports, and the file suffix of what it writes."""
+    """--export-model: an engine that exports, and the suffix of what it writes (not the scene file the run reads:
+    ``paths.check_distinct``)."""
     if not path:
         return
     try:
@@ -84,6 +89,8 @@ def judged_episodes(scene: Scene, result) -> pd.DataFrame:
     ``pipeline.solution``) and Feigin's plate entry as ``t_plate``. A run that stopped, or a scene
     whose other chatter mode cannot finish, keeps its own table: ``t_plate`` its plate entries,
     ``t_stick`` only where it is the Zeno point (exhaustive mode)."""
+    from chatterbench.comparisons.pipeline.solution import solve
+
     if result.status == "ok":
         try:
             return solve(scene).episodes.rename(columns={"t_plate_entry": "t_plate"})[SHOWN]
@@ -95,10 +102,23 @@ def judged_episodes(scene: Scene, result) -> pd.DataFrame:
     return eps[SHOWN]
 
 
+def chatter_mode(text: str) -> str:
+    """argparse type of ``--chatter``: one of the reference's chatter modes (looked up when given, so that ``run
+    --help`` loads no numba)."""
+    from chatterbench.reference.simulate import CHATTER_MODES
+
+    if text not in CHATTER_MODES:
+        raise argparse.ArgumentTypeError(f"{text!r}: must be one of {', '.join(CHATTER_MODES)}")
+    return text
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     check_dir("--out", args.out)
     check_file("--events", args.events)
     check_file("--export-model", args.export_model)
+    out_files = {} if args.out is None else {f"--out {Path(args.out, n)}": Path(args.out, n) for n in ("events.csv", "episodes.csv")}
+    check_distinct({"--events": args.events, "--export-model": args.export_model, **out_files},
+                   {"SCENE": args.scene if Path(args.scene).is_file() else None})
     scene_over, engine_over = split_overrides(args.set)
     scene = load_scene(args.scene, scene_over)
     engine = args.engines
@@ -114,6 +134,8 @@ def cmd_run(args: argparse.Namespace) -> int:
                 hint = engines_hint(exporting_engines()) if option == "--export-model" else engines_hint(key=option[6:])
                 raise UsageError(f"{option}: applies to an engine run; {hint}")
         check_reference(scene, budget_of(args))
+        from chatterbench.reference.simulate import simulate
+
         result = simulate(scene, args.chatter or "feigin")
         log = result.log
         eps = judged_episodes(scene, result)
@@ -132,9 +154,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"event log: {args.events}")
     if args.out:
         out = Path(args.out)
-        with writing("--out", out):
-            write_frame(out / "events.csv", log)
-            write_frame(out / "episodes.csv", eps)
+        with writing("--out", out, together=True) as stage:  # both files, or neither
+            write_frame(stage / "events.csv", log)
+            write_frame(stage / "episodes.csv", eps)
         print(f"wrote {out / 'events.csv'}, {out / 'episodes.csv'}")
     if result is not None and result.status != "ok":  # the partial log is printed and written above
         print(f"chatterbench: error: the reference run stopped ({result.status}): {one_line(result.message)}", file=sys.stderr)
@@ -144,13 +166,13 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 def register(sub, formatter) -> None:
     """Add ``run`` to the ``chatterbench`` subparsers."""
-    p = sub.add_parser("run", help="run one scene in the reference or an engine; print its episodes", formatter_class=formatter)
+    p = sub.add_parser("run", help=COMMANDS["run"], formatter_class=formatter)
     p.add_argument("scene", help="built-in scene name or path to a scene TOML file")
     p.add_argument("--engines", "--engine", default="reference", metavar="SIMULATOR",
                    help=f"the engines to run the scene: one of {', '.join(SIMULATORS)} (Feigin's model)")
     add_dt(p)
     add_set(p)
-    p.add_argument("--chatter", choices=CHATTER_MODES, default=None,
+    p.add_argument("--chatter", type=chatter_mode, default=None,
                    help="reference chatter model: feigin (plate entry -> inelastic impact) or exhaustive (every impact); "
                         "None: feigin")
     p.add_argument("--events", metavar="PATH", default=None, help="write the event log (CSV) here")

@@ -9,17 +9,18 @@ from __future__ import annotations
 import argparse
 import sys
 
-import pandas as pd
-
 from chatterbench.reference.catalogue import CATALOGUE, describe
 from chatterbench.reference.errors import check_choice
 from chatterbench.reference.scene import load_scene
-from chatterbench.reference.scene_toml import scene_toml
-
+from .commands import COMMANDS
 from .common import UsageError, print_table
 
 
 def cmd_scenes(args: argparse.Namespace) -> int:
+    import pandas as pd
+
+    from chatterbench.reference.scene_toml import scene_toml
+
     if args.toml is not None:
         name = check_choice("--toml", args.toml, tuple(CATALOGUE), error=UsageError)
         sys.stdout.write(scene_toml(load_scene(name), describe(name)))
@@ -35,7 +36,7 @@ def cmd_scenes(args: argparse.Namespace) -> int:
 
 def register(sub, formatter) -> None:
     """Add ``scenes`` to the ``chatterbench`` subparsers."""
-    p = sub.add_parser("scenes", help="list the built-in scenes", formatter_class=formatter)
+    p = sub.add_parser("scenes", help=COMMANDS["scenes"], formatter_class=formatter)
     p.add_argument("--toml", metavar="NAME", default=None,
                    help="print built-in scene NAME as a commented TOML file (every field with its unit) to edit and run")
     p.set_defaults(func=cmd_scenes)

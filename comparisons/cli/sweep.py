@@ -18,14 +18,14 @@ import argparse
 import dataclasses
 from pathlib import Path
 
-import pandas as pd
-
 from chatterbench.comparisons.pipeline.budget import GIB, MAX_MEMORY
 from chatterbench.comparisons.pipeline.tolerances import tolerance_values
-from chatterbench.comparisons.studies.sweep import FAILED, NO_WORKER_WAIT, NO_WORKERS, load_sweep, run_sweep
+from chatterbench.comparisons.studies.limits import NO_WORKER_WAIT, NO_WORKERS
 
+from .commands import COMMANDS
 from .common import UsageError, add_budget, add_out, add_tolerance, budget_of, local_workers, positive_int, print_table, timeout_seconds
 from .paths import check_dir, writing
+from .progress import Progress, waited_s
 
 
 def _spec_path(args: argparse.Namespace) -> str:
@@ -38,6 +38,10 @@ def _spec_path(args: argparse.Namespace) -> str:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
+    import pandas as pd
+
+    from chatterbench.comparisons.studies.sweep import FAILED, load_sweep, run_sweep
+
     args.spec = _spec_path(args)
     out = Path(args.out) if args.out else Path(f"sweep-{Path(args.spec).stem}")
     check_dir("--out", out)
@@ -61,7 +65,10 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     try:
         with writing("--out", out):  # a full disk mid-sweep: one line naming the file; finished parts stay
             rows = run_sweep(sweep, out, executor=client, resume=args.resume, workers=workers, batch=args.batch,
-                             no_worker_wait=args.dask_wait, no_workers=args.dask_no_workers)
+                             no_worker_wait=args.dask_wait, no_workers=args.dask_no_workers,
+                             progress=lambda total, done, desc: Progress(total, f"sweep {sweep.scene_name}"
+                                                                          + ("" if desc == "sweep" else f", {desc}"),
+                                                                          unit="run", eta=True, initial=done))
     finally:
         if client is not None:
             client.close()
@@ -76,13 +83,13 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         print(f"ran {stats['runs']} runs in {stats['wall_s']:.1f} s on {stats['workers']} workers "
               f"(runs' own time {stats['run_s_sum']:.1f} s)")
     print(f"wrote {out / 'rows.parquet'} ({len(rows)} rows), {out / 'sweep.toml'}")
+    print(f"sweep took {waited_s():.1f} s since the command started")
     return 0
 
 
 def register(sub, formatter) -> None:
     """Add ``sweep`` to the ``chatterbench`` subparsers."""
-    p = sub.add_parser("sweep", help="run a grid of scene fields and engine settings; one row per engine and point",
-                       formatter_class=formatter)
+    p = sub.add_parser("sweep", help=COMMANDS["sweep"], formatter_class=formatter)
     p.add_argument("spec", metavar="SPEC.toml", nargs="?", default=None,
                    help="sweep spec (format: chatterbench.comparisons.sweep docstring)")
     p.add_argument("--spec", dest="spec_option", metavar="SPEC.toml", default=None,

@@ -18,16 +18,14 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 from chatterbench.comparisons.pipeline.budget import check_engine_run, check_reference
-from chatterbench.comparisons.pipeline.solution import solve
-from chatterbench.comparisons.studies.tune import MAX_RUNS, engine_space, search_space, tune
-from chatterbench.comparisons.studies.tune_answer import frontier_frame, frontier_line, neighbourhood_fails, searched_text
-from chatterbench.engines.registry import make_settings
+from chatterbench.comparisons.studies.limits import MAX_RUNS
 from chatterbench.reference.scene import load_scene, split_assignment
 
+from .commands import COMMANDS
 from .common import (UsageError, add_budget, add_out, add_scene, add_set, add_tolerance, budget_of, local_workers,
                      engine_list, integer_type, parse_tolerances, positive_float, positive_int, print_table,
                      split_overrides)
-from .paths import check_dir, writing
+from .paths import check_dir, check_links, writing
 from .progress import CountingExecutor, Progress, waited_s
 
 SHOW = ["stage", "settings", "verdict", "robust", "neighbourhood", "worst_ratio", "failed", "steps_per_sim_s",
@@ -35,13 +33,22 @@ SHOW = ["stage", "settings", "verdict", "robust", "neighbourhood", "worst_ratio"
 SHOW_CHECKED = 12  # rows of the terminal's table
 
 
+WRITTEN = ("recommended.json", "guide.md", "guide.html", "guide_section.html", "candidates.csv")  # and figures, ENGINE/
+
+
 def cmd_tune(args: argparse.Namespace) -> int:
+    # the search's modules load here, not with the CLI: `tune --help` stays quick
+    from chatterbench.comparisons.outputs.tune_files import write_tune_files
+    from chatterbench.comparisons.pipeline.solution import solve
+    from chatterbench.comparisons.studies.tune import engine_space, search_space, tune
+
     check_dir("--out", args.out)
     scene_over, engine_over = split_overrides(args.set)
     engines = engine_list(args.engines)
     strangers = [item for item in engine_over if split_assignment(item)[0].split(".", 1)[0] not in engines]
     if strangers:
         raise UsageError(f"--set {strangers[0]}: its engine is not among --engines {args.engines}")
+    check_links("--out", args.out, (*WRITTEN, *engines))  # a link planted in DIR: refused before the search
     scene = load_scene(args.scene, scene_over)
     tol = parse_tolerances(args.tolerance)
     budget = budget_of(args)  # the reference, then the finest candidate of each engine, before any run
@@ -61,25 +68,35 @@ def cmd_tune(args: argparse.Namespace) -> int:
     for engine in engines:
         with Progress(None, f"tune {engine} on {scene.name}", unit="candidate") as bar, \
                 ProcessPoolExecutor(max_workers=local_workers(args.workers, budget.max_memory)) as pool:
+            bar.stage("the search")
+            bar.set_postfix(budget=f"{args.max_runs} runs")
             result = tune(scene, engine, tol, space=spaces[engine], executor=CountingExecutor(pool, bar),
                           repeats=args.repeats, max_runs=args.max_runs, max_cost=args.max_cost)
         _print_result(result)
         results.append(result)
     if args.out:
-        from chatterbench.comparisons.outputs.tune_files import write_tune_files  # draws: only when files are asked for
-
         out = Path(args.out)
-        with writing("--out", out):
-            written = write_tune_files(results, out)
+        with Progress(1, f"tune {','.join(engines)} on {scene.name}", unit="step") as bar, \
+                writing("--out", out, together=recommended_files(engines)) as stage:  # one set: recommended.json moved in last
+            bar.stage("the guide: its figures and the chosen settings' runs")
+            written = write_tune_files(results, stage)
         print(f"wrote under {out}: " + ", ".join(written))
     print(f"tune took {waited_s():.1f} s since the command started (the searches "
           + ", ".join(f"{r.engine} {r.extra['wall_time_s']:.1f} s" for r in results) + ")")
     return 0 if all(r.best is not None for r in results) else 1
 
 
+def recommended_files(engines: list[str]) -> tuple[str, ...]:
+    """The ``recommended.json`` files of a tune of ``engines``, relative to DIR: moved in after the rest of the set
+    (``atomic.staged``), so that their presence says the guide beside them is the same tune's."""
+    return ("recommended.json",) if len(engines) == 1 else tuple(f"{e}/recommended.json" for e in engines)
+
+
 def fixed(engine: str, space: dict[str, tuple], items: list[str]) -> dict[str, tuple]:
     """``space`` with the knobs that ``--set ENGINE.KNOB=VALUE`` items fix held at their value (a smaller search);
     an item for an engine not tuned, or for a setting the engine does not search, is refused by name."""
+    from chatterbench.engines.registry import make_settings
+
     for item in items:
         key = split_assignment(item)[0]
         if key.split(".", 1)[0] != engine:
@@ -94,6 +111,8 @@ def fixed(engine: str, space: dict[str, tuple], items: list[str]) -> dict[str, t
 
 def _print_result(result) -> None:
     """One engine's table of checked passes, the search's extent and the answer, as the terminal says them."""
+    from chatterbench.comparisons.studies.tune_answer import frontier_frame, frontier_line, searched_text
+
     print(f"{result.engine}: {frontier_line(result)}")
     if result.frontier:
         print_table(frontier_frame(result), title=f"the robust frontier of {result.engine} on {result.scene.name} (the "
@@ -111,6 +130,8 @@ def _print_result(result) -> None:
 
 def answer_lines(result) -> list[str]:
     """The answer as the terminal says it: the robust setting and its margin, the fragile pass beside it, or none."""
+    from chatterbench.comparisons.studies.tune_answer import neighbourhood_fails
+
     c, f = result.chosen, result.fragile
     if c is None:
         return ["no candidate ran: every one was refused"]
@@ -135,8 +156,7 @@ def answer_lines(result) -> list[str]:
 
 def register(sub, formatter) -> None:
     """Add ``tune`` to the ``chatterbench`` subparsers."""
-    p = sub.add_parser("tune", help="find the cheapest engine settings whose episodes all match within the tolerances",
-                       formatter_class=formatter)
+    p = sub.add_parser("tune", help=COMMANDS["tune"], formatter_class=formatter)
     add_scene(p)
     p.add_argument("--engines", "--engine", required=True, metavar="E[,E...]",
                    help="the engines to tune, comma-separated: one search and one frontier each")

@@ -13,7 +13,9 @@
 ``DIR/mujoco/model.xml`` (the full MJCF) and ``DIR/mujoco/run.py`` (a runner with plain
 MuJoCo), or ``DIR/pybullet/scene.py`` (a complete PyBullet script): written by the exporter
 of ``chatterbench run --export-model`` (``engines.export``) at ``TuneResult.chosen``'s
-settings. Run as written, each prints one line per impact, ``impact t=... v_in=... v_out=... e=...``.
+settings. Run as written, each prints the impacts of its run as the judge finds them at the tune's
+tolerances (``flight_band``), one line each, ``impact t=... v_in=... v_out=... e=...``: the run's count,
+each e the judge's.
 An engine that does not export, or a tune where no candidate ran, writes nothing.
 """
 
@@ -21,21 +23,36 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import math
+
 from chatterbench.comparisons.pipeline.atomic import write_text
+from chatterbench.comparisons.pipeline.extract import ExtractionOptions
+from chatterbench.comparisons.pipeline.solution import ReferenceSolution, solve
+from chatterbench.comparisons.pipeline.tolerances import Tolerances
 from chatterbench.engines.export import export_files, export_files_names
+
+
+def flight_band(solution: ReferenceSolution, tol: Tolerances) -> float:
+    """The judge's band x sticking tolerance x (1 - R) [s] on this scene (``pipeline/extract.py``: the flights that
+    no longer matter to the sticking tolerance); 0 for a scene without a visit. The exported scripts take it
+    (``engines.export.export_files``) so that they count the impacts the judge counts."""
+    stick = solution.stick_tolerance(tol.stick)
+    return ExtractionOptions().band * stick * (1.0 - solution.scene.restitution) if math.isfinite(stick) else 0.0
 
 
 def write_engine_files(result, out: Path) -> list[str]:
     """Write the chosen settings' files under ``out / engine``; returns their paths relative to ``out``.
 
-    The settings are ``recommended.json``'s (``tune_evidence.chosen_settings``)."""
+    The settings are ``recommended.json``'s (``tune_evidence.chosen_settings``); the scripts count impacts as the
+    judge does at the tune's tolerances (``flight_band``)."""
     from chatterbench.comparisons.studies.tune_evidence import chosen_settings
 
     settings = chosen_settings(result)
     if settings is None or not export_files_names(result.engine):
         return []
+    solution = result.extra.get("solution") or solve(result.scene)
     written = []
-    for name, text in export_files(result.engine, result.scene, settings).items():
+    for name, text in export_files(result.engine, result.scene, settings, flight_band(solution, result.tolerance)).items():
         write_text(Path(out) / result.engine / name, text)
         written.append(f"{result.engine}/{name}")
     return written

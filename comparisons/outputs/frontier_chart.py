@@ -24,6 +24,7 @@ tolerance on each axis.
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping, Sequence
@@ -32,8 +33,11 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter, NullLocator
 
 from chatterbench.reference.errors import InputError
+from chatterbench.reference.tables import read_text
 
 from .style import engine_colour
+
+MAX_JSON_BYTES = 4 * 2**20  # [bytes] of a recommended.json: tune writes a few KiB
 
 AXES = (("stick", "timing (sticking tolerance; exit and first impact move with it)", "restitution", "r"),
         ("restitution", "restitution tolerance |e / R - 1|", "stick", "stick"))
@@ -127,21 +131,55 @@ class TunedFrontier:
 
 def read_frontiers(dirs: Sequence[str | Path]) -> tuple[TunedFrontier, ...]:
     """Every ``recommended.json`` of each ``tune --out`` directory: ``DIR/recommended.json`` (one engine) or
-    ``DIR/ENGINE/recommended.json`` (several), in that order; files without a ``frontier`` are left out."""
+    ``DIR/ENGINE/recommended.json`` (several), in that order; files without a ``frontier`` are left out.
+
+    Each is read as a regular file of at most ``MAX_JSON_BYTES`` (``reference.tables.read_text``) and
+    its frontier checked entry by entry: a file that is not what ``tune`` writes is an ``InputError``
+    naming it and the field, never a failure inside the chart.
+    """
     out = []
     for d in dirs:
         for path in [Path(d) / "recommended.json", *sorted(Path(d).glob("*/recommended.json"))]:
-            if not path.is_file():
+            if not path.exists():
                 continue
+            text = read_text(path, f"--tune {d}: {path.relative_to(d)}", limit=MAX_JSON_BYTES, kind="JSON")
             try:
-                rec = json.loads(path.read_text(encoding="utf-8"))
-            except (ValueError, UnicodeDecodeError) as exc:
-                raise InputError(f"--tune {d}: {path.name} is not the JSON `chatterbench tune` writes ({exc})") from None
+                rec = json.loads(text)
+            except (ValueError, RecursionError) as exc:
+                raise InputError(f"--tune {d}: {path.relative_to(d)} is not the JSON `chatterbench tune` writes "
+                                 f"({str(exc).splitlines()[0][:200]})") from None
             if isinstance(rec, dict) and isinstance(rec.get("frontier"), list):
+                where = f"--tune {d}: {path.relative_to(d)}"
                 out.append(TunedFrontier(scene=str(rec.get("scene", "")), engine=str(rec.get("engine", "")),
-                                         frontier=tuple(rec["frontier"]), asked=dict(rec.get("tolerances") or {}),
+                                         frontier=tuple(_checked_entry(e, f"{where}: frontier[{i}]")
+                                                        for i, e in enumerate(rec["frontier"])),
+                                         asked=_checked_asked(rec.get("tolerances"), f"{where}: tolerances"),
                                          source=str(path)))
     return tuple(out)
+
+
+def _positive(value: Any, what: str) -> float:
+    """``value`` as a finite positive number, or an ``InputError`` naming ``what`` and the allowed range."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+        raise InputError(f"{what}: {str(value)[:40]!r} is not a number > 0 (`chatterbench tune` writes one)")
+    return float(value)
+
+
+def _checked_entry(entry: Any, what: str) -> dict[str, Any]:
+    """A frontier entry with the fields the chart draws checked: ``tolerances.stick``, ``.restitution``, the cost."""
+    if not isinstance(entry, dict) or not isinstance(entry.get("tolerances"), dict):
+        raise InputError(f"{what}: not an entry with 'tolerances' and 'cost_steps_per_s' (`chatterbench tune` writes one)")
+    for axis in ("stick", "restitution"):
+        _positive(entry["tolerances"].get(axis), f"{what}.tolerances.{axis}")
+    _positive(entry.get("cost_steps_per_s"), f"{what}.cost_steps_per_s")
+    return entry
+
+
+def _checked_asked(tolerances: Any, what: str) -> dict[str, float]:
+    """The asked tolerances the chart marks: the numeric ones > 0 of ``stick`` and ``restitution``."""
+    if not isinstance(tolerances, dict):
+        return {}
+    return {axis: _positive(tolerances[axis], f"{what}.{axis}") for axis in ("stick", "restitution") if axis in tolerances}
 
 
 def scene_frontiers(frontiers: Sequence[TunedFrontier], scene: str) -> dict[str, Sequence[dict[str, Any]]]:

@@ -36,7 +36,7 @@ from matplotlib.figure import Figure
 from chatterbench.comparisons.pipeline.vocabulary import COLOURS, text_colour
 from chatterbench.comparisons.studies.tune import passing, short_label
 from chatterbench.comparisons.studies.tune_answer import FRAME_COLUMNS, frontier_frame, frontier_line, searched_text
-from chatterbench.comparisons.studies.tune_checks import CHECKS
+from chatterbench.comparisons.studies.tune_checks import CHECKS, strike_summary
 from chatterbench.engines.export import export_files_names, measurement
 from chatterbench.engines.registry import adapter
 
@@ -59,9 +59,10 @@ CAPTIONS = {
                 "its verdict; the answer circled, fragile passes (isolated: a neighbour fails) crossed.",
     "ladder": "The chosen settings on the scene: each impact's incoming speed per wall visit, the reference's "
               "geometric ladder to its Zeno point and the engine's impacts over it, where each starts sticking.",
-    "restitution_curve": "The chosen settings' effective restitution against impact speed: one strike per speed with "
-                         "no force (the contact law alone, line), one strike under the scene's own forces at each impact "
-                         "the judge resolves (filled markers, labelled with e), the run's resolved impacts (open markers, "
+    "restitution_curve": "The chosen settings' effective restitution against impact speed, each speed struck at 10 places "
+                         "in a step, 8 through it and its 2 ends (where in a step an impact falls moves e): with no force (the contact law alone: median "
+                         "line, min to max band), under the scene's own forces at each impact the judge resolves (median "
+                         "markers, min to max bars, labelled with the range), the run's resolved impacts (open markers, "
                          "numbered) and the restitution tolerance around R (grey band).",
 }
 CANDIDATE_COLUMNS = {"stage": "stage", "settings": "settings (dt; what differs from the defaults)", "verdict": "verdict", "matches": "matches",
@@ -122,7 +123,7 @@ def _candidates(frame: pd.DataFrame, defaults: dict) -> pd.DataFrame:
     return out[list(CANDIDATE_COLUMNS)]
 
 
-def _answer(result) -> list[str]:
+def _answer(result, ev=None) -> list[str]:
     """The answer's sentences (Markdown; the HTML page converts the code spans)."""
     c = result.chosen
     if c is None:
@@ -151,7 +152,7 @@ def _answer(result) -> list[str]:
                     f"{_fmt(f['steps_per_sim_s'])} steps per simulated second, but its neighbours fail ({f['neighbourhood']}): "
                     "a small change of the model can land on a failure.")
     ratios = ", ".join(f"{short} {_fmt(c.get(f'{name}_ratio', math.nan))}" for name, (*_, short) in CHECKS.items())
-    return head + [f"Each check's worst error over its tolerance (1 = at the tolerance): {ratios}."] + _restitution_claim(result)
+    return head + [f"Each check's worst error over its tolerance (1 = at the tolerance): {ratios}."] + _restitution_claim(result, ev)
 
 
 def _sentence(result) -> str:
@@ -185,19 +186,25 @@ def _frontier_note(result) -> str:
             "(each at any level of the other; exit and first impact move with stick in the asked proportions).")
 
 
-def _restitution_claim(result) -> list[str]:
-    """Where the chosen settings give R under the scene's own forces, with the numbers where they miss (Markdown)."""
+def _restitution_claim(result, ev=None) -> list[str]:
+    """Where the chosen settings give R under the scene's own forces at every place in a step, with the numbers where
+    they miss, and the run's own impacts as the judge measures them (Markdown; ``ev``: the evidence, whose strikes
+    cover every resolved impact, else the chosen row's, the check's)."""
     c = result.chosen
-    if not isinstance(c.get("r_struck"), str) or not c["r_struck"]:
-        return []
-    tol, holds, held = result.tolerance.restitution, c["r_holds_from"], c["r_held_from"]
+    tol = result.tolerance
+    r = strike_summary(ev.strikes, tol) if ev is not None and ev.strikes is not None else c
+    runs = _run_impacts(result, ev)
+    if not isinstance(r.get("r_struck"), str) or not r["r_struck"]:
+        return runs
+    holds, held = r["r_holds_from"], r["r_held_from"]
     where = (f"Struck under the scene's own forces from the reference's state before each impact the judge resolves "
-             f"({c['r_struck']}), these settings give")
+             f"({r['r_struck']}), these settings give")
     if holds == 0.0:
-        return [f"**Restitution under the scene's forces:** {where} e within {100 * tol:g}% of R = "
-                f"{result.scene.restitution:g} at every one."]
-    span = (f"at {holds:.3g} m/s and faster; slower, they miss: {c['r_misses']}" if math.isfinite(holds)
-            else f"at none of them: {c['r_misses']}")
+        return [f"**Restitution under the scene's forces:** {where} e within {100 * tol.restitution:g}% of R = "
+                f"{result.scene.restitution:g} at every one, wherever in a step it falls."] + runs
+    span = (f"at {holds:.3g} m/s and faster, wherever in a step the impact falls; slower, they miss at some place in "
+            f"the step (e over its places): {r['r_misses']}" if math.isfinite(holds)
+            else f"at none of them wherever in a step the impact falls (e over the step's places): {r['r_misses']}")
     held_text = (f"The judge holds a time-stepper at dt = {c['dt']:g} s to R at {held:.3g} m/s and faster (there its "
                  "sampling uncertainty is within the tolerance)")
     if not math.isfinite(held):
@@ -210,8 +217,25 @@ def _restitution_claim(result) -> list[str]:
                       "none of the passing candidates tried meets R there."))
     else:
         counted = f"{held_text}, and there these settings meet R; the misses are at slower impacts."
-    return [f"**Restitution under the scene's forces:** {where} e within {100 * tol:g}% of R = "
-            f"{result.scene.restitution:g} {span}. {counted}"]
+    return [f"**Restitution under the scene's forces:** {where} e within {100 * tol.restitution:g}% of R = "
+            f"{result.scene.restitution:g} {span}. {counted}"] + runs
+
+
+RUN_IMPACTS_LISTED = 12  # the run's first resolved impacts the guide lists (and its worst, when later)
+
+
+def _run_impacts(result, ev) -> list[str]:
+    """The run's resolved impacts as the judge measures them, which the exported scripts print too (Markdown)."""
+    if ev is None or not len(ev.impacts):
+        return []
+    rows = ev.impacts[(ev.impacts["impact"] <= RUN_IMPACTS_LISTED) | ev.impacts["worst"]]
+    listed = "; ".join(f"#{int(row.impact)} at t = {row.t:.4f} s, {row.speed:.3g} m/s: e = {row.restitution_effective:.4f}"
+                       + (" (the report's restitution error)" if row.worst else "") for row in rows.itertuples())
+    files = export_files_names(result.engine)
+    printed = f" (`{result.engine}/{files[-1]}` prints each of them, the same e)" if files else ""
+    more = len(ev.impacts) - len(rows)
+    return [f"**The run's impacts:** its resolved impacts as the judge measures them{printed}: {listed}"
+            + (f"; and {more} more." if more > 0 else ".")]
 
 
 def table_meets_r(table: pd.DataFrame) -> int:
@@ -219,8 +243,9 @@ def table_meets_r(table: pd.DataFrame) -> int:
     return int((passing(table["verdict"]) & ~(table["scene_restitution_ratio"] > 1.0)).sum())
 
 
-def guide_markdown(result, figures: dict | None = None) -> str:
-    """The guide as Markdown (module docstring); ``figures``: names of the figure files written beside it."""
+def guide_markdown(result, figures: dict | None = None, ev=None) -> str:
+    """The guide as Markdown (module docstring); ``figures``: names of the figure files written beside it; ``ev``: the
+    chosen settings' evidence (``tune_evidence.evidence``), whose strikes and run impacts the restitution claim gives."""
     x = result.extra
     searched = searched_text(result) if "searched" in x else f"{len(result.table)} candidates"
     lines = [f"# Tuning {result.engine} for {result.scene.name}", "",
@@ -231,7 +256,7 @@ def guide_markdown(result, figures: dict | None = None) -> str:
              f"steps per simulated second (1 / dt); steps within {100 * x.get('tie_band', 0.1):g}% are a tie, broken by the "
              "fewest settings away from the engine's defaults, then the larger dt, then the wall-clock time (reported, "
              "never deciding by itself: on a busy machine it follows the load).", "", "## Answer", ""]
-    lines += [line + "\n" for line in _answer(result)]
+    lines += [line + "\n" for line in _answer(result, ev)]
     lines += _frontier_markdown(result, list(figures or ()))
     text = snippet(result)
     if text:
@@ -295,7 +320,7 @@ def _inline(markdown: str) -> str:
     return out
 
 
-def guide_section_html(result, figures: dict[str, Figure] | None = None) -> str:
+def guide_section_html(result, figures: dict[str, Figure] | None = None, ev=None) -> str:
     """The guide as an HTML fragment (a report section, ``report --tune``): the same content, figures embedded."""
     esc = html.escape
     anchor = f"tuning-{esc(result.engine)}-{esc(result.scene.name)}"
@@ -304,7 +329,7 @@ def guide_section_html(result, figures: dict[str, Figure] | None = None) -> str:
     if "searched" in result.extra:
         parts.append(f'<p class="note">Searched: {esc(searched_text(result))}; the answer is the cheapest robust setting '
                      "among these runs, not beyond them.</p>")
-    parts += [f"<p>{_inline(s)}</p>" for s in _answer(result)]
+    parts += [f"<p>{_inline(s)}</p>" for s in _answer(result, ev)]
     figures = figures if figures is not None else {"tradeoff": tradeoff_figure(result)}
     parts += ["<h3>Robust frontier</h3>", f"<p>{_inline(_frontier_note(result))}</p>"]
     if result.frontier:
@@ -336,8 +361,8 @@ def guide_section_html(result, figures: dict[str, Figure] | None = None) -> str:
     return "\n".join(parts)
 
 
-def guide_html(result, figures: dict[str, Figure] | None = None) -> str:
+def guide_html(result, figures: dict[str, Figure] | None = None, ev=None) -> str:
     """The guide as one self-contained HTML page, in the report page's style."""
     title = f"tuning {html.escape(result.engine)} for {html.escape(result.scene.name)}"
     return (f'<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>{title}</title>'
-            f"<style>{PAGE_CSS}</style></head><body>" + guide_section_html(result, figures) + "</body></html>")
+            f"<style>{PAGE_CSS}</style></head><body>" + guide_section_html(result, figures, ev) + "</body></html>")

@@ -34,6 +34,9 @@ __all__ = ["build_report", "report_html", "report_markdown", "write_report"]
 
 # -- HTML (style sheet: ``style.PAGE_CSS``, shared with the tuning guide) -----------------------------------------
 
+# the page's promise, kept by the browser too: nothing runs, nothing is fetched; images only from the page itself
+CONTENT_POLICY = "default-src 'none'; img-src data:; style-src 'unsafe-inline'; base-uri 'none'; form-action 'none'"
+
 def _verdict_style(verdict: str) -> str:
     return f"background:{COLOURS.get(verdict, '#ffffff')};color:{text_colour(verdict)}"
 
@@ -78,6 +81,7 @@ def report_html(report: Report) -> str:
     checks = {k.scene: k for k in report.cross_checks}
     parts = [
         "<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
+        f'<meta http-equiv="Content-Security-Policy" content="{CONTENT_POLICY}">',
         "<title>chatterbench report</title>", f"<style>{PAGE_CSS}</style></head><body>",
         "<h1>chatterbench report</h1>",
         f'<p class="note">{plural(len(report.comparisons), "scene")} on {", ".join(report.engines)} against the exact '
@@ -119,7 +123,7 @@ def report_html(report: Report) -> str:
         parts.extend(_img(f) for f in figs)
         parts.extend(f'<p class="note">{html.escape(n)}</p>' for n in notes)
     parts.extend(_img(f) for f in frontiers.values())  # tuned scenes the report did not run
-    parts.extend(report.tuning)  # tuning guides, as `chatterbench tune` wrote them
+    parts.extend(report.tuning)  # tuning guides, as `chatterbench tune` wrote them, made inert (cli/report.py)
     parts.append('<h2 id="provenance">What produced this report</h2><table class="prov"><tbody>')
     for key, value in provenance_items(report):
         shown = f"<code>{html.escape(value)}</code>" if key == "command" else html.escape(value)

@@ -8,15 +8,17 @@
     ('log', "effective restitution e = -y'+ / y'- [-]")
 
 Per engine (``studies/restitution_curve.py``, ``studies/scene_restitution.py``), in its
-colour: one strike per speed with no force (the contact law alone) or under a constant
-gravity, a line; the strikes under the scene's own forces at the speeds the scene reaches,
-filled markers on a thin dashed line, each labelled with its e; and, when given, the resolved
-impacts of the whole run (``impact_restitutions``) as large open markers numbered 1, 2, ...
-(every one). The nominal R is a black line, the restitution tolerance a grey band around it
-(R (1 +- tolerance)), an engine's calibration speed (where its settings name one) a star on
-R. Labels are placed where they overlap neither another label nor a marker
-(``place_labels``). Speeds without a rebound sit at e = 0; failed strikes leave a gap. The
-e axis spans the values, R and the band with a margin (at least ``MIN_PAD``).
+colour, every speed struck at ``PHASES`` places in a step (where in a step an impact falls
+moves e, ``restitution_band``): with no force (the contact law alone) or under a constant
+gravity, the median a line and min to max a band; under the scene's own forces at the speeds
+the scene reaches, the median a filled marker on a thin dashed line and min to max an error
+bar, each labelled with its range of e; and, when given, the resolved impacts of the whole run
+(``impact_restitutions``) as large open markers numbered 1, 2, ... (every one). The nominal R
+is a black line, the restitution tolerance a grey band around it (R (1 +- tolerance)), an
+engine's calibration speed (where its settings name one) a star on R. Labels are placed where
+they overlap neither another label nor a marker (``place_labels``). Speeds without a rebound
+sit at e = 0; failed strikes leave a gap. The e axis spans the values, R and the band with a
+margin (at least ``MIN_PAD``).
 """
 
 from __future__ import annotations
@@ -27,6 +29,8 @@ import numpy as np
 import pandas as pd
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+
+from chatterbench.comparisons.studies.restitution_curve import restitution_band
 
 from .style import engine_colour
 
@@ -40,8 +44,10 @@ _OFFSETS = [(dx * r, dy * r) for r in (1.0, 1.9, 2.8, 3.7) for dx, dy in
 FORCE_FREE = ("none", "gravity")  # the ``forces`` of restitution_curve's strikes; "scene" for scene_restitution's
 
 
-def place_labels(fig: Figure, ax, labels: list[tuple[float, float, str, str]], fontsize: float = 7.5) -> None:
-    """Annotate each (x, y, text, colour) next to its point where it overlaps no other label and no marker.
+def place_labels(fig: Figure, ax, labels: list[tuple[float, float, str, str]], fontsize: float = 7.5,
+                 bars: list[tuple[float, float, float]] = ()) -> None:
+    """Annotate each (x, y, text, colour) next to its point where it overlaps no other label, no marker and no
+    error bar (``bars``: (x, y_low, y_high) in data coordinates).
 
     Lays the figure out once, then fixes that layout (so the points stay where they were
     measured) and, label by label, takes the first offset (``_OFFSETS``) whose box is free;
@@ -54,6 +60,9 @@ def place_labels(fig: Figure, ax, labels: list[tuple[float, float, str, str]], f
     pts = ax.transData.transform(np.array([(x, y) for x, y, _, _ in labels], dtype=float).reshape(-1, 2))
     r = 5.0 * fig.dpi / 72.0  # a marker's half width [pixels]
     taken = [(px - r, py - r, px + r, py + r) for px, py in pts]
+    for x, lo, hi in bars:  # an error bar and its caps
+        (bx, by0), (_, by1) = ax.transData.transform([(x, lo), (x, hi)])
+        taken.append((bx - r, by0, bx + r, by1))
     inside = ax.get_window_extent(renderer)
 
     def overlap(box) -> float:
@@ -111,28 +120,31 @@ def restitution_curve_figure(curve: pd.DataFrame, impacts: pd.DataFrame | None =
     gravity = float(curve["gravity"].iloc[0]) if len(curve) else 0.0
     free = "under gravity g = %g m/s^2 alone" % gravity if gravity > 0 else "no force: the contact law alone"
     _draw_curves(ax, curve, engines, colours, R, free)
-    labels = (_draw_strikes(ax, strikes, engines, colours, scene_name)
-              + _draw_impacts(ax, impacts, engines, colours, scene_name))
+    labels, bars = _draw_strikes(ax, strikes, engines, colours, scene_name)
+    labels += _draw_impacts(ax, impacts, engines, colours, scene_name)
     ax.set_xscale("log")
     ax.set_xlabel("impact speed |y'-| [m/s]")
     ax.set_ylabel("effective restitution e = -y'+ / y'- [-]")
     ax.set_ylim(*_e_range(parts, impacts, R, tolerance))
-    ax.set_title("Effective restitution against impact speed"
-                 + (": force-free and under the scene's own forces" if strikes is not None and len(strikes) else f" ({free})"))
+    ax.set_title("Effective restitution against impact speed, over where in a step the impact falls"
+                 + (":\nforce-free and under the scene's own forces" if strikes is not None and len(strikes) else f"\n({free})"))
     ax.grid(True, which="both", alpha=0.3)
     fig.legend(loc="outside lower center", ncols=1, fontsize=8, frameon=False)  # below the axes: no curve hidden
     if labels:
-        place_labels(fig, ax, labels)
+        place_labels(fig, ax, labels, bars=bars)
     return fig
 
 
 def _draw_curves(ax, curve: pd.DataFrame, engines: list[str], colours: dict[str, str], R: float, free: str) -> None:
-    """One strike per speed, force-free or under gravity: a line per engine, its calibration speed a star on R."""
+    """Strikes at every phase of a step per speed, force-free or under gravity: per engine the median a line, min to
+    max a band; its calibration speed a star on R."""
     for name, rows in curve.groupby("engine", sort=False):
-        rows = rows.sort_values("speed")
+        band = restitution_band(rows).sort_values("speed")
         i = engines.index(name)
-        ax.plot(rows["speed"], rows["restitution_effective"], ls=_LINES[i % len(_LINES)], lw=1.6, color=colours[name],
-                label=f"{name} (dt = {rows['dt'].iloc[0]:g} s): one strike per speed, {free}")
+        ax.fill_between(band["speed"], band["e_min"], band["e_max"], color=colours[name], alpha=0.18, lw=0)
+        ax.plot(band["speed"], band["e_median"], ls=_LINES[i % len(_LINES)], lw=1.6, color=colours[name],
+                label=f"{name} (dt = {rows['dt'].iloc[0]:g} s): {_phases(band)} per speed, {free}: median (line), "
+                      "min to max (band)")
         v_cal = rows["calibration_speed"].dropna()
         if len(v_cal):  # where the engine's law was tuned to give R: a star on the R line, and its speed
             v = float(v_cal.iloc[0])
@@ -141,18 +153,34 @@ def _draw_curves(ax, curve: pd.DataFrame, engines: list[str], colours: dict[str,
                     label=f"{name}: calibrated to R at {v:.3g} m/s")
 
 
+def _phases(band: pd.DataFrame) -> str:
+    """"strikes at 10 places in a step" (the most strikes measured at one speed)."""
+    n = int(band["phases"].max()) if len(band) else 0
+    return f"strikes at {n} places in a step" if n > 1 else "one strike"
+
+
 def _draw_strikes(ax, strikes: pd.DataFrame | None, engines: list[str], colours: dict[str, str],
-                  scene_name: str) -> list[tuple[float, float, str, str]]:
-    """The strikes under the scene's own forces: markers on a thin dashed line; returns their e labels."""
-    labels = []
+                  scene_name: str) -> tuple[list[tuple[float, float, str, str]], list[tuple[float, float, float]]]:
+    """The strikes under the scene's own forces, per impact over the phases of a step: the median a filled marker
+    on a thin dashed line, min to max an error bar; returns their labels (the range of e) and the bars."""
+    labels, bars = [], []
     for name, rows in ([] if strikes is None else strikes.groupby("engine", sort=False)):
-        rows = rows.sort_values("speed")
+        band = restitution_band(rows).sort_values("speed")
         marker = _MARKERS[engines.index(name) % len(_MARKERS)]
-        ax.plot(rows["speed"], rows["restitution_effective"], ls="--", lw=0.9, marker=marker, ms=6, color=colours[name],
-                label=f"{name}: under {scene_name or 'the scene'}'s own forces, at its impacts (struck from the reference)")
-        labels += [(v, e, f"{e:.3f}", colours[name]) for v, e in zip(rows["speed"], rows["restitution_effective"])
-                   if np.isfinite(e)]
-    return labels
+        mid = band["e_median"].to_numpy(float)
+        ax.errorbar(band["speed"], mid, yerr=[mid - band["e_min"].to_numpy(float), band["e_max"].to_numpy(float) - mid],
+                    ls="--", lw=0.9, marker=marker, ms=6, color=colours[name], elinewidth=1.4, capsize=3,
+                    label=f"{name}: under {scene_name or 'the scene'}'s own forces at its impacts (struck from the "
+                          f"reference, {_phases(band)}): median, min to max")
+        labels += [(v, m, _range_text(lo, hi), colours[name])
+                   for v, m, lo, hi in zip(band["speed"], mid, band["e_min"], band["e_max"]) if np.isfinite(m)]
+        bars += [(v, lo, hi) for v, lo, hi in zip(band["speed"], band["e_min"], band["e_max"]) if np.isfinite(lo)]
+    return labels, bars
+
+
+def _range_text(lo: float, hi: float) -> str:
+    """"0.437-0.464", or one number when the two agree to the digits shown."""
+    return f"{lo:.3f}" if f"{lo:.3f}" == f"{hi:.3f}" else f"{lo:.3f}-{hi:.3f}"
 
 
 def _draw_impacts(ax, impacts: pd.DataFrame | None, engines: list[str], colours: dict[str, str],

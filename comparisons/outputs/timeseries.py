@@ -10,7 +10,8 @@
 ``timeseries_figure`` draws, on the main panel:
 
 - the reference's y(t) (exact, a wide grey band) and each engine's samples over it (thin, in
-  the engine's colour), the reference's sliding shaded from its Zeno point to its exit;
+  the engine's colour, never grey: ``run_colour``), the reference's sliding shaded from its
+  Zeno point to its exit;
 - the reference's events on the wall: Zeno point (open circle), exit (triangle up), Feigin's
   plate entry (triangle down) where the scene has one;
 - each engine's events in its colour, one lane per engine just outside the wall: where the
@@ -45,7 +46,7 @@ from matplotlib.patches import Patch
 
 from chatterbench.reference.dense import sample
 
-from .style import EXIT_COLOUR, REFERENCE_COLOUR, STICK_COLOUR, engine_colour
+from .style import EXIT_COLOUR, PALETTE, REFERENCE_COLOUR, STICK_COLOUR, engine_colour
 
 MAX_VISITS = 4  # reference visits drawn on the main panel; every one is in the episode error figure
 LANE = 0.22  # of the axis margin (the penetration allowance): the spacing of the engines' marker lanes
@@ -106,6 +107,22 @@ def _leaves(t: np.ndarray, y: np.ndarray, lo: float, hi: float) -> tuple[float, 
     return float(t[np.argmax(out)]), far
 
 
+def _grey(colour: str) -> bool:
+    """An achromatic ``#rrggbb`` (its channels within 0x20): it would vanish on the reference's grey band."""
+    r, g, b = (int(colour[i:i + 2], 16) for i in (1, 3, 5))
+    return max(r, g, b) - min(r, g, b) < 0x20
+
+
+def run_colour(comparison, name: str) -> str:
+    """``engine_colour(name)``, unless it is grey like the reference's band (a trajectory file's name can hash to
+    the palette's grey): then the first palette colour that is neither grey nor another run's here."""
+    colour = engine_colour(name)
+    if not _grey(colour):
+        return colour
+    taken = {engine_colour(other) for other in comparison.runs if other != name}
+    return next((c for c in PALETTE if not _grey(c) and c not in taken), "#1f77b4")
+
+
 def first_chatter(reference: pd.DataFrame):
     """The first reference visit with real chatter (more than one impact), or None."""
     real = reference[(reference["n_impacts"] > 1) & (reference["chatter_duration"] > 0)]
@@ -132,7 +149,7 @@ def _draw_run(ax, comparison, t_hi: float) -> list:
     ax.plot(dense["t"], dense["y"], color=REFERENCE_COLOUR, lw=3.5, alpha=0.3, zorder=2, solid_capstyle="butt")
     notes, marked = [], set()
     for k, (name, run) in enumerate(comparison.runs.items()):
-        tr, color = run.trajectory, engine_colour(name)
+        tr, color = run.trajectory, run_colour(comparison, name)
         sel = tr.t <= t_hi
         if sel.sum() >= 2:
             t, y = _thin(tr.t[sel], tr.y[sel])
@@ -214,7 +231,7 @@ def _draw_zoom(ax, comparison, r) -> tuple[float, float, float, float]:
             color=STICK_COLOUR)
     box = dict(fc="white", ec="none", alpha=0.85, pad=1.0)
     for k, (name, run) in enumerate(comparison.runs.items()):
-        tr, color = run.trajectory, engine_colour(name)
+        tr, color = run.trajectory, run_colour(comparison, name)
         m = (tr.t >= lo) & (tr.t <= hi)
         ax.plot(tr.t[m], 1e3 * side * (tr.y[m] - wall), color=color, lw=1.0)
         if name in starts:

@@ -65,14 +65,15 @@ def candidates_frame(result) -> pd.DataFrame:
 def write_engine_set(result, out: Path) -> list[str]:
     """One engine's files under ``out`` (module docstring); returns their names relative to ``out``."""
     rec = recommended(result)
-    figures = guide_figures(result, evidence(result))  # reruns the chosen settings (the ladder, R(v))
+    ev = evidence(result)  # reruns the chosen settings: strikes at every resolved impact, the ladder
+    figures = guide_figures(result, ev)
     written = []
     if rec is not None:  # first: the guide's files are written from what it says
         write_text(out / "recommended.json", json.dumps(rec, indent=2) + "\n")
         written.append("recommended.json")
-    write_text(out / "guide.md", guide_markdown(result, figures))
-    write_text(out / "guide.html", guide_html(result, figures))
-    write_text(out / "guide_section.html", guide_section_html(result, figures))  # for `report --tune DIR`
+    write_text(out / "guide.md", guide_markdown(result, figures, ev))
+    write_text(out / "guide.html", guide_html(result, figures, ev))
+    write_text(out / "guide_section.html", guide_section_html(result, figures, ev))  # for `report --tune DIR`
     write_frame(out / "candidates.csv", candidates_frame(result))
     written += ["guide.md", "guide.html", "guide_section.html", "candidates.csv"]
     for name, fig in figures.items():

@@ -53,6 +53,7 @@ from chatterbench.comparisons.pipeline.vocabulary import combine, rank
 from chatterbench.engines.registry import ENGINE_NAMES
 from chatterbench.reference.errors import InputError
 
+from .point_labels import ROW_HEIGHT, STRIP_EDGE, STRIP_Y, StripLabel, write_point_labels, write_strip_labels
 from .style import REFERENCE_COLOUR, engine_colour
 from .sweep_data import (COST, FAIL_MARKERS, METRIC_LABELS, PASSING, VERDICT_COLOURS, VERDICT_MEANING, VERDICT_ORDER,
                          ChartError, check_columns, fmt, folded_parameters, parameter_columns, suptitle, varying)
@@ -66,7 +67,7 @@ FALLBACK = {"rel": ("exit_error_rel_max", "stick_error_rel_max", "restitution_er
 # the tolerance (``Tolerances`` field) each relative metric is judged against
 TOLERANCE_OF = {"exit_error_rel_max": "exit", "stick_error_rel_max": "stick", "restitution_error_max": "restitution"}
 LEGEND_CHARS = 44  # a legend entry's line, in characters: two columns of them fit a 6.4 in panel at 8 pt
-LABEL_BOX = (0.0115, 0.04)  # [axes fraction] a label character's width and a label's height on a 6.4 x 5.6 in panel
+YLABEL_CHARS = 46  # a y label's line, in characters: the height of a 5.6 in panel at 10 pt, with room to spare
 
 
 def cost_lever(engine: str, settings: dict | None = None) -> str:
@@ -317,7 +318,7 @@ def work_precision_figure(rows: pd.DataFrame, error: str | None = None, referenc
     for ax, metric in zip(axes[0], metrics):
         ax.set_gid(metric)
         has = np.isfinite(points[metric]) & np.isfinite(points[COST])
-        labels = _draw_curves(ax, points, metric, styles, has, classes_seen)
+        labels, on_strip = _draw_curves(ax, points, metric, styles, has, classes_seen)
         _draw_front(ax, points[pareto_front(points, metric)].sort_values(COST), metric)
         ax.set_xscale("log")
         ax.set_yscale("log")
@@ -334,13 +335,11 @@ def work_precision_figure(rows: pd.DataFrame, error: str | None = None, referenc
             ax.set_ylim(1e-6, 1.0)  # any decades: nothing to scale to, and a log axis needs positive limits
             ax.text(0.5, 0.5, textwrap.fill(empty[0] if empty else _why_empty(rows, metric), 48), transform=ax.transAxes,
                     ha="center", va="center", color="0.3", gid="why-empty")
-        if (~has & ~points["verdict"].isin(PASSING + ("none",))).any():
-            ax.plot([0, 1], [0.93, 0.93], transform=ax.transAxes, color="0.6", lw=0.6, ls=":")
-            ax.text(0.99, 0.965, "failed, no error measured", transform=ax.transAxes, fontsize=7, va="center", ha="right",
-                    color="0.3")
         if metric in TOLERANCE_OF and has.any():
             _draw_tolerance(ax, getattr(tolerances, TOLERANCE_OF[metric]))
-        _write_labels(ax, labels)
+        write_point_labels(ax, labels)
+        if (~has & ~points["verdict"].isin(PASSING + ("none",))).any():
+            _draw_strip(ax, on_strip)
         _label_axes(ax, metric)
     handles = _legend_handles(points, styles, classes_seen, reference_cost is not None)
     fig.legend(handles=handles, loc="outside lower center", ncol=2 if len(metrics) == 1 else 3, fontsize=8, frameon=False)
@@ -348,11 +347,23 @@ def work_precision_figure(rows: pd.DataFrame, error: str | None = None, referenc
     return fig
 
 
+def _draw_strip(ax, on_strip: list[StripLabel]) -> None:
+    """The strip's caption, its points' labels (``point_labels``: one per cluster, in rows) and its lower edge."""
+    caption = "failed, no error measured"
+    ax.text(0.99, STRIP_Y, caption, transform=ax.transAxes, fontsize=7, va="center", ha="right", color="0.3")
+    width = 0.0125 * len(caption)  # [axes fraction] at 7 pt, as LABEL_BOX measures 6.5 pt
+    rows = {round(t.xyann[1]) for t in write_strip_labels(ax, on_strip, taken=[(0.99 - width, 1.0)])}
+    edge = STRIP_EDGE - ROW_HEIGHT * max(len(rows) - 1, 0)  # below the last row of labels
+    ax.plot([0, 1], [edge, edge], transform=ax.transAxes, color="0.6", lw=0.6, ls=":", gid="strip-edge")
+
+
 def _draw_curves(ax, points: pd.DataFrame, metric: str, styles: dict[str, dict], has: pd.Series,
-                 classes_seen: set[str]) -> list[tuple[float, float, str, str]]:
+                 classes_seen: set[str]) -> tuple[list[tuple[float, float, str, str]], list[StripLabel]]:
     """Each curve's line and points (filled: passing, a rim: not within tolerance, hollow: failed; failures with
-    no measured error on a strip at the top); adds the failure classes drawn to ``classes_seen``; returns the labels."""
+    no measured error on a strip at the top); adds the failure classes drawn to ``classes_seen``; returns the labels
+    of the points and those of the strip."""
     labels: list[tuple[float, float, str, str]] = []
+    on_strip: list[StripLabel] = []
     passing = points["verdict"].isin(PASSING)
     strip = blended_transform_factory(ax.transData, ax.transAxes)
     for curve, grp in points.groupby("curve", sort=False):
@@ -374,12 +385,10 @@ def _draw_curves(ax, points: pd.DataFrame, metric: str, styles: dict[str, dict],
         lost = grp[~has.loc[grp.index] & np.isfinite(grp[COST]) & ~grp["verdict"].isin(PASSING + ("none",))]
         for v, gv in lost.groupby("verdict"):
             classes_seen.add(v)
-            ax.plot(gv[COST], np.full(len(gv), 0.965), transform=strip, ls="none", marker=FAIL_MARKERS.get(v, "x"),
+            ax.plot(gv[COST], np.full(len(gv), STRIP_Y), transform=strip, ls="none", marker=FAIL_MARKERS.get(v, "x"),
                     mfc="white", mec=st["color"], mew=1.6, ms=8, zorder=3, clip_on=False, gid=f"failed-no-error:{v}")
-            for r in gv.itertuples():
-                ax.annotate(f"{r.lever}={fmt(r.lever_value)}", (getattr(r, COST), 0.965), xycoords=strip,
-                            xytext=(6, -3), textcoords="offset points", fontsize=6.5, color=st["color"])
-    return labels
+            on_strip += [StripLabel(getattr(r, COST), r.lever, fmt(r.lever_value), st["color"]) for r in gv.itertuples()]
+    return labels, on_strip
 
 
 def _draw_front(ax, front: pd.DataFrame, metric: str) -> None:
@@ -430,7 +439,8 @@ def _label_axes(ax, metric: str) -> None:
     ax.grid(True, which="major", color="0.9", lw=0.6)
     ax.set_xlabel("cost: wall-clock s per simulated s")
     unit = " [s]" if _in_seconds(metric) else ""
-    ax.set_ylabel(f"worst |error|: {METRIC_LABELS.get(metric, metric)}{unit}")
+    # wrapped to the panel's height: a longer line is cut by the figure's edge ("(relative" before)
+    ax.set_ylabel(textwrap.fill(f"worst |error|: {METRIC_LABELS.get(metric, metric)}{unit}", YLABEL_CHARS))
     ax.set_title(f"error in {METRIC_LABELS.get(metric, metric).split(' (')[0]}", fontsize=10)
 
 
@@ -466,32 +476,3 @@ def _title(rows: pd.DataFrame, points: pd.DataFrame, metrics: Sequence[str], emp
         counts = uncosted["verdict"].astype(str).value_counts()
         notes.append("not drawn (no cost measured): " + ", ".join(f"{counts[v]} {v}" for v in sorted(counts.index, key=rank)))
     return "; ".join([f"{scene}: work-precision, {len(rows)} runs", *filter(None, notes)])
-
-
-def _write_labels(ax, labels: Sequence[tuple[float, float, str, str]]) -> None:
-    """Write each point's lever label beside it where it overlaps no other label (log-log axes).
-
-    Each label tries four places around its point (below right, above right, below left,
-    above left); a label whose text is already written at a coinciding point is left out, as
-    is one with no free place. Boxes are measured in axes fractions (``LABEL_BOX``: width of
-    a character, height of a line), so placement does not depend on the final layout.
-    """
-    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
-    char, line = LABEL_BOX
-    boxes: list[tuple[float, float, float, float, str, float, float]] = []
-    for x, y, text, color in labels:
-        if not (x > 0 and y > 0 and math.isfinite(x) and math.isfinite(y)):
-            continue
-        fx = math.log(x / x0) / math.log(x1 / x0)
-        fy = math.log(y / y0) / math.log(y1 / y0)
-        if any(t == text and abs(px - fx) < 3 * char and abs(py - fy) < 1.5 * line for *_, t, px, py in boxes):
-            continue  # the same label at a coinciding point: once is enough
-        w = char * len(text)
-        for dx, dy in ((1, -1), (1, 1), (-1, -1), (-1, 1)):
-            bx0 = fx + 0.008 if dx > 0 else fx - 0.008 - w
-            by0 = fy - 0.01 - line if dy < 0 else fy + 0.01
-            if not any(bx0 < b[1] and b[0] < bx0 + w and by0 < b[3] and b[2] < by0 + line for b in boxes):
-                ax.annotate(text, (x, y), xytext=(4 * dx, -9 if dy < 0 else 4), textcoords="offset points", fontsize=6.5,
-                            color=color, ha="left" if dx > 0 else "right")
-                boxes.append((bx0, bx0 + w, by0, by0 + line, text, fx, fy))
-                break

@@ -18,6 +18,24 @@ kill (SIGKILL, power loss) can leave a temp file. Its name starts with this proc
 ``TTTTTTTT`` (``temp_tag``: 8 random characters, new in every process and forked child), so a
 cleaner can prove a temp file was this tool's: ``studies/sweep/directory.py`` records a sweep's
 tag in ``OUT/.lock`` and the next sweep removes only the temp files bearing it.
+
+Inside an output folder (``confined(OUT)``, which the command line's ``--out`` sets), every
+write is checked without following links: a directory on the way from OUT to the file, or the
+file itself, that is a symbolic link is refused (``LinkRefused``, an ``OSError`` naming it), as is a
+path that leads out of OUT (``..``, an absolute name),
+and missing directories are made one at a time, so nothing is written outside OUT through a
+link planted in it. ``staged(OUT)`` makes a set of files appear together: written into a
+hidden folder under OUT, moved into place when the block ends (the files named ``last`` after
+the rest, their old copies removed first), removed if it fails (Ctrl-C included). Only a kill can
+leave that folder; it is named with its process's id (``.staged.PID.TTTTTTTTXXXXXXXX``), and the
+next ``staged`` in the same folder removes those whose process is gone (one whose process still
+runs, or a name of another pattern, is kept).
+
+    >>> from chatterbench.comparisons.pipeline.atomic import confined, staged
+    >>> with confined(tmp / "out"), staged(tmp / "out", last=["done.json"]) as stage:
+    ...     _ = write_text(stage / "sub" / "a.txt", "a"), write_text(stage / "done.json", "{}")
+    >>> sorted(str(p.relative_to(tmp / "out")) for p in (tmp / "out").rglob("*") if p.is_file())
+    ['done.json', 'episodes.csv', 'report.md', 'sub/a.txt']
 """
 
 from __future__ import annotations
@@ -27,16 +45,29 @@ import errno
 import os
 import re
 import secrets
+import shutil
+import signal
+import stat
+import threading
+from contextvars import ContextVar
 from pathlib import Path
-from typing import Callable
+from typing import TYPE_CHECKING, Callable, Iterator, Sequence
 
-import pandas as pd
+if TYPE_CHECKING:
+    import pandas as pd
 
 _TEMP_CHARS = "abcdefghijklmnopqrstuvwxyz0123456789_"  # tempfile's, as mkstemp draws
 TEMP_NAME_EXTRA = len("..TTTTTTTTXXXXXXXX.tmp")  # bytes a temp file's name adds to its target's (a 255-byte limit applies)
 # a temp file's name: group "tag" is the writing process's temp_tag()
 TEMP_PATTERN = re.compile(r"\..+\.(?P<tag>[a-z0-9_]{8})[a-z0-9_]{8}\.tmp")
 _TRIES = 100  # names drawn before giving up (a collision is 1 in 37**8 per existing temp file)
+# a staged set's hidden folder: group "pid" is the process that made it (``staged``)
+STAGE_PATTERN = re.compile(r"\.staged\.(?P<pid>[0-9]+)\.[a-z0-9_]{16}")
+_ROOTS: ContextVar[tuple[str, ...]] = ContextVar("output_folders", default=())  # ``confined``'s folders, absolute
+
+
+class LinkRefused(OSError):
+    """A write inside an output folder that would go through a symbolic link (``confined``)."""
 
 
 def _draw(n: int) -> str:
@@ -59,6 +90,120 @@ def temp_tag() -> str:
     return _TAG
 
 
+@contextlib.contextmanager
+def confined(folder: str | Path) -> Iterator[None]:
+    """Within the block, a write under ``folder`` follows no link on its way from ``folder`` (module docstring)."""
+    token = _ROOTS.set((*_ROOTS.get(), os.path.abspath(folder)))
+    try:
+        yield
+    finally:
+        _ROOTS.reset(token)
+
+
+def _no_links(path: Path) -> None:
+    """Make ``path``'s directories below its output folder without following a link; ``LinkRefused`` at a link, or
+    for a path that leaves the folder (``..``, an absolute name: a label that became a path)."""
+    target, roots = os.path.abspath(path), _ROOTS.get()
+    if not roots:
+        return
+    root = next((r for r in reversed(roots) if target.startswith(r.rstrip(os.sep) + os.sep)), None)
+    if root is None:
+        raise LinkRefused(errno.EPERM, f"{target} is outside the output folder {roots[-1]}; nothing is written there",
+                          str(path))
+    os.makedirs(root, exist_ok=True)  # the folder itself is the user's to name, a link included
+    parts = os.path.relpath(target, root).split(os.sep)
+    here = root
+    for i, part in enumerate(parts):
+        here = os.path.join(here, part)
+        try:
+            mode = os.lstat(here).st_mode
+        except FileNotFoundError:
+            if i < len(parts) - 1:
+                with contextlib.suppress(FileExistsError):  # made meanwhile: looked at again below
+                    os.mkdir(here)
+                mode = os.lstat(here).st_mode
+            else:
+                return
+        if stat.S_ISLNK(mode):
+            shown = os.path.relpath(here, os.path.dirname(root))
+            raise LinkRefused(errno.ELOOP, f"{shown} is a symbolic link (-> {os.readlink(here)}); nothing is written "
+                                           "through a link in an output folder: remove it or choose another folder", here)
+
+
+@contextlib.contextmanager
+def _interrupts_held() -> Iterator[None]:
+    """In the main thread, a SIGINT during the block is held and delivered (its handler called) when it ends."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[tuple[int, object]] = []
+    before = signal.signal(signal.SIGINT, lambda signum, frame: caught.append((signum, frame)))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, before)
+        if caught and callable(before):
+            before(*caught[0])
+        elif caught and before == signal.SIG_DFL:
+            raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def staged(folder: str | Path, last: Sequence[str] = ()) -> Iterator[Path]:
+    """A hidden folder under ``folder`` to write a set of files in; they replace ``folder``'s when the block ends.
+
+    The files named in ``last`` (relative paths) are removed from ``folder`` first and moved in
+    after all the others, so their presence says the rest is this set (``tune``'s
+    ``recommended.json``). On any exception, ``KeyboardInterrupt`` included, the hidden folder is
+    removed and ``folder`` keeps what it held.
+    """
+    folder = Path(folder)
+    stage = folder / f".staged.{os.getpid()}.{_TAG}{_draw(8)}"
+    _no_links(stage / "x")  # OUT's folders on the way, made without following a link
+    _remove_killed_stages(folder)
+    stage.mkdir(parents=True, exist_ok=True)
+    try:
+        yield stage
+        files = sorted((p.relative_to(stage) for p in stage.rglob("*") if p.is_file() and not p.is_symlink()),
+                       key=lambda rel: (str(rel) in last, str(rel)))
+        with _interrupts_held():  # a Ctrl-C lands after the set is in place, not halfway through it
+            for rel in last:
+                _no_links(folder / rel)
+                with contextlib.suppress(FileNotFoundError):
+                    os.unlink(folder / rel)
+            for rel in files:
+                _no_links(folder / rel)  # inside ``confined``: its folders made following no link
+                (folder / rel).parent.mkdir(parents=True, exist_ok=True)
+                os.replace(stage / rel, folder / rel)
+    except OSError as exc:  # name the file the user will look for, not its staged copy
+        name = Path(exc.filename) if exc.filename else None
+        if name is not None and (name == stage or stage in name.parents):
+            raise OSError(exc.errno, exc.strerror or str(exc), str(folder / name.relative_to(stage))) from None
+        raise
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+
+
+def _remove_killed_stages(folder: Path) -> None:
+    """Remove the hidden folders that ``staged`` sets of killed processes left in ``folder`` (``STAGE_PATTERN``, a
+    process id no process has now; a folder, never a link)."""
+    for entry in os.scandir(folder):
+        found = STAGE_PATTERN.fullmatch(entry.name)
+        if found and entry.is_dir(follow_symlinks=False) and not _alive(int(found["pid"])):
+            shutil.rmtree(entry.path, ignore_errors=True)
+
+
+def _alive(pid: int) -> bool:
+    """Whether a process ``pid`` exists (another user's counts: it may be the writer)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError):
+        return True
+    return True
+
+
 def write_with(path: Path, writer: Callable[[Path], None]) -> Path:
     """Call ``writer(tmp_path)`` then atomically move the result to ``path``; returns ``path``.
 
@@ -68,6 +213,7 @@ def write_with(path: Path, writer: Callable[[Path], None]) -> Path:
     path = Path(path)
     tmp = None
     try:
+        _no_links(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         for _ in range(_TRIES):
             # named before it exists, so an interrupt at any point below still finds it to remove

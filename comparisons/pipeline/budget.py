@@ -40,7 +40,6 @@ from chatterbench.engines.base import n_steps
 from chatterbench.engines.registry import adapter
 from chatterbench.reference.errors import InputError
 from chatterbench.reference.scene import Scene, scene_from_dict
-from chatterbench.reference.simulate import simulate
 
 GIB = 2.0**30
 MAX_STEPS = 5e7  # engine steps per run: MuJoCo about 100 s, PyBullet about 15 min on this machine
@@ -119,6 +118,8 @@ def reference_estimate(scene: Scene) -> Estimate:
     data = scene.to_dict()
     data["duration"] = PILOT_PERIODS * scene.time_scale
     pilot = scene_from_dict(data)
+    from chatterbench.reference.simulate import simulate  # numba's kernels: loaded by the work, not by --help
+
     events = sum(len(simulate(pilot, mode).log) for mode in ("feigin", "exhaustive"))
     events *= scene.duration / pilot.duration
     return Estimate(events, BASE_MEMORY + events * BYTES_PER_EVENT)

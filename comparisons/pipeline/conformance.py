@@ -190,12 +190,16 @@ def describe(comparison, engine: str | None = None, other: str | None = None) ->
     return (f"{other} against {engine}: {bad} of {n} episodes disagree"
             + (f" (verdicts: {verdicts})" if verdicts else "")
             + (f"; {one_sticks} sticking in one engine only" if one_sticks else "")
-            + f"; largest |sticking difference| {_g(worst('stick_difference'))} s ({_g(worst('stick_difference_rel'))}"
-            f" of the chatter), |exit difference| {_g(worst('exit_difference'))} s, |impact count difference| "
-            f"{_g(worst('impact_count_difference'))}; {where}; max |y difference| {_g(part.y_difference_max)} m, "
-            f"max |vy difference| {_g(part.vy_difference_max)} m/s.")
+            + f"; largest |sticking difference| {_g(worst('stick_difference'), 's', 'no episode sticks in both')}"
+            + (f" ({_g(worst('stick_difference_rel'))} of the chatter)" if not math.isnan(worst('stick_difference_rel')) else "")
+            + f", |exit difference| {_g(worst('exit_difference'), 's', 'no episode exits in both')}, |impact count "
+            f"difference| {_g(worst('impact_count_difference'))}; {where}; max |y difference| "
+            f"{_g(part.y_difference_max, 'm')}, max |vy difference| {_g(part.vy_difference_max, 'm/s')}.")
 
 
-def _g(x: float) -> str:
-    """A number for a sentence: 3 significant digits, "none" for NaN (nothing to compare)."""
-    return "none" if math.isnan(x) else f"{x:.3g}"
+def _g(x: float, unit: str = "", none: str = "") -> str:
+    """A quantity for a sentence: 3 significant digits and its unit; NaN (nothing to compare) is "none", with
+    ``none`` saying why, and no unit."""
+    if math.isnan(x):
+        return f"none ({none})" if none else "none"
+    return f"{x:.3g}" + (f" {unit}" if unit else "")

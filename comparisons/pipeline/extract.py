@@ -20,12 +20,18 @@ Per wall, with n = +1 (lower) or -1 (upper): the distance d = n (y - y_wall) [m]
 velocity u = n y' and the free acceleration a = n y''_free; a < 0 presses into the wall.
 
 1. **Contact** at a sample: the trajectory's contact flag (the wall's force is on), or
-   d <= 0 where a trajectory carries no flag. A contact is a run of contact samples.
+   d <= 0 where a trajectory carries no flag. A contact is a run of contact samples. A
+   contact skin (``offsets``: the body rests that far off the wall) moves d's zero there.
 2. **Impacts**: the onset of each contact, and every step between two free samples whose
    velocity jump J = u[k+1] - u[k] - (a[k] + a[k+1]) dt / 2 exceeds
    max(``jump_atol``, min(``jump_factor``, ``floor_steps``) |a| dt) (a jump of k |a| dt is a
    flight of k steps: one the samples resolve is never hidden) with the wall within one step's travel (an
-   impact between two samples, as the exact reference has them). Each impact has its
+   impact between two samples, as the exact reference has them), where the body comes to the
+   wall: moving towards it (u[k] < 0), or carried there within the step by the free motion.
+   A body rising from the wall all through the step is lifting off, whatever its jump: where
+   the file's forcing runs ahead of the scene's, the scene's y'' still presses while the body
+   leaves, and those jumps are no impacts (issue 34: they once pulled early exits towards the
+   reference's). Each impact has its
    incoming and rebound speeds (``v_minus``, ``v_plus``; for a contact, where the body
    crosses the wall's undeformed surface, d = 0, on its way in and out: the free flight of
    the last free sample before and the first after, from two samples' positions where the
@@ -35,7 +41,9 @@ velocity u = n y' and the free acceleration a = n y''_free; a < 0 presses into t
    exit pulling the body out of a resting penetration, the speed at release), its release (the contact force's zero, interpolated linearly from the
    last two force samples, else the middle of the step after the last contact sample; the
    impact time itself for an impact between samples) and the highest point of the flight
-   after it, ``apex`` [m], the largest sampled d until the next impact on the wall. Its
+   after it, ``apex`` [m], the largest sampled d until the next impact on the wall, and
+   ``t_bound`` [s], how far its time may be off (0 where the free parabola reaches the wall,
+   else the step it lies in). Its
    ``flight`` runs from the release to the next impact on the wall; ``flight_seen`` is that
    flight as both its ends see it, no longer than the free flight the rebound speed and the
    next impact's incoming speed each imply (2 |v| / |a| while a < 0): a "flight" that spans
@@ -62,7 +70,8 @@ velocity u = n y' and the free acceleration a = n y''_free; a < 0 presses into t
    already at rest in a contact (|y'| <= |a| f_min / 2). A stretch whose bodies part less
    than f_min after its sticking start (rule 4) is no stick: they never came to rest, its
    impacts are bounces (an engine that keeps kicking off after each Zeno point chatters).
-4. **Times.** The sticking start comes from the engine's own ladder (``sticking_start``):
+4. **Times** (``sticking.py``, with how far the samples let each be off: ``sticks``).
+   The sticking start comes from the engine's own ladder (``sticking_start``):
    from the onset, the bounces (a contact shorter than the flight after it) whose flights
    keep shrinking, i .. K, down to the last the samples see (flights of about two steps:
    rule 2's jump); when they shrank by more than a step, their mean ratio rho =
@@ -73,13 +82,19 @@ velocity u = n y' and the free acceleration a = n y''_free; a < 0 presses into t
    to see. Otherwise (one bounce, or flights that did not shrink by a step) the onset's
    rebound is extrapolated with Feigin's ladder, 2 v+ / ((1 - R) |a|) (0 for a single
    contact): exact for a trajectory that follows R, off by at most f_min / (1 - R) for one
-   that does not. The exit is the release of the last contact of the stuck stretch.
+   that does not. The samples at rest overrule both: a stretch that ends in a contact lasting
+   to its exit or to the end of the data sticks no later than that contact's first sample
+   (where the ladder says later, at that contact's onset). The exit is the release of the
+   last contact of the stuck stretch.
 
 Estimator errors (exact samples, step dt; an engine adds its own): impact time
 O(|a'| dt^3 / |u|) (the smallest root of the free parabola from the last free sample;
 the onset sample's time, error <= dt, when the parabola does not reach the wall); speeds
 O(|a'| dt^2); exit O(dt^2) where the force decays linearly, else <= dt; sticking start
-O(f_min^2 |a'| / |a|) from the ladder's changing |a|.
+O(f_min^2 |a'| / |a|) from the ladder's changing |a|. Positions rounded to
+``position_rounding`` (a float32 file's) move an impact between samples by up to
+2 rounding / |u|, which ``v_error`` takes in, and blur a velocity taken from two positions,
+which is then taken from the samples' own velocity.
 
 Promises: the log is sorted by time (at one time: exit, impact, stick); every stick is
 followed by an exit on its own wall, f_min or more later, unless the data end stuck; impacts inside a stuck stretch (the
@@ -89,7 +104,8 @@ unresolved micro-bounces) are in ``impacts`` (``stuck`` true) but not in the log
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Mapping
 
 import numpy as np
 import pandas as pd
@@ -101,6 +117,7 @@ from chatterbench.reference.scene import Scene
 
 from chatterbench.reference.errors import check_number
 
+from .sticking import Stick, at_rest, stick_frame, stick_rows, sticking_start, stuck_stretches
 from .surface import surface_speed, surface_velocity
 from .tolerances import ToleranceError
 
@@ -108,7 +125,7 @@ STICK_RULE = "contact"  # the ``rule`` of an extracted stick
 _KIND_ORDER = {"exit": 0, "impact": 1, "stick": 2}  # at one time: leave, strike, then stick
 _STEP_BLOCK = 1 << 16  # steps examined at once for impacts between samples (memory, not results)
 IMPACT_COLUMNS = ["t", "wall", "v_minus", "v_plus", "t_release", "flight", "flight_seen", "apex", "pressing", "v_error",
-                  "slow", "stuck", "onset", "exits", "x1", "v1"]
+                  "t_bound", "slow", "stuck", "onset", "exits", "x1", "v1"]
 
 
 @dataclass(frozen=True)
@@ -119,12 +136,15 @@ class ExtractionOptions:
     floor_steps: float = 4.0  # [steps] nor do flights shorter than this many timesteps
     jump_factor: float = 2.0  # [-] a free step hides an impact if its velocity jump exceeds this times |y''| dt
     jump_atol: float = 1e-9  # [m/s] ... and this absolute floor (for |y''| = 0)
+    position_rounding: float = 0.0  # [m] how far the positions are rounded (a float32 file's): two samples' positions
+    # give a velocity only where twice this over the step is under the half-step offset |y''| dt / 2 it corrects
 
     def __post_init__(self) -> None:
         check_number("extraction band", self.band, lo=0.0, hi=1e3, lo_open=True, error=ToleranceError)
         check_number("extraction floor_steps", self.floor_steps, lo=0.0, hi=1e6, lo_open=True, error=ToleranceError)
         check_number("extraction jump_factor", self.jump_factor, lo=0.0, hi=1e6, error=ToleranceError)
         check_number("extraction jump_atol", self.jump_atol, lo=0.0, hi=1e6, error=ToleranceError)
+        check_number("extraction position_rounding", self.position_rounding, lo=0.0, hi=1e6, error=ToleranceError)
 
 
 @dataclass(frozen=True)
@@ -144,6 +164,8 @@ class Extraction:
     log: pd.DataFrame  # LOG_COLUMNS of reference/log.py
     episodes: pd.DataFrame  # EPISODE_COLUMNS of reference/log.py
     flight_min: float  # [s] f_min of the module docstring
+    sticks: pd.DataFrame = field(default_factory=lambda: stick_frame([]))  # sticking.STICK_COLUMNS: each time's bound
+    offsets: dict = field(default_factory=dict)  # [m] the contact skin taken per wall (``extract``'s ``offsets``)
 
 
 def free_relative_acceleration(scene: Scene, t, x1, v1, y, vy) -> np.ndarray:
@@ -189,30 +211,50 @@ def contact_runs(contact: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
 
 
-def _release_times(t: np.ndarray, force: np.ndarray | None, starts: np.ndarray, stops: np.ndarray) -> np.ndarray:
-    """When each contact run's force fell to zero [s] (NaN for a run the data end in)."""
+def _release_times(t: np.ndarray, force: np.ndarray | None, starts: np.ndarray,
+                   stops: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """When each contact run's force fell to zero [s] (NaN for a run the data end in), and how far that may be off [s].
+
+    The zero of the line through the last two force samples, where the force decays towards it within the
+    step after them (a pulling force, negative, decays the same way), else the middle of that step. Its bound:
+    how far a quadratic through the last three force samples puts the zero from the line's, where both fall
+    in the step; else the step itself from the estimate (the release is somewhere in it).
+    """
     n = len(t)
-    out = np.full(len(starts), np.nan)
+    out, bound = np.full(len(starts), np.nan), np.full(len(starts), np.nan)
     done = stops < n
     last = stops[done] - 1
     t_last, t_next = t[last], t[stops[done]]
     rel = t_last + 0.5 * (t_next - t_last)
     if force is not None:
-        prev = np.maximum(last - 1, 0)
-        f1, f0 = force[last], force[prev]
-        ok = (last - 1 >= starts[done]) & (f1 > 0) & (f0 > f1)
+        prev, prev2 = np.maximum(last - 1, 0), np.maximum(last - 2, 0)
+        f1, f0, f2 = np.abs(force[last]), np.abs(force[prev]), np.abs(force[prev2])
+        ok = (last - 1 >= starts[done]) & (f1 > 0) & (f0 > f1) & (np.sign(force[last]) == np.sign(force[prev]))
         with np.errstate(divide="ignore", invalid="ignore"):
             zero = t_last + f1 / (f0 - f1) * (t_last - t[prev])
+            inside = ok & (zero >= t_last) & (zero <= t_next)
+            # the quadratic through the last three: f1 + c1 s + c2 s (s - sb), s = t - t_last
+            sb, sa = t[prev] - t_last, t[prev2] - t_last
+            c1 = (f0 - f1) / sb
+            c2 = ((f2 - f0) / (sa - sb) - c1) / sa
+            s_q = _first_root(f1, c1 - c2 * sb, 2.0 * c2, t_next - t_last)
         rel = np.where(ok, np.clip(zero, t_last, t_next), rel)
+        smooth = inside & (last - 2 >= starts[done]) & ~np.isnan(s_q)
+        near = np.where(smooth, np.abs(t_last + np.nan_to_num(s_q) - rel), np.inf)
+    else:
+        near = np.full(len(last), np.inf)
+    bound[done] = np.minimum(near, np.maximum(rel - t_last, t_next - rel))
     out[done] = rel
-    return out
+    return out, bound
 
 
-def _wall_impacts(traj: Trajectory, scene: Scene, wall: str, acc: np.ndarray, options: ExtractionOptions) -> dict:
+def _wall_impacts(traj: Trajectory, scene: Scene, wall: str, acc: np.ndarray, options: ExtractionOptions,
+                  offsets: Mapping[str, float] | None = None) -> dict:
     """Every impact on one wall, by time: arrays of the per-impact quantities (normal coordinates)."""
     t, n_s = traj.t, len(traj.t)
     nrm = 1.0 if wall == "lower" else -1.0
-    d = nrm * (traj.y - scene.gap.position(wall))
+    # a contact skin (``offsets``): the body rests this far from the wall, so its surface is there
+    d = nrm * (traj.y - scene.gap.position(wall)) - (offsets or {}).get(wall, 0.0)
     u = nrm * traj.vy
     a = nrm * acc
     flag = traj.contact.get(wall) if traj.contact else None
@@ -225,6 +267,7 @@ def _wall_impacts(traj: Trajectory, scene: Scene, wall: str, acc: np.ndarray, op
     k = np.maximum(starts - 1, 0)
     s_in = _first_root(d[k], u[k], a[k], t[starts] - t[k])
     t_in = np.where(np.isnan(s_in), t[starts], t[k] + np.nan_to_num(s_in))
+    t_in_bound = np.where(np.isnan(s_in), t[starts] - t[k], 0.0)  # the parabola misses: somewhere in the step
     # the speeds where the body crosses the undeformed surface (surface.py): a soft contact lets go below it
     j_in = _free_neighbour(t, u, a, contact, k, -1, options)
     v_in = np.where(surface_velocity(t, d, u, a, k, j_in) < 0.0, -surface_speed(t, d, u, a, k, j_in),
@@ -243,9 +286,11 @@ def _wall_impacts(traj: Trajectory, scene: Scene, wall: str, acc: np.ndarray, op
     # a contact takes an unknown part of the steps it starts and ends in: each speed is known to |a| h there
     err = np.maximum(_speed_error(t, a, k, starts, np.full(len(starts), np.nan)),
                      _speed_error(t, a, np.maximum(e - 1, 0), e, np.full(len(starts), np.nan)))
-    onset = {"t": t_in, "v_minus": v_in, "v_plus": v_out, "t_release": _release_times(t, force, starts, stops),
-             "first": starts, "begin": np.where(released, stops, n_s), "contact": np.ones(len(starts), bool),
-             "v_error": np.where(at_start, np.nan, err)}
+    t_release, release_bound = _release_times(t, force, starts, stops)
+    onset = {"t": t_in, "v_minus": v_in, "v_plus": v_out, "t_release": t_release, "first": starts,
+             "begin": np.where(released, stops, n_s), "contact": np.ones(len(starts), bool),
+             "v_error": np.where(at_start, np.nan, err), "t_bound": np.where(at_start, 0.0, t_in_bound),
+             "release_bound": release_bound}
 
     # (ii) impacts between two free samples: a velocity jump the free motion cannot make
     ks = np.concatenate([np.empty(0, dtype=np.int64),
@@ -253,11 +298,22 @@ def _wall_impacts(traj: Trajectory, scene: Scene, wall: str, acc: np.ndarray, op
                            for lo in range(0, n_s - 1, _STEP_BLOCK))])
     h = t[ks + 1] - t[ks] if len(ks) else np.empty(0)
     s_fwd = _first_root(d[ks], u[ks], a[ks], h)
+    # an impact needs the body to come to the wall: moving towards it, or carried there by the free motion
+    # within the step; a body rising from the wall all through the step is lifting off, whatever its jump
+    # (a file whose forcing runs ahead of the scene's leaves while the scene's y'' still presses)
+    arrives = (u[ks] < 0.0) | ~np.isnan(s_fwd)
+    ks, h, s_fwd = ks[arrives], h[arrives], s_fwd[arrives]
     s_bwd = _first_root(d[ks + 1], -u[ks + 1], a[ks + 1], h)
     t_j = np.where(~np.isnan(s_fwd), t[ks] + s_fwd, np.where(~np.isnan(s_bwd), t[ks + 1] - s_bwd, t[ks + 1]))
     between = {"t": t_j, "v_minus": u[ks] + a[ks] * (t_j - t[ks]), "v_plus": u[ks + 1] - a[ks + 1] * (t[ks + 1] - t_j),
                "t_release": t_j, "first": ks + 1, "begin": ks + 1, "contact": np.zeros(len(ks), bool),
                "v_error": _speed_error(t, a, ks, ks + 1, s_fwd) + _speed_error(t, a, ks, ks + 1, s_bwd)}
+    if options.position_rounding > 0:  # rounded positions move the parabola's root by 2 rounding / |u|, its speeds by |a| x that
+        with np.errstate(divide="ignore"):
+            between["v_error"] = between["v_error"] + 2.0 * options.position_rounding * np.maximum(
+                np.abs(a[ks]), np.abs(a[ks + 1])) / np.maximum(np.abs(between["v_minus"]), np.abs(between["v_plus"]))
+    between["t_bound"] = np.where(np.isnan(s_fwd) & np.isnan(s_bwd), h, 0.0)
+    between["release_bound"] = between["t_bound"]
 
     imp = {key: np.concatenate((onset[key], between[key])) for key in onset}
     order = np.argsort(imp["first"], kind="stable")
@@ -294,7 +350,8 @@ def _free_neighbour(t, u, a, contact, k: np.ndarray, step: int, options: Extract
     jump = np.abs(u[jj] - u[k] - 0.5 * (a[k] + a[jj]) * (t[jj] - t[k]))
     a_max = np.maximum(np.abs(a[k]), np.abs(a[jj]))
     limit = np.maximum(options.jump_atol, min(options.jump_factor, options.floor_steps) * a_max * h)
-    return np.where(ok & ~contact[jj] & ~contact[k] & (jj != k) & (jump <= limit), jj, -1)
+    fine = 2.0 * options.position_rounding <= 0.5 * a_max * h * h  # rounded positions would blur the velocity
+    return np.where(ok & ~contact[jj] & ~contact[k] & (jj != k) & (jump <= limit) & fine, jj, -1)
 
 
 def _speed_error(t: np.ndarray, a: np.ndarray, k: np.ndarray, k1: np.ndarray, s: np.ndarray) -> np.ndarray:
@@ -334,65 +391,8 @@ def _segment_max(values: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarr
     return np.maximum.reduceat(padded, np.column_stack((lo, hi)).ravel())[::2]
 
 
-def _stuck_stretches(imp: dict, band: np.ndarray, held: np.ndarray, f_min: float) -> list[tuple[int, int, bool]]:
-    """(onset, last, released) of every stuck stretch (module docstring, rule 3): impact indices,
-    and whether the bodies separate after ``last`` (False: the data end inside the band).
-
-    A stretch starts at a slow impact (pressing, flight within its band) and takes the
-    following impacts while each flight stays within the stretch's band, which never
-    shrinks below the onset's (near an exit |a| -> 0, but the bodies have not moved apart).
-    """
-    out, m, i = [], len(band), 0
-    apex, a_on = imp["apex"], imp["a_onset"]
-    n_s = imp["n_samples"]
-    while i < m:
-        # a flight cut short by the end of the data cannot start a stretch (a bounce may be under
-        # way), nor can a contact the data end in unless the bodies are at rest in it (too slow
-        # to fly, as for a single contact below) or it is the initial rest
-        judged = imp["next_first"][i] < n_s
-        resting = a_on[i] < 0.0 and abs(imp["u_last"]) <= -a_on[i] * f_min / 2.0
-        if (band[i] > 0 and apex[i] <= band[i] and judged) or (held[i] and (imp["first"][i] == 0 or resting)):
-            j, h = i, band[i]
-            while j < m and (held[j] or apex[j] <= max(h, band[j])):
-                h = max(h, band[j])
-                j += 1
-            out.append((i, min(j, m - 1), j < m and not held[j]))
-            i = j + 1
-            continue
-        # one contact that starts pressing and lets go where the pressing has ended, too slowly
-        # to fly: perfectly inelastic, or a soft contact that never rebounds
-        if imp["contact"][i] and a_on[i] < 0.0 and imp["a_release"][i] >= 0.0 and np.isfinite(imp["v_plus"][i]) and \
-                imp["v_plus"][i] <= -a_on[i] * f_min / 2.0:
-            out.append((i, i, True))
-        i += 1
-    return out
-
-
-def sticking_start(imp: dict, i: int, j: int, restitution: float, dt: float) -> float:
-    """When the stuck stretch of impacts ``i`` .. ``j`` (one wall) starts sticking [s] (module docstring, rule 4).
-
-    The engine's own ladder: from the onset, the run of bounces (a contact shorter than the
-    flight after it) whose flights keep shrinking, i .. K. When it shrank by more than a step (what a flight is measured to), its mean ratio
-    rho = (f_K / f_i)^(1 / (K - i)) extrapolates the rest: t_release[K] + f_K / (1 - rho).
-    Otherwise Feigin's ladder from the onset: t_i + 2 v+ / ((1 - R) |a|) (0 for a held contact).
-    """
-    t_on = float(imp["t"][i])
-    flight = imp["flight"]
-    k = i
-    bounce = imp["t_release"] - imp["t"] <= flight  # a contact as long as the flight after it is a rest, not a bounce
-    while k < j and np.isfinite(flight[k + 1]) and 0.0 < flight[k + 1] < flight[k] and bounce[k + 1]:
-        k += 1
-    if k > i and np.isfinite(flight[i]) and flight[i] - flight[k] > dt:
-        rho = (flight[k] / flight[i]) ** (1.0 / (k - i))
-        return max(t_on, float(imp["t_release"][k]) + float(flight[k]) / (1.0 - rho))
-    v_plus, a = imp["v_plus"][i], imp["a_release"][i]
-    if j > i and a < 0.0 and np.isfinite(v_plus) and v_plus > 0 and restitution < 1:
-        return t_on + 2.0 * float(v_plus) / ((1.0 - restitution) * float(-a))
-    return t_on
-
-
 def extract(traj: Trajectory, scene: Scene, stick_tolerance: float = math.nan,
-            options: ExtractionOptions | None = None) -> Extraction:
+            options: ExtractionOptions | None = None, offsets: Mapping[str, float] | None = None) -> Extraction:
     """Impacts, event log and episodes of a sampled trajectory (module docstring).
 
     Parameters
@@ -405,6 +405,9 @@ def extract(traj: Trajectory, scene: Scene, stick_tolerance: float = math.nan,
         [s] the tightest sticking tolerance of the scene's visits (``ReferenceSolution.
         stick_tolerance``); NaN: only the sampling floor decides which bounces matter.
     options : ExtractionOptions, optional
+    offsets : mapping wall -> float, optional
+        [m] a contact skin per wall: the body rests this far from the wall (> 0: outside the gap), so
+        the wall's surface is taken there (``trajectory_file.resting_offsets`` measures it in a file).
     """
     options = options or ExtractionOptions()
     t = np.asarray(traj.t, dtype=float)
@@ -413,7 +416,8 @@ def extract(traj: Trajectory, scene: Scene, stick_tolerance: float = math.nan,
     if len(t) > 1 and not (np.diff(t) > 0).all():
         raise ValueError("trajectory times must increase strictly")
     if len(t) < 2:
-        return Extraction(pd.DataFrame(columns=IMPACT_COLUMNS), log_frame([]), episodes(log_frame([])), math.nan)
+        return Extraction(pd.DataFrame(columns=IMPACT_COLUMNS), log_frame([]), episodes(log_frame([])), math.nan,
+                          stick_frame([]), dict(offsets or {}))
     dt = traj.sampling_step()  # the median spacing; a compact trajectory's is the full run's
     R = scene.restitution
     f_min = options.floor_steps * dt
@@ -421,21 +425,22 @@ def extract(traj: Trajectory, scene: Scene, stick_tolerance: float = math.nan,
         f_min = max(f_min, options.band * stick_tolerance * (1.0 - R))
     acc = free_relative_acceleration(scene, t, traj.x1, traj.v1, traj.y, traj.vy)
     x1, v1 = np.asarray(traj.x1, float), np.asarray(traj.v1, float)
-    rows, impact_rows = [], []
+    rows, impact_rows, sticks = [], [], []
     for wall in scene.gap.walls:
-        imp = _wall_impacts(traj, scene, wall, acc, options)
+        imp = _wall_impacts(traj, scene, wall, acc, options, offsets)
         nrm = 1.0 if wall == "lower" else -1.0
         pressing = imp["a_release"] < 0.0
         band = np.where(pressing, -imp["a_release"], 0.0) * f_min**2 / 8.0
         held = imp["begin"] >= len(t)  # the data end in this contact
         slow = (pressing & (imp["apex"] <= band)) | held
         stretches = []
-        for i, j, released in _stuck_stretches(imp, band, held, f_min):
+        for i, j, released in stuck_stretches(imp, band, held, f_min):
             end = float(imp["t_release"][j]) if released else float(t[-1])
-            t_stick = sticking_start(imp, i, j, R, dt)
-            if released and end - t_stick < f_min:
+            stick = at_rest(sticking_start(imp, i, j, R, dt), imp, i, j, t, held, released)
+            if released and end - stick.t < f_min:
                 continue  # the bodies part before they could have come to rest: bounces, not a stick
-            stretches.append((i, j, released, min(t_stick, end), end))
+            stretches.append((i, j, released, Stick(min(stick.t, end), stick.bound, stick.source), end))
+        sticks += stick_rows(wall, stretches, imp)
         stuck = np.zeros(len(slow), bool)
         onset = np.zeros(len(slow), bool)
         exits = np.zeros(len(slow), bool)
@@ -448,14 +453,14 @@ def extract(traj: Trajectory, scene: Scene, stick_tolerance: float = math.nan,
         impact_rows.append({"t": imp["t"], "wall": np.full(len(slow), wall, dtype=object), "v_minus": nrm * imp["v_minus"],
                             "v_plus": nrm * imp["v_plus"], "t_release": imp["t_release"], "flight": imp["flight"],
                             "flight_seen": imp["flight_seen"], "apex": imp["apex"], "pressing": -imp["a_release"],
-                            "v_error": imp["v_error"], "slow": slow, "stuck": stuck & ~onset,
+                            "v_error": imp["v_error"], "t_bound": imp["t_bound"], "slow": slow, "stuck": stuck & ~onset,
                             "onset": onset, "exits": exits, "x1": x1[after], "v1": v1[after]})
         for i in np.flatnonzero(~stuck | onset):
                 rows.append((float(imp["t"][i]), "impact", wall, nrm * float(imp["v_minus"][i]), nrm * float(imp["v_plus"][i]),
                              float(x1[after[i]]), float(v1[after[i]]), ""))
-        for i, j, released, t_stick, end in stretches:
+        for i, j, released, stick, end in stretches:
             k = int(min(imp["first"][i], len(t) - 1))
-            rows.append((t_stick, "stick", wall, float(traj.vy[k]), float(traj.vy[k]),
+            rows.append((stick.t, "stick", wall, float(traj.vy[k]), float(traj.vy[k]),
                          float(x1[k]), float(v1[k]), STICK_RULE))
             if released:
                 kk = int(min(imp["begin"][j], len(t) - 1))
@@ -468,7 +473,8 @@ def extract(traj: Trajectory, scene: Scene, stick_tolerance: float = math.nan,
     # a flight that ends on the other wall, or that an exit starts, is no bounce's flight
     crossing = impacts["wall"].ne(impacts["wall"].shift(-1)) & impacts.index.to_series().lt(len(impacts) - 1)
     impacts.loc[crossing | impacts["exits"], ["flight", "flight_seen"]] = np.nan
-    return Extraction(impacts=impacts, log=log, episodes=episodes(log), flight_min=f_min)
+    return Extraction(impacts=impacts, log=log, episodes=episodes(log), flight_min=f_min, sticks=stick_frame(sticks),
+                      offsets=dict(offsets or {}))
 
 
 def extract_events(traj: Trajectory, scene: Scene, stick_tolerance: float = math.nan,

@@ -24,7 +24,11 @@ and in timesteps (``_steps``):
   (``impacts.py``), with ``resolved_impacts``, ``ref_resolved_impacts`` and
   ``unmeasured_impacts`` (paired resolved impacts the step cannot measure to the tolerance);
 - ``penetration_max`` [m]: the deepest penetration of any wall from the end of the
-  previous reference visit to this one's exit.
+  previous reference visit to this one's exit;
+- ``first_impact_bound``, ``stick_bound``, ``exit_bound`` [s]: how far the samples let the
+  engine's time be off (``sticking.py``): the extrapolated part of a ladder, the step an
+  exit or an impact lies in;
+- ``reason``: why the episode is not ``match``, in one line ("" when it is).
 
 Verdicts (``vocabulary.py``), the first that applies:
 
@@ -33,18 +37,25 @@ Verdicts (``vocabulary.py``), the first that applies:
    ``crashed`` for episodes the run did not finish;
 2. ``penetrated``: ``penetration_max`` > ``penetration`` x the scene's length scale;
 3. the reference sticks, the engine does not: ``endless`` (``endless_impacts`` or more
-   engine impacts inside the reference's sliding) or ``missed``;
+   engine impacts inside the reference's sliding), ``unresolved`` where the reference's
+   sliding is shorter than the samples can show (``sliding_min``), else ``missed``;
 4. the engine sticks, the reference does not: ``spurious``;
 5. ``early`` / ``late``: |stick_error_rel| > ``stick``, |first_impact_error_rel| >
    ``first_impact``, |exit_error_rel| > ``exit``, or one of the two stays stuck to the end
-   of the run and the other does not (the sign says which);
-6. ``rebound``: timing within tolerance, but a measurable resolved impact's |e / R - 1|
-   exceeds ``restitution`` (the allowance is the tolerance, whatever the step), or the
-   resolved impact counts differ by more than ``impact_count``;
-7. ``unmeasured``: all of the above holds, but the visit's paired resolved impacts are all
+   of the run and the other does not (the sign says which). Where a time's bound exceeds its
+   tolerance, only an error beyond the tolerance with the bound taken off counts (``timing``):
+   never a confident early or late that the step cannot tell;
+6. ``rebound``: timing within tolerance (or unresolved), but a measurable resolved impact's
+   |e / R - 1| exceeds ``restitution`` (the allowance is the tolerance, whatever the step), or
+   the resolved impact counts differ by more than ``impact_count`` (``reason`` says which);
+7. ``unresolved``: a time's bound exceeds its tolerance, and its error is neither beyond
+   the tolerance with the bound taken off nor within it with the bound added: the samples
+   cannot say (a finer step can: ``reason`` gives the bound and the step that would resolve
+   it; the step is the sampling's times the tolerance over the bound, as the bounds scale);
+8. ``unmeasured``: all of the above holds, but the visit's paired resolved impacts are all
    unmeasured (their uncertainty exceeds ``restitution``: ``impacts.py``), so nothing says
    whether they follow R; unmeasured impacts beside measured ones are counted, not judged;
-8. ``match``.
+9. ``match``.
 
 A failure never agrees: when the run failed (status, divergence, penetration) and no
 episode row says so, a run row (wall "") carries the failure verdict. Engine episodes that
@@ -70,11 +81,12 @@ from .vocabulary import FAILURES, combine, rank
 
 ERROR_COLUMNS = ["first_impact_error", "stick_error_plate", "stick_error_zeno", "exit_error",
                  "first_impact_error_rel", "stick_error_rel", "exit_error_rel", "stick_error_steps", "exit_error_steps"]
+BOUND_COLUMNS = ["first_impact_bound", "stick_bound", "exit_bound"]  # [s] how far the samples let each time be off
 TABLE_COLUMNS = [
     "wall", "ref_t_first_impact", "ref_t_plate_entry", "ref_t_stick", "ref_t_exit", "t_first_impact", "t_stick", "t_exit",
     "n_impacts", "ref_n_impacts", "resolved_impacts", "ref_resolved_impacts",
     "chatter_duration", "sliding_duration", "ref_v_first_impact",
-    *ERROR_COLUMNS, "restitution_error", "unmeasured_impacts", "penetration_max", "verdict",
+    *ERROR_COLUMNS, *BOUND_COLUMNS, "restitution_error", "unmeasured_impacts", "penetration_max", "verdict", "reason",
 ]
 IMPACT_PAIR_COLUMNS = ["episode", "wall", *PAIR_COLUMNS]
 
@@ -89,6 +101,8 @@ class RunFacts:
     t_penetrated: float = math.nan  # [s] first time past the penetration allowance; NaN if never
     penetration_allowance: float = math.inf  # [m]
     inside_impacts: Callable[[str, float, float], int] = lambda wall, t0, t1: 0  # engine impacts on wall in [t0, t1]
+    sliding_min: float = 0.0  # [s] the shortest sliding the samples can show (``sliding_min``)
+    dt: float = math.nan  # [s] the sampling step (the median spacing)
 
 
 @dataclass(frozen=True)
@@ -189,7 +203,7 @@ def judge(ref: ReferenceSolution, found: Extraction, traj: Trajectory, tol: Tole
         if j is not None:
             e = eng_eps.iloc[j]
             row.update(t_first_impact=e["t_first_impact"], t_stick=e["t_stick"], t_exit=e["t_exit"],
-                       n_impacts=int(e["n_impacts"]))
+                       n_impacts=int(e["n_impacts"]), **bounds(found, e))
             visit = _visit(imps, r.wall, e["t_first_impact"], e["t_exit"])
         else:
             row["n_impacts"] = _count(imps, r.wall, r.t_first_impact, r.t_exit)
@@ -213,13 +227,16 @@ def judge(ref: ReferenceSolution, found: Extraction, traj: Trajectory, tol: Tole
         rows.append({"wall": e.wall, "ref_t_first_impact": math.nan, "ref_t_plate_entry": math.nan, "ref_t_stick": math.nan,
                      "ref_t_exit": math.nan, "ref_n_impacts": 0, "chatter_duration": math.nan, "sliding_duration": math.nan,
                      "ref_v_first_impact": math.nan, "stick_scale": math.nan, "t_first_impact": e.t_first_impact,
-                     "t_stick": e.t_stick, "t_exit": e.t_exit, "n_impacts": int(e.n_impacts), "resolved_impacts": 0,
+                     "t_stick": e.t_stick, "t_exit": e.t_exit, **bounds(found, eng_eps.iloc[j]),
+                     "n_impacts": int(e.n_impacts), "resolved_impacts": 0,
                      "ref_resolved_impacts": 0, "restitution_error": math.nan, "restitution_excess": math.nan,
                      "unmeasured_impacts": 0, "measured_impacts": 0})
         windows.append((e.t_first_impact if not math.isnan(e.t_first_impact) else e.t_stick, e.t_exit))
     table = pd.DataFrame(rows)
     if table.empty:
         table = pd.DataFrame(columns=[*TABLE_COLUMNS, "stick_scale", "restitution_excess"])
+    for c in BOUND_COLUMNS:
+        table[c] = table[c] if c in table else math.nan
     for c in ("unmeasured_impacts", "measured_impacts"):
         table[c] = table[c].fillna(0) if c in table else 0
     table["penetration_max"] = [_window_max(t, pen, w0, w1, traj.index) for w0, w1 in windows]
@@ -228,7 +245,8 @@ def judge(ref: ReferenceSolution, found: Extraction, traj: Trajectory, tol: Tole
     beyond = pen > allowance
     facts = RunFacts(status=traj.status, t_end=t_end, t_diverged=t_div,
                      t_penetrated=float(t[np.argmax(beyond)]) if beyond.any() else math.nan,
-                     penetration_allowance=allowance, inside_impacts=lambda w, t0, t1: _count(imps, w, t0, t1))
+                     penetration_allowance=allowance, inside_impacts=lambda w, t0, t1: _count(imps, w, t0, t1),
+                     sliding_min=sliding_min(found.flight_min, scene.restitution), dt=dt)
     table = assign_verdicts(table, tol, facts, float(pen.max()) if len(pen) else math.nan)
     start = table["ref_t_stick"].fillna(table["t_stick"]).fillna(math.inf)
     order = np.argsort(start.to_numpy(dtype=float), kind="stable")
@@ -246,12 +264,14 @@ def assign_verdicts(table: pd.DataFrame, tol: Tolerances, run: RunFacts, penetra
     """``table`` (``TABLE_COLUMNS`` but ``verdict``, plus ``restitution_excess``) with each row's verdict
     (``verdict``), and a run row when the run failed and no row says so (module docstring)."""
     table = table.copy()
-    table["verdict"] = [verdict(r, tol, run) for r in table.itertuples()] if len(table) else pd.Series(dtype=object)
+    judged = [verdict_reason(r, tol, run) for r in table.itertuples()]
+    table["verdict"] = [v for v, _ in judged] if len(table) else pd.Series(dtype=object)
+    table["reason"] = [why for _, why in judged] if len(table) else pd.Series(dtype=object)
     failure = run_failure(run)
     if failure and rank(failure) < rank(combine(table["verdict"])):
         row = {c: math.nan for c in TABLE_COLUMNS}
         row.update(wall="", n_impacts=0, ref_n_impacts=0, resolved_impacts=0, ref_resolved_impacts=0, unmeasured_impacts=0,
-                   penetration_max=penetration_max, verdict=failure)
+                   penetration_max=penetration_max, verdict=failure, reason=f"the run {run_failure_words(run)}")
         table = pd.concat([table, pd.DataFrame([row])], ignore_index=True) if len(table) else pd.DataFrame([row])
     return table
 
@@ -286,6 +306,32 @@ def errors(table: pd.DataFrame, dt: float) -> None:
     table["exit_error_steps"] = table["exit_error"] / dt
 
 
+def sliding_min(flight_min: float, restitution: float) -> float:
+    """The shortest sliding [s] samples can show: f_min (``extract.py``, rule 3) past a sticking start that
+    Feigin's ladder places to within f_min / (1 - R) (``sticking.py``); 0 when nothing was extracted."""
+    return flight_min * (1.0 + 1.0 / (1.0 - restitution)) if math.isfinite(flight_min) else 0.0
+
+
+def run_failure_words(run: RunFacts) -> str:
+    """What ``run_failure`` found, in words: "diverged at 2.5 s", "ended (timeout) at 1.2 s", ..."""
+    failure = run_failure(run)
+    if failure in FAILURES and failure != "diverged":
+        return f"ended ({failure}) at {run.t_end:.6g} s"
+    if failure == "diverged":
+        return f"diverged at {run.t_diverged:.6g} s"
+    return f"went past the penetration allowance {run.penetration_allowance:.3g} m at {run.t_penetrated:.6g} s"
+
+
+def bounds(found: Extraction, episode) -> dict[str, float]:
+    """``BOUND_COLUMNS`` of one engine episode (a row of ``found.episodes``): its times' bounds from the extraction."""
+    sticks, imps = found.sticks, found.impacts
+    stick = sticks[(sticks["wall"] == episode["wall"]) & (sticks["t_stick"] == episode["t_stick"])]
+    first = imps[(imps["wall"] == episode["wall"]) & (imps["t"] == episode["t_first_impact"])]
+    return {"stick_bound": float(stick["stick_bound"].iloc[0]) if len(stick) else math.nan,
+            "exit_bound": float(stick["exit_bound"].iloc[0]) if len(stick) else math.nan,
+            "first_impact_bound": float(first["t_bound"].iloc[0]) if len(first) else math.nan}
+
+
 def run_failure(run: RunFacts) -> str:
     """The run's own failure verdict ("" when it did not fail): its status, else diverged, else penetrated."""
     if run.status in FAILURES:
@@ -300,32 +346,97 @@ def _beyond(value: float, limit: float) -> bool:
     return not math.isnan(value) and abs(value) > limit
 
 
+def timing(error: float, bound: float, limit: float) -> str:
+    """One timing criterion: ``""`` (within), ``early``/``late`` or ``unresolved`` (all in seconds).
+
+    ``bound``: how far the samples let the engine's time be off (NaN: not known, 0). Beyond the
+    tolerance even with the bound taken off: early or late, whatever the bound. Otherwise, a
+    bound over the tolerance leaves the criterion ``unresolved`` unless the error is within the
+    tolerance even with the bound added; a bound within it: the error alone decides.
+    """
+    if math.isnan(error) or math.isnan(limit):
+        return ""
+    b = 0.0 if math.isnan(bound) else bound
+    side = "early" if error < 0 else "late"
+    if abs(error) - b > limit:
+        return side
+    if b <= limit:
+        return side if abs(error) > limit else ""
+    return "" if abs(error) + b <= limit else "unresolved"
+
+
+# timing criteria in the order the verdict checks them: (name, error column, bound column, tolerance, scale column, scale)
+_TIMING = (("sticking start", "stick_error_zeno", "stick_bound", "stick", "stick_scale", "the chatter"),
+           ("first impact", "first_impact_error", "first_impact_bound", "first_impact", "stick_scale", "the chatter"),
+           ("exit", "exit_error", "exit_bound", "exit", "sliding_duration", "the sliding"))
+
+
+def _seconds(value: float) -> str:
+    return f"{value * 1e3:.3g} ms" if abs(value) < 1.0 else f"{value:.4g} s"
+
+
+def _timing_reason(name: str, error: float, bound: float, limit: float, fraction: float, scale: str,
+                   found: str, dt: float) -> str:
+    """Why one timing criterion got ``found`` (early, late, unresolved), in words a user can act on."""
+    pct = f"{100 * fraction:g}% of {scale}, {_seconds(limit)}"
+    sign = "+" if error >= 0 else "-"
+    if found != "unresolved":
+        known = f" (known to +-{_seconds(bound)})" if bound > 0 else ""
+        return f"{name} {sign}{_seconds(abs(error))}{known}, beyond the tolerance {pct}"
+    finer = f"; samples every {dt * limit / bound:.2g} s or closer would resolve it" if dt > 0 else ""
+    return (f"{name} {sign}{_seconds(abs(error))}, but this sampling places it only to +-{_seconds(bound)}, more than "
+            f"the tolerance {pct}{finer}")
+
+
 def verdict(r, tol: Tolerances, run: RunFacts) -> str:
     """The verdict of one judged row (a ``TABLE_COLUMNS`` namedtuple with ``restitution_excess``): module docstring."""
+    return verdict_reason(r, tol, run)[0]
+
+
+def verdict_reason(r, tol: Tolerances, run: RunFacts) -> tuple[str, str]:
+    """The verdict of one judged row and why, in one line ("" for ``match`` and ``none``): module docstring."""
     has_ref = not math.isnan(r.ref_t_stick)
     has_eng = not math.isnan(r.t_stick)
     stop = r.ref_t_exit if has_ref else r.t_exit
     stop = math.inf if math.isnan(stop) else stop
     if not math.isnan(run.t_diverged) and run.t_diverged <= stop:
-        return "diverged"
+        return "diverged", f"the run diverged at {run.t_diverged:.6g} s"
     if run.status in FAILURES and stop > run.t_end:
-        return run.status
+        return run.status, f"the run ended ({run.status}) at {run.t_end:.6g} s, before this episode did"
     if not math.isnan(r.penetration_max) and r.penetration_max > run.penetration_allowance:
-        return "penetrated"
+        return "penetrated", f"penetration {r.penetration_max:.3g} m > the allowance {run.penetration_allowance:.3g} m"
     if has_ref and not has_eng:
         inside = run.inside_impacts(r.wall, r.ref_t_stick, r.ref_t_exit)
-        return "endless" if inside >= tol.endless_impacts else "missed"
+        if inside >= tol.endless_impacts:
+            return "endless", f"{inside} impacts inside the reference's sliding, and no stick"
+        if r.sliding_duration < run.sliding_min:
+            return "unresolved", (f"no stick, but the reference slides only {_seconds(r.sliding_duration)}: this sampling "
+                                  f"shows no sliding shorter than {_seconds(run.sliding_min)}")
+        return "missed", f"no stick where the reference slides {_seconds(r.sliding_duration)}"
     if has_eng and not has_ref:
-        return "spurious"
-    for err, limit in ((r.stick_error_rel, tol.stick), (r.first_impact_error_rel, tol.first_impact)):
-        if _beyond(err, limit):
-            return "early" if err < 0 else "late"
-    if math.isnan(r.ref_t_exit) != math.isnan(r.t_exit):
-        return "late" if math.isnan(r.t_exit) else "early"  # one of them is still stuck at the end of the run
-    if _beyond(r.exit_error_rel, tol.exit):
-        return "early" if r.exit_error_rel < 0 else "late"
-    if (not math.isnan(r.restitution_excess) and r.restitution_excess > tol.restitution) or abs(r.resolved_impacts - r.ref_resolved_impacts) > tol.impact_count:
-        return "rebound"
+        return "spurious", "sticks where the reference does not"
+    unresolved = []
+    for name, err, bound, key, scale, words in _TIMING:
+        if key == "exit" and math.isnan(r.ref_t_exit) != math.isnan(r.t_exit):
+            found = "late" if math.isnan(r.t_exit) else "early"  # one of them is still stuck at the end of the run
+            return found, f"{'the engine' if found == 'late' else 'the reference'} is still stuck at the end of the run"
+        value, size = getattr(r, err), getattr(r, scale)
+        limit = getattr(tol, key) * size if size > 0 else math.nan
+        b = getattr(r, bound, math.nan)
+        found = timing(value, b, limit)
+        if found in ("early", "late"):
+            return found, _timing_reason(name, value, b, limit, getattr(tol, key), words, found, run.dt)
+        if found:
+            unresolved.append(_timing_reason(name, value, b, limit, getattr(tol, key), words, found, run.dt))
+    if not math.isnan(r.restitution_excess) and r.restitution_excess > tol.restitution:
+        return "rebound", (f"restitution: a resolved impact's e / R - 1 = {r.restitution_error:+.1%}, beyond the "
+                           f"tolerance {tol.restitution:.0%}")
+    if abs(r.resolved_impacts - r.ref_resolved_impacts) > tol.impact_count:
+        return "rebound", (f"impact count: {r.resolved_impacts} resolved impacts against the reference's "
+                           f"{r.ref_resolved_impacts}, more than {tol.impact_count} apart")
+    if unresolved:
+        return "unresolved", "; ".join(unresolved)
     if getattr(r, "unmeasured_impacts", 0) > 0 and getattr(r, "measured_impacts", 0) == 0:
-        return "unmeasured"  # resolved impacts to judge, none the step measures to the tolerance
-    return "match"
+        return "unmeasured", (f"none of the {r.unmeasured_impacts} resolved impacts is measurable to the restitution "
+                              f"tolerance {tol.restitution:.0%} at this step")
+    return "match", ""

@@ -1,10 +1,10 @@
 """The verdicts: every name the judge can give, in one place, with its severity, meaning, colour and abbreviation.
 
-    >>> from chatterbench.comparisons.pipeline.vocabulary import combine, VERDICTS
+    >>> from chatterbench.comparisons.pipeline.vocabulary import combine, UNDETERMINED, VERDICTS
     >>> combine(["match", "late", "rebound"])
     'late'
-    >>> VERDICTS["rebound"].meaning
-    'timing within tolerance, but the resolved impacts do not follow R'
+    >>> VERDICTS["unresolved"].group, UNDETERMINED
+    ('timing', ('unresolved', 'unmeasured'))
 
 Every consumer (compare's summary, sweep rows, the report, the gate, stability maps, the
 tuning guide, the README and the docs) takes names, order, colours and meanings from here,
@@ -15,7 +15,9 @@ Groups: ``agree`` (the engine does what the reference does), ``timing`` (the rig
 episodes, at the wrong times), ``impacts`` (the right timing, the wrong impact law),
 ``physics`` (episodes missing, extra or never ending), ``broken`` (the run left the
 physics: through a wall, energy out of bounds), ``failure`` (the run itself failed:
-raised, hung, died or blew up). A failure never agrees: a run whose status is not ``ok``
+raised, hung, died or blew up). Two verdicts are *undetermined* (``UNDETERMINED``): the
+samples cannot pin an error to its tolerance (``unresolved`` for a time, ``unmeasured`` for
+restitution), so the run neither passes nor fails that check; a finer step decides. A failure never agrees: a run whose status is not ``ok``
 always carries its failure verdict (``FAILURES``), even where the reference has nothing to judge.
 """
 
@@ -34,6 +36,7 @@ class Verdict:
     meaning: str  # one line, for legends and tables
     colour: str  # hex RGB, for tables and maps
     abbrev: str  # a few characters, for map cells
+    determined: bool = True  # False: the samples cannot pin an error to its tolerance (neither passed nor failed)
 
 
 # Worst first: the order ``combine`` uses. Failures of the run first (nothing it says can be
@@ -49,9 +52,12 @@ _ALL = (
     Verdict("spurious", "physics", "sticks where the reference does not", "#7e57c2", "spu"),
     Verdict("late", "timing", "sticks, exits or first impacts too late", "#ff9800", "L"),
     Verdict("early", "timing", "sticks, exits or first impacts too early", "#ffd54f", "E"),
-    Verdict("rebound", "impacts", "timing within tolerance, but the resolved impacts do not follow R", "#4fc3f7", "R"),
+    Verdict("rebound", "impacts", "timing within tolerance, but a resolved impact does not follow R, or the resolved "
+            "impacts differ in number from the reference's (the reason says which)", "#4fc3f7", "R"),
+    Verdict("unresolved", "timing", "the sampling places a sticking start, exit or first impact only to more than its "
+            "tolerance, and the error is within that bound: neither passed nor failed", "#d7ccc8", "~", False),
     Verdict("unmeasured", "impacts", "timing within tolerance, but the step cannot measure any resolved impact to the "
-            "restitution tolerance", "#b0bec5", "?"),
+            "restitution tolerance", "#b0bec5", "?", False),
     Verdict("match", "agree", "stick, exit and resolved impacts within tolerance", "#2ca02c", "ok"),
     Verdict("none", "agree", "no sliding in the reference nor in the engine: they agree", "#e0e0e0", "none"),
 )
@@ -64,6 +70,7 @@ PASSING: tuple[str, ...] = tuple(v.name for v in _ALL if v.group in ("agree", "t
 COLOURS: dict[str, str] = {v.name: v.colour for v in _ALL}
 ABBREVIATIONS: dict[str, str] = {v.name: v.abbrev for v in _ALL}
 MEANINGS: dict[str, str] = {v.name: v.meaning for v in _ALL}
+UNDETERMINED: tuple[str, ...] = tuple(v.name for v in _ALL if not v.determined)  # a finer step may pass or fail them
 
 # The words the verdicts, the tables and the docs use, one spelling per thing (docs/verdicts.md, the README).
 GLOSSARY: tuple[tuple[str, str], ...] = (

@@ -176,42 +176,77 @@ def bench_refine(spec: str | Path | Sweep | None = None, workers: int = 2, out_d
     return figures, table
 
 
-def bench_warp(worlds: tuple[int, ...] = (1, 16, 256), steps: int = 500, repeats: int = 1):
-    """World-steps per second of MuJoCo Warp on the device it finds, per number of worlds, beside MuJoCo C.
+C_RUNS = 256  # [runs] MuJoCo C's rates are measured on at most this many runs per thread (its cost is linear in runs)
+
+
+def bench_warp(worlds: tuple[int, ...] = (1, 16, 256), steps: int = 500, repeats: int = 1, threads: int | None = None):
+    """World-steps per second of MuJoCo Warp on the device it finds, per number of worlds, beside MuJoCo C's.
 
     Each world is feigin-pair at dt = 1e-3 for ``steps`` steps from its own phase and a strike
-    of 0.4 m/s towards a wall (so that its contacts are stepped too). Per number of worlds:
-    MuJoCo Warp through the adapter (``run_engine_batch``: one model of that many worlds,
-    controls fed and samples recorded per step, kernel loading not counted), its bare
-    ``mujoco_warp.step`` loop (``world_steps_per_s``, best of ``repeats``), and MuJoCo C's
-    adapter on the same runs (one ``mujoco.rollout`` call, one thread).
+    of 0.4 m/s towards a wall (so that its contacts are stepped too). First one short run loads
+    MuJoCo Warp's kernels (compiling them the first time on a machine): its time is the
+    warm-up, reported apart and counted nowhere else. Per number of worlds:
 
-    Returns a DataFrame with columns device, precision, nworld, steps,
-    warp_world_steps_per_s, warp_bare_world_steps_per_s, mujoco_world_steps_per_s,
-    warp_over_mujoco (adapter against adapter), warmup_s (kernel loading of the first batch).
+    - the adapter: the runs through ``iter_batch`` as a user's batch goes (prepared, stepped as
+      one model of many worlds in blocks within the host memory, every sample recorded and
+      each trajectory made; only a count kept), timed whole;
+    - its bare loop, ``mujoco_warp.step`` on that many copies of the first run, nothing
+      recorded (``world_steps_per_s``): launched step by step from Python (``bare``), and
+      captured as a graph and replayed (``bare_captured``, where warp can capture);
+    - MuJoCo C, bare ``mujoco.rollout`` of the same runs in one call (``rollout_steps_per_s``):
+      one thread (``C_RUNS`` runs at most) and ``threads`` threads (``C_RUNS`` per thread).
+
+    Returns a DataFrame with columns device, precision, nworld, steps, warp_world_steps_per_s,
+    warp_bare_world_steps_per_s, warp_bare_captured_world_steps_per_s, adapter_over_bare,
+    adapter_s (the batch's wall time), blocks (blocks of worlds the batch went in), warmup_s,
+    kernels (``compiled`` or ``cached``: the warm-up), capture_s (graph capture of the last
+    block), mujoco_c_steps_per_s, mujoco_c_threaded_steps_per_s, threads, warp_over_mujoco_c
+    (adapter against threaded C), host_peak_gib (the process's peak resident memory so far),
+    statuses (the runs' statuses and counts).
     """
+    import collections
+    import os
+    import resource
+
     import pandas as pd
 
+    from chatterbench.engines.mujoco_engine import rollout_steps_per_s
     from chatterbench.engines.mujoco_warp_engine import world_steps_per_s
-    from chatterbench.engines.registry import make_settings, run_engine_batch
+    from chatterbench.engines.registry import adapter, make_settings
 
+    threads = threads or os.cpu_count() or 1
     dt, period = 1e-3, 2.0 * math.pi  # feigin-pair forcing: omega = 1 rad/s
+    warp_settings, c_settings = make_settings("mujoco_warp", dt), make_settings("mujoco", dt)
+    warp = adapter("mujoco_warp")
+    first = warp.run(load_scene("feigin-pair", ["duration=0.05"]), warp_settings)  # the kernels, loaded
+    warm = {"warmup_s": first.settings.get("warmup_s", math.nan), "kernels": first.settings.get("kernels", "")}
     duration = [f"duration={steps * dt!r}"]
     rows = []
     for n in worlds:
         scenes = [load_scene("feigin-pair", duration + [f"initial.t={period * i / n!r}", f"initial.vy={0.4 * (-1) ** i}"])
                   for i in range(n)]
-        warp_settings, c_settings = make_settings("mujoco_warp", dt), make_settings("mujoco", dt)
-        warp = run_engine_batch("mujoco_warp", [(s, warp_settings) for s in scenes])
-        c = run_engine_batch("mujoco", [(s, c_settings) for s in scenes])
-        bare = world_steps_per_s(scenes[0], warp_settings, nworld=n, repeats=repeats)
-        world_steps = n * (len(warp[0].t) - 1)
-        warp_rate = world_steps / sum(t.wall_time for t in warp)
-        c_rate = world_steps / sum(t.wall_time for t in c)
-        rows.append({"device": warp[0].settings.get("device", ""), "precision": warp[0].settings.get("precision", ""),
-                     "nworld": n, "steps": steps, "warp_world_steps_per_s": warp_rate,
-                     "warp_bare_world_steps_per_s": bare["world_steps_per_s"], "mujoco_world_steps_per_s": c_rate,
-                     "warp_over_mujoco": warp_rate / c_rate, "warmup_s": warp[0].settings.get("warmup_s", math.nan)})
+        statuses: collections.Counter = collections.Counter()
+        last = first
+        start = time.perf_counter()
+        for _, traj in warp.iter_batch([(s, warp_settings) for s in scenes]):
+            statuses[str(traj.status)] += 1
+            last = traj
+        adapter_s = time.perf_counter() - start
+        bare = world_steps_per_s(scenes[0], warp_settings, nworld=n, repeats=repeats, captured=False)
+        captured = world_steps_per_s(scenes[0], warp_settings, nworld=n, repeats=repeats, captured=True)
+        one = rollout_steps_per_s([(s, c_settings) for s in scenes[:min(n, C_RUNS)]], threads=1)
+        many = rollout_steps_per_s([(s, c_settings) for s in scenes[:min(n, C_RUNS * threads)]], threads=threads)
+        rate = n * steps / adapter_s
+        rows.append({"device": last.settings.get("device", ""), "precision": last.settings.get("precision", ""),
+                     "nworld": n, "steps": steps, "warp_world_steps_per_s": rate,
+                     "warp_bare_world_steps_per_s": bare["world_steps_per_s"],
+                     "warp_bare_captured_world_steps_per_s": captured["world_steps_per_s"] if captured["captured"]
+                     else math.nan, "adapter_over_bare": rate / bare["world_steps_per_s"], "adapter_s": adapter_s,
+                     "blocks": math.ceil(n / last.settings.get("batch_size", n)), **warm, "capture_s": last.settings.get("capture_s", math.nan),
+                     "mujoco_c_steps_per_s": one["steps_per_s"], "mujoco_c_threaded_steps_per_s": many["steps_per_s"],
+                     "threads": threads, "warp_over_mujoco_c": rate / many["steps_per_s"],
+                     "host_peak_gib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20,
+                     "statuses": ", ".join(f"{k} {v}" for k, v in sorted(statuses.items()))})
     return pd.DataFrame(rows)
 
 

@@ -16,7 +16,9 @@ For a grid of strikes (time t within one forcing period, incoming speed |y'|) on
   for feigin-pair at R = 0.5 its boundary is the paper's 0.21 sin^2(tau);
 - one column per engine: the engine started in free flight a little before the strike
   (the exact reference flight carried back by ``lead`` seconds) sticks on that wall,
-  per the extraction's stick definition, before the run ends.
+  per the extraction's stick definition, before the run ends; the strikes go to the engine
+  ``STRIKES_PER_BATCH`` at a time (MuJoCo Warp: the worlds of one model; MuJoCo: its
+  compatible runs in one rollout; each run as it is alone).
 
 Columns: t [s], phase [rad] (omega t mod 2 pi), speed [m/s] (|y'| at the strike),
 reference, feigin, and each engine (bool).
@@ -32,7 +34,8 @@ import pandas as pd
 
 from chatterbench.comparisons.pipeline.compare import engine_settings
 from chatterbench.comparisons.pipeline.extract import extract_episodes
-from chatterbench.engines.registry import run_engine
+from chatterbench.engines.registry import run_engine, run_engine_batch
+from chatterbench.engines.settings import SettingsError
 from chatterbench.reference.chatter import strike_fates
 from chatterbench.reference.flow import Flow
 from chatterbench.reference.linear import V1, VY, X1, Y, LinearSystem
@@ -63,9 +66,12 @@ def strike_grid(scene: Scene, n_phase: int, n_speed: int, max_speed: float | Non
     return np.meshgrid(t, speeds, indexing="ij")
 
 
-def _engine_sticks(scene: Scene, wall: str, engine: str, settings, t_strike: float, v: float, lead: float,
-                   t_zeno: float) -> bool:
-    """Start the engine ``lead`` s before the strike (exact free flight back) and see if it sticks."""
+STRIKES_PER_BATCH = 256  # engine strikes handed over at once (MuJoCo Warp: one model of that many worlds)
+
+
+def _strike_start(scene: Scene, wall: str, t_strike: float, v: float, lead: float, t_zeno: float) -> Scene:
+    """The engine's run of one strike: started ``lead`` s before it (exact free flight back), run to its Zeno point
+    (or a quarter period) and 5% of a period on."""
     system = LinearSystem.from_scene(scene)
     back = Flow(-system.free, horizon=scene.time_scale / 4.0)  # the same flow run backwards
     s = system.state(t_strike, 0.0, 0.0, scene.gap.position(wall), v)
@@ -77,12 +83,37 @@ def _engine_sticks(scene: Scene, wall: str, engine: str, settings, t_strike: flo
     data["duration"] = lead + horizon
     lo, hi = scene.gap.lower, scene.gap.upper
     data["initial"]["y"] = min(max(data["initial"]["y"], lo), hi if hi is not None else math.inf)
-    start = scene_from_dict(data)
-    traj = run_engine(engine, start, settings)
+    return scene_from_dict(data)
+
+
+def _sticks(traj, start: Scene, wall: str, t_strike: float, lead: float) -> bool:
+    """Whether the engine's run of a strike sticks on ``wall`` after it (the extraction's stick definition)."""
     if traj.status != "ok" or len(traj.t) < 2:
         return False
     eps = extract_episodes(traj, start)
     return bool(((eps["wall"] == wall) & (eps["t_stick"] >= t_strike - lead)).any())
+
+
+def _engine_column(scene: Scene, wall: str, engine: str, settings, strikes: list[tuple[float, float, float]],
+                   lead: float, progress: Callable[[str], None] | None) -> list[bool]:
+    """Per strike (t, signed v, Zeno time), whether ``engine`` sticks; the runs handed over ``STRIKES_PER_BATCH`` at a
+    time (``run_engine_batch``: MuJoCo Warp steps them as worlds of one model, each run as alone), one by one where a
+    batch fails as a whole."""
+    out = []
+    for k in range(0, len(strikes), STRIKES_PER_BATCH):
+        part = strikes[k:k + STRIKES_PER_BATCH]
+        starts = [_strike_start(scene, wall, t, v, lead, tz) for t, v, tz in part]
+        try:
+            runs = run_engine_batch(engine, [(start, settings) for start in starts])
+        except SettingsError:
+            raise
+        except Exception:  # noqa: BLE001  a batch that fails as a whole (a test fault): each run alone, classified
+            runs = [run_engine(engine, start, settings) for start in starts]
+        for (t, _, _), start, traj in zip(part, starts, runs):
+            out.append(_sticks(traj, start, wall, t, lead))
+            if progress is not None:
+                progress(engine)
+    return out
 
 
 def plate_map(
@@ -121,11 +152,7 @@ def plate_map(
         "feigin": in_plate(scene, wall, T, sign * S).ravel(),
     })
     lead = lead if lead is not None else 0.02 * scene.time_scale
+    strikes = [(float(t), sign * float(v), float(tz)) for t, v, tz in zip(T.ravel(), S.ravel(), fates.t_stick.ravel())]
     for name in engines:
-        sticks = []
-        for t, v, tz in zip(T.ravel(), S.ravel(), fates.t_stick.ravel()):
-            sticks.append(_engine_sticks(scene, wall, name, made[name], float(t), sign * float(v), lead, float(tz)))
-            if progress is not None:
-                progress(name)
-        table[name] = sticks
+        table[name] = _engine_column(scene, wall, name, made[name], strikes, lead, progress)
     return table

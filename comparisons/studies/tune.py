@@ -77,6 +77,7 @@ from chatterbench.engines.registry import adapter, check_engine, make_settings, 
 from chatterbench.reference.errors import InputError
 from chatterbench.reference.scene import Scene, SceneError
 
+from .limits import MAX_RUNS  # the budget's default, shown by `tune --help` without loading this module
 from ..pipeline.compare import judge_run
 from ..pipeline.solution import ReferenceSolution, solve
 from ..pipeline.summary import METRIC_COLUMNS, metrics
@@ -93,7 +94,6 @@ TUNE_COLUMNS = ["stage", "dt", "settings", "verdict", "n_episodes", "n_match", "
 TIE_BAND = 0.1  # [-] steps per simulated second within 10% of each other are a tie
 FINEST = 1e-3  # [-] the finest dt searched, as a fraction of the coarsest (the tightest timing tolerance in s)
 FLIGHT_STEPS = 4  # the coarsest dt takes at least this many steps across the gap at the fastest strike
-MAX_RUNS = 600  # the search's budget: runs of up to UNIT_STEPS engine steps (a neighbourhood once begun is completed)
 UNIT_STEPS = 100_000  # a run of more steps counts as steps / UNIT_STEPS runs of the budget (its work)
 DEPTH = 2  # refinement levels: the finest dt lattice is DT_RATIO apart, the coarse grid DT_RATIO ** 4
 # Wall time decides nothing: on this shared 2-core machine the least of 3 interleaved timings of PyBullet at

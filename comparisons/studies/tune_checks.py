@@ -18,12 +18,13 @@ is the run's distance from passing in one number: the same rules as ``pipeline.j
 restitution of the impacts the step can measure to the tolerance, the resolved-impact count, the penetration
 against the scene's length scale), and one the judge cannot make from a whole run:
 **restitution under the scene's forces** (``scene_restitution``), the worst e / R - 1 of the
-settings struck from the reference's state before each impact the judge resolves, over the
-strikes where the judge's sampling uncertainty is within the restitution tolerance (where it
-holds a time-stepper to R). A run's impacts fall anywhere in a step and carry the drift of the
-run; a strike measures e where it is struck (MuJoCo's spring-damper at w0 dt = 0.1, dt = 3e-4
-loses 9.1% at the ball's 0.277 m/s under gravity, struck half-way through a step; the whole run's
-5th impact there measures -9.6% at the wall surface). A run with an episode that has no error to measure
+settings struck from the reference's state before each impact the judge resolves where its
+sampling uncertainty is within the restitution tolerance (where it holds a time-stepper to R),
+each at ``STRIKES`` places in a step (``scene_strikes``): a run's impacts fall anywhere in a step
+and carry the drift of the run, and where in a step an impact falls moves e (MuJoCo's
+spring-damper at w0 dt = 0.1, dt = 3e-4 gives e = 0.436 to 0.467, -12.8% to -6.7%, at the
+ball's 0.277 m/s under gravity over the step; the whole run's 5th impact there measures 0.452,
+-9.6%). A run with an episode that has no error to measure
 (``missed``, ``endless``, ``spurious``, a failure, or ``unmeasured``: no resolved impact measurable to the
 restitution tolerance) has ``worst_ratio`` = inf: no tolerance of the other checks makes it pass.
 """
@@ -53,9 +54,10 @@ CHECKS = {
     "scene_restitution": ("restitution", "restitution under the scene's forces", "", "restitution under the scene's forces"),
 }
 RATIO_COLUMNS = [f"{name}_ratio" for name in CHECKS] + ["worst_ratio"]
-# where the strikes under the scene's forces meet R: r_holds_from [m/s] (every faster strike within the tolerance;
-# 0: all, inf: none), r_held_from [m/s] (the slowest strike the judge holds to R), r_struck ("N impacts, V1 to V2
-# m/s"), r_misses (the strikes beyond the tolerance, in words); NaN / "" without strikes
+# where the strikes under the scene's forces (scene_strikes: at every phase of a step) meet R: r_holds_from [m/s]
+# (every faster strike within the tolerance at every phase; 0: all, inf: none), r_held_from [m/s] (the slowest strike
+# the judge holds to R), r_struck ("N impacts, V1 to V2 m/s, each at 10 places in a step"), r_misses (the strikes beyond
+# the tolerance at some place in a step, their bands in words); NaN / "" without strikes
 STRIKE_COLUMNS = ["r_holds_from", "r_held_from", "r_struck", "r_misses"]
 MEASURED = ("agree", "timing", "impacts")  # verdict groups whose episodes have every error measured
 UNMEASURED = ("unmeasured",)  # in a measured group, but with no restitution error: the step measures no impact
@@ -100,14 +102,17 @@ def check_values(table: pd.DataFrame, impacts: pd.DataFrame, allowance: float,
 
 
 def scene_strikes(engine: str, settings: Any, solution: ReferenceSolution, tol: Tolerances,
-                  record: dict[str, Any] | None = None) -> pd.DataFrame:
-    """The settings struck under the scene's own forces at the impacts the judge resolves (``scene_restitution``).
+                  record: dict[str, Any] | None = None, held_only: bool = True) -> pd.DataFrame:
+    """The settings struck under the scene's own forces at the impacts the judge resolves, at ``STRIKES`` places in a
+    step each (``scene_restitution``): for the check, only where the judge holds a run to R (``held_only``: sampling
+    uncertainty within the restitution tolerance; the others cannot count against a candidate), every one for a claim.
 
     ``record``: the whole run's ``Trajectory.settings``, to pin what an engine made from the scene
     (``pinned_settings``: Drake's contact), so that every strike meets the contact the run had.
     """
     settings = pinned_settings(settings, record) if record else settings
-    return scene_restitution(engine, settings, solution, tol.resolved_steps)
+    return scene_restitution(engine, settings, solution, tol.resolved_steps,
+                             most_uncertain=tol.restitution if held_only else math.inf)
 
 
 def strike_summary(strikes: pd.DataFrame | None, tol: Tolerances) -> dict[str, Any]:
@@ -116,9 +121,10 @@ def strike_summary(strikes: pd.DataFrame | None, tol: Tolerances) -> dict[str, A
         return {"r_holds_from": math.nan, "r_held_from": math.nan, "r_struck": "", "r_misses": ""}
     m = miss_summary(strikes, tol.restitution)
     v = m.strikes["speed"]
+    impacts, phases = m.strikes.groupby(["impact", "speed"]).ngroups, m.strikes.groupby(["impact", "speed"]).size().max()
     return {"r_holds_from": m.holds_from, "r_held_from": m.held_from,
-            "r_struck": f"{len(m.strikes)} impacts, {v.max():.3g} to {v.min():.3g} m/s" if len(v) else "",
-            "r_misses": m.describe()}
+            "r_struck": f"{impacts} impacts, {v.max():.3g} to {v.min():.3g} m/s, each at {phases} places in a step"
+            if len(v) else "", "r_misses": m.describe()}
 
 
 def check_ratios(table: pd.DataFrame, impacts: pd.DataFrame, tol: Tolerances, allowance: float,

@@ -5,18 +5,21 @@
     >>> from chatterbench.comparisons.studies.tune import tune
     >>> result = tune(load_scene("bouncing-ball"), "pybullet", 0.05, space={"dt": (1e-3,)}, workers=1, refine_steps=0)
     >>> ev = evidence(result, speeds=[0.5, 4.0])
-    >>> ev.comparison.table["verdict"].tolist(), ev.curve["restitution_effective"].round(3).tolist()
-    (['match'], [0.5, 0.5])
+    >>> ev.comparison.table["verdict"].tolist(), ev.curve["restitution_effective"].round(3).unique().tolist()
+    (['match'], [0.5])
+    >>> len(ev.curve)                                       # 2 speeds x 10 places in a step (8 through it, 2 ends)
+    20
     >>> ev.strikes["forces"].iloc[0], len(ev.strikes) > 3      # under gravity, at the ball's own impacts
     ('scene', True)
 
 For the chosen candidate (``TuneResult.chosen``: the recommendation, or the best reachable
 one when nothing passes): ``comparison``, the scene through ``compare`` with those settings
 (its episodes, impacts and the chatter ladder's data), ``curve``, the effective restitution
-of one strike per speed with those settings (``studies.restitution_curve``, the contact law
-alone: no other force) over ``default_speeds(scene)``, ``strikes``, the same under the
-scene's own forces at the speeds the scene reaches (``studies.scene_restitution``: from the
-reference's state before each impact the judge resolves), and ``impacts``, the restitution
+of strikes at ``STRIKES`` places in a step at each speed with those settings
+(``studies.restitution_curve``, the contact law alone: no other force) over
+``default_speeds(scene)``, ``strikes``, the same under the scene's own forces at the speeds
+the scene reaches (``studies.scene_restitution``: from the reference's state before each
+impact the judge resolves, every one), and ``impacts``, the restitution
 of each resolved impact of the scene in that same run (no curve and no strikes for a scene
 without an impact: there is no speed to take). Nothing here changes the choice.
 """
@@ -77,5 +80,5 @@ def evidence(result, speeds: Sequence[float] | None = None) -> Evidence | None:
             return Evidence(comparison=comparison, curve=None, strikes=None, impacts=impacts)
     pinned = pinned_settings(settings, run.trajectory.settings)  # the contact the scene's run had (Drake)
     curve = restitution_curve(result.engine, pinned, result.scene.restitution, speeds, scene=result.scene)
-    strikes = scene_strikes(result.engine, pinned, comparison.solution, result.tolerance)
+    strikes = scene_strikes(result.engine, pinned, comparison.solution, result.tolerance, held_only=False)
     return Evidence(comparison=comparison, curve=curve, strikes=strikes if len(strikes) else None, impacts=impacts)

@@ -22,7 +22,7 @@ Body 1 of infinite mass: fixed, its skeleton is not mobile (``setMobile(False)``
 no dynamics, exactly infinite mass); prescribed, its joint is a VELOCITY actuator (DART's
 kinematic joint: the body follows the commanded velocity whatever the contact impulse,
 exactly infinite mass too), set each step to the prescribed position and to the mean
-prescribed velocity over the step (``run.py``), so it ends each step exactly on its path.
+prescribed velocity over the step (``run.DartEngine.drive``), so it ends each step exactly on its path.
 """
 
 from __future__ import annotations
@@ -56,6 +56,7 @@ class DartWorld:
     joint2: Any  # body 2's PrismaticJoint (its position is x2 [m])
     body1: str  # "finite", "fixed" (not mobile) or "prescribed" (kinematic VELOCITY joint)
     walls: tuple[str, ...]  # wall names, as in scene.gap.walls (also the walls' shape node names)
+    dt: float  # [s] the world's time step
 
 
 def _collider(body: Any, shape: Any, name: str, offset: float, restitution: float) -> None:
@@ -122,4 +123,4 @@ def build(scene: Scene, settings: DartSettings) -> DartWorld:
     _collider(body2, dart.dynamics.SphereShape(BODY2_RADIUS), BALL, 0.0, scene.restitution)
     world.addSkeleton(skeleton1)
     world.addSkeleton(skeleton2)
-    return DartWorld(world=world, joint1=joint1, joint2=joint2, body1=kind, walls=gap.walls)
+    return DartWorld(world=world, joint1=joint1, joint2=joint2, body1=kind, walls=gap.walls, dt=settings.dt)

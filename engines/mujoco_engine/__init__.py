@@ -7,7 +7,8 @@
     ('ok', True, 0.2553)
 
 Modules: ``settings`` (``MujocoSettings``, the integrators' stability limits), ``model``
-(the MjSpec model of a scene), ``run`` (rollout chunk by chunk, batches; the base class classifies),
+(the MjSpec model of a scene), ``run`` (the adapter: a whole run as rollout chunk by chunk,
+batches; the base class records and classifies),
 ``snippet`` (the settings as MJCF attributes a user pastes: ``<option>``, joint limit, geom pair),
 ``export`` (the scene as a complete MJCF file and a runner script for plain MuJoCo).
 
@@ -55,98 +56,10 @@ model looks right; x1, v1 of an infinite body are reported from ``Prescribed.pos
 
 from __future__ import annotations
 
-from typing import Any, Sequence
-
-from chatterbench.reference.scene import Scene
-
-from .. import mujoco_common
-from ..base import EngineAdapter, Recording
-from ..trajectory import Trajectory
-from . import run as _run
 from .export import export_mjcf
 from .model import build, build_spec, controls
-from .snippet import mjcf_snippet
+from .run import MujocoEngine, rollout_steps_per_s
 from .settings import GAP_MODELS, INTEGRATORS, SOLVERS, MujocoSettings, stability_limit
 
 __all__ = ["GAP_MODELS", "INTEGRATORS", "SOLVERS", "MujocoEngine", "MujocoSettings", "build", "build_spec", "controls",
-           "export_mjcf", "run", "run_batch", "stability_limit"]
-
-
-class MujocoEngine(EngineAdapter):
-    """MuJoCo behind the engine contract (``base.EngineAdapter``): soft contact, float64, ``dt`` the cost lever."""
-
-    name = "mujoco"
-    package = "mujoco"
-    settings_type = MujocoSettings
-    compliant = True  # solref's spring-damper: a contact time scale 1 / w0
-    batches = True
-    bytes_per_step = 100.0  # measured 69 B/step (feigin-pair, compact, 4.0e6 -> 1.2e7 steps: 545,060 -> 1,079,520 KiB)
-    exports = ("model.xml", "run.py")  # the full MJCF, and a runner that needs only mujoco
-    export_kind = "an MJCF model"
-
-    def simulate(self, run: Recording) -> None:
-        """Roll the scene's model out chunk by chunk (``run.simulate``)."""
-        _run.simulate(run)
-
-    def validate(self, scene: Scene, settings: MujocoSettings) -> None:
-        """Settings the scene cannot run with are refused by the MjSpec build (``model.build_spec``)."""
-        build_spec(scene, settings)
-
-    def record(self, scene: Scene, settings: MujocoSettings) -> dict[str, Any]:
-        """w0, zeta and the solref / solimp they make, MuJoCo's version (``mujoco_common.record``)."""
-        return mujoco_common.record(scene, settings)
-
-    def contact_scales(self, scene: Scene, settings: MujocoSettings) -> tuple[float, float]:
-        """One bounce's duration and w0 (``mujoco_common.contact_scales``)."""
-        return mujoco_common.contact_scales(scene, settings)
-
-    def run_batch(self, jobs: Sequence[tuple[Scene, MujocoSettings]]) -> list[Trajectory]:
-        """Compatible runs rolled out together, each bit for bit as alone (``run.run_batch``)."""
-        return _run.roll_batch(self, list(jobs))
-
-    def bare_seconds(self, scene: Scene, settings: MujocoSettings, traj: Trajectory) -> float:
-        """One bare ``mujoco.rollout`` over the run (``run.bare_seconds``)."""
-        return _run.bare_seconds(scene, settings)
-
-    def build(self, scene: Scene, settings: MujocoSettings | None = None) -> Any:
-        """The compiled ``MjModel`` for ``scene``."""
-        return build(scene, settings)
-
-    def snippet(self, scene: Scene, settings: MujocoSettings | None = None) -> str:
-        """The MJCF a user pastes: ``<option>``, the gap as a joint limit or a geom pair (``snippet.mjcf_snippet``)."""
-        return mjcf_snippet(scene, settings)
-
-    def export(self, scene: Scene, settings: MujocoSettings, command: str | None = None) -> dict[str, str]:
-        """``model.xml`` (``export.model_xml``) and ``run.py``, which loads it with plain MuJoCo (``export.runner_script``)."""
-        from .export import model_xml, runner_script
-
-        model, runner = self.exports
-        return {model: model_xml(scene, settings, command=command),
-                runner: runner_script(scene, settings, model_file=model, command=command)}
-
-    def measurement(self) -> str:
-        """One impact's e measured in the user's MJCF (``snippet.measurement``)."""
-        from .snippet import measurement
-
-        return measurement()
-
-    def tuning_space(self, scene: Scene) -> dict[str, tuple]:
-        """dt from 1 ms down to 10 us; w0 dt from soft (0.03) to 0.9 of the integrator's stability limit for the
-        scene's R (the stiffest stable contact); the two integrators of one force evaluation per step; solimp's
-        impedance d (``MujocoSettings.impedance``) from 0.9 to MuJoCo's largest. Defaults first."""
-        base = MujocoSettings()
-        zeta = base.zeta(scene.restitution) if scene.restitution > 0 else 1.0
-        stiffest = 0.9 * min(stability_limit(name, zeta) for name in ("euler", "implicitfast"))
-        w0_dts = [base.w0_dt] + [w for w in (0.1, 0.3) if w < stiffest] + [round(stiffest, 3)]
-        return {"dt": (1e-3, 3e-4, 1e-4, 3e-5, 1e-5), "mujoco.w0_dt": tuple(w0_dts),
-                "mujoco.integrator": (base.integrator, "implicitfast"), "mujoco.impedance": (base.impedance, 0.9, 0.9999)}
-
-
-def run(scene: Scene, settings: MujocoSettings | None = None, compact_above: float | None = None) -> Trajectory:
-    """``MujocoEngine().run``: one run, classified by the base (``base.EngineAdapter.run``)."""
-    return MujocoEngine().run(scene, settings, compact_above)
-
-
-def run_batch(jobs: Sequence[tuple[Scene, MujocoSettings]]) -> list[Trajectory]:
-    """``MujocoEngine().run_batch``: compatible runs together, each as it runs alone."""
-    return MujocoEngine().run_batch(jobs)
+           "export_mjcf", "rollout_steps_per_s", "stability_limit"]

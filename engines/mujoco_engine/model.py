@@ -82,11 +82,22 @@ def _set_contact(obj: Any, k: float, b: float, d: float, gap_model: str) -> None
 
 def build_spec(scene: Scene, settings: MujocoSettings | None = None) -> mujoco.MjSpec:
     """The scene as an ``mujoco.MjSpec`` (see the module docstring for the layout)."""
-    s = settings or MujocoSettings()
+    return spec_and_factor(scene, settings)[0]
+
+
+def contact_law(scene: Scene, s: MujocoSettings) -> tuple[float, float]:
+    """The contact's stiffness k = w0^2 [1/s^2] and damping b = 2 zeta w0 [1/s] before the impedance rescaling;
+    SettingsError when w0 dt is past the integrator's stability limit for the scene's R."""
     zeta = s.zeta(scene.restitution)
     s.check_stability(zeta)
     w0 = s.w0
-    k, b = w0 * w0, 2.0 * zeta * w0
+    return w0 * w0, 2.0 * zeta * w0
+
+
+def spec_and_factor(scene: Scene, settings: MujocoSettings | None = None) -> tuple[mujoco.MjSpec, float]:
+    """``build_spec``, and the factor d / d' its contact's solref was rescaled by (``_impedance_factor``)."""
+    s = settings or MujocoSettings()
+    k, b = contact_law(scene, s)
 
     spec = mujoco.MjSpec()
     spec.modelname = f"chatterbench-{scene.name}"
@@ -175,7 +186,7 @@ def build_spec(scene: Scene, settings: MujocoSettings | None = None) -> mujoco.M
             act.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
             act.forcelimited = mujoco.mjtLimited.mjLIMITED_FALSE
             act.gear = [1, 0, 0, 0, 0, 0]
-    return spec
+    return spec, factor
 
 
 def _impedance_factor(model: mujoco.MjModel, scene: Scene, s: MujocoSettings) -> float:

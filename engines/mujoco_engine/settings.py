@@ -12,6 +12,7 @@ value and the allowed range), so an engine never starts with a user mistake.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -33,7 +34,10 @@ SOLVERS = {
     "CG": mujoco.mjtSolver.mjSOL_CG,
 }
 GAP_MODELS = ("limit", "geom")
+# zeta for R, found by bisection (``restitution.py``): kept, since every run of a study asks for the same few R
+_damping_ratio = functools.lru_cache(maxsize=1024)(damping_ratio_from_restitution)
 IMPEDANCE_RANGE = (1e-4, 0.9999)  # MuJoCo clamps solimp to [mjMINIMP, mjMAXIMP]
+@functools.lru_cache(maxsize=1024)  # every run checks its settings; a study asks about a few (integrator, zeta)
 def stability_limit(integrator: str, zeta: float) -> float:
     """Largest w0 dt for which a persistent contact (x'' + 2 zeta w0 x' + w0^2 x = 0) is stable.
 
@@ -127,6 +131,6 @@ class MujocoSettings:
         """Contact damping ratio for Newton's R (R = 0: zeta = plastic_zeta_w0_dt / w0_dt)."""
         if restitution == 0.0:
             return self.plastic_zeta_w0_dt / self.w0_dt
-        return damping_ratio_from_restitution(restitution)
+        return _damping_ratio(restitution)
 
 

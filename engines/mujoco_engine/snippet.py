@@ -26,6 +26,8 @@ from dataclasses import dataclass
 
 from chatterbench.reference.scene import Scene
 
+from ..export import printable
+from .export import comment_text
 from .model import build_spec
 from .settings import SOLVERS, MujocoSettings
 
@@ -100,7 +102,8 @@ def mjcf_snippet(scene: Scene, settings: MujocoSettings | None = None) -> str:
     contact_time = f"{law.contact_time:.3g} s ({law.contact_time / s.dt:.3g} timesteps)" if math.isfinite(law.contact_time) else "no rebound (overdamped)"
     walls = "the lower wall (and upper)" if upper is not None else "the wall"
     lines = [
-        f"<!-- chatterbench: MuJoCo settings for scene {scene.name} (Newton's R = {scene.restitution:g}),",
+        f"<!-- chatterbench: MuJoCo settings for scene {comment_text(printable(scene.name))} (Newton's R = "
+        f"{scene.restitution:g}),",
         f"     timestep dt = {_num(s.dt)} s, contact stiffness w0 dt = {_num(s.w0_dt)}, integrator {s.integrator}.",
         '     solref="-K -B" is MuJoCo\'s direct form: the contact drives the relative acceleration to -K r - B v',
         "     (r the penetration [m], v its rate [m/s]), the same for any masses:",

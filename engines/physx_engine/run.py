@@ -1,19 +1,19 @@
-"""Stepping PhysX: one SAPIEN scene per run, forces applied every step, contacts read from PhysX's reports.
+"""Stepping PhysX: the adapter, one SAPIEN scene per run stepped by the base, contacts read from PhysX's reports.
 
     >>> import numpy as np
-    >>> from chatterbench.engines.physx_engine import PhysxSettings, run
+    >>> from chatterbench.engines.physx_engine import PhysxEngine, PhysxSettings
     >>> from chatterbench.reference.scene import load_scene
-    >>> traj = run(load_scene("bouncing-ball", ["duration=0.5"]), PhysxSettings(dt=1e-3))
+    >>> traj = PhysxEngine().run(load_scene("bouncing-ball", ["duration=0.5"]), PhysxSettings(dt=1e-3))
     >>> traj.status, round(float(traj.t[np.argmax(traj.contact["lower"])]), 3)      # first impact: sqrt(2/g)
     ('ok', 0.451)
 
-Sample k is the state after k ``PhysxCpuSystem.step`` calls; the contact flag and normal
+The base owns the run (``stepping.py``: forces, samples, time); this adapter builds the world
+(``world.build``) and steps it. Sample k is the state after k ``PhysxCpuSystem.step`` calls; the contact flag and normal
 force at sample k belong to the step that ended there: ``contact[wall][k]`` is True when that
 wall pushed body 2 in that step, the force being PhysX's contact impulse / dt (its x part)
 summed over the wall's contact points (a point below body 2's centre is the lower wall's).
-Every scene force is applied with ``add_force_torque`` each step, from the state the step
-starts with (the scene's force model as an affine map, ``reference.forces.ForceModel.body_forces``);
-a prescribed body 1 is given its kinematic target, its prescribed position at the step's end.
+The forces the base hands over are applied with ``add_force_torque`` each step; a prescribed
+body 1 is given its kinematic target, its prescribed position at the step's end (``drive``).
 The states are read in one ``PhysxCpuSystem.pack`` per step (13 float32 per dynamic body:
 quaternion, position, linear and angular velocity; the layout is checked against the bodies'
 own getters when the world is built), and the contacts only in steps that start with body 2
@@ -28,16 +28,13 @@ from __future__ import annotations
 
 import math
 import struct
-import time
 from typing import Callable
 
 import numpy as np
 
 from chatterbench.reference.scene import Scene
 
-from ..base import Recording, force_plan, replayed_forces
-from ..trajectory import Trajectory
-from ..window import CHUNK
+from ..base import EngineAdapter
 from .settings import PhysxSettings
 from .world import PhysxWorld, build, sapien
 
@@ -91,111 +88,82 @@ def _contact_forces(contacts: list, x2: float, dt: float) -> tuple[float, float]
     return lower, upper
 
 
-def _simulate(world: PhysxWorld, run: Recording) -> None:
-    """Step ``world`` ``run.n`` times, handing the samples to ``run`` chunk by chunk and adding the stepping
-    time to ``run.wall_time``; the loop keeps Python work per step small (forces planned per chunk, one
-    ``pack`` read per step, contacts read only in steps that can have had an impulse)."""
-    scene, dt, n = run.scene, run.settings.dt, run.n
-    t0, init = scene.initial.t, scene.initial
-    x1, v1 = float(init.x1), float(init.v1)
-    x2, v2 = x1 + init.y, v1 + init.vy
-    system, b1, b2 = world.system, world.body1, world.body2
-    read, j1, j2 = _reader(world)
-    moving1 = j1 is not None
-    prescribed = scene.prescribed if world.kinematic else None
-    f1 = np.zeros(3, np.float32)
-    f2 = np.zeros(3, np.float32)
-    torque = np.zeros(3, np.float32)
-    gain = force_plan(scene, np.array([t0]))[2]
-    g10, g11, g12, g13, g20, g21, g22, g23 = (float(v) for v in gain.ravel())
-    dep = bool(np.any(gain != 0.0))
-    step, pack, contacts_of, isfinite = system.step, system.pack, system.get_contacts, math.isfinite
-    # PhysX makes a contact for a shape pair only within the two shapes' contact offsets (their sum) at the
-    # step's start; 1e-6 m more covers float32 rounding. Outside that band no wall can push: contacts unread.
-    band = 2.0 * (run.settings.contact_offset + run.settings.rest_offset) + 1e-6
-    # Inside it, a step may still have no contact impulse: PhysX updates v2 += f2 dt / m2 (float32) plus the
-    # impulse, so a velocity off that prediction by more than float32 rounding marks the steps worth a query.
-    kick = dt / scene.mass2
-    lower_y, upper_y = scene.gap.lower, scene.gap.upper if scene.gap.upper is not None else math.inf
-    for k0 in range(0, n + 1, CHUNK):
-        k1 = min(n, k0 + CHUNK)  # this chunk: steps k0 .. k1 - 1, samples k0 (known) .. k1
-        c = k1 - k0
-        times = t0 + dt * np.arange(k0, k1 + 1)
-        time1, time2 = (part.tolist() for part in force_plan(scene, times[:-1])[:2])
-        if prescribed is not None:
-            px, pv = prescribed.position(times).tolist(), prescribed.velocity(times).tolist()
-        cols = [[x1] * (c + 1), [v1] * (c + 1), [x2] * (c + 1), [v2] * (c + 1)]
-        x1s, v1s, x2s, v2s = cols
-        lower, upper = np.zeros(c + 1), np.zeros(c + 1)
-        last = c
-        start = time.perf_counter()
-        for j in range(c):
-            if prescribed is not None:
-                x1, v1 = px[j], pv[j]
-                b1.kinematic_target = sapien.Pose([px[j + 1], 0.0, 0.0])  # where it is at the step's end
-            if moving1:
-                f1[0] = time1[j] + (g10 * x1 + g11 * v1 + g12 * x2 + g13 * v2 if dep else 0.0)
-                b1.add_force_torque(f1, torque)
-            f2[0] = time2[j] + (g20 * x1 + g21 * v1 + g22 * x2 + g23 * v2 if dep else 0.0)
-            b2.add_force_torque(f2, torque)
-            y = x2 - x1
-            near = y - lower_y <= band or upper_y - y <= band
-            if near:
-                w2 = v2 + float(f2[0]) * kick
-            step()
-            state = read(pack())
-            if moving1:
-                x1 = x1s[j + 1] = state[j1]
-                v1 = v1s[j + 1] = state[j1 + 1]
-            x2 = x2s[j + 1] = state[j2]
-            v2 = v2s[j + 1] = state[j2 + 1]
-            if near and abs(v2 - w2) > IMPULSE_RELATIVE_TOLERANCE * abs(w2) + IMPULSE_ABSOLUTE_TOLERANCE:
-                contacts = contacts_of()
-                if contacts:
-                    lower[j + 1], upper[j + 1] = _contact_forces(contacts, x2, dt)
-            if not (j & 1023 or isfinite(x1 + v1 + x2 + v2)):
-                last = j + 1
-                break
-        if prescribed is not None:
-            x1, v1 = px[c], pv[c]
-        run.wall_time += time.perf_counter() - start
-        first = 0 if k0 == 0 else 1  # a later chunk's sample 0 is the last one of the chunk before
-        cut = slice(first, last + 1)
-        force = {"lower": lower[cut], "upper": upper[cut]}
-        body1 = {"x1": np.array(x1s[cut]), "v1": np.array(v1s[cut])} if moving1 else {}
-        go_on = run.add(times[cut], {w: force[w] for w in world.walls}, x2=np.array(x2s[cut]), v2=np.array(v2s[cut]),
-                        **body1)
-        if not go_on or last < c or k1 == n:
-            break
+class Stepped:
+    """A world as its steps use it: the state reader, the force buffers, the band where a wall can push."""
+
+    __slots__ = ("world", "system", "b1", "b2", "read", "j1", "j2", "f1", "f2", "torque", "lower", "upper", "band",
+                 "kick", "dt", "x1", "x2", "v2", "upper_wall")
+
+    def __init__(self, world: PhysxWorld, scene: Scene, settings: PhysxSettings) -> None:
+        self.world, self.system, self.b1, self.b2 = world, world.system, world.body1, world.body2
+        self.read, self.j1, self.j2 = _reader(world)
+        self.f1, self.f2, self.torque = (np.zeros(3, np.float32) for _ in range(3))
+        self.lower = scene.gap.lower
+        self.upper = scene.gap.upper if scene.gap.upper is not None else math.inf
+        self.upper_wall = "upper" in world.walls
+        # PhysX makes a contact for a shape pair only within the two shapes' contact offsets (their sum) at the
+        # step's start; 1e-6 m more covers float32 rounding. Outside that band no wall can push: contacts unread.
+        self.band = 2.0 * (settings.contact_offset + settings.rest_offset) + 1e-6
+        # Inside it, a step may still have no contact impulse: PhysX updates v2 += f2 dt / m2 (float32) plus the
+        # impulse, so a velocity off that prediction by more than float32 rounding marks the steps worth a query.
+        self.kick, self.dt = settings.dt / scene.mass2, settings.dt
+        ini = scene.initial
+        self.x1, self.x2, self.v2 = float(ini.x1), float(ini.x1) + ini.y, float(ini.v1) + ini.vy
 
 
-def simulate(run: Recording) -> None:
-    """One run in its own SAPIEN scene (``world.build``, then ``_simulate``)."""
-    _simulate(build(run.scene, run.settings), run)
+class PhysxEngine(EngineAdapter):
+    """PhysX (through SAPIEN) behind the engine contract (``base.EngineAdapter``): rigid impulses, float32,
+    ``dt`` the cost lever."""
 
+    name = "physx"
+    package = "sapien"
+    settings_type = PhysxSettings
+    compliant = False
+    precision = "float32"
 
-def bare_seconds(scene: Scene, settings: PhysxSettings, traj: Trajectory) -> float:
-    """Seconds of the bare engine loop over the adapter's run ``traj`` of ``scene``: n x (``add_force_torque`` on
-    each driven body, the kinematic target of a prescribed body 1, ``step``, the state read as the run reads it), the forces
-    replayed from the run's recorded states (the least any driver has to do), no contacts read, nothing recorded."""
-    world = build(scene, settings)
-    forces1, forces2 = (f.astype(np.float32) for f in replayed_forces(scene, traj))
-    targets = None
-    if world.kinematic:
-        targets = [sapien.Pose([x, 0.0, 0.0]) for x in scene.prescribed.position(traj.t).tolist()]
-    b1, b2, system = world.body1, world.body2, world.system
-    moving1 = b1 is not None and not world.kinematic
-    step, pack, read = system.step, system.pack, _reader(world)[0]
-    pushes = [(np.array([a, 0.0, 0.0], np.float32), np.array([b, 0.0, 0.0], np.float32)) for a, b in zip(forces1, forces2)]
-    torque = np.zeros(3, np.float32)
-    start = time.perf_counter()
-    for k in range(len(traj.t) - 1):
-        if targets is not None:
-            b1.kinematic_target = targets[k + 1]
-        f1, f2 = pushes[k]
-        if moving1:
-            b1.add_force_torque(f1, torque)
-        b2.add_force_torque(f2, torque)
-        step()
-        read(pack())
-    return time.perf_counter() - start
+    def build(self, scene: Scene, settings: PhysxSettings) -> Stepped:
+        """The scene's own SAPIEN scene (``world.build``)."""
+        return Stepped(build(scene, settings), scene, settings)
+
+    def drive(self, w: Stepped, x1: float, v1: float, x1_end: float) -> None:
+        """The kinematic body 1's target: where its path is at the step's end."""
+        w.b1.kinematic_target = sapien.Pose([x1_end, 0.0, 0.0])
+        w.x1 = x1
+
+    def step(self, w: Stepped, forces: tuple[float, float]) -> tuple[tuple, tuple[float, ...]]:
+        """``PhysxCpuSystem.step`` with the forces applied; the state in one ``pack`` read; the walls' impulses where
+        one can have pushed (module docstring)."""
+        if w.j1 is not None:
+            w.f1[0] = forces[0]
+            w.b1.add_force_torque(w.f1, w.torque)
+        w.f2[0] = forces[1]
+        w.b2.add_force_torque(w.f2, w.torque)
+        y = w.x2 - w.x1
+        near = y - w.lower <= w.band or w.upper - y <= w.band
+        if near:
+            v = w.v2 + float(w.f2[0]) * w.kick
+        w.system.step()
+        state = w.read(w.system.pack())
+        x1 = v1 = None
+        if w.j1 is not None:
+            x1 = w.x1 = state[w.j1]
+            v1 = state[w.j1 + 1]
+        x2 = w.x2 = state[w.j2]
+        v2 = w.v2 = state[w.j2 + 1]
+        if near and abs(v2 - v) > IMPULSE_RELATIVE_TOLERANCE * abs(v) + IMPULSE_ABSOLUTE_TOLERANCE:
+            contacts = w.system.get_contacts()
+            if contacts:
+                lower, upper = _contact_forces(contacts, x2, w.dt)
+                return (x1, v1, x2, v2), ((lower, upper) if w.upper_wall else (lower,))
+        return (x1, v1, x2, v2), ()
+
+    def tuning_space(self, scene: Scene) -> dict[str, tuple]:
+        """dt from 1 ms down to 10 us; the bounce threshold (the adapter's, then PhysX's own 2 m/s and two between),
+        TGS or PGS, and the solver iterations (the adapter's 1 / 1 first, then PhysX's 4 and SAPIEN's 10 position
+        iterations). Defaults first."""
+        base = PhysxSettings()
+        return {"dt": (1e-3, 3e-4, 1e-4, 3e-5, 1e-5),
+                "physx.bounce_threshold": (base.bounce_threshold, 0.01, 0.1, 2.0),
+                "physx.enable_tgs": (base.enable_tgs, not base.enable_tgs),
+                "physx.solver_position_iterations": (base.solver_position_iterations, 4, 10),
+                "physx.solver_velocity_iterations": (base.solver_velocity_iterations, 4)}

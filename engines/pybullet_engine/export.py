@@ -10,57 +10,28 @@ The script needs only ``pybullet``. It builds the world of ``world.build`` (body
 walls, body 2 is a sphere, each on a prismatic joint along x; a fixed body 1 is a static base,
 link -1), sets the engine with the guide's snippet (``settings.settings_snippet``, its
 placeholders filled with the script's own bodies), applies every scene force each step as
-the adapter does (an affine map of the state plus constant and harmonic terms, ``ForceModel.body_forces``),
-steps for the scene's duration and prints one line per impact, ``impact t=... v_in=... v_out=... e=...``
-(t the contact's start [s], v_in and v_out the relative velocity y' = x2' - x1' before the first
-and after the last step in which the wall pushed [m/s], e = -v_out / v_in); a contact still
-pushing at the end (resting) prints nothing.
+the adapter does (an affine map of the state plus constant and harmonic terms, ``ForceModel.body_forces``:
+``impact_lines.force_lines``), steps for the scene's duration, recording each sample as the adapter
+does (each wall's normal force from the contact points of the step that ends there), and then
+prints every impact as chatterbench's judge finds it, ``impact t=... v_in=... v_out=... e=...``
+(``impact_lines``: the speeds where the ball crosses the wall's surface), as many as ``chatterbench
+run`` counts.
 """
 
 from __future__ import annotations
 
 import math
 
-from chatterbench.reference.forces import ForceModel
 from chatterbench.reference.scene import Scene
 
-from ..impact_lines import detection_lines, docstring, state_lines
+from ..base import n_steps
+from ..impact_lines import acceleration_line, docstring, flight_band, force_lines, record_lines, report_lines, setup_lines
 from .settings import PybulletSettings, settings_snippet
 from .world import BODY2_HALF, WALL_HALF, WALL_SIDE
-
-LONGEST_CONTACT_STEPS = 10  # a rigid impact is one step's impulse; a contact of more steps is a rest (impact_lines)
 
 
 def _num(v: float) -> str:
     return repr(float(v))
-
-
-def _time_part(constant: float, harmonics: list[tuple[float, float, float]]) -> str:
-    """constant + sum A sin(w t + phase) as a Python expression in ``t``."""
-    return _num(constant) + "".join(f" + {_num(a)} * math.sin({_num(w)} * t + {_num(ph)})"
-                                    for a, w, ph in harmonics if a != 0.0)
-
-
-def _force_lines(scene: Scene) -> list[str]:
-    """The two bodies' external forces [N] at time t from the state (x1, v1, x2, v2), as the adapter applies them."""
-    f = ForceModel.from_scene(scene)
-    b1, b2, c = f.body1, f.body2, f.coupling
-    neg = [(-a, w, ph) for a, w, ph in c.harmonics]
-    time1 = _time_part(b1.spring_force + b1.constant - c.spring_force + c.constant, [*b1.harmonics, *c.harmonics])
-    time2 = _time_part(b2.spring_force + b2.constant + c.spring_force - c.constant, [*b2.harmonics, *neg])
-    _, _, gain = f.body_forces(0.0)
-
-    def affine(row: int, time: str) -> str:
-        terms = "".join(f" + {_num(g)} * {s}" for g, s in zip(gain[row], ("x1", "v1", "x2", "v2")) if g != 0.0)
-        return time + terms
-
-    lines = []
-    if not scene.body1_infinite:
-        lines.append(f"    f1 = {affine(0, time1)}")
-        lines.append("    p.applyExternalForce(body1, BODY1_LINK, (f1, 0.0, 0.0), (0.0, 0.0, 0.0), p.LINK_FRAME)")
-    lines.append(f"    f2 = {affine(1, time2)}")
-    lines.append("    p.applyExternalForce(ball, 0, (f2, 0.0, 0.0), (0.0, 0.0, 0.0), p.LINK_FRAME)")
-    return lines
 
 
 def scene_script(scene: Scene, settings: PybulletSettings | None = None) -> str:
@@ -86,15 +57,21 @@ def scene_script(scene: Scene, settings: PybulletSettings | None = None) -> str:
         f"    x1 = {_num(pr.offset)} + {_num(pr.amplitude)} * math.sin({_num(pr.omega)} * t + {_num(pr.phase)})",
         f"    v1 = {_num(pr.amplitude * pr.omega)} * math.cos({_num(pr.omega)} * t + {_num(pr.phase)})",
         "    p.resetJointState(body1, 0, x1, v1)  # body 1's prescribed motion"]
+    push1 = [] if scene.body1_infinite else [
+        "    p.applyExternalForce(body1, BODY1_LINK, (f1, 0.0, 0.0), (0.0, 0.0, 0.0), p.LINK_FRAME)"]
     return "\n".join([
         *docstring([
             f"Scene {scene.name!r} in plain PyBullet (written by chatterbench): the bodies on prismatic joints along x,",
             f"the walls on body1 and a sphere on ball, stepped at dt = {_num(s.dt)} s for {_num(scene.duration)} s. Prints",
-            "one line per impact: t (contact start [s]), v_in and v_out (y' = x2' - x1' before and after [m/s]),",
-            "e = -v_out / v_in. It needs only the pybullet package: python THIS_FILE."]),
+            "each impact as chatterbench's judge finds it: t [s], v_in and v_out (y' = x2' - x1' where the ball crosses",
+            "the wall's surface on its way in and out [m/s]), e = -v_out / v_in. It needs only the pybullet package:",
+            "python THIS_FILE."]),
         "import math",
         "",
         "import pybullet as p",
+        "",
+        *setup_lines({w: scene.gap.position(w) for w in scene.gap.walls}, scene.restitution, flight_band(), ini.t,
+                     s.dt, n_steps(scene.duration, s.dt)),
         "",
         "p.connect(p.DIRECT)",
         "p.setGravity(0.0, 0.0, 0.0)  # every scene force, gravity included, is applied below, each step",
@@ -126,16 +103,31 @@ def scene_script(scene: Scene, settings: PybulletSettings | None = None) -> str:
         "",
         f"x1, v1 = {_num(ini.x1)}, {_num(ini.v1)}",
         f"x2, v2 = {_num(ini.x1 + ini.y)}, {_num(ini.v1 + ini.vy)}",
-        *state_lines(LONGEST_CONTACT_STEPS),
-        f"for k in range(round({_num(scene.duration)} / {_num(s.dt)})):",
-        f"    t0 = t = {_num(ini.t)} + k * {_num(s.dt)}",
+        "for wall in WALLS:  # sample 0: no step has ended there, no wall has pushed",
+        "    forces[wall].append(0.0)",
+        "for k in range(STEPS + 1):  # sample k, then the step from it",
+        "    t = T0 + k * DT",
+        "    y, vy = x2 - x1, v2 - v1  # the sample as the adapter records it",
         *prescribe,
-        *_force_lines(scene),
-        "    v0 = v2 - v1",
+        *force_lines(scene, "    "),
+        acceleration_line(scene, "    "),
+        *record_lines("    "),
+        "    if k == STEPS:",
+        "        break",
+        *push1,
+        "    p.applyExternalForce(ball, 0, (f2, 0.0, 0.0), (0.0, 0.0, 0.0), p.LINK_FRAME)",
         "    p.stepSimulation()",
         *moving1,
         "    x2, v2 = p.getJointState(ball, 0)[:2]",
-        "    pushing = any(pt[9] > 0.0 for pt in p.getContactPoints(body1, ball))  # a wall's normal force in this step",
-        *detection_lines("    "),
+        "    # each wall's normal force in this step: the contact normal points from the ball to body 1, so its",
+        "    # x sign names the wall (lower: -x); the force belongs to the sample the step ends at",
+        "    pushed = {wall: 0.0 for wall in WALLS}",
+        "    for pt in p.getContactPoints(body1, ball):",
+        '        wall = "lower" if pt[7][0] < 0.0 else "upper"',
+        "        if wall in pushed and pt[9] > 0.0:",
+        "            pushed[wall] += pt[9]",
+        "    for wall in WALLS:",
+        "        forces[wall].append(pushed[wall])",
+        *report_lines(),
         "",
     ])

@@ -1,25 +1,24 @@
 """The PyBullet world of a scene: two prismatic multibodies, the walls on body 1, a sphere for body 2.
 
     >>> from chatterbench.reference.scene import load_scene
-    >>> from chatterbench.engines.pybullet_engine.world import build, connect, PybulletSettings
-    >>> with connect() as client:
-    ...     world = build(load_scene("feigin-pair"), PybulletSettings(), client)
-    ...     world.walls, world.link1
-    (('lower', 'upper'), 0)
+    >>> from chatterbench.engines.pybullet_engine.world import build, PybulletSettings
+    >>> with build(load_scene("feigin-pair"), PybulletSettings()) as world:
+    ...     world.walls, world.link1, world.x2
+    (('lower', 'upper'), 0, 0.0)
 
 Body 1 and body 2 each slide on one prismatic joint along world x (no gravity, no
 friction, no damping, default velocity motors off); body 1 carries one wall box per gap
 limit, placed so that they touch exactly when y = x2 - x1 reaches ``gap.lower`` (and
 ``gap.upper``). Only body 1's walls and body 2 can collide. A fixed body 1 is the static
-base itself (exactly infinite mass); a prescribed one is a heavy slider moved every step.
+base itself (exactly infinite mass); a prescribed one is a heavy slider moved every step. Each
+world has its own ``p.DIRECT`` client, disconnected by ``close()`` (or leaving a ``with`` block),
+so that worlds can follow one another in one interpreter.
 """
 
 from __future__ import annotations
 
-import contextlib
 import math
 from dataclasses import dataclass
-from typing import Iterator
 
 from chatterbench.reference.scene import Scene
 
@@ -38,30 +37,42 @@ WALL_SIDE = 0.2  # half extent of each wall across x
 
 @dataclass
 class PybulletWorld:
-    """A built PyBullet world for one scene (valid while its connection is open)."""
+    """A built PyBullet world for one scene (valid until ``close``), and what its steps keep."""
 
     client: int  # physics client id
     body1: int  # multibody id of body 1 (walls)
     body2: int  # multibody id of body 2 (the sphere)
     link1: int  # body 1's colliding link: 0 (prismatic) or -1 (fixed base)
     walls: tuple[str, ...]  # wall names, as in scene.gap.walls
+    x1: float  # [m] body 1 at the start of the next step (the walls' place: which steps can touch)
+    x2: float  # [m] body 2 at the start of the next step
+    v2: float  # [m/s] body 2's velocity then
+
+    def close(self) -> None:
+        """Disconnect the world's client."""
+        p.disconnect(physicsClientId=self.client)
+
+    def __enter__(self) -> "PybulletWorld":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
 
 
-@contextlib.contextmanager
-def connect() -> Iterator[int]:
-    """Open a private ``p.DIRECT`` physics client and close it on exit."""
-    client = p.connect(p.DIRECT)
-    if client < 0:
+def build(scene: Scene, settings: PybulletSettings) -> PybulletWorld:
+    """The two bodies of ``scene`` in a new ``p.DIRECT`` client, set to ``scene.initial`` (close the world)."""
+    cid = p.connect(p.DIRECT)
+    if cid < 0:
         raise RuntimeError("pybullet: could not open a DIRECT connection")
     try:
-        yield client
-    finally:
-        p.disconnect(physicsClientId=client)
+        return _bodies(scene, settings, cid)
+    except BaseException:
+        p.disconnect(physicsClientId=cid)
+        raise
 
 
-def build(scene: Scene, settings: PybulletSettings, client: int) -> PybulletWorld:
-    """Create the two bodies of ``scene`` in the open ``client`` and set them to ``scene.initial``."""
-    cid = client
+def _bodies(scene: Scene, settings: PybulletSettings, cid: int) -> PybulletWorld:
+    """Create the two bodies of ``scene`` in the open client ``cid`` and set them to ``scene.initial``."""
     p.resetSimulation(physicsClientId=cid)
     p.setGravity(0.0, 0.0, 0.0, physicsClientId=cid)
     p.setPhysicsEngineParameter(**settings.engine_parameters(), physicsClientId=cid)
@@ -126,4 +137,5 @@ def build(scene: Scene, settings: PybulletSettings, client: int) -> PybulletWorl
     if link1 == 0:
         p.resetJointState(body1, 0, init.x1, init.v1, physicsClientId=cid)
     p.resetJointState(body2, 0, init.x1 + init.y, init.v1 + init.vy, physicsClientId=cid)
-    return PybulletWorld(client=cid, body1=body1, body2=body2, link1=link1, walls=walls)
+    return PybulletWorld(client=cid, body1=body1, body2=body2, link1=link1, walls=walls, x1=float(init.x1),
+                         x2=float(init.x1) + init.y, v2=float(init.v1) + init.vy)

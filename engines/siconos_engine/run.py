@@ -17,9 +17,15 @@ numpy and Siconos's import: 0.08 to 0.27 s measured, README) on top of its steps
 Promises: a child that exits non-zero, dies of a signal or sends what is not the protocol
 raises ``SiconosFailure`` with one line saying which (its last stderr line), and the base
 makes it the run's ``error`` status (``crashed`` for a signal: ``SiconosCrash``) with the
-samples before it; a run cut short by the base (a blow-up) or by an exception kills its
-child. Sample k is the state after k steps; the contact force of a wall at sample k is the
-LCP's impulse of that step over dt [N] (> 0: the wall pushed).
+samples before it; a child that sends what is not the protocol is killed at once (it could
+otherwise block on a full pipe that nobody reads); a child still running at the run's time
+limit (``isolate.run_limit``: the command's ``--timeout``) is killed, with every process it
+started (its own session), and the run is ``timeout`` (``SiconosTimeout``; inside an isolated run
+the isolation's own limit does it, and the child dies with its parent); a run cut short by
+the base (a blow-up) or by an exception kills its child. An interpreter whose answer to the
+probe is not a version (bytes that are not UTF-8, say) is no Siconos, said in one line.
+Sample k is the state after k steps; the contact force of a wall at sample k is the LCP's
+impulse of that step over dt [N] (> 0: the wall pushed).
 """
 
 from __future__ import annotations
@@ -27,11 +33,14 @@ from __future__ import annotations
 import dataclasses
 import functools
 import json
+import math
 import os
+import re
 import shutil
 import signal
 import subprocess
 import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -39,7 +48,8 @@ import numpy as np
 
 from chatterbench.reference.scene import Scene
 
-from ..base import Crashed, Recording
+from ..base import Crashed, EngineAdapter, Recording, TimedOut
+from ..isolate import inside, run_limit
 from ..trajectory import Trajectory
 from ..window import CHUNK
 from .protocol import ProtocolError, read_frames, request
@@ -51,6 +61,7 @@ INSTALL = (f"apt-get install python3-siconos (Debian/Ubuntu: for /usr/bin/python
 CHILD = Path(__file__).with_name("child.py")
 PARENT = "CHATTERBENCH_SICONOS_PARENT"  # the child's check that its parent is alive (``child.die_with_parent``)
 PROBE_TIMEOUT = 60.0  # [s] for ``python -c "import siconos.kernel"`` (a cold disk cache: a few seconds)
+EXIT_GRACE = 2.0  # [s] a failed child has to exit in before it is killed (one that sent garbage may be blocked writing)
 _PROBE = "import numpy, siconos, siconos.kernel; print(siconos.version)"
 
 
@@ -60,6 +71,10 @@ class SiconosFailure(RuntimeError):
 
 class SiconosCrash(SiconosFailure, Crashed):
     """The child died of a signal (a segfault, the out-of-memory killer): the run is ``crashed``, not ``error``."""
+
+
+class SiconosTimeout(SiconosFailure, TimedOut):
+    """The child ran past the run's time limit and was killed: the run is ``timeout``."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -74,13 +89,19 @@ class Interpreter:
 def _probe(python: str) -> Interpreter | str:
     """``python``'s Siconos, or why it has none (cached per path: a probe starts an interpreter)."""
     try:
-        out = subprocess.run([python, "-c", _PROBE], capture_output=True, text=True, timeout=PROBE_TIMEOUT)
+        out = subprocess.run([python, "-c", _PROBE], capture_output=True, timeout=PROBE_TIMEOUT)
     except (OSError, subprocess.SubprocessError) as exc:
         return f"{python}: {type(exc).__name__}: {exc}"
     if out.returncode != 0:
-        lines = out.stderr.strip().splitlines()
+        lines = out.stderr.decode(errors="replace").strip().splitlines()
         return f"{python}: {lines[-1] if lines else f'exit code {out.returncode}'}"
-    return Interpreter(python, out.stdout.strip())
+    try:
+        version = out.stdout.decode().strip()
+    except UnicodeDecodeError:
+        return f"{python}: answered the Siconos probe with bytes that are not UTF-8 ({out.stdout[:24]!r}), not a version"
+    if not re.fullmatch(r"[0-9][0-9A-Za-z.+~-]{0,40}", version):
+        return f"{python}: answered the Siconos probe with {version[:40]!r}, not a version"
+    return Interpreter(python, version)
 
 
 def _candidates() -> list[str]:
@@ -115,42 +136,74 @@ def unavailable() -> str:
 
 
 class Child:
-    """One ``child.py`` process under ``python`` answering ``request``; a context manager that kills it on exit."""
+    """One ``child.py`` process under ``python`` answering ``request``, in a session of its own, killed with every
+    process it started when the run's time limit ``limit`` [s] passes (default ``isolate.run_limit``; none inside
+    an isolated run, whose own limit kills its process and so the child, ``child.die_with_parent``); a context
+    manager that kills it on exit."""
 
-    def __init__(self, python: str, request: dict) -> None:
+    def __init__(self, python: str, request: dict, limit: float | None = None) -> None:
+        self.limit = (math.inf if inside() else run_limit()) if limit is None else limit
+        self.timed_out = False
         self.stderr = tempfile.TemporaryFile()
         self.proc = subprocess.Popen([python, str(CHILD)], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                     stderr=self.stderr, env={**os.environ, PARENT: str(os.getpid())})
+                                     stderr=self.stderr, env={**os.environ, PARENT: str(os.getpid())},
+                                     start_new_session=True)
+        self.timer = threading.Timer(self.limit, self._time_up)
+        self.timer.daemon = True
+        if math.isfinite(self.limit):
+            self.timer.start()
         try:
             self.proc.stdin.write(json.dumps(request).encode())
             self.proc.stdin.close()
         except BrokenPipeError:  # it died before reading: its exit code says why
             pass
 
+    def _time_up(self) -> None:
+        self.timed_out = True
+        self.kill()
+
+    def kill(self) -> None:
+        """SIGKILL the child's session: the child and whatever it started (which could hold its pipes open)."""
+        try:
+            os.killpg(self.proc.pid, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError):  # all gone already
+            pass
+
     def __enter__(self) -> "Child":
         return self
 
     def __exit__(self, *exc) -> None:
-        if self.proc.poll() is None:
-            self.proc.kill()
+        self.timer.cancel()
+        self.kill()
         self.proc.wait()
         self.proc.stdout.close()
         self.stderr.close()
 
     def failure(self, why: str = "") -> SiconosFailure:
-        """What went wrong, in one line: the exit (code or signal) and the child's last stderr line."""
-        code = self.proc.wait()
+        """What went wrong, in one line: the exit (code or signal) and the child's last stderr line. A child still
+        running ``EXIT_GRACE`` seconds on (it sent what is not the protocol, and may be blocked writing more) is
+        killed."""
+        try:  # a child whose reply ended is exiting: its code says how
+            code, running = self.proc.wait(timeout=EXIT_GRACE), False
+        except subprocess.TimeoutExpired:
+            self.kill()
+            code, running = self.proc.wait(), True
         self.stderr.seek(0)
         lines = self.stderr.read().decode(errors="replace").strip().splitlines()
         last = lines[-1] if lines else ""
-        if code < 0:
+        kind = SiconosCrash if code < 0 else SiconosFailure
+        if self.timed_out:
+            kind, exit_ = SiconosTimeout, f"ran past the run's time limit of {self.limit:g} s and was killed"
+            why = ""
+        elif running:
+            kind, exit_ = SiconosFailure, "sent what is not the protocol and was killed"
+        elif code < 0:
             try:
                 exit_ = f"killed by {signal.Signals(-code).name}"
             except ValueError:
                 exit_ = f"killed by signal {-code}"
         else:
             exit_ = f"exited with code {code}"
-        kind = SiconosCrash if code < 0 else SiconosFailure
         return kind("; ".join(filter(None, (f"the Siconos child {exit_}", why, last))))
 
 
@@ -166,49 +219,71 @@ def _python() -> str:
     return got.path
 
 
-def simulate(run: Recording) -> None:
-    """Run the scene in one child, handing the samples to ``run`` frame by frame (the initial state first)."""
-    scene, s = run.scene, run.settings
-    req = _request(scene, s, run.n)
-    ndof, walls = len(req["mass"]), scene.gap.walls
-    width = 2 * ndof + len(walls)
-    first = np.array([*req["q0"], *req["v0"], *np.zeros(len(walls))])[None, :]
-    start = time.perf_counter()
-    k, seconds = 0, None
-    with Child(_python(), req) as child:
-        try:
-            for frame in read_frames(child.proc.stdout, width):
-                if isinstance(frame, float):
-                    seconds = frame
-                    break
-                rows = np.vstack([first, frame]) if k == 0 else frame
-                t = scene.initial.t + s.dt * np.arange(k, k + len(rows))
-                k += len(rows)
-                force = {w: rows[:, 2 * ndof + i] / s.dt for i, w in enumerate(walls)}
-                if ndof == 1:
-                    go_on = run.add(t, force, y=rows[:, 0], vy=rows[:, 1])
-                else:
-                    go_on = run.add(t, force, x1=rows[:, 0], x2=rows[:, 1], v1=rows[:, 2], v2=rows[:, 3])
-                if not go_on:
-                    break
-        except ProtocolError as exc:
-            raise child.failure(str(exc)) from None
-        if seconds is not None and child.proc.wait() != 0:
-            raise child.failure()
-    run.wall_time += seconds if seconds is not None else time.perf_counter() - start
+class SiconosEngine(EngineAdapter):
+    """Siconos behind the engine contract (``base.EngineAdapter``): rigid Newton impacts, float64, ``dt`` the cost lever."""
 
+    name = "siconos"
+    package = "siconos"  # Debian's python3-siconos, for another interpreter: ``version`` asks it
+    settings_type = SiconosSettings
+    compliant = False
+    precision = "float64"
 
-def bare_seconds(scene: Scene, settings: SiconosSettings, traj: Trajectory) -> float:
-    """The child's own stepping seconds over the run ``traj`` with no samples sent back (``bare``)."""
-    req = _request(scene, settings, len(traj.t) - 1, bare=True)
-    with Child(_python(), req) as child:
-        try:
-            frames = list(read_frames(child.proc.stdout, 0))
-        except ProtocolError as exc:
-            raise child.failure(str(exc)) from None
-        if child.proc.wait() != 0:
-            raise child.failure()
-    return float(frames[-1])
+    def simulate(self, run: Recording) -> None:
+        """Run the scene in one child, handing the samples to ``run`` frame by frame (the initial state first)."""
+        scene, s = run.scene, run.settings
+        req = _request(scene, s, run.n)
+        ndof, walls = len(req["mass"]), scene.gap.walls
+        width = 2 * ndof + len(walls)
+        first = np.array([*req["q0"], *req["v0"], *np.zeros(len(walls))])[None, :]
+        start = time.perf_counter()
+        k, seconds = 0, None
+        with Child(_python(), req) as child:
+            try:
+                for frame in read_frames(child.proc.stdout, width):
+                    if isinstance(frame, float):
+                        seconds = frame
+                        break
+                    rows = np.vstack([first, frame]) if k == 0 else frame
+                    t = scene.initial.t + s.dt * np.arange(k, k + len(rows))
+                    k += len(rows)
+                    force = {w: rows[:, 2 * ndof + i] / s.dt for i, w in enumerate(walls)}
+                    if ndof == 1:
+                        go_on = run.add(t, force, y=rows[:, 0], vy=rows[:, 1])
+                    else:
+                        go_on = run.add(t, force, x1=rows[:, 0], x2=rows[:, 1], v1=rows[:, 2], v2=rows[:, 3])
+                    if not go_on:
+                        break
+            except ProtocolError as exc:
+                raise child.failure(str(exc)) from None
+            if seconds is not None and child.proc.wait() != 0:
+                raise child.failure()
+        run.wall_time += seconds if seconds is not None else time.perf_counter() - start
+
+    def bare_seconds(self, scene: Scene, settings: SiconosSettings, traj: Trajectory) -> float:
+        """The child's own stepping seconds over the run ``traj`` with no samples sent back (``bare``)."""
+        req = _request(scene, settings, len(traj.t) - 1, bare=True)
+        with Child(_python(), req) as child:
+            try:
+                frames = list(read_frames(child.proc.stdout, 0))
+            except ProtocolError as exc:
+                raise child.failure(str(exc)) from None
+            if child.proc.wait() != 0:
+                raise child.failure()
+        return float(frames[-1])
+
+    def record(self, scene: Scene, settings: SiconosSettings) -> dict:
+        """The interpreter that runs Siconos."""
+        got = interpreter()
+        return {"python": got.path if isinstance(got, Interpreter) else ""}
+
+    def version(self) -> str:
+        """``siconos.version`` in the interpreter that runs it."""
+        got = interpreter()
+        return got.version if isinstance(got, Interpreter) else ""
+
+    def tuning_space(self, scene: Scene) -> dict[str, tuple]:
+        """dt from 1 ms down to 10 us, and theta (Siconos's 0.5 first, then fully implicit 1)."""
+        return {"dt": (1e-3, 3e-4, 1e-4, 3e-5, 1e-5), "siconos.theta": (0.5, 1.0)}
 
 
 def start_seconds(python: str | None = None, repeats: int = 3) -> float:

@@ -25,7 +25,7 @@ EXACT = {
     "ref_v_first_impact": 0.5, "stick_scale": 1.0, "restitution_error": 0.0, "restitution_excess": -0.01,
     "penetration_max": 0.0,
 }
-RUN = RunFacts(status="ok", t_end=10.0, penetration_allowance=0.02)
+RUN = RunFacts(status="ok", t_end=10.0, penetration_allowance=0.02, dt=DT)
 
 
 def judged(*rows: dict, run: RunFacts = RUN, tol: Tolerances | None = None) -> list[str]:
@@ -86,6 +86,60 @@ def test_rebound_judges_the_resolved_impacts(change, want):
 
 def test_timing_outranks_rebound():
     assert judged({"t_stick": 2.2, "restitution_excess": 0.5}) == ["late"]
+
+
+def judged_why(*rows: dict, run: RunFacts = RUN) -> list[tuple[str, str]]:
+    table = pd.DataFrame([{**EXACT, **r} for r in rows])
+    errors(table, DT)
+    return assign_verdicts(table, Tolerances(), run)[["verdict", "reason"]].apply(tuple, axis=1).tolist()
+
+
+@pytest.mark.parametrize("change, want", [
+    # issue 34: the stick tolerance is 50 ms (5% of the 1 s chatter); the samples place the engine's start to +-b
+    ({"t_stick": 2.03, "stick_bound": 0.08}, "unresolved"),   # +30 ms, but +-80 ms: could be -50 .. +110 ms
+    ({"t_stick": 1.97, "stick_bound": 0.08}, "unresolved"),   # either sign
+    ({"t_stick": 2.00, "stick_bound": 0.08}, "unresolved"),   # even the exact answer: the samples cannot tell
+    ({"t_stick": 2.20, "stick_bound": 0.08}, "late"),         # +200 ms: late even 80 ms earlier
+    ({"t_stick": 1.60, "stick_bound": 0.08}, "early"),        # never unresolved where the error is beyond the bound
+    ({"t_stick": 2.03, "stick_bound": 0.04}, "match"),        # a bound within the tolerance: the error decides
+    ({"t_stick": 2.06, "stick_bound": 0.04}, "late"),         # ... both ways
+    ({"t_exit": 3.01, "exit_bound": 0.05}, "unresolved"),     # the exit's tolerance: 20 ms of the 1 s sliding
+    ({"t_exit": 3.10, "exit_bound": 0.05}, "late"),
+    ({"t_first_impact": 1.0, "first_impact_bound": 0.06}, "unresolved"),
+])
+def test_a_time_the_sampling_cannot_place_to_its_tolerance_is_unresolved(change, want):
+    assert judged(change) == [want]
+
+
+def test_unresolved_says_by_how_much_and_which_step_resolves_it():
+    ((verdict, why),) = judged_why({"t_stick": 2.03, "stick_bound": 0.08})
+    # a step of 1e-4 s x the 50 ms tolerance / the 80 ms bound: 6.25e-5 s
+    assert verdict == "unresolved" and "+-80 ms" in why and "50 ms" in why and "6.3e-05 s" in why, why
+
+
+def test_confident_timing_and_rebound_outrank_unresolved():
+    assert judged({"t_stick": 2.03, "stick_bound": 0.08, "t_exit": 3.1}) == ["late"]
+    assert judged({"t_stick": 2.03, "stick_bound": 0.08, "restitution_error": -0.1, "restitution_excess": 0.1}) == \
+        ["rebound"]
+    assert judged({"t_stick": 2.03, "stick_bound": 0.08, "unmeasured_impacts": 2, "measured_impacts": 0}) == \
+        ["unresolved"]
+
+
+def test_rebound_says_which_of_its_two_checks_failed():
+    # issue 33: the count mismatch was reported as "impacts do not follow R"
+    ((_, count),) = judged_why({"resolved_impacts": 3})
+    ((_, law),) = judged_why({"restitution_error": -0.06, "restitution_excess": 0.06})
+    assert count.startswith("impact count: 3 resolved impacts against the reference's 6"), count
+    assert law.startswith("restitution: a resolved impact's e / R - 1 = -6.0%"), law
+
+
+def test_a_sliding_too_short_for_the_samples_is_unresolved_not_missed():
+    # the reference slides 1 s; samples that show no sliding shorter than 1.2 s cannot miss it
+    no_stick = {"t_stick": math.nan, "t_exit": math.nan, "t_first_impact": math.nan}
+    coarse = RunFacts(status="ok", t_end=10.0, penetration_allowance=0.02, sliding_min=1.2)
+    fine = RunFacts(status="ok", t_end=10.0, penetration_allowance=0.02, sliding_min=0.8)
+    assert judged(no_stick, run=coarse) == ["unresolved"]
+    assert judged(no_stick, run=fine) == ["missed"]
 
 
 def test_missed_and_endless_depend_on_the_impacts_inside_the_reference_sliding():
@@ -149,7 +203,7 @@ def test_combine_takes_the_most_severe():
 
 
 def test_one_vocabulary_names_every_verdict_with_meaning_colour_and_abbreviation():
-    assert set(NAMES) == set(VERDICTS) and len(NAMES) == len(set(NAMES)) == 14
+    assert set(NAMES) == set(VERDICTS) and len(NAMES) == len(set(NAMES)) == 15
     table = markdown_table()
     for name in NAMES:
         v = VERDICTS[name]

@@ -170,28 +170,29 @@ def test_benchmark_has_one_signature_and_one_result(name):
     assert result.n_steps == 300 and result.adapter_steps_per_s > 0 and result.raw_steps_per_s > 0
 
 
-@pytest.mark.parametrize("name", DEFAULT_ENGINES)
-def test_benchmark_agrees_with_a_stopwatch_around_run(name):
-    # replaces two tests that recomputed ratio = adapter / raw from the benchmark's own figures (they could not
-    # fail): here the answer is independent, the per-step cost of the public ``run`` timed from outside by the
-    # difference of an N-step and a 2N-step run (the fixed cost cancels), best of 3
-    scene, settings, n = load_scene("feigin-pair"), make_settings(name, 1e-4), 20_000
-    result = adapter(name).benchmark(scene, settings, n_steps=n, repeats=3)
+def test_benchmark_divides_the_steps_by_their_seconds(monkeypatch):
+    # a known answer without a stopwatch: the clock the benchmark reads advances 1 us per engine step and stands
+    # still otherwise, so every figure is exactly 1e6 steps/s (the adapter's with its one-step fixed cost taken off:
+    # n / (n - 1) of it), whatever the machine's load. A figure off by the repeats, by a run of another length, or
+    # by a unit (ms for s) is off by that factor. Before: a factor-3 band around a stopwatch, which load could break.
+    from chatterbench.engines.pybullet_engine.run import PybulletEngine
 
-    def best(steps: int) -> float:
-        short = dataclasses.replace(scene, duration=steps * settings.dt)
-        times = []
-        for _ in range(3):
-            start = time.perf_counter()
-            adapter(name).run(short, settings, compact_above=math.inf)
-            times.append(time.perf_counter() - start)
-        return min(times)
+    steps = [0]
+    real_step = PybulletEngine.step
 
-    stopwatch = n / (best(2 * n) - best(n))
-    # measured on a 2-core machine: benchmark / stopwatch 1.1 to 1.5 (MuJoCo, PyBullet); a factor 3 either way
-    # leaves room for a loaded machine and still catches a figure off by the repeats, by a run of another
-    # length, or by a unit (ms for s)
-    assert 1 / 3 < result.adapter_steps_per_s / stopwatch < 3, (result, stopwatch)
+    def counted(self, world, forces):
+        steps[0] += 1
+        return real_step(self, world, forces)
+
+    monkeypatch.setattr(PybulletEngine, "step", counted)
+    monkeypatch.setattr(time, "perf_counter", lambda: steps[0] * 1e-6)
+    n = 3000
+    result = adapter("pybullet").benchmark(load_scene("feigin-pair"), make_settings("pybullet", 1e-4), n_steps=n,
+                                           repeats=3)
+    assert result.n_steps == n and result.repeats == 3
+    assert result.raw_steps_per_s == pytest.approx(1e6, rel=1e-9)
+    assert result.adapter_steps_per_s == pytest.approx(1e6 * n / (n - 1), rel=1e-9)
+    assert result.details["fixed_s"] == pytest.approx(1e-6, rel=1e-9)  # the one-step run: one step
 
 
 def test_a_failed_run_keeps_the_initial_state():
@@ -230,3 +231,80 @@ def test_a_run_too_big_for_memory_is_an_error_result_in_every_engine(name):
     traj = run_engine(name, scene, make_settings(name))
     assert traj.status == "error" and "MemoryError" in traj.message
     assert len(traj.t) == 1
+
+
+# -- the contract checked when an adapter is registered (engines/contract.py), known answers both ways ----------
+def _readme_engine():
+    """The README's plugin engine (``EulerEngine``, ``EulerSettings``), loaded from its code block."""
+    import types
+
+    from plugin_cases import readme_block
+
+    module = types.ModuleType("chatterbench_euler")
+    sys.modules[module.__name__] = module
+    exec(compile(readme_block("# chatterbench_euler.py"), "README.md", "exec"), module.__dict__)
+    return module
+
+
+def _broken(kind: str):
+    """The README's engine with one thing of the contract broken (``kind``)."""
+    euler = _readme_engine()
+    base = euler.EulerEngine
+    settings = {
+        "not frozen": dataclasses.dataclass(type("S", (), {"__annotations__": {"dt": float}, "dt": 1e-3})),
+        "no dt": dataclasses.dataclass(frozen=True)(type("S", (), {"__annotations__": {"h": float}, "h": 1e-3})),
+        "dt unchecked": dataclasses.dataclass(frozen=True)(type("S", (), {"__annotations__": {"dt": float}, "dt": 1e-3})),
+        "no default": dataclasses.dataclass(frozen=True)(type("S", (), {"__annotations__": {"k": int, "dt": float},
+                                                                         "dt": 1e-3, "__post_init__": euler.EulerSettings.__post_init__})),
+    }
+    if kind in settings:
+        return type("E", (base,), {"settings_type": settings[kind]})
+    if kind == "no step":
+        return type("E", (EngineAdapter,), {"name": "euler", "package": "p", "settings_type": euler.EulerSettings,
+                                            "build": base.build})
+    if kind == "nothing":
+        return type("E", (EngineAdapter,), {"name": "euler", "package": "p", "settings_type": euler.EulerSettings})
+    if kind == "wrong name":
+        return type("E", (base,), {"name": "eulr"})
+    if kind == "bad precision":
+        return type("E", (base,), {"precision": "float16"})
+    if kind == "exports without kind":
+        return type("E", (base,), {"exports": ("model.txt",)})
+    return int  # not an adapter at all
+
+
+@pytest.mark.parametrize("kind, words", [
+    ("not frozen", "S) is not a frozen dataclass"),
+    ("no dt", "has no field 'dt'"),
+    ("dt unchecked", "(dt=-1.0) was accepted: dt is not checked"),
+    ("no default", "field 'k' has no default"),
+    ("no step", "writes build but not step"),
+    ("nothing", "writes neither build and step nor simulate"),
+    ("wrong name", "E.name is 'eulr', not the name it is registered under ('euler')"),
+    ("bad precision", "E.precision = 'float16': must be one of float32, float64"),
+    ("exports without kind", "E.export_kind: what its model file is"),
+    ("not an adapter", "int is not an EngineAdapter subclass"),
+])
+def test_the_contract_names_what_an_adapter_is_missing(kind, words):
+    from chatterbench.engines.contract import problem
+
+    assert problem(_readme_engine().EulerEngine, "euler") == ""  # the README's engine keeps it
+    found = problem(_broken(kind), "euler")
+    assert words in found and "\n" not in found, found
+
+
+@pytest.mark.parametrize("name", INSTALLED)
+def test_every_installed_adapter_keeps_the_contract(name):
+    from chatterbench.engines.contract import problem
+
+    assert problem(type(adapter(name)), name) == ""
+
+
+def test_the_engine_rows_list_every_built_in_engine():
+    from chatterbench.engines.registry import BUILT_IN, engine_rows
+
+    rows = {r.name: r for r in engine_rows() if r.source == "built in"}
+    assert set(rows) == {e.name for e in BUILT_IN}
+    for name, row in rows.items():
+        assert (row.status == "ok") == (name in INSTALLED) and (row.status == "ok") == (row.reason == "")
+        assert row.status in ("ok", "not installed") and (row.version != "-") == (row.status == "ok")

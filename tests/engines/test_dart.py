@@ -11,7 +11,9 @@ pytest.importorskip("dartpy", reason="the dart extra is not installed: pip insta
 
 from chatterbench.comparisons.pipeline.compare import compare  # noqa: E402
 from chatterbench.comparisons.pipeline.tolerances import tolerances_from_items  # noqa: E402
-from chatterbench.engines.dart_engine import BOUNCE_THRESHOLD, DartSettings, build, run, settings_snippet  # noqa: E402
+from chatterbench.engines.dart_engine import BOUNCE_THRESHOLD, DartEngine, DartSettings, build, settings_snippet  # noqa: E402
+
+run = DartEngine().run  # one run, as the registry's adapter runs it
 from chatterbench.engines.dart_engine.world import BALL  # noqa: E402
 from chatterbench.engines.registry import make_settings  # noqa: E402
 from chatterbench.engines.settings import SettingsError  # noqa: E402

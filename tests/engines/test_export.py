@@ -4,54 +4,89 @@ from __future__ import annotations
 
 import ast
 import math
+import re
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
 
 import numpy as np
+import pandas as pd
 import pytest
 
-from chatterbench.engines.mujoco_engine import MujocoSettings, run
+from chatterbench.comparisons.pipeline.extract import extract
+from chatterbench.comparisons.pipeline.solution import solve
+from chatterbench.comparisons.pipeline.tolerances import Tolerances
+from chatterbench.engines.registry import run_engine
+from chatterbench.engines.mujoco_engine import MujocoEngine, MujocoSettings
 from chatterbench.engines.mujoco_engine.export import harmonic_controls
 from chatterbench.engines.mujoco_engine.model import controls
 from chatterbench.engines.pybullet_engine import PybulletSettings
-from chatterbench.engines.pybullet_engine import run as pybullet_run
+from chatterbench.engines.pybullet_engine import PybulletEngine
 from chatterbench.reference import load_scene
 from chatterbench.reference.catalogue import CATALOGUE
 
-from helpers import cli_process as cli
+from helpers import cli as cli_here
+from helpers import cli_process as cli, needs_engine
 
 HOSTILE = '</mujoco><!-- & "q" -- x """ \\ '  # XML markup, a comment closer, a docstring closer, a backslash
-# a user's loop over the exported model: reset to keyframe 0, mj_step at the model's timestep, y after every step
+# names a user's scene may carry that XML cannot hold or reads back changed (issue 34): newline, tab, triple quotes,
+# BEL, ESC, NUL, U+FFFE; written in TOML basic strings, as escapes
+CONTROL_NAMES = {"newline": r"a\nb", "tab": r"a\tb", "quotes": 'a\\"\\"\\"b', "bel": r"a\u0007b", "esc": r"a\u001bb",
+                 "nul": r"a\u0000b", "fffe": r"a\uFFFEb"}
+# a user's loop over the exported model, as MuJoCo's viewer starts it: no keyframe, no reset; y after every step
 STEP_MODEL = """
 import sys
 import mujoco
 import numpy as np
 model = mujoco.MjModel.from_xml_path(sys.argv[1])
 data = mujoco.MjData(model)
-mujoco.mj_resetDataKeyframe(model, data, 0)
+if sys.argv[4] == "reset":
+    mujoco.mj_resetDataKeyframe(model, data, 0)
 y = [data.qpos[-1]]
 for _ in range(int(sys.argv[2])):
     mujoco.mj_step(model, data)
     y.append(data.qpos[-1])
 np.save(sys.argv[3], np.array(y))
+print(*model.opt.gravity, model.nu, "chatterbench" in sys.modules)
 """
 
 
+def _stepped(model_file, n: int, out, reset: bool = False) -> tuple[np.ndarray, str]:
+    """y after each of ``n`` steps of ``model_file`` in a fresh process (no chatterbench), and what it printed."""
+    done = subprocess.run([sys.executable, "-c", STEP_MODEL, str(model_file), str(n), str(out), "reset" if reset else "no"],
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    return np.load(out), done.stdout
+
+
 @pytest.mark.parametrize("gap_model", ["limit", "geom"])
-def test_exported_mjcf_loads_and_reproduces_the_run_bit_for_bit(tmp_path, gap_model):
+def test_exported_mjcf_starts_where_the_scene_starts_and_reproduces_the_run(tmp_path, gap_model):
     done = cli("run", "bouncing-ball", "--engines", "mujoco", "--dt", "3e-4", "--set", "mujoco.w0_dt=0.1",
                "--set", f"mujoco.gap_model={gap_model}", "--export-model", str(tmp_path / "m.xml"))
     assert done.returncode == 0, done.stderr
     scene, settings = load_scene("bouncing-ball"), MujocoSettings(dt=3e-4, w0_dt=0.1, gap_model=gap_model)
-    traj = run(scene, settings, compact_above=math.inf)
-    n = len(traj.t) - 1
-    stepped = subprocess.run([sys.executable, "-c", STEP_MODEL, str(tmp_path / "m.xml"), str(n), str(tmp_path / "y.npy")],
-                             capture_output=True, text=True)
-    assert stepped.returncode == 0, stepped.stderr
-    y = np.load(tmp_path / "y.npy")
-    # bit for bit: every position of the run (x1 = 0: the floor is fixed), 6667 steps through 8 impacts and the rest
+    traj = MujocoEngine().run(scene, settings, compact_above=math.inf)
+    y, printed = _stepped(tmp_path / "m.xml", len(traj.t) - 1, tmp_path / "y.npy")
+    # loaded and stepped as MuJoCo's viewer does: the ball starts 1 m up under MuJoCo's gravity along the slide axis
+    # (before: qpos 0 on the floor, gravity 0 and a motor whose control only the keyframe set: nothing moved)
+    assert printed.split() == ["-9.81", "0.0", "0.0", "0", "False"] and y[0] == 1.0
+    if gap_model == "limit":  # every position of the run, bit for bit: 6667 steps through 8 impacts and the rest
+        assert np.array_equal(y, traj.x2 - traj.x1)
+    else:  # the ball's world position is its body's (1 m) plus the joint's move from there: one rounding more
+        np.testing.assert_allclose(y, traj.x2 - traj.x1, rtol=0, atol=1e-11)
+
+
+def test_the_keyframe_adds_the_initial_velocity(tmp_path):
+    # a ball thrown up at 1 m/s: the model's default state is the initial position only; keyframe 0 adds the speed
+    scene = load_scene("bouncing-ball", ["initial.vy=1.0"])
+    settings = MujocoSettings(dt=3e-4, w0_dt=0.1)
+    from chatterbench.engines.export import model_file
+    (tmp_path / "m.xml").write_text(model_file("mujoco", scene, settings))
+    traj = MujocoEngine().run(scene, settings, compact_above=math.inf)
+    y, _ = _stepped(tmp_path / "m.xml", len(traj.t) - 1, tmp_path / "y.npy", reset=True)
     assert np.array_equal(y, traj.x2 - traj.x1)
+    y, _ = _stepped(tmp_path / "m.xml", len(traj.t) - 1, tmp_path / "y.npy", reset=False)
+    assert y[0] == 1.0 and y[1000] < traj.y[1000] - 0.2  # without it the ball is dropped, not thrown: 0.3 s later, lower
 
 
 def test_a_hostile_scene_name_still_gives_well_formed_xml(tmp_path):
@@ -73,6 +108,41 @@ def test_a_hostile_scene_name_still_gives_well_formed_xml(tmp_path):
         assert repr(scene.name) in ast.get_docstring(ast.parse(text, name))  # parsed: the name is text, never code
 
 
+@pytest.mark.parametrize("kind", CONTROL_NAMES)
+def test_control_characters_in_a_scene_name_are_exported_escaped(tmp_path, kind):
+    # issue 34: a newline, a tab or triple quotes made --export-model refuse the scene ("the written MJCF does not
+    # compile"), BEL, ESC, NUL or U+FFFE gave a traceback; the scene is valid and every file is written
+    toml = tmp_path / "named.toml"
+    toml.write_text(f'name = "{CONTROL_NAMES[kind]}"\n' + _ball_body())
+    scene = load_scene(str(toml))
+    for engine, name in (("mujoco", "m.xml"), ("pybullet", "s.py")):
+        done = cli_here(["run", str(toml), "--engines", engine, "--dt", "1e-3", "--export-model", str(tmp_path / name)])
+        assert done.code == 0 and "Traceback" not in done.err, done.err
+    escaped = "".join(c if c.isprintable() else c.encode("unicode_escape").decode() for c in scene.name)
+    loaded = subprocess.run([sys.executable, "-c", "import mujoco, sys; m = mujoco.MjModel.from_xml_path(sys.argv[1]); "
+                             "print(m.nq, m.names.split(b'\\0')[0].decode())", str(tmp_path / "m.xml")],
+                            capture_output=True, text=True)
+    assert loaded.stdout.split(None, 1) == ["1", f"chatterbench-{escaped}\n"], loaded.stderr  # the model's name
+    assert repr(scene.name) in ast.get_docstring(ast.parse((tmp_path / "s.py").read_text()))
+
+
+def test_tune_writes_its_engine_files_for_a_scene_named_with_control_characters(tmp_path):
+    # the same names through tune's files and guide (one candidate per engine): every one of them at once
+    toml = tmp_path / "named.toml"
+    toml.write_text(f'name = "{"".join(CONTROL_NAMES.values())}"\n' + _ball_body())
+    scene = load_scene(str(toml))
+    from chatterbench.comparisons.outputs.engine_files import write_engine_files
+    from chatterbench.comparisons.outputs.guide import guide_html, guide_markdown
+    from chatterbench.comparisons.studies.tune import tune
+    for engine in ("mujoco", "pybullet"):
+        result = tune(scene, engine, 0.2, space={"dt": (1e-3,)}, workers=1, refine_steps=0, check_robust=False)
+        written = write_engine_files(result, tmp_path / "tuned")
+        assert len(written) == {"mujoco": 2, "pybullet": 1}[engine] and guide_markdown(result) and guide_html(result)
+        for path in written:
+            text = (tmp_path / "tuned" / path).read_text()
+            compile(text, path, "exec") if path.endswith(".py") else ET.fromstring(text)
+
+
 def _ball_body() -> str:
     ball = CATALOGUE["bouncing-ball"]
     return ("mass1 = 'inf'\nmass2 = 1.0\nrestitution = 0.5\nduration = 0.5\n[gap]\nlower = 0.0\n"
@@ -80,23 +150,69 @@ def _ball_body() -> str:
             "[initial]\nt = 0.0\nx1 = 0.0\nv1 = 0.0\ny = 1.0\nvy = 0.0\n")
 
 
-def test_exported_pybullet_script_runs_the_adapters_bounces(tmp_path):
-    done = cli("run", "bouncing-ball", "--engines", "pybullet", "--dt", "1e-3", "--export-model", str(tmp_path / "s.py"))
+def _printed(stdout: str) -> list[tuple[float, float, float, float]]:
+    """(t, v_in, v_out, e) of each ``impact`` line a script printed, after its ``# impact:`` header."""
+    header, *lines = stdout.splitlines()
+    assert header.startswith("# impact: ")
+    return [tuple(float(w.split("=")[1]) for w in line.split()[1:]) for line in lines]
+
+
+def _judged(engine: str, scene, settings) -> pd.DataFrame:
+    """The impacts of the judge's event log on the adapter's own run: what ``chatterbench run`` counts."""
+    ref = solve(scene)
+    found = extract(run_engine(engine, scene, settings), scene, ref.stick_tolerance(Tolerances().stick))
+    return found.log[found.log["kind"] == "impact"]
+
+
+def test_exported_pybullet_script_prints_the_runs_impacts_as_the_judge_measures_them(tmp_path):
+    # the issue's case: `run bouncing-ball --engines pybullet --export-model scene.py` reported 9 impacts, the script
+    # printed 11 (two of the ball's last micro-bounces), with e from velocities one step either side of the contact
+    done = cli("run", "bouncing-ball", "--engines", "pybullet", "--export-model", str(tmp_path / "scene.py"))
     assert done.returncode == 0, done.stderr
-    out = subprocess.run([sys.executable, str(tmp_path / "s.py")], capture_output=True, text=True, cwd=tmp_path)
+    counted = int(re.search(r"(\d+) impacts", done.stdout).group(1))
+    out = subprocess.run([sys.executable, str(tmp_path / "scene.py")], capture_output=True, text=True, cwd=tmp_path)
     assert out.returncode == 0, out.stderr
-    lines = [line.split() for line in out.stdout.splitlines() if not line.startswith("# ")]  # after the header
-    t = np.array([float(w[1].split("=")[1]) for w in lines])
-    e = np.array([float(w[4].split("=")[1]) for w in lines])
-    # the adapter's run: its contacts start at the same steps (the same world, settings and forces)
-    traj = pybullet_run(load_scene("bouncing-ball"), PybulletSettings(dt=1e-3), compact_above=math.inf)
-    on = traj.contact["lower"]
-    starts = traj.t[1:][on[1:] & ~on[:-1]] - 1e-3  # the step a contact starts in begins one dt before its sample
-    np.testing.assert_allclose(t[:5], starts[:5], atol=1e-9)
-    assert e[0] == pytest.approx(0.5011, abs=5e-4)  # Newton's R at 4.43 m/s (the issue's measurement: 0.5011)
+    printed = _printed(out.stdout)
+    judged = _judged("pybullet", load_scene("bouncing-ball"), PybulletSettings())
+    assert len(printed) == counted == len(judged) == 9
+    for (t, v_in, v_out, e), row in zip(printed, judged.itertuples()):
+        # the judge's rule on the same run: the same impacts, speeds at the wall's surface; 6 printed digits
+        assert t == pytest.approx(row.t, abs=1e-6) and v_in == pytest.approx(row.v_minus, rel=1e-5)
+        assert e == pytest.approx(-row.v_plus / row.v_minus, rel=1e-5)
+
+
+def test_an_adapter_that_exports_nothing_is_one_clear_error():
+    from chatterbench.engines.export import ExportError, adapter_files
+    from chatterbench.engines.pybullet_engine import PybulletEngine
+
+    class Forgetful(PybulletEngine):  # a third party's adapter: declares scene.py, writes nothing
+        def export(self, scene, settings, command=None):
+            return None
+
+    with pytest.raises(ExportError, match=r"export\(\) wrote no 'scene.py' \(it declares 'scene.py'; it returned 'NoneType'\)"):
+        adapter_files(Forgetful(), load_scene("bouncing-ball"), PybulletSettings())
+    files = adapter_files(PybulletEngine(), load_scene("bouncing-ball"), PybulletSettings())  # the real one: its file
+    assert list(files) == ["scene.py"]
+
+
+def test_export_refuses_the_scene_file_it_reads(tmp_path):
+    # issue 34: `run s.py --engines pybullet --export-model s.py` replaced the scene file with the script
+    from chatterbench.reference.scene_toml import scene_toml
+    scene_file = tmp_path / "s.py"
+    scene_file.write_text(scene_toml(load_scene("bouncing-ball")))
+    before = scene_file.read_text()
+    (tmp_path / "link.py").symlink_to(scene_file)
+    for target in (scene_file, tmp_path / "link.py"):
+        done = cli("run", str(scene_file), "--engines", "pybullet", "--export-model", str(target))
+        assert done.returncode == 2 and "is the SCENE file" in done.stderr and "name another file" in done.stderr, \
+            done.stderr
+    assert scene_file.read_text() == before
+    done = cli("run", str(scene_file), "--engines", "pybullet", "--dt", "1e-3", "--export-model", str(tmp_path / "t.py"))
+    assert done.returncode == 0, done.stderr  # another name: written
 
 
 def test_export_refuses_other_engines_and_wrong_suffixes(tmp_path):
+    needs_engine("drake")  # without it, the refusal is Drake's install line
     done = cli("run", "bouncing-ball", "--engines", "drake", "--export-model", str(tmp_path / "d.xml"))
     assert done.returncode == 2 and "engines that can: mujoco, pybullet" in done.stderr
     done = cli("run", "bouncing-ball", "--engines", "pybullet", "--export-model", str(tmp_path / "d.xml"))

@@ -13,14 +13,16 @@ import pytest
 from chatterbench.comparisons import compare
 from chatterbench.comparisons.pipeline.conformance import conformance, parting
 from chatterbench.engines.mujoco_engine import MujocoSettings
-from chatterbench.engines.mujoco_engine import run_batch as mujoco_batch
+from chatterbench.engines.mujoco_engine import MujocoEngine
 from chatterbench.engines.registry import make_settings
 from chatterbench.engines.settings import SettingsError
 from chatterbench.reference.scene import load_scene
 
 pytest.importorskip("mujoco_warp")
 
-from chatterbench.engines.mujoco_warp_engine import MujocoWarpSettings, run, run_batch, world_steps_per_s  # noqa: E402
+from chatterbench.engines.mujoco_warp_engine import MujocoWarpEngine, MujocoWarpSettings, world_steps_per_s  # noqa: E402
+
+run, run_batch, mujoco_batch = MujocoWarpEngine().run, MujocoWarpEngine().run_batch, MujocoEngine().run_batch
 from chatterbench.engines.mujoco_warp_engine.worlds import device_name  # noqa: E402
 
 DT = 1e-3  # [s] short runs: 2000 steps of the bouncing ball
@@ -153,6 +155,142 @@ def test_a_blow_up_is_judged_diverged_not_raised():
 
 
 def test_world_steps_per_second_is_measured_on_the_device_found():
-    figures = world_steps_per_s(load_scene("bouncing-ball", ["duration=0.02"]), WARP, nworld=8, repeats=1)
-    assert figures["device"] == "cpu" and figures["nworld"] == 8 and figures["steps"] == 21
-    assert figures["world_steps_per_s"] == pytest.approx(8 * 21 / figures["seconds"])
+    scene = load_scene("bouncing-ball", ["duration=0.02"])  # 20 steps, 21 with the last sample's sensors
+    plain = world_steps_per_s(scene, WARP, nworld=8, repeats=1, captured=False)
+    assert plain["device"] == "cpu" and plain["nworld"] == 8 and plain["steps"] == 21 and not plain["captured"]
+    assert plain["world_steps_per_s"] == pytest.approx(8 * 21 / plain["seconds"])
+    captured = world_steps_per_s(scene, WARP, nworld=8, repeats=1)  # whole graphs of STEPS_PER_GRAPH steps
+    if captured["captured"]:
+        assert captured["steps"] == 32 and captured["world_steps_per_s"] == pytest.approx(8 * 32 / captured["seconds"])
+
+
+# -- one device model for many worlds, captured steps, blocks within the host's memory ------------------------
+from chatterbench.engines.mujoco_common import prepare  # noqa: E402
+from chatterbench.engines.mujoco_engine import build  # noqa: E402
+from chatterbench.engines.mujoco_warp_engine import batch as warp_batch, kernels  # noqa: E402
+from chatterbench.engines.mujoco_warp_engine.worlds import _same, put_worlds, warp_model, warp_modules  # noqa: E402
+
+# one group (the same sizes and step count): R, w0 dt, dt (with the duration, so that the steps agree), the start
+VARIED = [(["restitution=0.5"], 1e-3, 0.03), (["restitution=0.8", "initial.y=0.5"], 1e-3, 0.03),
+          (["restitution=0.3", "initial.vy=-1.0", "initial.t=0.3"], 1e-3, 0.1),
+          (["duration=0.15", "initial.y=0.7"], 5e-4, 0.3)]
+
+
+def _varied():
+    return [(load_scene("bouncing-ball", ["duration=0.3"] + o), MujocoWarpSettings(dt=dt, w0_dt=w, device="cpu"))
+            for o, dt, w in VARIED]
+
+
+def test_one_device_model_holds_each_world_as_its_own_compiled_model():
+    jobs = _varied()
+    ps = [prepare(scene, s, 300) for scene, s in jobs]
+    assert len({id(p.structure) for p in ps}) == 1  # one compile for all four
+    worlds = put_worlds(ps, "cpu")
+    assert set(worlds.varying) == {"opt.timestep", "jnt_solref"}
+    wp, mjw = warp_modules()
+
+    def row(model, w):
+        return [a.numpy()[w % a.shape[0]] for a in (model.opt.timestep, model.jnt_solref)]
+
+    for w, (scene, s) in enumerate(jobs):
+        with wp.ScopedDevice("cpu"):
+            own = mjw.put_model(warp_model(build(scene, s)))  # the run's own model, put on the device alone
+        for mine, theirs in zip(row(worlds.model, w), row(own, 0)):
+            np.testing.assert_array_equal(mine, theirs)  # float32 rows, bit for bit
+        assert _same(worlds.model.body_mass, own.body_mass) and _same(worlds.model.jnt_range, own.jnt_range)
+    # the comparison can fail: world 1's row is not world 0's model
+    assert not np.array_equal(row(worlds.model, 1)[1], row(worlds.model, 0)[1])
+
+
+def test_a_batch_is_each_run_alone_and_float32_of_mujoco_c():
+    # the must-show: a batched study's runs bit for bit as one at a time (MuJoCo Warp with MuJoCo Warp), and
+    # within float32 of MuJoCo C run on the same settings
+    jobs = _varied()
+    batch = MujocoWarpEngine().run_batch(jobs)
+    assert {t.settings["batch_size"] for t in batch} == {len(jobs)} and all(t.status == "ok" for t in batch)
+    for (scene, s), traj in zip(jobs, batch):
+        alone = run(scene, s)
+        for k in ("t", "x1", "x2", "v1", "v2"):
+            np.testing.assert_array_equal(getattr(alone, k), getattr(traj, k))
+        np.testing.assert_array_equal(alone.normal_force["lower"], traj.normal_force["lower"])
+        c = MujocoEngine().run(scene, MujocoSettings(dt=s.dt, w0_dt=s.w0_dt))
+        dy = np.abs(c.y - traj.y).max()
+        # float32 rounding (~6e-8 relative per operation) over 300 steps and a few soft impacts on a drop of
+        # at most 0.7 m: measured below 1e-5 m; 1e-4 m holds with margin, and float32 is not float64 (> 0)
+        assert 0.0 < dy < 1e-4
+
+
+def test_captured_steps_are_the_launched_steps_bit_for_bit(monkeypatch):
+    if not kernels.graphs("cpu"):
+        pytest.skip("this warp cannot capture a graph on the CPU device (warp < 1.17)")
+    scene, s = load_scene("feigin-pair", ["duration=0.5"]), MujocoWarpSettings(dt=1e-3, device="cpu")
+    captured = run(scene, s)
+    monkeypatch.setattr(kernels, "graphs", lambda device: False)  # every step launched from Python instead
+    launched = run(scene, s)
+    assert captured.settings["capture_s"] > 0.0 and launched.settings["capture_s"] == 0.0
+    for k in ("t", "x1", "x2", "v1", "v2"):
+        np.testing.assert_array_equal(getattr(captured, k), getattr(launched, k))
+
+
+def test_a_batch_larger_than_the_host_budget_goes_in_blocks_with_the_same_runs():
+    jobs = [(load_scene("bouncing-ball", ["duration=0.3", f"initial.y={0.3 + 0.1 * i}"]), WARP) for i in range(5)]
+    whole = MujocoWarpEngine().run_batch(jobs)
+    small = MujocoWarpEngine()
+    small.host_bytes = 2 * 301 * 49 + 2 * warp_batch.WORLD_BYTES + 2 * 304 * 176  # two worlds of 300 steps a block
+    blocks = list(warp_batch.iter_blocks(small, jobs, small.host_bytes))
+    assert [[i for i, _ in block] for block in blocks] == [[0, 1], [2, 3], [4]]  # each block handed on when done
+    assert [t.settings["batch_size"] for block in blocks for _, t in block] == [2, 2, 2, 2, 1]
+    for (_, traj), ref in zip([x for block in blocks for x in block], whole):
+        np.testing.assert_array_equal(traj.y, ref.y)
+    assert [i for i, _ in small.iter_batch(jobs)] == [0, 1, 2, 3, 4]
+
+
+@pytest.mark.parametrize("nworld, samples", [(1, 21), (1, 400_001), (64, 2_001), (4_096, 6_285), (65_536, 501),
+                                             (262_144, 6_285)])
+def test_a_block_and_its_chunk_fit_the_host_budget(nworld, samples):
+    plan = warp_batch.block_plan(nworld, samples, walls=2, row_floats=5)
+    kept = samples * (40 + 9 * 2) + warp_batch.WORLD_BYTES
+    assert plan.worlds * (kept + plan.chunk * (warp_batch.STEP_BYTES + 4 * 5)) <= warp_batch.HOST_BYTES
+    assert plan.chunk % kernels.STEPS_PER_GRAPH == 0 and 1 <= plan.worlds <= nworld
+    assert plan.chunk >= min(samples, warp_batch.FEW_STEPS)  # a short run in one chunk, a long one in long chunks
+
+
+def test_the_first_run_note_names_the_device():
+    assert isinstance(MujocoWarpEngine.first_run_note, str)  # the contract's fact, on the class
+    assert f"for device {device_name('auto')} " in MujocoWarpEngine().first_run_note
+
+
+def test_the_kernels_load_is_timed_and_said():
+    traj = run(load_scene("bouncing-ball", ["duration=0.01"]), WARP)
+    assert traj.settings["kernels"] in ("compiled", "cached") and traj.settings["warmup_s"] >= 0.0
+    load = kernels.KernelLoad("cuda", 84.2, True, "/root/.cache/warp/1.19.0")
+    assert load.describe() == ("MuJoCo Warp compiled its kernels for device cuda in 84.2 s "
+                               "(cache: /root/.cache/warp/1.19.0)")
+
+
+def test_a_batch_refuses_any_jobs_bad_settings_before_running_one(monkeypatch):
+    ran = []
+    monkeypatch.setattr(warp_batch, "run_block", lambda *a: ran.append(a) or [None] * len(a[0]))
+    ok = (load_scene("bouncing-ball", ["duration=0.01"]), WARP)
+    unstable = (load_scene("bouncing-ball", ["duration=0.01", "restitution=0.1"]), dataclasses.replace(WARP, w0_dt=1.4))
+    with pytest.raises(SettingsError, match=r"mujoco_warp\.w0_dt = 1\.4: must be in \(0, 0\.7046\]"):
+        MujocoWarpEngine().run_batch([ok, unstable])
+    if device_name("auto") != "cuda":
+        with pytest.raises(SettingsError, match="no CUDA device"):
+            MujocoWarpEngine().run_batch([ok, (ok[0], dataclasses.replace(WARP, device="cuda"))])
+    assert not ran
+
+
+def test_runs_of_different_lengths_share_a_batch_each_read_to_its_own_end():
+    # a strike study's or a plate map's runs end at different times: one batch steps the longest, each world is read
+    # to its own end, bit for bit the run alone
+    jobs = [(load_scene("feigin-pair", [f"duration={d}", f"initial.vy={v}"]), WARP)
+            for d, v in ((0.05, -0.3), (0.3, 0.4), (0.137, -0.2), (0.3, 0.1))]
+    batch = MujocoWarpEngine().run_batch(jobs)
+    assert [len(t.t) for t in batch] == [51, 301, 138, 301] and {t.settings["batch_size"] for t in batch} == {4}
+    for (scene, s), traj in zip(jobs, batch):
+        alone = run(scene, s)
+        assert traj.status == alone.status == "ok"
+        for k in ("t", "x1", "x2", "v1", "v2"):
+            np.testing.assert_array_equal(getattr(alone, k), getattr(traj, k))
+    assert batch[0].wall_time < batch[1].wall_time  # each charged its share of the steps

@@ -10,7 +10,9 @@ import pytest
 pytest.importorskip("sapien", reason="the physx extra is not installed: pip install \".[physx]\"")
 
 from chatterbench.comparisons.pipeline.compare import compare  # noqa: E402
-from chatterbench.engines.physx_engine import PhysxSettings, run  # noqa: E402
+from chatterbench.engines.physx_engine import PhysxEngine, PhysxSettings  # noqa: E402
+
+run = PhysxEngine().run  # one run, as the registry's adapter runs it
 from chatterbench.engines.physx_engine.world import build, physx  # noqa: E402
 from chatterbench.engines.registry import make_settings  # noqa: E402
 from chatterbench.engines.settings import SettingsError  # noqa: E402

@@ -1,54 +1,151 @@
-"""A third party's engine, in its own package (``examples/engine_plugin``), installed with pip: found and judged.
+"""Third parties' engines, each in its own package installed with pip into a fresh venv: found, checked and judged.
 
-The package is installed into a fresh virtual environment that sees this one's packages
-(``--system-site-packages``), so the repository's environment is never changed; the commands
-run in that environment's interpreter, as a user's shell would run them.
+Two packages: the engine the README's "Write an engine plugin" gives whole (its code block and
+its ``pyproject.toml`` block, written to a temporary folder as a user would copy them: nothing
+else is read), and ``examples/engine_plugin`` (pymunk). The venv is made from the running
+interpreter with ``--system-site-packages`` and sees the running environment's packages even
+when the tests themselves run in a venv (whose packages ``--system-site-packages`` alone would
+not give it: it gives the base interpreter's); the repository's environment is never changed.
+The commands run in the new venv's interpreter, as a user's shell would run them.
 """
 
 from __future__ import annotations
 
 import re
+import site
 import subprocess
 import sys
+import sysconfig
 from pathlib import Path
 
 import pytest
 
-PLUGIN = Path(__file__).resolve().parents[2] / "examples" / "engine_plugin"
+from plugin_cases import readme_block
+
+pytest.importorskip("pymunk", reason="pymunk is in the test extra: pip install '.[test]'")
+
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "engine_plugin"
 
 
 def _run(*args, **kw) -> subprocess.CompletedProcess:
     return subprocess.run([str(a) for a in args], capture_output=True, text=True, timeout=300, **kw)
 
 
+def fresh_venv(where: Path) -> Path:
+    """A venv at ``where`` made from this interpreter that sees this environment's packages; its python."""
+    assert _run(sys.executable, "-m", "venv", "--system-site-packages", "--without-pip", where).returncode == 0
+    python = where / "bin" / "python"
+    purelib = _run(python, "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])").stdout.strip()
+    # this environment's own site folders (a venv's, or the base's), processed as site folders (their .pth files
+    # too: an editable install of chatterbench), after the new venv's own
+    ours = [p for p in dict.fromkeys([*site.getsitepackages(), sysconfig.get_paths()["purelib"]]) if Path(p).is_dir()]
+    Path(purelib, "zz_running_environment.pth").write_text(
+        "".join(f"import site; site.addsitedir({p!r})\n" for p in ours))
+    return python
+
+
+def _builds_wheels_here() -> bool:
+    """Whether this environment's setuptools can build a wheel by itself (it has ``wheel``, or is 70.1 or later)."""
+    import importlib.metadata
+    import importlib.util
+
+    try:
+        major, minor = (int(p) for p in importlib.metadata.version("setuptools").split(".")[:2])
+    except (importlib.metadata.PackageNotFoundError, ValueError):
+        return False
+    return importlib.util.find_spec("wheel") is not None or (major, minor) >= (70, 1)
+
+
+def pip_install(python: Path, package: Path, cwd: Path) -> None:
+    """``pip install`` ``package`` into ``python``'s venv as a user would, with this environment's pip: its own
+    setuptools builds it where it can (nothing downloaded), else pip's isolated build (the package index)."""
+    build = ["--no-build-isolation", "--no-index"] if _builds_wheels_here() else []
+    done = _run(sys.executable, "-m", "pip", "--python", python, "install", "-q", "--no-deps", *build, package, cwd=cwd)
+    assert done.returncode == 0, done.stdout + done.stderr
+
+
+def cli(python: Path, *args, cwd: Path) -> subprocess.CompletedProcess:
+    return _run(python, "-m", "chatterbench.comparisons.cli", *args, cwd=cwd)
+
+
+def summary(done: subprocess.CompletedProcess, engine: str, column: str) -> str:
+    """``column`` of ``engine``'s row of the summary ``compare`` prints."""
+    lines = done.stdout.split("summary:")[1].splitlines()
+    header = lines[1].split()
+    row = next(ln.split() for ln in lines[2:] if ln.split() and ln.split()[0] == engine)
+    return row[header.index(column)]
+
+
+@pytest.fixture(scope="module")
+def venv(tmp_path_factory):
+    """A fresh venv with the README's engine (``euler``) and the example's (``pymunk``) installed; its python."""
+    root = tmp_path_factory.mktemp("plugins")
+    python = fresh_venv(root / "venv")
+    before = cli(python, "compare", "bouncing-ball", "--engines", "euler", cwd=root)
+    assert before.returncode == 2 and "engine 'euler'" in before.stderr  # not there before it is installed
+    euler = root / "euler"
+    euler.mkdir()
+    (euler / "chatterbench_euler.py").write_text(readme_block("# chatterbench_euler.py"))
+    (euler / "pyproject.toml").write_text(readme_block("# pyproject.toml, beside it"))
+    for package in (euler, EXAMPLE):
+        pip_install(python, package, cwd=root)
+    return python, root
+
+
 @pytest.mark.slow
-def test_an_engine_installed_with_pip_is_listed_and_judged_match(tmp_path):
-    venv = tmp_path / "venv"
-    assert _run(sys.executable, "-m", "venv", "--system-site-packages", "--without-pip", venv).returncode == 0
-    python = venv / "bin" / "python"
-    before = _run(python, "-m", "chatterbench.comparisons.cli", "compare", "bouncing-ball", "--engines", "exact")
-    assert before.returncode == 2 and "engine 'exact'" in before.stderr  # not there before it is installed
-    pip = _run(sys.executable, "-m", "pip", "--python", python, "install", "-q", "--no-deps", PLUGIN, cwd=tmp_path)
-    assert pip.returncode == 0, pip.stdout + pip.stderr
-    shown = _run(python, "-m", "chatterbench.comparisons.cli", "compare", "--help", cwd=tmp_path)
-    assert re.search(r"--engines .*\bexact\b", " ".join(shown.stdout.split())), shown.stdout  # listed with the others
-    judged = _run(python, "-m", "chatterbench.comparisons.cli", "compare", "bouncing-ball", "--engines", "exact",
-                  cwd=tmp_path)
+def test_an_engine_written_from_the_readme_is_listed_checked_and_judged_match(venv):
+    python, root = venv
+    listed = cli(python, "engines", "euler", "pymunk", cwd=root)
+    assert listed.returncode == 0, listed.stdout + listed.stderr
+    rows = {ln.split()[0]: ln.split() for ln in listed.stdout.splitlines()[1:]}
+    assert rows["euler"][1:4] == ["plugin", "chatterbench-euler", "0.1.0"] and rows["euler"][-1] == "ok"
+    assert rows["pymunk"][-1] == "ok" and rows["pymunk"][-2][0].isdigit()  # pymunk's own version
+    shown = cli(python, "compare", "--help", cwd=root)
+    assert re.search(r"--engines .*\beuler\b", " ".join(shown.stdout.split())), shown.stdout  # listed with the others
+    judged = cli(python, "compare", "bouncing-ball", "--engines", "euler", cwd=root)
     assert judged.returncode == 0, judged.stderr
-    summary = judged.stdout.split("summary:")[1].splitlines()
-    header, row = summary[1].split(), summary[2].split()
-    assert row[header.index("engine")] == "exact" and row[header.index("verdict")] == "match"
-    # and it keeps the engine contract, checked by the suite every engine goes through
+    assert summary(judged, "euler", "verdict") == "match"
     contract = _run(python, "-m", "pytest", "-q", "-p", "no:cacheprovider", Path(__file__).parent / "test_contract.py",
-                    "-k", "exact", cwd=tmp_path)
+                    "-k", "euler", cwd=root)
     assert contract.returncode == 0 and re.search(r"\b[1-9]\d* passed", contract.stdout), contract.stdout[-2000:]
+
+
+@pytest.mark.slow
+def test_the_readme_engine_with_a_wrong_restitution_is_not_match(venv):
+    python, root = venv
+    # known answer the other way: the README's engine with every impact at 0.8 R, installed as its own plugin
+    wrong = root / "wrong"
+    wrong.mkdir(exist_ok=True)
+    code = readme_block("# chatterbench_euler.py").replace("self.R, self.dt = scene.mass1, scene.mass2, scene.restitution",
+                                                           "self.R, self.dt = scene.mass1, scene.mass2, 0.8 * scene.restitution")
+    code = code.replace('"euler', '"euler_wrong').replace("chatterbench-euler", "chatterbench-euler-wrong")
+    assert "0.8 * scene.restitution" in code
+    (wrong / "chatterbench_euler_wrong.py").write_text(code)
+    (wrong / "pyproject.toml").write_text(readme_block("# pyproject.toml, beside it").replace("euler", "euler_wrong")
+                                          .replace("chatterbench_euler_wrong-", "chatterbench-euler-wrong"))
+    pip_install(python, wrong, cwd=root)
+    judged = cli(python, "compare", "bouncing-ball", "--engines", "euler_wrong", cwd=root)
+    assert judged.returncode == 0, judged.stderr
+    assert summary(judged, "euler_wrong", "verdict") != "match"
+
+
+@pytest.mark.slow
+def test_the_pymunk_example_is_match_and_early_with_a_rest_velocity(venv):
+    python, root = venv
+    judged = cli(python, "compare", "bouncing-ball", "--engines", "pymunk", "--dt", "1e-3", cwd=root)
+    assert judged.returncode == 0 and summary(judged, "pymunk", "verdict") == "match", judged.stdout + judged.stderr
+    # impacts slower than 0.5 m/s made plastic: the ball rests before the Zeno point (sticking 59 ms early, measured)
+    early = cli(python, "compare", "bouncing-ball", "--engines", "pymunk", "--dt", "1e-3", "--set",
+                "pymunk.rest_velocity=0.5", cwd=root)
+    assert early.returncode == 0 and summary(early, "pymunk", "verdict") == "early", early.stdout + early.stderr
+    assert float(summary(early, "pymunk", "stick_error_rel_max")) > 0.05  # beyond the 5 % tolerance
     # the facts of other adapters are not said of it: --export-model names the engines whose adapters export
-    refused = _run(python, "-m", "chatterbench.comparisons.cli", "run", "bouncing-ball", "--engines", "exact",
-                   "--export-model", tmp_path / "m.xml", cwd=tmp_path)
-    assert refused.returncode == 2 and "engine 'exact': cannot export a model; engines that can: mujoco, pybullet" \
+    refused = cli(python, "run", "bouncing-ball", "--engines", "pymunk", "--export-model", root / "m.xml", cwd=root)
+    assert refused.returncode == 2 and "engine 'pymunk': cannot export a model; engines that can: mujoco, pybullet" \
         in refused.stderr, refused.stderr
     # and it is drawn in a colour of its own, as every engine of the table is
     colours = _run(python, "-c", "from chatterbench.comparisons.outputs.style import engine_colour as c; "
-                   "from chatterbench.engines.registry import ENGINE_NAMES as n; print(c('exact'), *map(c, n[:-1]))")
+                   "from chatterbench.engines.registry import ENGINE_NAMES as n; "
+                   "print(c('pymunk'), *(c(e) for e in n if e != 'pymunk'))")
     mine, *others = colours.stdout.split()
     assert mine.startswith("#") and mine not in others, colours.stdout + colours.stderr

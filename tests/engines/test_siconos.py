@@ -141,7 +141,7 @@ def test_a_missing_interpreter_is_refused_with_the_install_line(monkeypatch):
     reason = registry.unavailable_reason("siconos")
     assert "apt-get install python3-siconos" in reason and ENV in reason and "/nowhere/python3" in reason
     with pytest.raises(registry.EngineUnavailable, match="python3-siconos"):
-        registry.adapter.__wrapped__("siconos")
+        registry.load("siconos")
     assert "siconos" not in registry.available_engines()
     traj = SiconosEngine().run(load_scene("bouncing-ball", ["duration=0.1"]), SiconosSettings(dt=1e-3))
     assert traj.status == "error" and "apt-get install python3-siconos" in traj.message

@@ -13,7 +13,7 @@ from chatterbench.comparisons.pipeline.compare import judge_run
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
 from chatterbench.engines import window
 from chatterbench.engines.base import sample_times
-from chatterbench.engines.mujoco_engine import run as mujoco_run
+from chatterbench.engines.mujoco_engine import MujocoEngine
 from chatterbench.engines.mujoco_engine.settings import MujocoSettings
 from chatterbench.engines.registry import adapter, available_engines, make_settings, run_engine
 from chatterbench.reference.catalogue import CATALOGUE
@@ -123,8 +123,8 @@ def test_long_runs_come_compact_through_the_registry(monkeypatch):
 def test_a_diverged_run_stays_diverged_and_keeps_its_samples_up_to_the_blow_up():
     scene = load_scene("feigin-pair", ["duration=3"])
     settings = MujocoSettings(w0_dt=2.5, allow_unstable=True)
-    full = mujoco_run(scene, settings, compact_above=math.inf)
-    small = mujoco_run(scene, settings, compact_above=0)
+    full = MujocoEngine().run(scene, settings, compact_above=math.inf)
+    small = MujocoEngine().run(scene, settings, compact_above=0)
     assert full.status == small.status == "diverged" and full.message == small.message
     assert small.index[-1] == len(full.t) - 1 and np.isfinite(small.y).all()
 

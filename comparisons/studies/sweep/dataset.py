@@ -20,7 +20,10 @@
 Rows reach ``OUT/rows/part-*.parquet`` as runs finish, each part written atomically and
 tagged with its spec's ``Sweep.fingerprint``; the finished sweep writes ``OUT/rows.parquet``
 (all rows in run order). Columns have fixed dtypes whatever the order runs finish in
-(``normalize``).
+(``normalize``). ``load_rows`` (``chart``, ``report --sweep``) reads a regular file only (a
+pipe, a device or a directory is refused, never waited on) of at most ``MAX_DATASET_BYTES``,
+a Parquet file's uncompressed columns included, and ``MAX_DATASET_ROWS`` rows (its footer
+says), checked before it is read.
 
 A resumed sweep reads only parts that belong to its spec (``check_parts``) and moves every
 other one to ``OUT/rows/set-aside/``, saying why, so rows of two sweeps are never mixed; the
@@ -32,6 +35,7 @@ from __future__ import annotations
 import itertools
 import math
 import os
+import stat
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -47,6 +51,10 @@ from chatterbench.reference.errors import InputError, is_number
 from .spec import RunTask, Sweep
 
 SET_ASIDE = "set-aside"  # OUT/rows/set-aside/: parts that do not belong to the sweep resumed
+# [bytes] of a dataset a command reads, on disk and, for Parquet, uncompressed: 100,000 rows (a sweep's most) take
+# about 100 MiB as CSV; more would be read into several times its size in memory
+MAX_DATASET_BYTES = 256 * 2**20
+MAX_DATASET_ROWS = 1_000_000  # rows of a Parquet dataset: ten times a sweep's most (spec.MAX_RUNS), told by its footer
 FINGERPRINT = "sweep_fingerprint"  # a part's DataFrame.attrs key (stored in its Parquet metadata)
 
 
@@ -245,6 +253,7 @@ def load_rows(path: str | Path) -> pd.DataFrame:
         path = path / "rows.parquet"
     elif not path.exists():
         raise DatasetError(f"{path}: no such file or directory")
+    _check_size(path)
     try:
         if path.suffix == ".parquet":
             rows = pd.read_parquet(path)
@@ -264,6 +273,37 @@ def load_rows(path: str | Path) -> pd.DataFrame:
         raise DatasetError(f"{path}: the dataset has no rows")
     check_values(rows, str(path))
     return rows
+
+
+def _check_size(path: Path) -> None:
+    """Refuse (``DatasetError``) what is not a regular file of at most ``MAX_DATASET_BYTES`` (Parquet: uncompressed too),
+    before it is read; a named pipe is opened without waiting for a writer."""
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)
+    except OSError as exc:
+        raise DatasetError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+    try:
+        info = os.fstat(fd)
+    finally:
+        os.close(fd)
+    if not stat.S_ISREG(info.st_mode):
+        raise DatasetError(f"{path}: not a regular file (a device, pipe or socket); give a sweep directory, a .parquet "
+                           "or a .csv file")
+    size = info.st_size
+    if path.suffix == ".parquet" and size <= MAX_DATASET_BYTES:
+        try:
+            import pyarrow.parquet as pq
+
+            meta = pq.ParquetFile(path).metadata
+            size = max(size, sum(meta.row_group(i).total_byte_size for i in range(meta.num_row_groups)))
+        except (OSError, ValueError) as exc:  # pyarrow's ArrowInvalid is a ValueError
+            raise DatasetError(f"{path}: cannot read the rows ({exc})") from None
+        if meta.num_rows > MAX_DATASET_ROWS:  # a few kB of repeated values can stand for gigabytes in memory
+            raise DatasetError(f"{path}: {meta.num_rows:,} rows, more than the {MAX_DATASET_ROWS:,} a dataset may hold "
+                               "(a sweep has at most 100,000 runs); chart a part of it")
+    if size > MAX_DATASET_BYTES:
+        raise DatasetError(f"{path}: {size / 2**20:.0f} MiB of rows, more than the {MAX_DATASET_BYTES / 2**20:.0f} MiB a "
+                           "dataset may hold (100,000 runs take about 100 MiB); chart a part of it")
 
 
 def check_values(rows: pd.DataFrame, where: str) -> None:

@@ -35,7 +35,7 @@ import sys
 import time
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import pandas as pd
 
@@ -49,9 +49,8 @@ from .dataset import PartWriter, SetAside, check_parts, ordered, part_fingerprin
 from .directory import OutLock, clean_temps, refuse_links
 from .spec import FAILED, MAX_TIMEOUT, SpecError, Sweep, load_sweep, sweep_runs
 from .worker import run_batch_task, work_units
+from ..limits import NO_WORKER_WAIT, NO_WORKERS  # shown by `sweep --help` without loading this module
 
-NO_WORKER_WAIT = 60.0  # [s] a Dask cluster without a worker this long is said on stderr
-NO_WORKERS = ("wait", "stop")  # then: wait for a worker, or stop the sweep
 _SHOWN_ASIDE = 3  # set-aside parts named per reason; more are counted
 
 
@@ -107,7 +106,9 @@ def _slots(executor: Any) -> int | None:
     return None
 
 
-def _progress(total: int, done: int, enabled: bool, desc: str = "sweep"):
+def _progress(total: int, done: int, enabled: bool | Callable[[int, int, str], Any], desc: str = "sweep"):
+    if callable(enabled):  # the caller's bar (the command line's: a tqdm bar, or plain lines in a log)
+        return enabled(total, done, desc)
     from tqdm import tqdm
 
     on = enabled and hasattr(sys.stderr, "isatty") and sys.stderr.isatty()
@@ -206,7 +207,7 @@ def run_sweep(
     executor: Executor | Any | None = None,
     resume: bool = False,
     workers: int | None = None,
-    progress: bool = True,
+    progress: bool | Callable[[int, int, str], Any] = True,
     batch: int | None = None,
     no_worker_wait: float = NO_WORKER_WAIT,
     no_workers: str = "wait",
@@ -224,8 +225,9 @@ def run_sweep(
         ``OUT/rows/set-aside/`` with a note on stderr (``dataset.check_parts``).
     workers : int, optional
         Local pool size; with a given executor only bounds the runs in flight.
-    progress : bool
-        tqdm bar on stderr (done/total, failures, ETA) when stderr is a terminal.
+    progress : bool or callable
+        tqdm bar on stderr (done/total, failures, ETA) when stderr is a terminal; or
+        ``progress(total, done, desc)`` making the bar (``update(n)``, ``set_postfix(failed=n)``, ``close()``).
     batch : int, optional
         Runs per unit of work (one isolated child; MuJoCo: one ``mujoco.rollout`` call), see
         ``work_units``; default automatic, 1 runs every run alone. The rows are the same either way.

@@ -19,14 +19,16 @@ from __future__ import annotations
 
 import math
 import threading
+import time
+import traceback
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 from chatterbench.comparisons.pipeline.compare import compare
 from chatterbench.comparisons.pipeline.summary import failure_row, mass_ratio, summarize
 from chatterbench.comparisons.pipeline.tolerances import make_tolerances
-from chatterbench.engines.isolate import run_isolated
-from chatterbench.engines.registry import can_batch, engine_version, make_settings, run_engine_batch
+from chatterbench.engines.isolate import Outcome, run_isolated
+from chatterbench.engines.registry import adapter, can_batch, engine_version, is_plugin, make_settings, run_engine_batch
 from chatterbench.engines.trajectory import Trajectory
 from chatterbench.reference.scene import Scene, load_scene
 
@@ -52,7 +54,7 @@ def _warm_up(task: RunTask) -> None:
         if not todo:
             return
         try:
-            if task.engine in todo:
+            if task.engine in todo and not is_plugin(task.engine):  # a plugin's runs are isolated: nothing to warm
                 compare(load_scene("bouncing-ball", {"duration": 0.6}), engines=(task.engine,), dt=1e-3)
             if ("scene", task.scene) in todo:
                 compare(load_scene(task.scene, task.scene_overrides()), engines=())
@@ -88,10 +90,31 @@ class RunResult:
     run_time: float  # [s] wall-clock of the isolated run, fork to result
 
 
+def _forks(task: RunTask) -> bool:
+    """Whether the task's run may be made in a forked child (``EngineAdapter.forks``: not MuJoCo Warp on cuda)."""
+    try:
+        return adapter(task.engine).forks(task_settings(task))
+    except Exception:  # noqa: BLE001  the run itself reports what is wrong with it, isolated
+        return True
+
+
+def _here(fn: Callable[..., Any], *args: Any) -> Outcome:
+    """``fn(*args)`` in this process, as ``run_isolated`` reports it (an exception is ``error``; no time limit: an
+    engine that cannot be forked keeps its own failures in its results)."""
+    start = time.perf_counter()
+    try:
+        value = fn(*args)
+    except Exception as exc:  # noqa: BLE001  a failure row, as an isolated run's
+        return Outcome("error", None, f"{type(exc).__name__}: {exc}\n{traceback.format_exc()}",
+                       time.perf_counter() - start)
+    return Outcome("ok", value, "", time.perf_counter() - start)
+
+
 def run_task(task: RunTask) -> RunResult:
-    """The function submitted to the executor: one isolated run -> its row (never raises for the run)."""
+    """The function submitted to the executor: one isolated run -> its row (never raises for the run); made in the
+    worker itself for an engine that cannot be forked (``_forks``)."""
     _warm_up(task)
-    outcome = run_isolated(_compute_row, task, timeout=task.timeout)
+    outcome = run_isolated(_compute_row, task, timeout=task.timeout) if _forks(task) else _here(_compute_row, task)
     if outcome.status == "ok":
         row = outcome.value
     else:
@@ -123,12 +146,16 @@ def run_batch_task(tasks: Sequence[RunTask]) -> list[RunResult]:
     The batch's limit is the sum of its runs' limits. If the batch does not come back whole
     (a run crashed, hung or raised, or a run's settings refuse the batch), every run of it
     is run again alone through ``run_task``, so the faulty run is classified by itself and
-    the others get their rows. Each row's ``run_time`` is its share of the batch's time.
+    the others get their rows. Each row's ``run_time`` is its share of the batch's time. An engine
+    that cannot be forked (``EngineAdapter.forks``: MuJoCo Warp on cuda) runs in the worker itself.
     """
     if len(tasks) == 1:
         return [run_task(tasks[0])]
     _warm_up(tasks[0])
-    outcome = run_isolated(_compute_batch_rows, list(tasks), timeout=sum(t.timeout for t in tasks))
+    if _forks(tasks[0]):
+        outcome = run_isolated(_compute_batch_rows, list(tasks), timeout=sum(t.timeout for t in tasks))
+    else:
+        outcome = _here(_compute_batch_rows, list(tasks))
     if outcome.status != "ok":
         return [run_task(t) for t in tasks]
     share = outcome.wall_time / len(tasks)
@@ -138,27 +165,40 @@ def run_batch_task(tasks: Sequence[RunTask]) -> list[RunResult]:
 MAX_BATCH = 8  # runs per unit of work by default: long enough to amortize, short enough to balance
 
 
-def work_units(runs: Sequence[RunTask], batch: int | None, slots: int) -> list[tuple[RunTask, ...]]:
+def work_units(runs: Sequence[RunTask], batch: int | None, slots: int,
+               unit_runs: Callable[[RunTask], int | None] | None = None) -> list[tuple[RunTask, ...]]:
     """Group ``runs`` into units of work (one isolated child each), ordered by their first run.
 
     A unit holds runs of one engine; for an engine that batches (MuJoCo) also of one ``dt``
     and duration, and the worker rolls out together the ones whose compiled models are
     compatible. Other engines' runs in a unit run one after another in the same child,
-    which saves a fork per run. Sizes: ``batch`` runs per unit, or by default guided
-    self-scheduling, ``remaining // (4 slots)`` clipped to [1, MAX_BATCH], so units
-    shrink towards the end of each group and no slot waits long for the last one.
-    ``batch = 1``: every run alone.
+    which saves a fork per run. Sizes: ``batch`` runs per unit; or the engine's own
+    (``unit_runs(run)``, by default ``EngineAdapter.unit_runs``: MuJoCo Warp on a GPU takes
+    thousands of worlds at once); or by default guided self-scheduling, ``remaining // (4
+    slots)`` clipped to [1, MAX_BATCH], so units shrink towards the end of each group and no
+    slot waits long for the last one. ``batch = 1``: every run alone.
     """
+    unit_runs = unit_runs or _unit_runs
     groups: dict[tuple, list[RunTask]] = {}
     for r in runs:
         key = (r.engine, r.dt, dict(r.params).get("duration")) if can_batch(r.engine) else (r.engine,)
         groups.setdefault(key, []).append(r)
     first_of: dict[int, tuple[RunTask, ...]] = {}
     for g in groups.values():
+        own = unit_runs(g[0]) if batch is None and can_batch(g[0].engine) else None
         i = 0
         while i < len(g):
-            size = batch if batch is not None else max(1, min(MAX_BATCH, (len(g) - i) // (4 * max(1, slots))))
+            size = batch if batch is not None else own if own is not None else \
+                max(1, min(MAX_BATCH, (len(g) - i) // (4 * max(1, slots))))
             chunk = tuple(g[i:i + size])
             first_of[chunk[0].index] = chunk
             i += size
     return [first_of[r.index] for r in runs if r.index in first_of]
+
+
+def _unit_runs(task: RunTask) -> int | None:
+    """The engine's own unit size for the task's settings (``EngineAdapter.unit_runs``); None when it names none."""
+    try:
+        return adapter(task.engine).unit_runs(task_settings(task))
+    except Exception:  # noqa: BLE001  the runs report what is wrong with them
+        return None

@@ -56,7 +56,9 @@ def test_summary_json_and_annotations(gate_file, tmp_path, capsys, monkeypatch):
     assert _run(gate_file, "--summary", summary, "--json", bench) == 1
     out = capsys.readouterr().out
     annotation = [line for line in out.splitlines() if line.startswith("::error ")]
-    assert len(annotation) == 1 and annotation[0].startswith("::error title=chatter gate ball/pybullet::stick_error_rel_max = ")
+    # on the failing limit's line of the gate file (line 10 of BALL_PYBULLET_GATE; tests/comparisons/ci/test_gate_lines.py)
+    assert len(annotation) == 1 and annotation[0].startswith(f"::error file={gate_file},line=10,title=chatter gate "
+                                                             "ball/pybullet::stick_error_rel_max = ")
     text = summary.read_text()
     assert text.startswith("## chatterbench gate") and "FAIL" in text and "| ball/pybullet | `stick_error_rel_max <= 0.0001` |" in text
     assert step_summary.read_text() == "earlier step\n" + text  # appended, as GitHub expects

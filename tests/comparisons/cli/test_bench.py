@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import pandas as pd
+import pytest
 
 from chatterbench.comparisons.cli.bench import GOALS, REPEAT, goal_lines
+
+from helpers import cli
 
 
 def test_goals_pass_and_fail_by_their_bounds():
@@ -19,7 +22,21 @@ def test_goals_pass_and_fail_by_their_bounds():
 
 
 def test_the_plate_map_goal_is_per_strike_of_one_repeat():
-    # bench platemap reports the best repeat's time for --strikes strikes: 100,000 in 30 s
-    assert goal_lines("platemap", {"seconds": 29.0}, strikes=100_000)[1]
-    assert not goal_lines("platemap", {"seconds": 31.0}, strikes=100_000)[1]
+    # bench platemap reports the best repeat's time for --strikes strikes: 100,000 in 30 s is 300 us a strike
+    assert goal_lines("platemap", {"us_per_strike": 290.0, "seconds": 29.0})[1]
+    assert not goal_lines("platemap", {"us_per_strike": 310.0, "seconds": 31.0})[1]
     assert set(REPEAT) == set(GOALS)
+
+
+def test_bench_platemap_names_a_per_strike_time_per_strike():
+    # issue 33: "PASS: seconds = 9.266e-05 (goal <= 0.0003: seconds per strike ...)" called a time per strike "seconds"
+    done = cli(["bench", "platemap", "--strikes", "200", "--repeats", "1"])
+    assert done.code in (0, 1), done.err
+    goal = next(line for line in done.out.splitlines() if line.startswith(("PASS", "FAIL")))
+    name, value = goal.split(": ", 1)[1].split(" (goal")[0].split(" = ")
+    table = done.out.splitlines()
+    header = next(i for i, line in enumerate(table) if "us_per_strike" in line)
+    columns, cells = table[header].split(), table[header + 1].split()
+    assert name == "us_per_strike" and "microseconds per strike" in goal
+    assert float(value) == pytest.approx(float(cells[columns.index("us_per_strike")]), rel=1e-3)  # the table's figure
+    assert float(cells[columns.index("seconds")]) == pytest.approx(float(value) * 200 * 1e-6, rel=1e-3)

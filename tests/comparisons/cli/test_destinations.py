@@ -29,9 +29,22 @@ def test_a_full_disk_is_one_line_and_leaves_no_temp_file(full_disk, capsys):
     code = main(["compare", "bouncing-ball", "--engines", "pybullet", "--set", "duration=0.5", "--out", str(out)])
     err = capsys.readouterr().err
     assert code == 2
-    assert err.count("\n") == 1 and err.startswith(f"chatterbench: error: --out {out}: cannot write "), err
+    errors = [line for line in err.splitlines() if line.startswith("chatterbench: error: ")]  # progress lines aside
+    assert len(errors) == 1 and errors[0].startswith(f"chatterbench: error: --out {out}: cannot write "), err
+    assert err.strip().splitlines()[-1] == errors[0]
     assert "No space left on device" in err and str(out) in err
     assert not [p for p in full_disk.rglob("*") if p.name.endswith(".tmp")]  # the torn write is gone
-    finished = sorted(p.name for p in out.iterdir())
-    assert "episodes.csv" in finished  # what was written before the disk filled is whole
-    assert all(os.path.getsize(out / name) > 0 for name in finished)
+    # the comparison's files come together or not at all (issue 34: outputs complete or removed): the ones written
+    # before the disk filled went with their hidden staging folder, so no set of half old, half new files is left
+    assert sorted(p.name for p in out.iterdir()) == []
+
+
+def test_a_full_disk_keeps_the_files_of_the_run_before(full_disk, capsys):
+    out = full_disk / "cmp"
+    out.mkdir()
+    (out / "episodes.csv").write_text("the run before\n")
+    code = main(["compare", "bouncing-ball", "--engines", "pybullet", "--set", "duration=0.5", "--out", str(out)])
+    assert code == 2, capsys.readouterr().err
+    assert sorted(p.name for p in out.iterdir()) == ["episodes.csv"]
+    assert (out / "episodes.csv").read_text() == "the run before\n"
+    assert os.path.getsize(out / "episodes.csv") > 0

@@ -27,9 +27,9 @@ def _subparsers() -> dict[str, argparse.ArgumentParser]:
 
 
 def test_every_subcommand_is_registered():
-    assert set(_subparsers()) == {"scenes", "run", "compare", "judge", "report", "gate", "platemap", "tune", "calibrate",
-                                  "sweep", "chart", "bench"}
-    assert len(SUBCOMMANDS) == 12
+    assert set(_subparsers()) == {"scenes", "engines", "run", "compare", "judge", "report", "gate", "platemap", "tune",
+                                  "calibrate", "sweep", "chart", "bench"}
+    assert len(SUBCOMMANDS) == 13
 
 
 @pytest.mark.parametrize("name", sorted(_subparsers()))

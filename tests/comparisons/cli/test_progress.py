@@ -9,6 +9,8 @@ import subprocess
 import sys
 import termios
 
+from helpers import needs_engine
+
 from chatterbench.comparisons.cli.progress import Progress
 from chatterbench.comparisons.pipeline.compare import compare
 from chatterbench.reference import load_scene
@@ -53,6 +55,7 @@ def test_no_bar_where_stderr_is_not_a_terminal():
 
 
 def test_mujoco_warps_compile_is_noted_terminal_or_not():
+    needs_engine("mujoco_warp")  # the note is the adapter's fact (first_run_note)
     log = io.StringIO()  # not a terminal: no bar, the note still
     with Progress(2, "compare feigin-pair", unit="run", file=log) as bar:
         bar.stage("reference")

@@ -124,8 +124,9 @@ def _chromium(tmp_path: Path, *args: str) -> subprocess.CompletedProcess:
 
 def _probe(page: Path, tmp_path: Path) -> dict:
     """Open a copy of ``page`` with a probe script in headless Chromium: its title, tables and images as loaded."""
-    probe = tmp_path / "probe.html"  # the report itself carries no script
-    probe.write_text(page.read_text().replace("</body>", _PROBE + "</body>"))
+    probe = tmp_path / "probe.html"  # the report itself carries no script, and its policy lets none run: the copy drops it
+    text = re.sub(r'<meta http-equiv="Content-Security-Policy"[^>]*>', "", page.read_text())
+    probe.write_text(text.replace("</body>", _PROBE + "</body>"))
     done = _chromium(tmp_path, "--dump-dom", probe.as_uri())
     found = re.search(r'<pre id="probe">(.*?)</pre>', done.stdout)
     assert found, done.stderr[-2000:]

@@ -19,6 +19,7 @@ from chatterbench.comparisons.outputs.sweep_data import PASSING, VERDICT_ABBREV,
 from chatterbench.comparisons.outputs.work_precision import (default_error, panel_metrics, pareto_front,
                                                              work_precision_figure, work_precision_points)
 from chatterbench.reference import load_scene
+from helpers import needs_engine
 
 pytestmark = pytest.mark.slow  # the module fixtures run 57 comparisons (about 8 s)
 
@@ -207,6 +208,7 @@ def test_lever_labels_do_not_pile_up(feigin_rows):
 
 
 def test_points_are_labelled_by_each_engines_cost_lever():
+    needs_engine("drake")  # the lever is asked of Drake's adapter
     # chart input only (an error-controlled engine's rows, as a sweep writes them): Drake's lever is its
     # integrator's accuracy, a dotted column; PyBullet's is dt. Both are asked of the engines' adapters.
     rows = []
@@ -413,6 +415,7 @@ def test_report_sweep_section_draws_the_issue_maps_at_the_defaults(feigin_rows):
 
 
 def test_an_engine_with_two_levers_gets_one_curve_per_lever():
+    needs_engine("drake")  # the lever is asked of Drake's adapter
     # one sweep of Drake in both modes (examples/sweeps/feigin-pair-drake.toml): continuous rows trade
     # accuracy, discrete rows dt. Before, the first row's lever (accuracy) was used for all rows and the
     # discrete rows (accuracy NaN) folded into one point labelled accuracy=nan.

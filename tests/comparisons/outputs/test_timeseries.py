@@ -121,3 +121,20 @@ def test_compare_out_writes_every_figure_as_png_and_svg(tmp_path):
     for stem in ("timeseries", "ladder", "episode_errors"):
         assert (out / f"{stem}.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
         assert (out / f"{stem}.svg").read_text().lstrip().startswith("<?xml")
+
+
+def test_a_judged_file_is_drawn_in_a_colour_of_its_own_not_the_reference_grey(tmp_path):
+    # issue 33: ``judge --out`` drew a file whose name hashes to the palette's grey ("mine") in grey, like the
+    # reference's band, so it vanished under it in the zoom; read back from the figure the user gets (its SVG)
+    import re
+    from chatterbench.comparisons import reference_trajectory, trajectory_table
+    from chatterbench.comparisons.outputs.style import engine_colour
+
+    assert engine_colour("mine") == "#7f7f7f"  # the case: a name that hashes to grey
+    trajectory_table(reference_trajectory(load_scene("bouncing-ball"), 1e-3)).to_csv(tmp_path / "run.csv", index=False)
+    assert main(["judge", "bouncing-ball", str(tmp_path / "run.csv"), "--engine", "mine", "--out", str(tmp_path / "o")]) == 0
+    svg = (tmp_path / "o" / "timeseries.svg").read_text()
+    strokes = {s.lower() for s in re.findall(r"stroke:\s*(#[0-9a-fA-F]{6})", svg)}
+    chromatic = {s for s in strokes if max(int(s[i:i + 2], 16) for i in (1, 3, 5)) - min(int(s[i:i + 2], 16)
+                                                                                       for i in (1, 3, 5)) >= 0x20}
+    assert "#7f7f7f" not in strokes and "#1f77b4" in chromatic  # the first palette colour no other run has

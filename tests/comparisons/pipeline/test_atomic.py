@@ -62,3 +62,68 @@ def test_failed_writer_keeps_the_old_file_and_no_temporary(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["report.md"]
     write_frame(tmp_path / "t.csv", pd.DataFrame({"a": [0.1]}))
     assert (tmp_path / "t.csv").read_text() == "a\n0.10000000000000001\n"
+
+
+# -- inside an output folder: no link followed, no path out of it; a set of files moved in together -------------------
+def test_a_link_planted_in_the_folder_is_never_written_through(tmp_path):
+    from chatterbench.comparisons.pipeline.atomic import confined
+
+    out, elsewhere = tmp_path / "out", tmp_path / "elsewhere"
+    out.mkdir(), elsewhere.mkdir()
+    (out / "pybullet").symlink_to(elsewhere)  # planted while the command ran (after its up-front check)
+    (out / "report.md").symlink_to(elsewhere / "victim.md")
+    with confined(out):
+        # an OSError naming the link (write_with names the file asked for): the CLI's one line for --out
+        with pytest.raises(OSError, match=r"out/pybullet is a symbolic link"):
+            write_text(out / "pybullet" / "scene.py", "x")
+        with pytest.raises(OSError, match=r"out/report.md is a symbolic link"):
+            write_text(out / "report.md", "x")
+        with pytest.raises(OSError, match="outside the output folder"):  # a label that became a path
+            write_text(out / "/../../escaped.csv", "x")
+        assert write_text(out / "new" / "deeper" / "ok.txt", "fine").read_text() == "fine"  # made one folder at a time
+    assert list(elsewhere.iterdir()) == []
+    assert write_text(out / "pybullet" / "scene.py", "x")  # outside `confined` a link is the caller's business
+
+
+def test_a_staged_set_appears_whole_or_not_at_all(tmp_path):
+    from chatterbench.comparisons.pipeline.atomic import staged
+
+    out = tmp_path / "out"
+    write_text(out / "guide.md", "old guide")
+    write_text(out / "recommended.json", "old answer")
+    with pytest.raises(KeyboardInterrupt):  # interrupted halfway: the folder keeps the old set, nothing staged is left
+        with staged(out, last=["recommended.json"]) as stage:
+            write_text(stage / "recommended.json", "new answer")
+            write_text(stage / "guide.md", "new guide")
+            raise KeyboardInterrupt
+    assert sorted(p.name for p in out.iterdir()) == ["guide.md", "recommended.json"]
+    assert (out / "recommended.json").read_text() == "old answer" and (out / "guide.md").read_text() == "old guide"
+    with staged(out, last=["recommended.json"]) as stage:
+        write_text(stage / "recommended.json", "new answer")
+        write_text(stage / "guide.md", "new guide")
+        write_text(stage / "pybullet" / "scene.py", "new scene")
+    assert (out / "recommended.json").read_text() == "new answer" and (out / "pybullet" / "scene.py").read_text() == "new scene"
+    assert sorted(p.name for p in out.iterdir()) == ["guide.md", "pybullet", "recommended.json"]  # no staging folder
+
+
+def test_a_killed_tunes_staged_folder_is_removed_by_the_next_set_and_only_it(tmp_path):
+    # before: a SIGKILL mid-set left OUT/.staged.* for ever; now the next staged set in OUT removes a folder whose
+    # process is gone, and keeps one whose process runs (a concurrent writer) and any other name
+    from chatterbench.comparisons.pipeline.atomic import staged
+
+    out = tmp_path / "out"
+    gone = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    runs = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(600)"])
+    try:
+        killed = out / f".staged.{int(gone.stdout)}.abcdefgh12345678"
+        running = out / f".staged.{runs.pid}.abcdefgh12345678"
+        other = out / ".staged.mine"
+        for folder in (killed, running, other):
+            write_text(folder / "guide.md", "half a set")
+        with staged(out) as stage:
+            write_text(stage / "guide.md", "a whole set")
+        assert not killed.exists() and running.exists() and other.exists()
+        assert (out / "guide.md").read_text() == "a whole set"
+    finally:
+        runs.kill()
+        runs.wait()

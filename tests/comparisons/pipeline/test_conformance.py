@@ -56,3 +56,13 @@ def test_engines_on_one_model_are_the_pairs_their_adapters_declare():
     assert same_model_pairs(("pybullet", "mujoco_warp", "mujoco")) == [("mujoco", "mujoco_warp")]
     assert same_model_pairs(("mujoco", "pybullet")) == [] and same_model_pairs(("mujoco_warp",)) == []
     assert same_model_pairs(("mujoco_warp", "no-such-engine")) == []
+
+
+def test_the_sentence_gives_a_unit_only_to_a_number():
+    # issue 33: the ball never exits, and the line read "|exit difference| none s"
+    _, result = _pair("bouncing-ball", ["restitution=0.55"])
+    text = describe(result, "mujoco", "pybullet")
+    assert "|exit difference| none (no episode exits in both)," in text and "none s" not in text
+    stick = float(text.split("largest |sticking difference| ", 1)[1].split(" s ", 1)[0])  # a number, then its unit
+    assert stick > 0.1  # R = 0.55 sticks 0.2 s after R = 0.5 (Zeno points 1.5593 and 1.3546 s)
+    assert " m/s." in text and not any(f"none {unit}" in text for unit in ("s", "m", "m/s"))

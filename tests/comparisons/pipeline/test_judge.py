@@ -127,6 +127,10 @@ def test_the_summary_combines_by_severity():
 #   floor x10 a 40-step floor is 40 ms at dt = 1e-3, longer than the impact damper's last
 #             flights that matter (its chatter lasts 0.1 s)
 #   resolved  resolved_steps x 10 leaves only MuJoCo's fast impacts to judge, which follow R
+#   shown     a 40-step floor shows no sliding shorter than 3.5 floors (f_min past a sticking start placed
+#             to f_min / (1 - R), R = 0.6): 140 ms at dt = 1e-3, 42 ms at 3e-4, so the impact damper's
+#             21 ms sliding that PyBullet misses is unresolved, not missed (issue 34: never a confident
+#             verdict the extraction cannot support)
 #   end       MuJoCo at dt = 1e-3 (w0 = 30 rad/s) sticks 0.86 s late: in the run's last visit it
 #             is still bouncing when the data end (missed); a wider band ends its bouncing in
 #             time (late). Both fail.
@@ -144,6 +148,8 @@ ALLOWED_FLIPS = {
     ("spring-pair", "mujoco", 1e-4, "floor_steps x10"): "soft",
     ("spring-pair", "pybullet", 1e-3, "floor_steps x10"): "soft",
     ("impact-damper", "reference", 1e-3, "floor_steps x10"): "floor x10",
+    ("impact-damper", "pybullet", 1e-3, "floor_steps x10"): "shown",
+    ("impact-damper", "pybullet", 3e-4, "floor_steps x10"): "shown",
     ("feigin-pair", "mujoco", 1e-3, "floor_steps/10"): "floor/10",
     ("impact-damper", "mujoco", 1e-4, "floor_steps/10"): "floor/10",
     ("feigin-pair", "pybullet", 1e-3, "floor_steps/10"): "floor/10",

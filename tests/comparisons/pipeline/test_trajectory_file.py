@@ -82,9 +82,13 @@ def test_out_writes_what_compare_writes(tmp_path):
 
 @pytest.mark.parametrize("edit, message", [
     (lambda f: f.drop(columns="v2"), "missing column 'v2'"),
-    (lambda f: f.assign(t=f["t"].where(f.index != 5, f["t"].iloc[3])), "column 't', row 5"),
-    (lambda f: f.assign(x2=f["x2"].where(f.index != 40, np.nan)), "column 'x2', row 40"),
-    (lambda f: f.assign(v1=f["v1"].astype(object).where(f.index != 9, "fast")), "column 'v1', row 9"),
+    # rows counted as a user counts them (issue 34): the 6th data row, on line 7 of the file (before: "row 5")
+    (lambda f: f.assign(t=f["t"].where(f.index != 5, f["t"].iloc[3])), "column 't', row 6 (line 7): 0.003 after 0.004"),
+    (lambda f: f.assign(x2=f["x2"].where(f.index != 40, np.nan)), "column 'x2', row 41 (line 42): nan before the end"),
+    (lambda f: f.assign(v1=f["v1"].astype(object).where(f.index != 9, "fast")), "column 'v1', row 10 (line 11): 'fast' is"),
+    # a cell "n/a" is text, named as such (before: "np.float64(nan) before the end of the run")
+    (lambda f: f.assign(v2=f["v2"].astype(object).where(f.index != 7, "n/a")), "column 'v2', row 8 (line 9): 'n/a' is not"),
+    (lambda f: f.assign(t=f["t"] * 1e300), "column 't', row 2 (line 3): 1e+297 s is outside the scene's time, 0 to"),
 ])
 def test_bad_files_are_refused_in_one_line_with_exit_2(tmp_path, capsys, edit, message):
     path = tmp_path / "bad.csv"

@@ -6,10 +6,10 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from typing import Callable
 
 import pytest
+from helpers import wait_until
 
 
 def start_sweep(*args: str) -> subprocess.Popen:
@@ -18,13 +18,11 @@ def start_sweep(*args: str) -> subprocess.Popen:
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
-def kill_when(proc: subprocess.Popen, ready: Callable[[], bool], waiting_for: str, limit: float = 60.0) -> None:
-    """SIGKILL ``proc`` as soon as ``ready()`` holds; fail if it ends first or ``limit`` [s] passes."""
-    deadline = time.monotonic() + limit
-    while not ready():
-        assert proc.poll() is None, f"sweep ended before it could be killed: {proc.communicate()}"
-        assert time.monotonic() < deadline, f"{waiting_for} after {limit:g} s"
-        time.sleep(0.02)
+def kill_when(proc: subprocess.Popen, ready: Callable[[], bool], waiting_for: str, limit: float = 120.0) -> None:
+    """SIGKILL ``proc`` as soon as ``ready()`` holds; fail if it ends first or ``limit`` [s] passes (a hang guard)."""
+    wait_until(lambda: ready() or proc.poll() is not None, waiting_for, limit, every=0.02)
+    if not ready():
+        pytest.fail(f"sweep ended before it could be killed: {proc.communicate()}")
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
 

@@ -23,3 +23,20 @@ def test_plate_map_regions_on_feigin_pair_with_mujoco():
     assert (table["mujoco"] == table["reference"]).mean() >= 0.85
     fig = plate_map_figure(table, scene)
     assert fig.axes[0].get_xlabel().startswith("strike phase")
+
+
+def test_an_engines_strikes_go_as_batches_with_the_column_of_single_runs(monkeypatch):
+    # MuJoCo Warp steps a batch of strikes as the worlds of one model (runs of different lengths, each read to its
+    # own end): the column is that of the strikes run one at a time
+    import pytest
+
+    pytest.importorskip("mujoco_warp")
+    from chatterbench.comparisons.studies import plate_map as pm
+
+    scene = load_scene("feigin-pair")
+    args = dict(n_phase=4, n_speed=4, engines=("mujoco_warp", "mujoco"), dt=1e-3,
+                overrides=["mujoco_warp.device='cpu'"])
+    together = plate_map(scene, "lower", **args)
+    monkeypatch.setattr(pm, "STRIKES_PER_BATCH", 1)
+    alone = plate_map(scene, "lower", **args)
+    assert together.equals(alone) and together["mujoco_warp"].any() and not together["mujoco_warp"].all()

@@ -17,6 +17,7 @@ import time
 from pathlib import Path
 
 import pytest
+from helpers import wait_until
 
 from chatterbench.comparisons.studies.sweep.directory import LOCK_NAME
 
@@ -64,14 +65,11 @@ def test_a_symlink_under_out_is_refused_and_its_target_untouched(place, link):
     (place / "o" / link).parent.mkdir(parents=True, exist_ok=True)
     (place / "o" / link).symlink_to(target)
     before = _listing(place / "other", place / "victim")
-    t0 = time.monotonic()
     proc = _sweep(place, "s.toml", "--out", "o", "--workers", "1")
-    took = time.monotonic() - t0
     # before: exit 0, the parts written in other/ (rows), the victim overwritten with the lock's JSON (.lock)
     _refused(proc, f"o/{link}", "symbolic link")
     assert _listing(place / "other", place / "victim") == before
     assert not (place / "o" / "sweep.toml").exists(), "refused before anything is written"
-    assert took < 2 + 1.5, took  # the refusal itself; the rest is the interpreter's start
 
 
 def test_a_lock_that_is_a_named_pipe_is_refused(place):
@@ -106,14 +104,24 @@ def test_ctrl_c_of_a_sweep_is_one_line_exit_130_promptly(tmp_path, after):
                              "--workers", "2"], cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             start_new_session=True)
     time.sleep(after)
+    rows = tmp_path / "o" / "rows"
+    finished = sorted(rows.glob("*.parquet")) if rows.is_dir() else []  # each run of 30 s of the ball takes seconds
     os.killpg(proc.pid, __import__("signal").SIGINT)
-    t0 = time.monotonic()
-    _, err = proc.communicate(timeout=60)
-    took = time.monotonic() - t0
-    # before: -2 and a traceback when interrupted while importing; 1-4 s to stop (the pool's runs finished first)
+    _, err = proc.communicate(timeout=300)
+    # before: -2 and a traceback when interrupted while importing; the pool's runs finished first (1-4 s to stop)
     assert proc.returncode == 130, err
     assert err == "chatterbench: interrupted\n", err
-    assert took < 2, took
+    # stopped at once: no run in progress at the interrupt was carried on to its row, and no process is left
+    assert (sorted(rows.glob("*.parquet")) if rows.is_dir() else []) == finished
+    wait_until(lambda: not _group_alive(proc.pid), "a process of the interrupted sweep is still alive")
+
+
+def _group_alive(pgid: int) -> bool:
+    try:
+        os.killpg(pgid, 0)
+    except ProcessLookupError:
+        return False
+    return True
     assert not [p for p in (tmp_path / "o").rglob("*.tmp")] if (tmp_path / "o").exists() else True
 
 

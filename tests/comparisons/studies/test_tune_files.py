@@ -9,14 +9,16 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from chatterbench.comparisons.outputs.engine_files import write_engine_files
+from chatterbench.comparisons.pipeline.extract import extract
 from chatterbench.comparisons.outputs.guide import guide_markdown
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
-from chatterbench.comparisons.studies.restitution_curve import impact_restitutions
 from chatterbench.comparisons.studies.tune import tune
-from chatterbench.comparisons.studies.tune_evidence import chosen_settings
+from chatterbench.comparisons.studies.tune_evidence import chosen_settings, evidence
+from chatterbench.engines.registry import run_engine
 from chatterbench.reference import load_scene
 
 # one candidate per engine, each passing every check of TOL (restitution included): measured
@@ -26,7 +28,6 @@ SCENES = {"bouncing-ball": load_scene("bouncing-ball"),
 # MuJoCo's compliant contact under the scene's forces loses up to 11% of R at the slowest resolved impacts
 # (measured: -0.112 at 0.0162 m/s on feigin-pair, -0.091 at 0.277 m/s on the ball, dt = 3e-4, w0 dt = 0.1)
 TOL = Tolerances(stick=0.1, exit=0.1, first_impact=0.1, restitution=0.15)
-A_MAX = {"bouncing-ball": 9.81, "feigin-pair": 1.0}  # the largest |y''| of the free motion [m/s^2]: g; sin t
 LINE = re.compile(r"^impact t=(\S+) v_in=(\S+) v_out=(\S+) e=(\S+)$")
 
 
@@ -63,46 +64,48 @@ def printed_impacts(stdout: str) -> list[tuple[float, float, float, float]]:
 
 @pytest.mark.parametrize("scene_name", SCENES)
 @pytest.mark.parametrize("engine", SPACES)
-def test_tune_files_run_as_written_and_print_the_guides_restitution(tuned, scene_name, engine):
+def test_tune_files_print_the_runs_impacts_with_the_guides_restitution(tuned, scene_name, engine):
     result, out, written = tuned(scene_name, engine)
     engine, scene = result.engine, result.scene
     expected = {"mujoco": ["mujoco/model.xml", "mujoco/run.py"], "pybullet": ["pybullet/scene.py"]}[engine]
     assert written == expected  # at the chosen settings
-    impacts = printed_impacts(run_python(out / expected[-1]))
-    assert impacts
-    # every impact the judge resolved is printed, at its time to a timestep, with the judge's e: the judge carries
-    # the last free sample to the wall and the first free one back to it, the script reads the samples themselves,
-    # so speeds differ by up to |y''| dt at each end, and e by 2 |y''| dt (1 + e) / |v_in|
+    printed = printed_impacts(run_python(out / expected[-1]))
+    # the run's impacts, as the judge counts them at the tune's tolerances (the issue: `run ... --export-model
+    # scene.py` counted 9 impacts of the ball, the script printed 11)
     settings = chosen_settings(result)
-    judged = impact_restitutions(engine, settings, scene, result.extra["solution"], result.tolerance)
-    assert len(judged)
-    passing = 0
-    for row in judged.itertuples():
-        near = [imp for imp in impacts if abs(imp[0] - row.t) <= 2 * settings.dt]
-        assert near, f"no printed impact near t = {row.t}"
-        t, v_in, v_out, e = near[0]
-        step = A_MAX[scene.name] * settings.dt
-        assert abs(v_in) == pytest.approx(row.speed, rel=1e-3, abs=step)
-        sampling = 2 * step * (1 + e) / abs(v_in)
-        # two estimates from samples: the script's (within `sampling`) and the judge's (its restitution_uncertainty)
-        assert e == pytest.approx(row.restitution_effective, abs=sampling + row.restitution_uncertainty + 1e-4)
-        # where the guide's restitution check holds (the judge's e within the tolerance of R), so does the printed e
-        if abs(row.restitution_effective / scene.restitution - 1) <= result.tolerance.restitution:
-            passing += 1
-            assert abs(e / scene.restitution - 1) <= result.tolerance.restitution + sampling / scene.restitution
-    assert passing >= 1
+    ref = result.extra["solution"]
+    found = extract(run_engine(engine, scene, settings), scene, ref.stick_tolerance(result.tolerance.stick))
+    assert len(printed) == int((found.log["kind"] == "impact").sum()) >= 5
+    # at every impact the guide lists (the run's resolved impacts as the judge measures them), the printed e is the
+    # guide's number within 1% (measured: to the 4 digits the guide prints; the script's run repeats the adapter's)
+    text = guide_markdown(result, ev=evidence(result, speeds=[1.0]))
+    claim = next(line for line in text.splitlines() if line.startswith("**The run's impacts:**"))
+    listed = [tuple(map(float, m)) for m in re.findall(r"#\d+ at t = (\S+) s, (\S+) m/s: e = (\d\.\d{4})", claim)]
+    assert len(listed) >= 3 and f"`{expected[-1]}` prints each of them" in claim
+    times = [t for t, *_ in printed]
+    for t_guide, v_guide, e_guide in listed:
+        t, v_in, v_out, e = printed[min(range(len(times)), key=lambda i: abs(times[i] - t_guide))]
+        assert t == pytest.approx(t_guide, abs=1e-4) and abs(v_in) == pytest.approx(v_guide, rel=5e-3)
+        assert e == pytest.approx(e_guide, rel=0.01) and e == pytest.approx(e_guide, abs=6e-5)  # 4 printed digits
 
 
-def test_exported_mujoco_model_is_the_runs_model_with_its_initial_state(tuned):
+def test_tunes_mujoco_model_starts_where_the_scene_starts_and_reproduces_the_run(tuned):
+    # loaded as MuJoCo's viewer loads it, no keyframe reset (issue 33: the ball sat at qpos 0 with no gravity)
     result, out, _ = tuned("bouncing-ball", "mujoco")
-    code = ("import mujoco, sys\n"
+    settings = chosen_settings(result)
+    traj = run_engine("mujoco", result.scene, settings)
+    code = ("import mujoco, sys, numpy as np\n"
             "m = mujoco.MjModel.from_xml_path(sys.argv[1]); d = mujoco.MjData(m)\n"
-            "mujoco.mj_resetDataKeyframe(m, d, 0)\n"
-            "print(m.opt.timestep, d.qpos[-1], d.qvel[-1])\n")
-    done = subprocess.run([sys.executable, "-c", code, str(out / "mujoco" / "model.xml")], capture_output=True, text=True)
+            "y = [d.qpos[-1]]\n"
+            "for _ in range(int(sys.argv[2])):\n"
+            "    mujoco.mj_step(m, d); y.append(d.qpos[-1])\n"
+            "print(m.opt.timestep, *m.opt.gravity, 'chatterbench' in sys.modules)\n"
+            "np.save(sys.argv[3], np.array(y))\n")
+    done = subprocess.run([sys.executable, "-c", code, str(out / "mujoco" / "model.xml"), str(len(traj.t) - 1),
+                           str(out / "y.npy")], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
-    dt, y, vy = (float(v) for v in done.stdout.split())
-    assert (dt, y, vy) == (chosen_settings(result).dt, result.scene.initial.y, result.scene.initial.vy)
+    assert done.stdout.split() == [repr(settings.dt), "-9.81", "0.0", "0.0", "False"]
+    assert np.array_equal(np.load(out / "y.npy"), traj.y)  # the run, bit for bit (the joint-limit gap)
 
 
 def _guide_block(text: str, lang: str, after: str) -> str:
