@@ -147,7 +147,8 @@ def answer_lines(result) -> list[str]:
                  + (f"its neighbours fail: {c['neighbourhood']}" if c.get("neighbourhood") else
                     f"its neighbourhood {unrun}" if (unrun := neighbourhood_fails(c)) else f"fails: {c['failed']}") + ")"]
     if f is not None and f["settings"] != c["settings"]:
-        lines.append(f"fragile (an isolated pass: its neighbours fail): {f['settings']} ({f['steps_per_sim_s']:.4g} "
+        than = "cheaper" if f["steps_per_sim_s"] < c["steps_per_sim_s"] else "as cheap"
+        lines.append(f"fragile ({than}, an isolated pass: its neighbours fail): {f['settings']} ({f['steps_per_sim_s']:.4g} "
                      f"steps per simulated s); fails at {f['neighbourhood']}")
     lines.append(f"{len(result.cheaper())} cheaper or as cheap candidates fail; {len(result.cheaper(fragile=True))} "
                  "cheaper or as cheap ones pass but are fragile")

@@ -131,8 +131,8 @@ def _answer(result, ev=None) -> list[str]:
     cost = (f"{_fmt(c['steps_per_sim_s'])} steps per simulated second, {_fmt(c['cost_per_sim_s'])} s of wall clock "
             f"per simulated second (the least of {int(c['cost_repeats'])} timed run{'s' if c['cost_repeats'] != 1 else ''})")
     if result.best is not None:
-        head = [f"**Recommended (robust):** `{c['settings']}`: all {c['n_episodes']} episodes pass ({c['verdict']}), and "
-                "so do they at dt x 0.8 and x 1.25 and at the neighbouring values of each continuous knob (the map's knob: "
+        head = [f"**Recommended (robust):** `{c['settings']}`: {_episodes_pass(c['n_episodes'])} ({c['verdict']}), "
+                "at dt x 0.8 and x 1.25 as well, and at the neighbouring values of each continuous knob (the map's knob: "
                 "its adjacent searched values; every other real-valued knob: half-way to its adjacent searched values); "
                 f"margin {_fmt(result.margin)} (its worst error over its tolerance among the judge's checks); cost {cost}."]
         if result.frontier:
@@ -148,11 +148,33 @@ def _answer(result, ev=None) -> list[str]:
                 f"{c['verdict']}; {why}; cost {cost}."]
     f = result.fragile
     if f is not None and f["settings"] != c["settings"]:
-        head.append(f"**Fragile (cheaper, but an isolated pass):** `{f['settings']}` passes at "
-                    f"{_fmt(f['steps_per_sim_s'])} steps per simulated second, but its neighbours fail ({f['neighbourhood']}): "
+        than = "cheaper" if f["steps_per_sim_s"] < c["steps_per_sim_s"] else "as cheap"
+        head.append(f"**Fragile ({than}, but an isolated pass):** `{f['settings']}` passes at "
+                    f"{_fmt(f['steps_per_sim_s'])} steps per simulated second (the {'answer' if result.best else 'best reachable'}: "
+                    f"{_fmt(c['steps_per_sim_s'])}), but its neighbours fail ({f['neighbourhood']}): "
                     "a small change of the model can land on a failure.")
-    ratios = ", ".join(f"{short} {_fmt(c.get(f'{name}_ratio', math.nan))}" for name, (*_, short) in CHECKS.items())
-    return head + [f"Each check's worst error over its tolerance (1 = at the tolerance): {ratios}."] + _restitution_claim(result, ev)
+    return head + [_ratios_sentence(c)] + _restitution_claim(result, ev)
+
+
+def _episodes_pass(n: int) -> str:
+    """"all 3 episodes pass", "its one episode passes", or what passing means with none (the answer's words)."""
+    n = int(n)
+    if n == 0:
+        return "no episode to judge, none in the reference either"
+    return "its one episode passes" if n == 1 else f"all {n} episodes pass"
+
+
+def _ratios_sentence(c: dict) -> str:
+    """Each check's worst error over its tolerance, and the checks with nothing to measure named as such."""
+    measured, unmeasured = [], []
+    for name, (*_, short) in CHECKS.items():
+        ratio = c.get(f"{name}_ratio", math.nan)
+        (unmeasured if isinstance(ratio, float) and math.isnan(ratio) else measured).append(f"{short} {_fmt(ratio)}")
+    text = f"Each check's worst error over its tolerance (1 = at the tolerance): {', '.join(measured) or 'none measured'}"
+    if unmeasured:
+        names = ", ".join(u.rsplit(" ", 1)[0] for u in unmeasured)
+        text += f"; nothing to measure for {names} (no such event in the run's episodes, e.g. no exit when nothing slides off)"
+    return text + "."
 
 
 def _sentence(result) -> str:

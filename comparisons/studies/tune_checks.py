@@ -39,7 +39,7 @@ import pandas as pd
 from ..pipeline.solution import ReferenceSolution
 from ..pipeline.summary import worst_signed
 from ..pipeline.tolerances import Tolerances
-from ..pipeline.vocabulary import VERDICTS
+from ..pipeline.vocabulary import UNDETERMINED, VERDICTS
 from .restitution_curve import pinned_settings
 from .scene_restitution import miss_summary, scene_restitution
 
@@ -60,12 +60,13 @@ RATIO_COLUMNS = [f"{name}_ratio" for name in CHECKS] + ["worst_ratio"]
 # the tolerance at some place in a step, their bands in words); NaN / "" without strikes
 STRIKE_COLUMNS = ["r_holds_from", "r_held_from", "r_struck", "r_misses"]
 MEASURED = ("agree", "timing", "impacts")  # verdict groups whose episodes have every error measured
-UNMEASURED = ("unmeasured",)  # in a measured group, but with no restitution error: the step measures no impact
 
 
 def _no_error(verdict: str) -> bool:
-    """Whether an episode of this verdict has an error left unmeasured (no tolerance of the checks makes it pass)."""
-    return verdict in VERDICTS and (VERDICTS[verdict].group not in MEASURED or verdict in UNMEASURED)
+    """Whether an episode of this verdict has an error left unmeasured (no tolerance of the checks makes it pass): a
+    verdict outside the measured groups, or an undetermined one (``unresolved``: a time the samples cannot pin to
+    its tolerance; ``unmeasured``: no resolved impact the step can measure), in a measured group but not measured."""
+    return verdict in VERDICTS and (VERDICTS[verdict].group not in MEASURED or verdict in UNDETERMINED)
 
 
 def _ratio(value: float, limit: float) -> float:

@@ -152,3 +152,19 @@ def test_tune_prints_the_time_the_user_waited(tmp_path):
     # the search
     last_write = max(p.stat().st_mtime for p in (tmp_path / "t").rglob("*") if p.is_file())
     check_printed_age(said, run, last_write, rounding=0.05)
+
+
+def test_best_reachable_is_a_searched_candidate_within_the_cost_cap():
+    # before: a dt x 0.8 neighbour run only to check a candidate (off the searched lattice, above --max-cost)
+    # became the best reachable when its worst ratio was smaller (bouncing-ball, MuJoCo, space dt 3e-4: dt
+    # 2.4e-4 was answered; test_scene_restitution.test_tune_counts_the_miss_and_the_guide_says_so)
+    base = {"verdict": "rebound", "n_match": 0, "robust": None, "neighbourhood": ""}
+    table = pd.DataFrame([{**base, "stage": "exhaustive", "dt": 3e-4, "steps_per_sim_s": 3333.0, "worst_ratio": 2.55,
+                           "settings": "searched"},
+                          {**base, "stage": "neighbourhood", "dt": 2.4e-4, "steps_per_sim_s": 4167.0, "worst_ratio": 2.22,
+                           "settings": "neighbour"},
+                          {**base, "stage": "exhaustive", "dt": 1e-4, "steps_per_sim_s": 10000.0, "worst_ratio": 1.5,
+                           "settings": "dear"}])
+    assert reachable(table)["settings"] == "dear"  # the smallest worst ratio among the searched
+    assert reachable(table, max_cost=5000.0)["settings"] == "searched"  # the neighbour is not the answer
+    assert reachable(table[table["stage"] == "neighbourhood"])["settings"] == "neighbour"  # nothing else ran

@@ -13,6 +13,8 @@ tolerance 0.2 (0.25 on feigin-pair) tune finds a robust answer on each (``ANSWER
 
 from __future__ import annotations
 
+import math
+
 import pytest
 
 from chatterbench.comparisons import reference_trajectory
@@ -119,3 +121,20 @@ def test_an_unmeasured_run_has_no_error_to_measure_and_says_so():
     ratios = check_ratios(table, impacts, tol, allowance)
     assert table["verdict"].tolist() == ["match"] and ratios["worst_ratio"] == pytest.approx(0.785, abs=0.005)
     assert describe_failures(table, ratios, tol) == ""
+
+
+def test_an_unresolved_run_is_not_ranked_as_a_near_pass():
+    # before: ``unresolved`` (the samples place the sticking start only to more than its tolerance) counted as a
+    # measured timing verdict, so its worst ratio was the measured errors' (here 2.19; an unresolved run of small
+    # measured errors ranked under 1, as if it passed) and tune's best reachable could be one
+    ref, tol = solve(load_scene("bouncing-ball")), _tol(0.05)
+    allowance = tol.penetration * ref.length_scale
+    _, table, impacts = judge_run(ref, "pybullet", make_settings("pybullet", 0.02, {}), tol)
+    assert table["verdict"].tolist() == ["unresolved"]
+    ratios = check_ratios(table, impacts, tol, allowance)
+    assert ratios["worst_ratio"] == float("inf")
+    assert "1 episode unresolved (" in describe_failures(table, ratios, tol)
+    # the other way: the same engine at a step that pins the times is measured, its ratio finite
+    _, table, impacts = judge_run(ref, "pybullet", make_settings("pybullet", 1e-3, {}), tol)
+    assert "unresolved" not in table["verdict"].tolist()
+    assert math.isfinite(check_ratios(table, impacts, tol, allowance)["worst_ratio"])
