@@ -317,8 +317,18 @@ def _scratch():
             subprocess.run(["umount", str(root / "full")], capture_output=True, check=False)
 
 
+_DONE: dict[str, tuple[Outcome, str]] = {}  # case id -> its run, made once per process (the test and the doc read it)
+
+
 def run_case(case: Case) -> tuple[Outcome, str]:
-    """Run one case; returns its outcome and what ``after`` says of the disk ("" without one)."""
+    """Run one case, once per process (``test_hostile_case`` and ``docs/bad-inputs.md`` read the same run); returns
+    its outcome and what ``after`` says of the disk ("" without one)."""
+    if case.id not in _DONE:
+        _DONE[case.id] = _run_case(case)
+    return _DONE[case.id]
+
+
+def _run_case(case: Case) -> tuple[Outcome, str]:
     with _scratch() as root:
         env = case.setup(root) if case.setup else {}
         saved = {k: os.environ.get(k) for k in (*env, "GITHUB_ACTIONS", "GITHUB_STEP_SUMMARY")}

@@ -165,6 +165,8 @@ ALLOWED_FLIPS = {
 def _variants():
     base = ExtractionOptions()
     for f in dataclasses.fields(ExtractionOptions):
+        if getattr(base, f.name) == 0:  # position_rounding: 0 x 10 = 0 / 10 = 0 is the base itself, nothing varied
+            continue
         for k, label in ((10.0, "x10"), (0.1, "/10")):
             yield f"{f.name}{' ' if label == 'x10' else ''}{label}", dataclasses.replace(base, **{f.name: getattr(base, f.name) * k}), Tolerances()
     for k, label in ((10.0, " x10"), (0.1, "/10")):
