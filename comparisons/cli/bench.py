@@ -200,7 +200,9 @@ def _run_bench(args: argparse.Namespace, bar: Progress):
             _print_warp(args.worlds, bar if args.only is None else None)
     elif args.what == "tune":
         figures = bench_tune(workers=args.workers, max_runs=args.max_runs,
-                             started=lambda scene, engine, tol: bar.stage(f"tune {scene} --engines {engine} --tolerance {tol:g}"))
+                             started=lambda scene, engine, tol: bar.stage(f"tune {scene} --engines {engine} --tolerance {tol:g}"),
+                             finished=lambda row: bar.write(f"{row['scene']} / {row['engine']}: {row['runs']} runs, "
+                                                            f"{row['wall_s']:.1f} s; {row['answer_line']}"))
         print_table(figures.drop(columns="answer_line"), title="tune per case (runs, and wall time from the reference "
                                                                "to the answer and its robust frontier):")
         for row in figures.itertuples():  # what each engine reaches, robustly, and at what cost
