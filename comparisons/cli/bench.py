@@ -132,9 +132,11 @@ def check_options(args: argparse.Namespace) -> None:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
+    from chatterbench.comparisons.studies.bench import TUNE_CASES  # the studies load with the bench, not with --help
+
     check_options(args)
     parts = ([p for p in ("overhead", "refine", "warp") if args.only in (None, p)] if args.what == "sweep" else
-             [*COMMANDS, "top"] if args.what == "help" else [args.what])
+             [*COMMANDS, "top"] if args.what == "help" else TUNE_CASES if args.what == "tune" else [args.what])
     with Progress(len(parts), f"bench {args.what}", unit="part") as bar:  # minutes of timing: say what runs
         figures = _run_bench(args, bar)
     print(REPEAT[args.what])
@@ -175,7 +177,8 @@ def _run_bench(args: argparse.Namespace, bar: Progress):
         print_table(figures.round(3), title="seconds each --help takes in a fresh process (best and median of --repeats):")
         return figures
     first = {None: "overhead", "overhead": "overhead", "refine": "refine"}.get(args.only) or _warp_stage()
-    bar.stage(first if args.what == "sweep" else "timing")
+    if args.what != "tune":  # tune: each case is a stage of its own (bench_tune's ``started``)
+        bar.stage(first if args.what == "sweep" else "timing")
     if args.what == "reference":
         figures = bench_reference(periods=args.periods, repeats=args.repeats)
         print_table(pd.DataFrame([figures]), title="reference on feigin-pair (best of repeats, one core):")
@@ -196,7 +199,10 @@ def _run_bench(args: argparse.Namespace, bar: Progress):
         if args.only in (None, "warp"):
             _print_warp(args.worlds, bar if args.only is None else None)
     elif args.what == "tune":
-        figures = bench_tune(workers=args.workers, max_runs=args.max_runs)
+        figures = bench_tune(workers=args.workers, max_runs=args.max_runs,
+                             started=lambda scene, engine, tol: bar.stage(f"tune {scene} --engines {engine} --tolerance {tol:g}"),
+                             finished=lambda row: bar.write(f"{row['scene']} / {row['engine']}: {row['runs']} runs, "
+                                                            f"{row['wall_s']:.1f} s; {row['answer_line']}"))
         print_table(figures.drop(columns="answer_line"), title="tune per case (runs, and wall time from the reference "
                                                                "to the answer and its robust frontier):")
         for row in figures.itertuples():  # what each engine reaches, robustly, and at what cost

@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 import time
 from pathlib import Path
+from typing import Callable
 
 from chatterbench.reference import load_scene, simulate
 
@@ -257,14 +258,18 @@ TUNE_CASES = tuple((scene, engine, 0.1 if scene == "spring-pair" else 0.05)
                    for engine in ("mujoco", "pybullet"))
 
 
-def bench_tune(cases=TUNE_CASES, workers: int = 2, max_runs: int | None = None):
+def bench_tune(cases=TUNE_CASES, workers: int = 2, max_runs: int | None = None,
+               started: Callable[[str, str, float], None] | None = None,
+               finished: Callable[[dict], None] | None = None):
     """One ``tune`` per case, timed as a user waits for it (the reference, the search, the repeats' timing).
 
     Returns a DataFrame, one row per case: scene, engine, tolerance, answer (the chosen settings),
     robust, margin (worst error / tolerance of the judge's checks), steps_per_sim_s, runs, wall_s, fragile (the cheapest
     isolated pass, if cheaper), exhaustive (the whole lattice ran), frontier (its points), tightest_stick and
     tightest_restitution (the tightest tolerances reached robustly; NaN: none), and answer_line (the answer's first
-    sentence: robust at T or not, then the frontier, ``tune_answer.frontier_line``).
+    sentence: robust at T or not, then the frontier, ``tune_answer.frontier_line``). ``started(scene, engine,
+    tolerance)`` is called as each case begins (the CLI's progress line), ``finished(row)`` as it ends (the CLI prints
+    the case's row then: a long benchmark stopped halfway keeps what it measured).
     """
     import pandas as pd
 
@@ -273,6 +278,8 @@ def bench_tune(cases=TUNE_CASES, workers: int = 2, max_runs: int | None = None):
 
     rows = []
     for scene_name, engine, tol in cases:
+        if started is not None:
+            started(scene_name, engine, tol)
         start = time.perf_counter()
         result = tune(load_scene(scene_name), engine, tol, workers=workers, max_runs=max_runs or MAX_RUNS, repeats=3)
         wall = time.perf_counter() - start
@@ -287,4 +294,6 @@ def bench_tune(cases=TUNE_CASES, workers: int = 2, max_runs: int | None = None):
                      "tightest_stick": math.nan if reach["stick"] is None else reach["stick"],
                      "tightest_restitution": math.nan if reach["restitution"] is None else reach["restitution"],
                      "answer_line": frontier_line(result)})
+        if finished is not None:
+            finished(rows[-1])
     return pd.DataFrame(rows)
