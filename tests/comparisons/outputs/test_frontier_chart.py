@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 
 import pytest
 
@@ -63,3 +64,37 @@ def test_frontiers_are_read_from_the_tune_folders_one_or_several_engines(tmp_pat
     (one / "recommended.json").write_text("{not json")
     with pytest.raises(InputError, match=r"--tune .*one: recommended.json is not the JSON"):
         read_frontiers([one])
+
+
+@pytest.mark.parametrize("change, field", [
+    (lambda e: {**e, "cost_steps_per_s": "cheap"}, "frontier[1].cost_steps_per_s"),
+    (lambda e: {**e, "cost_steps_per_s": -5.0}, "frontier[1].cost_steps_per_s"),
+    (lambda e: {**e, "tolerances": {**e["tolerances"], "stick": float("inf")}}, "frontier[1].tolerances.stick"),
+    (lambda e: {k: v for k, v in e.items() if k != "tolerances"}, "frontier[1]: not an entry"),
+    (lambda e: "a string", "frontier[1]: not an entry"),
+])
+def test_a_frontier_the_chart_cannot_draw_is_refused_by_field(tmp_path, change, field):
+    # a hand-edited or foreign recommended.json given to `report --tune`: one line naming the file and the field,
+    # not a failure inside matplotlib; the file as tune wrote it is read (the other way)
+    frontier = [FRONTIER[0], change(FRONTIER[1])]
+    (tmp_path / "recommended.json").write_text(json.dumps({"scene": "bouncing-ball", "engine": "pybullet",
+                                                          "frontier": frontier}))
+    with pytest.raises(InputError, match=rf"--tune .*: recommended.json: {re.escape(field)}"):
+        read_frontiers([tmp_path])
+    (tmp_path / "recommended.json").write_text(json.dumps({"scene": "bouncing-ball", "engine": "pybullet",
+                                                          "frontier": FRONTIER}))
+    assert len(read_frontiers([tmp_path])[0].frontier) == len(FRONTIER)
+
+
+def test_a_recommended_json_that_is_not_a_regular_file_or_too_large_is_refused(tmp_path):
+    import os
+
+    fifo, big = tmp_path / "fifo", tmp_path / "big"
+    fifo.mkdir(), big.mkdir()
+    os.mkfifo(fifo / "recommended.json")  # before: read_text waited for a writer
+    with pytest.raises(InputError, match="recommended.json: not a regular file"):
+        read_frontiers([fifo])
+    with open(big / "recommended.json", "wb") as f:
+        f.truncate(64 * 2**20)  # a sparse 64 MiB file: refused without reading it whole
+    with pytest.raises(InputError, match="recommended.json: larger than 4 MiB"):
+        read_frontiers([big])
