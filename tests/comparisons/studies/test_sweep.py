@@ -6,6 +6,7 @@ compared exactly, because the same inputs give bit-identical engine runs and ver
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from pathlib import Path
 
@@ -98,10 +99,33 @@ FAULTS = "segfault:mujoco:restitution=0.31;hang:mujoco:restitution=0.32;raise:mu
 FAULT_OF = {0.3: "", 0.31: "segfault", 0.32: "hang", 0.33: "raise"}
 
 
+HANG_LIMIT = 1.0  # [s] the limit of the runs built to hang (0.32) alone: they are `timeout` whatever the load
+
+
+def _hanging_runs_limited(monkeypatch) -> None:
+    """The sweep's runs as ``sweep_runs`` makes them, but the MuJoCo runs built to hang get ``HANG_LIMIT``.
+
+    A spec's ``timeout`` is one limit for every run, and a run that hangs waits all of it (a batch of four
+    the sum of its runs' limits), so each hanging run would cost 10 s here. Any limit classifies a run that
+    never returns as ``timeout``; every other run keeps the spec's 10 s, which a loaded machine cannot reach.
+    """
+    from chatterbench.comparisons.studies.sweep import runner
+
+    real = runner.sweep_runs
+
+    def runs(*args, **kwargs):
+        return [dataclasses.replace(r, timeout=HANG_LIMIT)
+                if r.engine == "mujoco" and FAULT_OF.get(dict(r.params)["restitution"]) == "hang" else r
+                for r in real(*args, **kwargs)]
+
+    monkeypatch.setattr(runner, "sweep_runs", runs)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("batch", [1, 4])
 def test_crashing_and_hanging_points_are_classified_and_the_rest_kept(tmp_path, batch, monkeypatch):
     monkeypatch.setenv("CHATTERBENCH_FAULT", FAULTS)
+    _hanging_runs_limited(monkeypatch)
     spec = _spec(tmp_path, """
 scene = "bouncing-ball"
 engines = ["mujoco", "pybullet"]
@@ -115,8 +139,9 @@ dt = 1e-3
 restitution = [0.3, 0.31, 0.32, 0.33]
 mass2 = [1.0, 2.0]
 """)
-    # batch = 4: two MuJoCo batches, each with a fault; each is rerun one run at a time. The 10 s limit ends the
-    # hanging runs; a run of 600 steps takes well under a second, so a loaded machine cannot make it a timeout
+    # batch = 4: two MuJoCo batches, each with a fault; each is rerun one run at a time. The hanging runs' own 1 s
+    # limit ends them (the hanging batch: at the sum of its runs' limits, 1 + 1 + 10 + 10 s); every other run has
+    # 10 s: a run of 600 steps takes well under a second, so a loaded machine cannot make it a timeout
     rows = run_sweep(load_sweep(spec), tmp_path / "out", workers=2, progress=False, batch=batch)
     # 4 restitutions x 2 masses for each engine; the faults hit MuJoCo only
     assert len(rows) == 16 and not rows.duplicated(KEY).any()
