@@ -146,10 +146,16 @@ def test_mujoco_feigin_pair_writes_recommended_json_either_way(tmp_path, capsys)
 def test_bench_tune_reports_runs_and_wall_time_per_case():
     from chatterbench.comparisons.studies.bench import bench_tune
 
-    table = bench_tune(cases=(("bouncing-ball", "pybullet", T),), workers=2, max_runs=20)
+    began, ended = [], []
+    table = bench_tune(cases=(("bouncing-ball", "pybullet", T),), workers=2, max_runs=20,
+                       started=lambda *case: began.append(case), finished=ended.append)
     row = table.iloc[0]
     assert {"runs", "wall_s", "robust", "margin", "steps_per_sim_s", "answer", "fragile"} <= set(table.columns)
     assert 0 < row["runs"] <= 20 + 6 and row["wall_s"] > 0  # the budget, and a neighbourhood once begun
+    # the CLI's progress: each case announced as it begins, its row handed over as it ends (a stopped bench keeps it)
+    assert began == [("bouncing-ball", "pybullet", T)] and len(ended) == 1
+    assert {k: ended[0][k] for k in ("scene", "engine", "runs", "answer", "answer_line")} == \
+        {k: row[k] for k in ("scene", "engine", "runs", "answer", "answer_line")}
 
 
 def test_a_pass_left_unchecked_by_the_budget_says_so():
