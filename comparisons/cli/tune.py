@@ -71,7 +71,7 @@ def cmd_tune(args: argparse.Namespace) -> int:
             bar.stage("the search")
             bar.set_postfix(budget=f"{args.max_runs} runs")
             result = tune(scene, engine, tol, space=spaces[engine], executor=CountingExecutor(pool, bar),
-                          repeats=args.repeats, max_runs=args.max_runs, max_cost=args.max_cost)
+                          repeats=args.repeats, max_runs=args.max_runs, max_cost=args.max_cost, solution=solution)
         _print_result(result)
         results.append(result)
     if args.out:
@@ -130,9 +130,9 @@ def _print_result(result) -> None:
 
 def answer_lines(result) -> list[str]:
     """The answer as the terminal says it: the robust setting and its margin, the fragile pass beside it, or none."""
-    from chatterbench.comparisons.studies.tune_answer import neighbourhood_fails
+    from chatterbench.comparisons.studies.tune_answer import fragile_beside, neighbourhood_fails
 
-    c, f = result.chosen, result.fragile
+    c = result.chosen
     if c is None:
         return ["no candidate ran: every one was refused"]
     cost = f"{c['steps_per_sim_s']:.4g} steps and {c['cost_per_sim_s']:.3g} s per simulated s"
@@ -146,8 +146,8 @@ def answer_lines(result) -> list[str]:
                  f"{c['n_match']}/{c['n_episodes']} match; "
                  + (f"its neighbours fail: {c['neighbourhood']}" if c.get("neighbourhood") else
                     f"its neighbourhood {unrun}" if (unrun := neighbourhood_fails(c)) else f"fails: {c['failed']}") + ")"]
-    if f is not None and f["settings"] != c["settings"]:
-        than = "cheaper" if f["steps_per_sim_s"] < c["steps_per_sim_s"] else "as cheap"
+    if (beside := fragile_beside(result)) is not None:
+        f, than = beside
         lines.append(f"fragile ({than}, an isolated pass: its neighbours fail): {f['settings']} ({f['steps_per_sim_s']:.4g} "
                      f"steps per simulated s); fails at {f['neighbourhood']}")
     lines.append(f"{len(result.cheaper())} cheaper or as cheap candidates fail; {len(result.cheaper(fragile=True))} "

@@ -35,7 +35,8 @@ from matplotlib.figure import Figure
 
 from chatterbench.comparisons.pipeline.vocabulary import COLOURS, text_colour
 from chatterbench.comparisons.studies.tune import passing, short_label
-from chatterbench.comparisons.studies.tune_answer import FRAME_COLUMNS, frontier_frame, frontier_line, searched_text
+from chatterbench.comparisons.studies.tune_answer import (FRAME_COLUMNS, fragile_beside, frontier_frame, frontier_line,
+                                                           searched_text)
 from chatterbench.comparisons.studies.tune_checks import CHECKS, strike_summary
 from chatterbench.engines.export import export_files_names, measurement
 from chatterbench.engines.registry import adapter
@@ -146,11 +147,10 @@ def _answer(result, ev=None) -> list[str]:
         head = [f"**No robust setting passes these tolerances in the searched space.** {_sentence(result)}.",
                 f"Best reachable: `{c['settings']}`, {c['n_match']} of {c['n_episodes']} episodes match, verdict "
                 f"{c['verdict']}; {why}; cost {cost}."]
-    f = result.fragile
-    if f is not None and f["settings"] != c["settings"]:
-        than = "cheaper" if f["steps_per_sim_s"] < c["steps_per_sim_s"] else "as cheap"
+    if (beside := fragile_beside(result)) is not None:
+        f, than = beside
         head.append(f"**Fragile ({than}, but an isolated pass):** `{f['settings']}` passes at "
-                    f"{_fmt(f['steps_per_sim_s'])} steps per simulated second (the {'answer' if result.best else 'best reachable'}: "
+                    f"{_fmt(f['steps_per_sim_s'])} steps per simulated second (the {'answer' if result.best is not None else 'best reachable'}: "
                     f"{_fmt(c['steps_per_sim_s'])}), but its neighbours fail ({f['neighbourhood']}): "
                     "a small change of the model can land on a failure.")
     return head + [_ratios_sentence(c)] + _restitution_claim(result, ev)
@@ -166,14 +166,13 @@ def _episodes_pass(n: int) -> str:
 
 def _ratios_sentence(c: dict) -> str:
     """Each check's worst error over its tolerance, and the checks with nothing to measure named as such."""
-    measured, unmeasured = [], []
-    for name, (*_, short) in CHECKS.items():
-        ratio = c.get(f"{name}_ratio", math.nan)
-        (unmeasured if isinstance(ratio, float) and math.isnan(ratio) else measured).append(f"{short} {_fmt(ratio)}")
+    ratios = {short: c.get(f"{name}_ratio", math.nan) for name, (*_, short) in CHECKS.items()}
+    measured = [f"{short} {_fmt(r)}" for short, r in ratios.items() if not (isinstance(r, float) and math.isnan(r))]
+    unmeasured = [short for short, r in ratios.items() if isinstance(r, float) and math.isnan(r)]
     text = f"Each check's worst error over its tolerance (1 = at the tolerance): {', '.join(measured) or 'none measured'}"
     if unmeasured:
-        names = ", ".join(u.rsplit(" ", 1)[0] for u in unmeasured)
-        text += f"; nothing to measure for {names} (no such event in the run's episodes, e.g. no exit when nothing slides off)"
+        text += (f"; nothing to measure for {', '.join(unmeasured)} (no such event in the run's episodes, e.g. no exit "
+                 "when nothing slides off)")
     return text + "."
 
 

@@ -360,6 +360,7 @@ def tune(
     check_robust: bool = True,
     ladder: Ladder | None = Ladder(),
     max_cost: float = math.inf,
+    solution: ReferenceSolution | None = None,
 ) -> TuneResult:
     """The cheapest robust settings of ``engine`` whose every episode passes within ``tolerance``, and the robust
     frontier over a ladder of tolerances (module docstring).
@@ -387,6 +388,8 @@ def tune(
         The tolerance levels of the frontier (``tune_ladder``); None: the asked tolerances alone.
     max_cost : float
         No candidate of more steps per simulated second is run or answered [1/s] (> 0; inf: no cap).
+    solution : ReferenceSolution, optional
+        ``solve(scene)`` when the caller already has it (the CLI solves once for every engine's space).
     """
     check_engine(engine)
     tol = tolerance if isinstance(tolerance, Tolerances) else Tolerances(stick=tolerance, exit=tolerance, first_impact=tolerance)
@@ -396,7 +399,7 @@ def tune(
     if not max_cost > 0:
         raise TuneError(f"tune max_cost = {max_cost!r}: must be > 0 steps per simulated second (inf: no cap)")
     started = time.perf_counter()
-    ref = solve(scene)
+    ref = solution if solution is not None else solve(scene)
     space = engine_space(engine, scene, space) if space is not None else search_space(engine, scene, tol, ref, refine_steps)
     grid = Grid.make(space, refine_steps)
     if not any(1.0 / dt <= max_cost for dt in grid.dt):

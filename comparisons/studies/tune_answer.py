@@ -44,6 +44,16 @@ def neighbourhood_fails(c: dict[str, Any], checked: bool = True) -> str:
     return UNCHECKED if checked and agrees(c["verdict"]) and c.get("robust") is None else ""
 
 
+def fragile_beside(result: TuneResult) -> tuple[dict[str, Any], str] | None:
+    """The fragile pass shown beside the answer, and how it compares in cost: "cheaper", or "as cheap" when its steps
+    per simulated second are the chosen candidate's or more (no robust answer: the best reachable may be dearer);
+    None when there is none, or it is the chosen candidate itself."""
+    c, f = result.chosen, result.fragile
+    if c is None or f is None or f["settings"] == c["settings"]:
+        return None
+    return f, ("cheaper" if f["steps_per_sim_s"] < c["steps_per_sim_s"] else "as cheap")
+
+
 def ladder_text(result: TuneResult) -> str:
     """The ladder's levels in a few words: ``stick 1%..20% x restitution 2%..30% (36 points)``."""
     points = result.extra.get("points") or (result.tolerance,)

@@ -76,7 +76,8 @@ def normalize(frame: pd.DataFrame) -> pd.DataFrame:
     return frame
 
 
-def _part_paths(out_dir: str | Path) -> list[Path]:
+def part_paths(out_dir: str | Path) -> list[Path]:
+    """The part files under ``OUT/rows/``, in the order they were written."""
     return sorted(Path(out_dir, "rows").glob("part-*.parquet"))  # names start with the time: write order
 
 
@@ -108,7 +109,7 @@ def read_rows(out_dir: str | Path, dedupe: bool = True) -> pd.DataFrame:
 
     Raises ``DatasetError`` naming a part that cannot be read.
     """
-    return _frame_of([_read_part(p) for p in _part_paths(out_dir)], dedupe)
+    return _frame_of([_read_part(p) for p in part_paths(out_dir)], dedupe)
 
 
 def same_value(got: Any, want: Any) -> bool:
@@ -122,7 +123,7 @@ def same_value(got: Any, want: Any) -> bool:
 def part_fingerprints(out_dir: str | Path) -> set[str | None]:
     """The spec fingerprints (``Sweep.fingerprint``) the readable parts under OUT/rows/ carry; None: a part without one."""
     found = set()
-    for path in _part_paths(out_dir):
+    for path in part_paths(out_dir):
         try:
             found.add(_read_part(path).attrs.get(FINGERPRINT))
         except DatasetError:
@@ -193,7 +194,7 @@ def check_parts(out_dir: str | Path, runs: Sequence[RunTask], fingerprint: str, 
     """
     by_key = {(r.point_id, r.engine): r for r in runs}
     frames, aside = [], []
-    for path in _part_paths(out_dir):
+    for path in part_paths(out_dir):
         frame, reason = part_problem(path, by_key, fingerprint, untagged_ok, lattice)
         if reason is None:
             frames.append(frame)

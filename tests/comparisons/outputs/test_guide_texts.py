@@ -36,7 +36,7 @@ def test_one_episode_is_said_in_words_and_an_absent_exit_is_not_nan(ball):
     assert re.search(r"sticking \d", ratios), ratios  # the measured ones keep their number
 
 
-def test_several_episodes_are_counted(ball):
+def test_several_episodes_are_counted():
     pair = tune(load_scene("feigin-pair"), "pybullet", 0.05, space={"dt": (1e-3,)}, workers=1, refine_steps=0,
                 ladder=None)
     n = pair.chosen["n_episodes"]

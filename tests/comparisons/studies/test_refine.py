@@ -21,6 +21,7 @@ from chatterbench.comparisons.outputs.stability_map import stability_map_figure
 from chatterbench.comparisons.outputs.sweep_data import VERDICT_COLOURS
 from chatterbench.comparisons.studies.sweep import Sweep, load_sweep, read_rows, run_sweep
 from chatterbench.comparisons.studies.sweep.adaptive import Levels, agreement, fine_sweep
+from chatterbench.comparisons.studies.sweep.dataset import part_paths
 from chatterbench.comparisons.studies.sweep.refine import fill, lattice, split_points
 
 KEY = ["point_id", "engine"]
@@ -159,7 +160,7 @@ def _level_1_count(out: Path) -> int:
 
 def _trim_to_inside_level_1(out: Path, level_size: int) -> int:
     """Remove the newest part files until level 1 is started but not finished; its row count then."""
-    parts = sorted((out / "rows").glob("part-*.parquet"))  # names start with the time: write order
+    parts = part_paths(out)  # write order
     while _level_1_count(out) >= level_size or _has_level(out, 2):
         parts.pop().unlink()
     return _level_1_count(out)
