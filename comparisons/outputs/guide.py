@@ -382,8 +382,14 @@ def guide_section_html(result, figures: dict[str, Figure] | None = None, ev=None
     return "\n".join(parts)
 
 
-def guide_html(result, figures: dict[str, Figure] | None = None, ev=None) -> str:
-    """The guide as one self-contained HTML page, in the report page's style."""
-    title = f"tuning {html.escape(result.engine)} for {html.escape(result.scene.name)}"
-    return (f'<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>{title}</title>'
-            f"<style>{PAGE_CSS}</style></head><body>" + guide_section_html(result, figures, ev) + "</body></html>")
+def guide_html(result, figures: dict[str, Figure] | None = None, ev=None, section: str | None = None) -> str:
+    """The guide as one self-contained HTML page, in the report page's style; ``section``: ``guide_section_html``'s
+    fragment when the caller has already rendered it (its figures are encoded once)."""
+    body = section if section is not None else guide_section_html(result, figures, ev)
+    return html_page(f"tuning {result.engine} for {result.scene.name}", body)
+
+
+def html_page(title: str, body: str) -> str:
+    """``body`` (an HTML fragment) as one self-contained page in the report page's style; ``title`` is plain text."""
+    return (f'<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>'
+            f"<style>{PAGE_CSS}</style></head><body>{body}</body></html>")

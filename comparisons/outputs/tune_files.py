@@ -39,8 +39,7 @@ from chatterbench.comparisons.studies.tune_evidence import evidence
 from .engine_files import write_engine_files
 from .figures import figure_bytes, write_figure
 from .frontier_chart import frontier_figure
-from .guide import CAPTIONS, FIGURE_FILES, guide_figures, guide_html, guide_markdown, guide_section_html
-from .style import PAGE_CSS
+from .guide import CAPTIONS, FIGURE_FILES, guide_figures, guide_html, guide_markdown, guide_section_html, html_page
 
 
 def level_labels(points, indices) -> str:
@@ -62,8 +61,9 @@ def candidates_frame(result) -> pd.DataFrame:
     return table
 
 
-def write_engine_set(result, out: Path) -> list[str]:
-    """One engine's files under ``out`` (module docstring); returns their names relative to ``out``."""
+def write_engine_set(result, out: Path) -> tuple[list[str], str]:
+    """One engine's files under ``out`` (module docstring); returns their names relative to ``out``, and its guide
+    section (the HTML fragment of ``guide_section.html``, for the guide of several engines)."""
     rec = recommended(result)
     ev = evidence(result)  # reruns the chosen settings: strikes at every resolved impact, the ladder
     figures = guide_figures(result, ev)
@@ -72,34 +72,34 @@ def write_engine_set(result, out: Path) -> list[str]:
         write_text(out / "recommended.json", json.dumps(rec, indent=2) + "\n")
         written.append("recommended.json")
     write_text(out / "guide.md", guide_markdown(result, figures, ev))
-    write_text(out / "guide.html", guide_html(result, figures, ev))
-    write_text(out / "guide_section.html", guide_section_html(result, figures, ev))  # for `report --tune DIR`
+    section = guide_section_html(result, figures, ev)  # rendered once: the page and `report --tune DIR` embed it
+    write_text(out / "guide.html", guide_html(result, section=section))
+    write_text(out / "guide_section.html", section)
     write_frame(out / "candidates.csv", candidates_frame(result))
     written += ["guide.md", "guide.html", "guide_section.html", "candidates.csv"]
     for name, fig in figures.items():
         write_figure(fig, out, FIGURE_FILES[name])
         written.append(f"{FIGURE_FILES[name]}.png/.svg")
-    return written + write_engine_files(result, out)  # at recommended.json's settings (tune_evidence.chosen_settings)
+    return written + write_engine_files(result, out), section  # engine files at recommended.json's settings
 
 
 def write_tune_files(results: Sequence, out: Path) -> list[str]:
     """What ``tune --out`` writes for ``results`` (one per engine, one scene); returns the names written."""
     out = Path(out)
     if len(results) == 1:
-        return write_engine_set(results[0], out)
-    written = []
+        return write_engine_set(results[0], out)[0]
+    written, sections = [], []
     for result in results:
-        written += [f"{result.engine}/{name}" for name in write_engine_set(result, out / result.engine)]
+        names, section = write_engine_set(result, out / result.engine)
+        written += [f"{result.engine}/{name}" for name in names]
+        sections.append(section)
     first = results[0]
     fig = frontier_figure({r.engine: r.frontier for r in results}, first.scene.name,
                           {"stick": first.tolerance.stick, "restitution": first.tolerance.restitution})
     write_figure(fig, out, "frontier")
-    sections = [(out / r.engine / "guide_section.html").read_text(encoding="utf-8") for r in results]
     section = _combined_section(results, fig, sections)
     write_text(out / "guide_section.html", section)
-    write_text(out / "guide.html", f'<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>tuning '
-                                   f"{html.escape(first.scene.name)}</title><style>{PAGE_CSS}</style></head><body>"
-                                   f"{section}</body></html>")
+    write_text(out / "guide.html", html_page(f"tuning {first.scene.name}", section))
     write_text(out / "guide.md", _combined_markdown(results))
     return written + ["frontier.png/.svg", "guide_section.html", "guide.html", "guide.md"]
 
