@@ -65,11 +65,10 @@ from .faults import inject_planned
 from .isolate import Outcome, call_isolated, inside
 from .settings import SettingsError
 from .stepping import bare_seconds as stepping_bare_seconds
-from .stepping import run_steps
+from .stepping import n_steps, run_steps  # n_steps: a run's steps, exported here
 from .trajectory import Trajectory
 from .window import Recorder
 
-_ROUNDING = 1e-12  # [-] relative slack of duration / dt, so that 2.0 / 1e-4 gives 20000 steps
 MAXVAL = 1e10  # [m, m/s] a larger |position| or |velocity| is a blow-up (MuJoCo's mjMAXVAL, for every engine)
 GRID_SLACK = 1e-3  # [steps] how far a sample's time may be from t0 + k dt (rounding, an accumulated t += dt)
 
@@ -113,11 +112,6 @@ class Crashed(RuntimeError):
 class TimedOut(RuntimeError):
     """Raised by an adapter's ``simulate`` when it stopped its engine at the run's time limit (``isolate.run_limit``:
     a child process of the adapter killed, as Siconos's): the run is ``timeout``, as an isolated run past its limit."""
-
-
-def n_steps(duration: float, dt: float) -> int:
-    """Steps of ``dt`` [s] covering ``duration`` [s]: the largest n with n dt <= duration (to rounding), >= 1."""
-    return max(1, int(math.floor(duration / dt * (1.0 + _ROUNDING))))
 
 
 _count_steps = n_steps  # ``EngineAdapter.benchmark``'s argument has the name

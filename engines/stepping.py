@@ -41,6 +41,13 @@ from chatterbench.reference.scene import Scene
 from .window import CHUNK
 
 FINITE_CHECK_EVERY = 1024  # [steps] how often the loop checks the state is finite (a power of 2: a mask test)
+_ROUNDING = 1e-12  # [-] relative slack of duration / dt, so that 2.0 / 1e-4 gives 20000 steps
+
+
+def n_steps(duration: float, dt: float) -> int:
+    """Steps of ``dt`` [s] covering ``duration`` [s]: the largest n with n dt <= duration (to rounding), >= 1
+    (every engine's run, ``base.n_steps``)."""
+    return max(1, int(math.floor(duration / dt * (1.0 + _ROUNDING))))
 
 
 def force_plan(scene: Scene, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -59,7 +66,7 @@ def force_plan(scene: Scene, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.
 def forces_on(scene: Scene, dt: float) -> tuple[bool, bool]:
     """Whether body 1 and body 2 ever feel a scene force over the run at ``dt`` [s] (planned chunk by chunk): an
     adapter may skip applying a force that is always zero."""
-    n = max(1, math.floor(scene.duration / dt * (1.0 + 1e-12)))  # ``base.n_steps``
+    n = n_steps(scene.duration, dt)
     on1 = on2 = False
     for k0 in range(0, n, CHUNK):
         time1, time2, gain = force_plan(scene, scene.initial.t + dt * np.arange(k0, min(n, k0 + CHUNK)))
