@@ -171,8 +171,8 @@ def _ratios_sentence(c: dict) -> str:
     unmeasured = [short for short, r in ratios.items() if isinstance(r, float) and math.isnan(r)]
     text = f"Each check's worst error over its tolerance (1 = at the tolerance): {', '.join(measured) or 'none measured'}"
     if unmeasured:
-        text += (f"; nothing to measure for {', '.join(unmeasured)} (no such event in the run's episodes, e.g. no exit "
-                 "when nothing slides off)")
+        text += (f"; nothing to measure for {', '.join(unmeasured)} (no such event in the run's episodes, or none the "
+                 "step measures to its tolerance: e.g. no exit when nothing slides off, the restitution section below)")
     return text + "."
 
 
