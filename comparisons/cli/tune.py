@@ -5,7 +5,8 @@ ladder of tolerances, and a guide to paste them.
     $ chatterbench tune bouncing-ball --engines mujoco --tolerance stick=0.03 --tolerance restitution=0.2 --max-cost 5000
 
 Each engine's answer leads with whether the asked tolerances have a robust setting and what is reachable
-(``studies.tune_answer.frontier_line``), then its frontier as a table. Exit codes: 0 every engine has a robust
+(``studies.tune_answer.frontier_line``), then its frontier as a table; an engine that steps another's model (MuJoCo
+Warp: MuJoCo's) has each answer rerun in that engine at the same settings (``studies.tune_conformance``). Exit codes: 0 every engine has a robust
 candidate at the asked tolerances (its neighbourhood too), 1 one has none (the guide and recommended.json say what
 is reachable, and the best reachable), 2 bad input.
 """
@@ -31,6 +32,8 @@ from .progress import CountingExecutor, Progress, waited_s
 SHOW = ["stage", "settings", "verdict", "robust", "neighbourhood", "worst_ratio", "failed", "steps_per_sim_s",
         "cost_per_sim_s"]
 SHOW_CHECKED = 12  # rows of the terminal's table
+SAME_MODEL_SHOW = ["point", "dt", "settings", "verdict", "other_verdict", "episodes", "disagree", "stick_difference_max",
+                   "exit_difference_max", "same"]
 
 
 WRITTEN = ("recommended.json", "guide.md", "guide.html", "guide_section.html", "candidates.csv")  # and figures, ENGINE/
@@ -41,6 +44,7 @@ def cmd_tune(args: argparse.Namespace) -> int:
     from chatterbench.comparisons.outputs.tune_files import write_tune_files
     from chatterbench.comparisons.pipeline.solution import solve
     from chatterbench.comparisons.studies.tune import engine_space, search_space, tune
+    from chatterbench.comparisons.studies.tune_conformance import same_model_check, same_model_of
 
     check_dir("--out", args.out)
     scene_over, engine_over = split_overrides(args.set)
@@ -72,6 +76,9 @@ def cmd_tune(args: argparse.Namespace) -> int:
             bar.set_postfix(budget=f"{args.max_runs} runs")
             result = tune(scene, engine, tol, space=spaces[engine], executor=CountingExecutor(pool, bar),
                           repeats=args.repeats, max_runs=args.max_runs, max_cost=args.max_cost, solution=solution)
+            if same_model_of(engine):  # its answers rerun in the engine whose model it steps (MuJoCo Warp: MuJoCo's)
+                bar.stage(f"its answers rerun in {same_model_of(engine)}")
+            result.extra["same_model"] = same_model_check(result)
         _print_result(result)
         results.append(result)
     if args.out:
@@ -126,6 +133,10 @@ def _print_result(result) -> None:
     print(f"searched: {searched_text(result)}")
     for line in answer_lines(result):
         print(line)
+    if (check := result.extra.get("same_model")) is not None:
+        print_table(check.table[SAME_MODEL_SHOW], title=f"conformance: each answer of {result.engine} rerun in "
+                    f"{check.against} at the same settings, both judged at the answer's tolerances:")
+        print(check.sentence())
 
 
 def answer_lines(result) -> list[str]:

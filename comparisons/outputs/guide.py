@@ -187,10 +187,7 @@ def _frontier_markdown(result, figures: list[str]) -> list[str]:
     lines = ["## Robust frontier", "", _frontier_note(result), ""]
     frame = frontier_frame(result)
     if len(frame):
-        lines += ["| " + " | ".join(FRAME_COLUMNS) + " |", "| " + " | ".join("---" for _ in FRAME_COLUMNS) + " |"]
-        lines += ["| " + " | ".join(f"`{v}`" if c == "settings" else _fmt(v) for c, v in row.items()) + " |"
-                  for _, row in frame.iterrows()]
-        lines.append("")
+        lines += [_plain_md_table(frame[FRAME_COLUMNS]), ""]
     for name in (n for n in figures if n in IN_FRONTIER):
         lines += [f"![{name}]({FIGURE_FILES[name]}.png)", "", f"*{CAPTIONS[name]}*", ""]
     return lines
@@ -279,6 +276,9 @@ def guide_markdown(result, figures: dict | None = None, ev=None) -> str:
              "never deciding by itself: on a busy machine it follows the load).", "", "## Answer", ""]
     lines += [line + "\n" for line in _answer(result, ev)]
     lines += _frontier_markdown(result, list(figures or ()))
+    if (check := result.extra.get("same_model")) is not None:
+        lines += [f"## {_same_model_heading(check)}", "", check.sentence() + ".", "", _plain_md_table(_same_model_frame(check)),
+                  ""]
     text = snippet(result)
     if text:
         lang = "xml" if text.lstrip().startswith("<") else "python"
@@ -295,6 +295,33 @@ def guide_markdown(result, figures: dict | None = None, ev=None) -> str:
         lines += md_figure(name)
     lines += [f"## Every candidate tried ({len(result.table)})", "", _md_table(_candidates(result.table, result.extra.get("defaults", {}))), ""]
     return "\n".join(lines)
+
+
+def _same_model_heading(check) -> str:
+    return f"The answers in {check.against}, the engine whose model {check.engine} steps"
+
+
+def _same_model_frame(check) -> pd.DataFrame:
+    """``tune_conformance``'s rows as the guide shows them: tolerances in percent, one column per engine's verdict."""
+    t = check.table
+    return pd.DataFrame({"answer": t["point"], "stick %": 100 * t["stick"], "restitution %": 100 * t["restitution"],
+                         "dt": t["dt"], "settings": t["settings"], check.engine: t["verdict"], check.against: t["other_verdict"],
+                         "episodes that disagree": [f"{d} of {n}" for d, n in zip(t["disagree"], t["episodes"])],
+                         "max |sticking difference| [s]": t["stick_difference_max"].map(_or_none),
+                         "max |exit difference| [s]": t["exit_difference_max"].map(_or_none),
+                         "alike": t["same"].map({True: "yes", False: "no"})})
+
+
+def _or_none(v: float):
+    """A difference, or "none" where no episode has the event in both engines."""
+    return "none" if pd.isna(v) else v
+
+
+def _plain_md_table(frame: pd.DataFrame) -> str:
+    """A table of plain cells (the frontier's) in Markdown: its own column names, settings as code."""
+    rows = ["| " + " | ".join(f"`{v}`" if c == "settings" else _fmt(v) for c, v in row.items()) + " |"
+            for _, row in frame.iterrows()]
+    return "\n".join(["| " + " | ".join(frame.columns) + " |", "| " + " | ".join("---" for _ in frame.columns) + " |", *rows])
 
 
 def _md_table(frame: pd.DataFrame) -> str:
@@ -363,6 +390,9 @@ def guide_section_html(result, figures: dict[str, Figure] | None = None, ev=None
                 f"<figcaption>{esc(CAPTIONS[name])}</figcaption></figure>")
 
     parts += [html_figure(n) for n in figures if n in IN_FRONTIER]
+    if (check := result.extra.get("same_model")) is not None:
+        parts += [f"<h3>{esc(_same_model_heading(check))}</h3>", f"<p>{esc(check.sentence())}.</p>",
+                  _plain_html_table(_same_model_frame(check))]
 
     def code_block(code: str) -> str:
         return f'<pre style="white-space: pre-wrap; background: #f6f6f6; padding: 0.6em"><code>{esc(code)}</code></pre>'

@@ -70,10 +70,9 @@ from concurrent.futures import Executor, ProcessPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any, Sequence
 
-import numpy as np
 import pandas as pd
 
-from chatterbench.engines.registry import adapter, check_engine, make_settings, run_engine
+from chatterbench.engines.registry import adapter, check_engine
 from chatterbench.reference.errors import InputError
 from chatterbench.reference.scene import Scene, SceneError
 
@@ -86,6 +85,7 @@ from .tune_checks import RATIO_COLUMNS, STRIKE_COLUMNS, check_ratios, describe_f
 from .tune_frontier import answers, frontier_entries, json_value, tightest
 from .tune_ladder import Ladder, judge_levels
 from .tune_search import DT_RATIO, SEARCH_COLUMNS, Grid, agrees, need, round_dt, search
+from .tune_runs import batch_runs, batches_on_device, candidate_settings, settings_label, steps_per_sim_s, time_runs
 
 TUNE_COLUMNS = ["stage", "dt", "settings", "verdict", "n_episodes", "n_match", "failed", *SEARCH_COLUMNS, "passes",
                 "robust_at", "margins", "unjudged", *RATIO_COLUMNS,
@@ -150,18 +150,6 @@ def passing(verdicts: pd.Series) -> pd.Series:
     return verdicts.map(agrees).astype(bool)
 
 
-def candidate_settings(engine: str, params: dict[str, Any]) -> Any:
-    """A candidate's settings object: ``engine``'s defaults with its ``dt`` [s] and dotted settings (``engine.field``),
-    values handed on as they are (never through text); numpy scalars of a table row become Python's."""
-    values = {k: v.item() if isinstance(v, np.generic) else v for k, v in params.items() if "." in k}
-    return make_settings(engine, params["dt"], values)
-
-
-def settings_label(params: dict[str, Any]) -> str:
-    """A candidate as one string, ``dt=...`` first: the ``settings`` column."""
-    return ", ".join(f"{k}={v}" for k, v in params.items())
-
-
 def short_label(row: dict[str, Any], defaults: dict[str, Any]) -> str:
     """A candidate as dt and the settings it changes from the engine's defaults, without the engine prefix."""
     changed = [f"{k.split('.', 1)[-1]}={row[k]}" for k, v in defaults.items() if k in row and row[k] != v]
@@ -169,14 +157,18 @@ def short_label(row: dict[str, Any], defaults: dict[str, Any]) -> str:
 
 
 def _evaluate(ref: ReferenceSolution, engine: str, params: dict, points: tuple[Tolerances, ...], asked: int,
-              bounds: list[float] | None = None) -> dict[str, Any]:
+              bounds: list[float] | None = None, ran: tuple | None = None) -> dict[str, Any]:
     """Run one candidate, judge it at the asked tolerances ``points[asked]`` and at every ladder point where it can
     still matter (``tune_search.need`` of the search's ``bounds``; all of them for an engine whose steps are not
-    1 / dt); in a worker process."""
+    1 / dt); in a worker process. ``ran``: its (trajectory, strikes) already made (``batch_runs``)."""
     tol = points[asked]
     settings = candidate_settings(engine, params)
-    run, table, impacts = judge_run(ref, engine, settings, tol)
-    strikes = scene_strikes(engine, settings, ref, tol, run.trajectory.settings) if run.status == "ok" else None
+    if ran is None:
+        run, table, impacts = judge_run(ref, engine, settings, tol)
+        strikes = scene_strikes(engine, settings, ref, tol, run.trajectory.settings) if run.status == "ok" else None
+    else:
+        run, table, impacts = judge_run(ref, engine, settings, tol, trajectory=ran[0])
+        strikes = ran[1]
     ratios = check_ratios(table, impacts, tol, tol.penetration * ref.length_scale, strikes)
     steps = steps_per_sim_s(engine, settings, run)
     fixed = adapter(engine).cost_lever(settings) == "dt" and math.isfinite(steps)
@@ -188,18 +180,6 @@ def _evaluate(ref: ReferenceSolution, engine: str, params: dict, points: tuple[T
             "cost_per_sim_s": run.cost_per_sim_s, "cost_repeats": 1, "status": run.status, "message": run.trajectory.message}
 
 
-def steps_per_sim_s(engine: str, settings: Any, run) -> float:
-    """Engine steps per simulated second: the steps the engine says it took (``settings["steps_taken"]`` of
-    its trajectory), else 1 / dt for a fixed-step engine (``cost_lever`` "dt"); NaN when unknown (an
-    error-controlled integrator that does not report its steps: then wall time ranks)."""
-    traj = run.trajectory
-    sim = float(traj.t[-1] - traj.t[0]) if len(traj.t) > 1 else 0.0
-    taken = traj.settings.get("steps_taken")
-    if taken is not None and sim > 0:
-        return float(taken) / sim
-    return 1.0 / settings.dt if adapter(engine).cost_lever(settings) == "dt" else math.nan
-
-
 def _refused(params: dict, exc: Exception) -> dict[str, Any]:
     """The row of a candidate whose settings the scene cannot run (e.g. past the stability limit)."""
     return {**params, "settings": settings_label(params), "verdict": "refused", "n_episodes": 0, "n_match": 0,
@@ -208,33 +188,25 @@ def _refused(params: dict, exc: Exception) -> dict[str, Any]:
             "worst_ratio": math.inf, "cost_per_sim_s": math.nan, "cost_repeats": 0, "status": "refused", "message": str(exc)}
 
 
-def _evaluator(executor: Executor, ref: ReferenceSolution, engine: str, points: tuple[Tolerances, ...], asked: int):
-    """A function running a batch of candidates in parallel, one row each, in order."""
+def _evaluator(executor: Executor, ref: ReferenceSolution, engine: str, points: tuple[Tolerances, ...], asked: int,
+               batched: bool = False):
+    """A function running a batch of candidates in parallel, one row each, in order; ``batched``: the candidates'
+    runs and strikes made here as one batch of the engine (``batch_runs``), only their judging in parallel."""
     def run_batch(batch: list[dict], stage: str, bounds: list[float] | None = None) -> list[dict]:
-        futures = [executor.submit(_evaluate, ref, engine, p, points, asked, bounds) for p in batch]
+        ran = batch_runs(ref, engine, batch, points[asked]) if batched else [None] * len(batch)
+        futures = [r if isinstance(r, InputError) else executor.submit(_evaluate, ref, engine, p, points, asked, bounds, r)
+                   for p, r in zip(batch, ran)]
         rows = []
         for fut, params in zip(futures, batch):
             try:
+                if isinstance(fut, InputError):
+                    raise fut
                 row = fut.result()
             except InputError as exc:
                 row = _refused(params, exc)
             rows.append({**row, "stage": stage})
         return rows
     return run_batch
-
-
-def _time(scene: Scene, engine: str, candidates: list[dict], repeats: int) -> list[list[float]]:
-    """Wall-clock stepping seconds per simulated second of ``repeats`` more runs of each candidate, interleaved
-    (A B A B ...: a change in the machine's load falls on all of them alike), one after another in this process."""
-    settings = [candidate_settings(engine, p) for p in candidates]
-    out: list[list[float]] = [[] for _ in candidates]
-    for _ in range(repeats):
-        for times, s in zip(out, settings):
-            traj = run_engine(engine, scene, s)
-            sim = float(traj.t[-1] - traj.t[0]) if len(traj.t) > 1 else 0.0
-            if traj.status == "ok" and sim > 0:
-                times.append(traj.wall_time / sim)
-    return out
 
 
 def cost_key(frame: pd.DataFrame) -> str:
@@ -361,6 +333,7 @@ def tune(
     ladder: Ladder | None = Ladder(),
     max_cost: float = math.inf,
     solution: ReferenceSolution | None = None,
+    batched: bool | None = None,
 ) -> TuneResult:
     """The cheapest robust settings of ``engine`` whose every episode passes within ``tolerance``, and the robust
     frontier over a ladder of tolerances (module docstring).
@@ -390,6 +363,10 @@ def tune(
         No candidate of more steps per simulated second is run or answered [1/s] (> 0; inf: no cap).
     solution : ReferenceSolution, optional
         ``solve(scene)`` when the caller already has it (the CLI solves once for every engine's space).
+    batched : bool, optional
+        Each search pass's candidates run here as one batch of the engine, only their judging in the workers;
+        None: where the engine runs thousands at once (``batches_on_device``: MuJoCo Warp on cuda). The rows
+        are the same either way (a batch's run is the run alone).
     """
     check_engine(engine)
     tol = tolerance if isinstance(tolerance, Tolerances) else Tolerances(stick=tolerance, exit=tolerance, first_impact=tolerance)
@@ -410,7 +387,8 @@ def tune(
     own = executor is None
     executor = executor or ProcessPoolExecutor(max_workers=workers)
     try:
-        done = search(_evaluator(executor, ref, engine, points, asked), grid, max_runs, tie_band, check_robust,
+        batched = batches_on_device(engine) if batched is None else batched
+        done = search(_evaluator(executor, ref, engine, points, asked, batched), grid, max_runs, tie_band, check_robust,
                       weight=lambda p: run_weight(scene, p["dt"]), levels=[(p.stick, p.restitution) for p in points],
                       asked=asked, max_cost=max_cost)
     finally:
@@ -419,14 +397,7 @@ def tune(
     table = _frame(done.rows, space)
     best = choose(table, tie_band, max_cost, check_robust)
     if best is not None and repeats > 1:  # time the candidates the choice is between again, and choose again
-        ok = table[passing(table["verdict"]) & (table["steps_per_sim_s"] <= max_cost)]
-        ok = ok[ok["robust"] != False]  # noqa: E712
-        tied = _tied(ok, cost_key(ok), tie_band).index
-        more = _time(scene, engine, [{k: table.at[i, k] for k in space} for i in tied], repeats - 1)
-        for i, times in zip(tied, more):
-            times = [table.at[i, "cost_per_sim_s"], *times]
-            table.at[i, "cost_per_sim_s"] = min(times)
-            table.at[i, "cost_repeats"] = len(times)
+        _retime(table, scene, engine, space, repeats, tie_band, max_cost)
         best = choose(table, tie_band, max_cost, check_robust)
     wall = time.perf_counter() - started
     work = float(sum(run_weight(scene, dt) for dt in table["dt"]))
@@ -437,7 +408,8 @@ def tune(
                 "budget_spent": work >= max_runs - 1, "exhaustive": done.exhaustive, "lattice": done.lattice,
                 "lattice_run": done.lattice_run, "skipped_costlier": done.costlier, "max_cost": json_value(max_cost),
                 "capped": done.capped, "unchecked_passes": done.unchecked,
-                "levels": sorted({int(v) for v in table["level"].dropna()}), "robustness_checked": check_robust}
+                "levels": sorted({int(v) for v in table["level"].dropna()}), "robustness_checked": check_robust,
+                "batched": batched}
     return TuneResult(scene=scene, engine=engine, tolerance=tol, table=table, best=best,
                       best_reachable=None if best is not None else reachable(table, max_cost), fragile=fragile(table, best),
                       frontier=frontier_entries(found, points, keys),
@@ -445,6 +417,20 @@ def tune(
                              "answers": found, "tightest": tightest(found, points), "ladder": ladder,
                              "defaults": {k: v[0] for k, v in space.items() if k != "dt"},
                              "tie_band": tie_band, "repeats": repeats, "wall_time_s": wall, "solution": ref})
+
+
+def _retime(table: pd.DataFrame, scene: Scene, engine: str, space: dict[str, tuple], repeats: int, tie_band: float,
+            max_cost: float) -> None:
+    """Time the passing candidates tied with the cheapest ``repeats`` - 1 more times (``time_runs``); each keeps its
+    least wall time (``cost_per_sim_s``) and how many runs it took (``cost_repeats``), in ``table``."""
+    ok = table[passing(table["verdict"]) & (table["steps_per_sim_s"] <= max_cost)]
+    ok = ok[ok["robust"] != False]  # noqa: E712
+    tied = _tied(ok, cost_key(ok), tie_band).index
+    more = time_runs(scene, engine, [{k: table.at[i, k] for k in space} for i in tied], repeats - 1)
+    for i, times in zip(tied, more):
+        times = [table.at[i, "cost_per_sim_s"], *times]
+        table.at[i, "cost_per_sim_s"] = min(times)
+        table.at[i, "cost_repeats"] = len(times)
 
 
 def run_weight(scene: Scene, dt: float) -> float:

@@ -18,7 +18,10 @@ have a robust setting, then what is reachable), then the chosen candidate as ``c
 ``frontier`` (``tune_frontier.frontier_entries``: ``tolerances``, ``dt``, ``settings``,
 ``cost_steps_per_s``, ``margin`` per point, cheapest first), ``tightest`` (the tightest
 sticking and restitution tolerance reached robustly), ``ladder`` (the levels searched) and
-``searched`` (runs, ranges, whether the whole lattice ran, what was skipped).
+``searched`` (runs, ranges, whether the whole lattice ran, what was skipped), and ``same_model``: for
+an engine that steps another's model (MuJoCo Warp: MuJoCo's), each answer rerun in that engine at
+the same settings (``tune_conformance``: ``against``, ``holds``, ``sentence``, ``answers``, one row
+per answer), else null.
 """
 
 from __future__ import annotations
@@ -86,6 +89,9 @@ def recommended(result: TuneResult) -> dict[str, Any] | None:
            "tightest": result.extra.get("tightest", {"stick": None, "restitution": None}),
            "ladder": {"stick": sorted({p.stick for p in points}), "restitution": sorted({p.restitution for p in points})},
            "searched": {**result.extra["searched"], "wall_time_s": round(result.extra["wall_time_s"], 2)}}
+    check = result.extra.get("same_model")
+    out["same_model"] = None if check is None else {"against": check.against, "holds": check.holds,
+                                                    "sentence": check.sentence(), "answers": check.records()}
     f = result.fragile
     out["fragile"] = None if f is None else {"dt": float(f["dt"]), "settings": {k: json_value(f[k]) for k in keys},
                                              "cost_steps_per_s": json_value(f["steps_per_sim_s"]),

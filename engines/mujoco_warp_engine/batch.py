@@ -123,12 +123,17 @@ def roll_worlds(worlds: Worlds, ps: Sequence[Prepared], runs: Sequence[Recording
 
 
 def run_block(runs: Sequence[Recording], ps: Sequence[Prepared], device: str, chunk: int) -> list[Exception | None]:
-    """Step the runs as the worlds of one MuJoCo Warp model (each alone when they cannot share one); each run's
-    failure (None: none) for ``Recording.trajectory``."""
+    """Step the runs as the worlds of one MuJoCo Warp model (when they cannot share one: the runs of each compiled
+    structure as one, e.g. one integrator's); each run's failure (None: none) for ``Recording.trajectory``."""
     try:
         worlds = put_worlds(ps, device)
-    except Incompatible:
-        return [failure for r, p in zip(runs, ps) for failure in run_block([r], [p], device, chunk)]
+    except Incompatible:  # models that differ in a shared field: a block per compiled structure (else per run)
+        keys = [id(p.structure) for p in ps] if len({id(p.structure) for p in ps}) > 1 else list(range(len(ps)))
+        failures: dict[int, Exception | None] = {}
+        for k in dict.fromkeys(keys):
+            mine = [i for i, key in enumerate(keys) if key == k]
+            failures.update(zip(mine, run_block([runs[i] for i in mine], [ps[i] for i in mine], device, chunk)))
+        return [failures[i] for i in range(len(ps))]
     try:
         done = roll_worlds(worlds, ps, runs, chunk)
     except Exception as exc:  # noqa: BLE001  an engine failure is a result, not a crash

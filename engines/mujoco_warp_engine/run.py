@@ -153,6 +153,14 @@ class MujocoWarpEngine(EngineAdapter):
         """MuJoCo's (``mujoco_common.contact_scales``): the same model."""
         return mujoco_common.contact_scales(scene, settings)
 
+    def tuning_space(self, scene: Scene) -> dict[str, tuple]:
+        """MuJoCo's space (``MujocoEngine.tuning_space``: the same model, contact law and knobs) under this engine's
+        keys (``mujoco_warp.FIELD``): ``tune --engines mujoco_warp`` answers for MuJoCo Warp itself, in float32."""
+        from ..mujoco_engine.run import MujocoEngine
+
+        return {key if key == "dt" else f"{self.name}.{key.split('.', 1)[1]}": values
+                for key, values in MujocoEngine().tuning_space(scene).items()}
+
     def snippet(self, scene: Scene, settings: MujocoWarpSettings | None = None) -> str:
         """The scene's model as MJCF (``mujoco_common.export_mjcf``), to load with ``mujoco_warp.put_model``."""
         return mujoco_common.export_mjcf(scene, settings or MujocoWarpSettings())

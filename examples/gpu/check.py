@@ -13,9 +13,12 @@ Steps (all by default, in this order; name some to run only those):
 - ``bench``: ``bench sweep --only warp`` (its default worlds) within 60 s warm;
 - ``worlds``: at 65,536 worlds the adapter >= 50% of the bare ``mujoco_warp.step`` loop (launched from Python, as the
   issue measured it; against the captured loop: INFO), and the batch's host memory within 2 GiB;
-- ``map``: a 64 x 64 dt x w0_dt map of feigin-pair (one forcing period) through ``sweep`` within 60 s warm.
+- ``map``: a 64 x 64 dt x w0_dt map of feigin-pair (one forcing period) through ``sweep`` within 60 s warm;
+- ``tune``: ``tune bouncing-ball --engines mujoco_warp --tolerance 0.05``: its time (INFO), whether its search passes
+  went to MuJoCo Warp as batches of worlds (on cuda; on the CPU device each run alone) and each answer rerun in
+  MuJoCo C (the conformance section of ``recommended.json``).
 
-``--dry-run`` runs every step on warp's CPU device with small sizes (1,024 worlds, an 8 x 8 map), PASS/FAIL
+``--dry-run`` runs every step on warp's CPU device with small sizes (1,024 worlds, an 8 x 8 map, a tune of 30 runs), PASS/FAIL
 against the same targets, each line marked ``(dry run, cpu)``: what this script does, checked without a GPU.
 """
 
@@ -195,8 +198,27 @@ def map_sweep() -> None:
            f"exit {code}, {workers} workers; its table: map.txt")
 
 
+def tune() -> None:
+    out = OUT / f"tune-{time.time_ns()}"
+    args = ["tune", "bouncing-ball", "--engines", "mujoco_warp", "--tolerance", "0.05", "--out", str(out)]
+    wall, code, _ = cli(args + (["--max-runs", "30"] if DRY else []), "tune.txt", 900)
+    rec_file = out / "recommended.json"
+    if not rec_file.exists():
+        say("FAIL", "tune bouncing-ball --engines mujoco_warp", f"no recommended.json, exit {code}; its output: tune.txt")
+        return
+    rec = json.loads(rec_file.read_text())
+    say("INFO", "tune bouncing-ball --engines mujoco_warp", wall, "s",
+        note=f"exit {code}, {rec['searched']['runs']} runs; {rec['answer']}")
+    batched = rec["searched"].get("batched")
+    say("PASS" if batched == (DEVICE == "cuda") else "FAIL", "tune's search passes go to MuJoCo Warp as batches of worlds "
+        "on cuda (on the CPU device each run alone)", f"batched: {batched}")
+    check = rec.get("same_model")
+    say("PASS" if check else "FAIL", "each answer of the tune rerun in MuJoCo C at the same settings",
+        check["sentence"] if check else "no same_model section in recommended.json")
+
+
 STEPS = {"env": env, "warmup": warmup, "one_world": one_world, "compare": compare, "bench": bench, "worlds": worlds,
-         "map": map_sweep}
+         "map": map_sweep, "tune": tune}
 
 
 def main(argv: list[str]) -> int:

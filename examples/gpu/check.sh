@@ -4,7 +4,7 @@
 # check.json, one file per command's output). This checkout's own code runs (a shim in front of /tmp/site).
 #
 # usage, from the repository root:   OUT=/some/dir examples/gpu/check.sh [STEP ...] [--dry-run]
-#   STEP: env warmup one_world compare bench worlds map (all, in this order, by default)
+#   STEP: env warmup one_world compare bench worlds map tune (all, in this order, by default)
 #   --dry-run: every step on warp's CPU device with small sizes (what runs here, checked without a GPU)
 # exit: 0 all PASS, 1 some FAIL, 2 a bad step name
 set -uo pipefail

@@ -294,3 +294,20 @@ def test_runs_of_different_lengths_share_a_batch_each_read_to_its_own_end():
         for k in ("t", "x1", "x2", "v1", "v2"):
             np.testing.assert_array_equal(getattr(alone, k), getattr(traj, k))
     assert batch[0].wall_time < batch[1].wall_time  # each charged its share of the steps
+
+
+def test_runs_of_two_integrators_go_as_a_block_per_integrator_each_the_run_alone():
+    # a tune pass's candidates differ in the integrator, a field MuJoCo Warp shares between worlds: the runs of each
+    # compiled structure share one model (before: every run of such a batch went alone, batch size 1)
+    scene = load_scene("bouncing-ball", ["duration=0.3"])
+    jobs = [(scene, dataclasses.replace(WARP, dt=dt, integrator=i, w0_dt=w))
+            for dt, i, w in ((1e-3, "euler", 0.1), (1e-3, "implicitfast", 0.1), (5e-4, "euler", 0.3),
+                             (5e-4, "implicitfast", 0.3), (2e-4, "euler", 0.2))]
+    batch = MujocoWarpEngine().run_batch(jobs)
+    assert [t.settings["batch_size"] for t in batch] == [3, 2, 3, 2, 3]
+    for (sc, s), traj in zip(jobs, batch):
+        alone = run(sc, s)
+        for k in ("t", "x1", "x2", "v1", "v2"):
+            np.testing.assert_array_equal(getattr(alone, k), getattr(traj, k))
+    # each world says what computed it (a soft constraint contact with no joint damping steps alike in both)
+    assert [t.settings["integrator"] for t in batch] == [s.integrator for _, s in jobs]

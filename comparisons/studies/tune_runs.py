@@ -1,0 +1,107 @@
+"""A tune candidate's runs: its settings object and label, its runs alone or with a search pass's others as one batch of
+the engine, its cost in steps, and its timed reruns.
+
+    >>> from chatterbench.comparisons.studies.tune_runs import candidate_settings, settings_label
+    >>> params = {"dt": 1e-3, "mujoco.w0_dt": 0.1}
+    >>> settings_label(params), candidate_settings("mujoco", params).w0_dt
+    ('dt=0.001, mujoco.w0_dt=0.1', 0.1)
+
+A search pass's candidates go to the engine one by one in the workers (each run, struck and judged
+there), or, where the engine takes thousands of runs at once and cannot be forked (``batches_on_device``:
+MuJoCo Warp on cuda), as one batch here (``batch_runs``: the runs and their strikes under the scene's
+forces), only the judging in the workers; a batch's run is the run alone, so the rows are the same.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from chatterbench.engines.registry import adapter, can_batch, make_settings, run_engine, run_engine_batch
+from chatterbench.reference.errors import InputError
+from chatterbench.reference.scene import Scene
+
+from ..pipeline.solution import ReferenceSolution
+from ..pipeline.tolerances import Tolerances
+from .tune_checks import scene_strikes
+
+
+def candidate_settings(engine: str, params: dict[str, Any]) -> Any:
+    """A candidate's settings object: ``engine``'s defaults with its ``dt`` [s] and dotted settings (``engine.field``),
+    values handed on as they are (never through text); numpy scalars of a table row become Python's."""
+    values = {k: v.item() if isinstance(v, np.generic) else v for k, v in params.items() if "." in k}
+    return make_settings(engine, params["dt"], values)
+
+
+def settings_label(params: dict[str, Any]) -> str:
+    """A candidate as one string, ``dt=...`` first: the ``settings`` column."""
+    return ", ".join(f"{k}={v}" for k, v in params.items())
+
+
+def steps_per_sim_s(engine: str, settings: Any, run) -> float:
+    """Engine steps per simulated second: the steps the engine says it took (``settings["steps_taken"]`` of
+    its trajectory), else 1 / dt for a fixed-step engine (``cost_lever`` "dt"); NaN when unknown (an
+    error-controlled integrator that does not report its steps: then wall time ranks)."""
+    traj = run.trajectory
+    sim = float(traj.t[-1] - traj.t[0]) if len(traj.t) > 1 else 0.0
+    taken = traj.settings.get("steps_taken")
+    if taken is not None and sim > 0:
+        return float(taken) / sim
+    return 1.0 / settings.dt if adapter(engine).cost_lever(settings) == "dt" else math.nan
+
+
+def batch_runs(ref: ReferenceSolution, engine: str, batch: list[dict], tol: Tolerances) -> list[tuple | InputError]:
+    """Each candidate's (trajectory, strikes under the scene's forces), the runs as one batch of the engine
+    (``run_engine_batch``: MuJoCo Warp's worlds of one model), or the ``InputError`` that refuses its settings."""
+    settings: list[Any] = []
+    for params in batch:
+        try:
+            s = candidate_settings(engine, params)
+            adapter(engine).validate(ref.scene, s)
+            settings.append(s)
+        except InputError as exc:
+            settings.append(exc)
+    jobs = [(ref.scene, s) for s in settings if not isinstance(s, InputError)]
+    try:
+        trajectories = iter(run_engine_batch(engine, jobs) if jobs else [])
+    except InputError:  # one the adapter refuses only when it runs: each alone, the refused one refused
+        return [s if isinstance(s, InputError) else _alone(ref, engine, s, tol) for s in settings]
+    out: list[tuple | InputError] = []
+    for s in settings:
+        if isinstance(s, InputError):
+            out.append(s)
+            continue
+        traj = next(trajectories)
+        out.append((traj, scene_strikes(engine, s, ref, tol, traj.settings) if traj.status == "ok" else None))
+    return out
+
+
+def _alone(ref: ReferenceSolution, engine: str, settings: Any, tol: Tolerances) -> tuple | InputError:
+    """``batch_runs`` of one candidate, run by itself."""
+    try:
+        traj = run_engine(engine, ref.scene, settings)
+    except InputError as exc:
+        return exc
+    return traj, scene_strikes(engine, settings, ref, tol, traj.settings) if traj.status == "ok" else None
+
+
+def batches_on_device(engine: str) -> bool:
+    """Whether tune hands ``engine`` a search pass's candidates as one batch: an engine that takes thousands of runs
+    at once (``EngineAdapter.unit_runs``: MuJoCo Warp on cuda), whose runs cannot be forked into the workers."""
+    return can_batch(engine) and adapter(engine).unit_runs(make_settings(engine)) is not None
+
+
+def time_runs(scene: Scene, engine: str, candidates: list[dict], repeats: int) -> list[list[float]]:
+    """Wall-clock stepping seconds per simulated second of ``repeats`` more runs of each candidate, interleaved
+    (A B A B ...: a change in the machine's load falls on all of them alike), one after another in this process."""
+    settings = [candidate_settings(engine, p) for p in candidates]
+    out: list[list[float]] = [[] for _ in candidates]
+    for _ in range(repeats):
+        for times, s in zip(out, settings):
+            traj = run_engine(engine, scene, s)
+            sim = float(traj.t[-1] - traj.t[0]) if len(traj.t) > 1 else 0.0
+            if traj.status == "ok" and sim > 0:
+                times.append(traj.wall_time / sim)
+    return out
