@@ -307,8 +307,8 @@ def _same_model_frame(check) -> pd.DataFrame:
     return pd.DataFrame({"answer": t["point"], "stick %": 100 * t["stick"], "restitution %": 100 * t["restitution"],
                          "dt": t["dt"], "settings": t["settings"], check.engine: t["verdict"], check.against: t["other_verdict"],
                          "episodes that disagree": [f"{d} of {n}" for d, n in zip(t["disagree"], t["episodes"])],
-                         "max |sticking difference| [s]": t["stick_difference_max"].map(_or_none),
-                         "max |exit difference| [s]": t["exit_difference_max"].map(_or_none),
+                         "largest sticking difference [s]": t["stick_difference_max"].map(_or_none),
+                         "largest exit difference [s]": t["exit_difference_max"].map(_or_none),
                          "alike": t["same"].map({True: "yes", False: "no"})})
 
 

@@ -71,6 +71,10 @@ def test_tune_answers_for_mujoco_warp_and_reruns_each_answer_in_mujoco_c(tmp_pat
     assert check["answers"][0]["dt"] == rec["dt"]  # the answer itself, at its own dt
     guide = (out / "guide.md").read_text()
     assert "## The answers in mujoco, the engine whose model mujoco_warp steps" in guide and check["sentence"] in guide
+    section = guide.split("## The answers in mujoco", 1)[1].split("\n## ", 1)[0]
+    rows = [line for line in section.splitlines() if line.startswith("|")]
+    assert len(rows) == 2 + len(check["answers"])  # header, rule, one row per answer
+    assert len({row.count("|") for row in rows}) == 1  # a table Markdown reads: no stray "|" in a cell or a heading
     assert "The answers in mujoco" in (out / "guide.html").read_text()
     # a user reruns each answer in MuJoCo C with a fresh `chatterbench compare`: the verdicts the JSON says
     script = tmp_path / "client.py"
