@@ -74,9 +74,15 @@ SMALL = Sweep(scene="bouncing-ball", engines=("mujoco", "pybullet"), fixed={"dur
               grid={"dt": (1e-3, 5e-4), "restitution": (0.3, 0.7)}, timeout=60)
 
 
-def test_dask_cluster_gives_the_rows_of_the_local_pool(tmp_path):
+@pytest.fixture(scope="module")
+def single(tmp_path_factory):
+    """``SMALL`` swept by the local pool, every run alone (the rows that Dask and batches must give)."""
+    return run_sweep(SMALL, tmp_path_factory.mktemp("single"), workers=2, progress=False, batch=1)
+
+
+def test_dask_cluster_gives_the_rows_of_the_local_pool(tmp_path, single):
     distributed = pytest.importorskip("distributed")
-    local = run_sweep(SMALL, tmp_path / "local", workers=2, progress=False)
+    local = single
     with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False, protocol="tcp://",
                                   host="127.0.0.1", dashboard_address=None) as cluster, distributed.Client(cluster) as client:
         remote = run_sweep(SMALL, tmp_path / "dask", executor=client, progress=False)
@@ -84,9 +90,8 @@ def test_dask_cluster_gives_the_rows_of_the_local_pool(tmp_path):
     pd.testing.assert_frame_equal(_rows(remote), _rows(local))
 
 
-def test_units_and_mujoco_batches_give_the_rows_of_single_runs(tmp_path):
+def test_units_and_mujoco_batches_give_the_rows_of_single_runs(tmp_path, single):
     """Units of two runs (MuJoCo: one rollout call per unit) and single runs: the same rows."""
-    single = run_sweep(SMALL, tmp_path / "single", workers=2, progress=False, batch=1)
     batched = run_sweep(SMALL, tmp_path / "batched", workers=2, progress=False, batch=2)
     # 4 MuJoCo runs in 2 batches (one per dt: a batch shares the step count) + 4 PyBullet runs in 2 units
     assert single.attrs["sweep"]["units"] == 8 and batched.attrs["sweep"]["units"] == 4
