@@ -17,6 +17,7 @@ from chatterbench.comparisons.ci.checks import run_check
 from chatterbench.comparisons.ci.gate import limits_from_keywords, make_check
 from chatterbench.comparisons.pipeline.extract import ExtractionOptions
 from chatterbench.comparisons.pipeline.judge import ERROR_COLUMNS
+from chatterbench.comparisons.pipeline.solution import solve
 from chatterbench.comparisons.pipeline.vocabulary import combine
 from chatterbench.engines.registry import make_settings, run_engine
 from chatterbench.reference.catalogue import CATALOGUE
@@ -50,13 +51,19 @@ def test_the_exact_reference_sampled_like_an_engine_matches_everywhere(name, dt)
     assert a.drop(columns="cost_per_sim_s").equals(b.drop(columns="cost_per_sim_s"))
 
 
+# Feigin's pair over its first 8 s in the wrong-R test: one sliding episode on each wall (its whole 40 s run is
+# 400,000 PyBullet steps). Measured there: at R both match (restitution errors -0.004, -0.005), at 0.9 R both early
+# (-0.113, -0.100), at 1.1 R both late (+0.101, +0.105)
+SHORTER = {"feigin-pair": ["duration=8"]}
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("name", SCENES)
 @pytest.mark.parametrize("factor", [0.9, 1.1])
 def test_pybullet_with_the_wrong_restitution_is_caught(name, factor):
     # PyBullet applies R exactly at every impact; run with R x 0.9 or x 1.1 and judged against
     # the scene's R, its resolved impacts are 10% off and its chatter ends early or late
-    ref = solution(name)
+    ref = solve(load_scene(name, SHORTER[name])) if name in SHORTER else solution(name)
     wrong = dataclasses.replace(ref.scene, restitution=ref.scene.restitution * factor)
     traj = run_engine("pybullet", wrong, make_settings("pybullet", 1e-4))
     c = compare(ref.scene, engines=("pybullet",), trajectories={"pybullet": traj}, solution=ref)
