@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import functools
 import gzip
+import json
 import math
 import os
 import subprocess
@@ -524,15 +525,38 @@ def _engines_named(argv: list[str]) -> list[str]:
 
 
 # case id -> (exit code, stderr) of its run in test_bad_input_is_refused, which checked that no engine ran: the doc
-# (markdown) shows these runs where this process made them, and runs the others itself
+# (markdown) shows these runs where this process made them, or where another worker of this test session left them
+# (``_published``), and runs the others itself
 _REFUSED: dict[str, tuple[int, str]] = {}
 
 
+def _engines_tests():
+    """``tests/engines/test_plugin_faults.py`` as a module: its plugin cases' runs and the workers' shared folder."""
+    folder = str(Path(__file__).resolve().parent / "engines")
+    if folder not in sys.path:
+        sys.path.insert(0, folder)
+    import test_plugin_faults
+
+    return test_plugin_faults
+
+
+def _published(folder: Path | None, index: int) -> tuple[int, str] | None:
+    """The run of ``CASES[index]`` that a worker of this test session left in ``folder`` (None: none there)."""
+    path = folder / "bad-inputs" / f"{index}.json" if folder is not None else None
+    return tuple(json.loads(path.read_text())) if path is not None and path.exists() else None
+
+
 @pytest.mark.parametrize("case", CASES, ids=[c[0] for c in CASES])
-def test_bad_input_is_refused(case, engine_runs):
+def test_bad_input_is_refused(case, engine_runs, tmp_path_factory):
     _, _, argv, content, words = case
     needs_engine(*_engines_named(argv))
     code, err = _REFUSED[case[0]] = run_cli(argv, content)
+    folder = _engines_tests().session_folder(tmp_path_factory)
+    if folder is not None:  # for the doc check of another worker (test_doc_is_current): the run as it was made here
+        (folder / "bad-inputs").mkdir(exist_ok=True)
+        path = folder / "bad-inputs" / f"{CASES.index(case)}.json"
+        path.with_suffix(".tmp").write_text(json.dumps([code, err]))
+        path.with_suffix(".tmp").replace(path)
     assert code == 2, (code, err)
     assert engine_runs() == [], "issue 25: every refusal before any engine runs"
     assert "Traceback" not in err, err
@@ -550,7 +574,7 @@ def test_case_ids_are_unique():
     assert len(ids) == len(set(ids))
 
 
-def test_doc_is_current():
+def test_doc_is_current(tmp_path_factory):
     # docs/bad-inputs.md is this table's output; regenerate with the command in the docstring. It is written where
     # every built-in engine is installed and no plugin is (.ci/run): the messages list the engines there are
     from chatterbench.engines.registry import BUILT_IN, ENGINE_NAMES
@@ -560,7 +584,8 @@ def test_doc_is_current():
     if plugins:
         pytest.skip(f"engine plugins installed ({', '.join(plugins)}): docs/bad-inputs.md lists the built-in engines")
     doc = Path(__file__).resolve().parents[1] / "docs" / "bad-inputs.md"
-    assert doc.read_text() == markdown(), "docs/bad-inputs.md is stale: python3 tests/test_bad_inputs.py > docs/bad-inputs.md"
+    shared = _engines_tests().session_folder(tmp_path_factory)  # the runs other workers made (pytest-xdist)
+    assert doc.read_text() == markdown(shared), "docs/bad-inputs.md is stale: python3 tests/test_bad_inputs.py > docs/bad-inputs.md"
 
 
 # -- the one-line promise, where argparse, a typed newline or PyBullet's import could break it --
@@ -618,8 +643,9 @@ def describe_file(content: str) -> str:
     return shown if len(shown) <= 200 else f"{shown[:120]}... ({len(content)} characters)"
 
 
-def markdown() -> str:
-    """docs/bad-inputs.md: every case with the message the CLI prints for it now."""
+def markdown(shared: Path | None = None) -> str:
+    """docs/bad-inputs.md: every case with the message the CLI prints for it now (the runs this process made, or that
+    a worker of this test session left in ``shared``, read instead of made again)."""
     out = [
         "# Bad inputs and what `chatterbench` says",
         "",
@@ -633,10 +659,10 @@ def markdown() -> str:
         "| case | what is wrong | command | `bad.toml` or `bad.csv` | message (exit code) |",
         "|---|---|---|---|---|",
     ]
-    for cid, what, argv, content, _ in CASES:
+    for index, (cid, what, argv, content, _) in enumerate(CASES):
         command = "chatterbench " + " ".join(a if a and " " not in a else repr(a) for a in argv)
         shown = "" if content is None else f"`{_cell(describe_file(content))}`"
-        code, err = _REFUSED[cid] if cid in _REFUSED else run_cli(argv, content)
+        code, err = _REFUSED.get(cid) or _published(shared, index) or run_cli(argv, content)
         out.append(f"| `{cid}` | {_cell(what)} | `{_cell(command)}` | {shown} | {_cell(message(err))} ({code}) |")
     import test_bad_outputs as outputs  # its scratch directory holds a pipe, a broken link, ...
 
@@ -664,7 +690,7 @@ def markdown() -> str:
             "what was on disk after. (The full-disk case needs root to mount a tmpfs: tested, not shown.)", "",
             "| case | what is wrong | command | what it says and leaves (exit code) |", "|---|---|---|---|",
             *hostile.markdown_rows()]
-    out += plugin_rows()
+    out += plugin_rows(shared)
     out += [
         "",
         "Every message is one stderr line: argparse's refusals too (no usage line), a newline typed into",
@@ -675,9 +701,10 @@ def markdown() -> str:
     return "\n".join(out) + "\n"
 
 
-def plugin_rows() -> list[str]:
-    """The doc's section of engine plugins and engines' own child processes (``tests/engines/plugin_cases.py``)."""
-    sys.path.insert(0, str(Path(__file__).resolve().parent / "engines"))
+def plugin_rows(shared: Path | None = None) -> list[str]:
+    """The doc's section of engine plugins and engines' own child processes (``tests/engines/plugin_cases.py``): their
+    runs made once per test session (``test_plugin_faults.shared_outcomes``)."""
+    outcomes = _engines_tests().shared_outcomes(shared)
     import plugin_cases as plugins
 
     out = ["", "## Engine plugins and engines' own processes", "",
@@ -688,7 +715,7 @@ def plugin_rows() -> list[str]:
            "fault inside a run is that run's status, and the engines beside it are judged as ever.", "",
            "| case | what is wrong | command | what chatterbench says (exit code) |", "|---|---|---|---|"]
     for case in plugins.CASES:
-        done = plugins.outcomes()[case.id]
+        done = outcomes[case.id]
         env = "".join(f"{k}={v} " for k, v in case.env.items())
         command = env + "chatterbench " + " ".join(case.argv)
         out.append(f"| `{case.id}` | {_cell(case.what)} | `{_cell(command)}` | "

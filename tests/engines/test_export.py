@@ -202,22 +202,21 @@ def test_export_refuses_the_scene_file_it_reads(tmp_path):
     scene_file.write_text(scene_toml(load_scene("bouncing-ball")))
     before = scene_file.read_text()
     (tmp_path / "link.py").symlink_to(scene_file)
-    for target in (scene_file, tmp_path / "link.py"):
-        done = cli("run", str(scene_file), "--engines", "pybullet", "--export-model", str(target))
-        assert done.returncode == 2 and "is the SCENE file" in done.stderr and "name another file" in done.stderr, \
-            done.stderr
+    for target in (scene_file, tmp_path / "link.py"):  # in this process: a refusal, and a write, by the command's code
+        done = cli_here(["run", str(scene_file), "--engines", "pybullet", "--export-model", str(target)])
+        assert done.code == 2 and "is the SCENE file" in done.err and "name another file" in done.err, done.err
     assert scene_file.read_text() == before
-    done = cli("run", str(scene_file), "--engines", "pybullet", "--dt", "1e-3", "--export-model", str(tmp_path / "t.py"))
-    assert done.returncode == 0, done.stderr  # another name: written
+    done = cli_here(["run", str(scene_file), "--engines", "pybullet", "--dt", "1e-3", "--export-model", str(tmp_path / "t.py")])
+    assert done.code == 0 and (tmp_path / "t.py").is_file(), done.err  # another name: written
 
 
 def test_export_refuses_other_engines_and_wrong_suffixes(tmp_path):
     needs_engine("drake")  # without it, the refusal is Drake's install line
-    done = cli("run", "bouncing-ball", "--engines", "drake", "--export-model", str(tmp_path / "d.xml"))
-    assert done.returncode == 2 and "engines that can: mujoco, pybullet" in done.stderr
-    done = cli("run", "bouncing-ball", "--engines", "pybullet", "--export-model", str(tmp_path / "d.xml"))
-    assert done.returncode == 2 and "name a .py file" in done.stderr
-    assert "pybullet writes a Python script" in done.stderr  # before: "an MJCF model" for any engine but MuJoCo
+    done = cli_here(["run", "bouncing-ball", "--engines", "drake", "--export-model", str(tmp_path / "d.xml")])
+    assert done.code == 2 and "engines that can: mujoco, pybullet" in done.err
+    done = cli_here(["run", "bouncing-ball", "--engines", "pybullet", "--export-model", str(tmp_path / "d.xml")])
+    assert done.code == 2 and "name a .py file" in done.err
+    assert "pybullet writes a Python script" in done.err  # before: "an MJCF model" for any engine but MuJoCo
     assert not (tmp_path / "d.xml").exists()
 
 

@@ -11,10 +11,41 @@ segfault of the command itself (exit 139) for a plugin that crashes on import, a
 
 from __future__ import annotations
 
+import fcntl
+import os
+import pickle
+import subprocess
+from pathlib import Path
+
 import pytest
 
 import plugin_cases
 from plugin_cases import CASES, install, outcomes, run_case, said
+
+
+def session_folder(tmp_path_factory) -> Path | None:
+    """A folder every pytest-xdist worker of this test session shares (None in a single process, whose own caches
+    already share its runs): where one worker leaves runs that another would otherwise make again."""
+    run = os.environ.get("PYTEST_XDIST_TESTRUNUID")
+    if not run or not os.environ.get("PYTEST_XDIST_WORKER"):
+        return None
+    folder = tmp_path_factory.getbasetemp().parent / f"chatterbench-shared-{run}"
+    folder.mkdir(exist_ok=True)
+    return folder
+
+
+def shared_outcomes(folder: Path | None) -> dict[str, subprocess.CompletedProcess]:
+    """``plugin_cases.outcomes()``, made once per test session: the worker that comes first runs every case (holding
+    a lock) and leaves them in ``folder``; a worker that needs them later, or meanwhile, reads them there."""
+    if folder is None:
+        return outcomes()
+    with open(folder / "plugin-outcomes.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes, or when its process dies
+        path = folder / "plugin-outcomes.pickle"
+        if not path.exists():
+            (folder / "plugin-outcomes.tmp").write_bytes(pickle.dumps(outcomes()))
+            os.replace(folder / "plugin-outcomes.tmp", path)
+        return pickle.loads(path.read_bytes())
 
 
 @pytest.fixture(scope="module")
@@ -25,8 +56,10 @@ def site(tmp_path_factory):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("case", CASES, ids=[c.id for c in CASES])
-def test_a_broken_or_faulty_plugin_is_one_line_or_one_row(case):
-    done = outcomes()[case.id]  # every case run once, with every plugin installed (shared with docs/bad-inputs.md)
+def test_a_broken_or_faulty_plugin_is_one_line_or_one_row(case, tmp_path_factory):
+    # every case run once, with every plugin installed (shared with docs/bad-inputs.md: in this process, or in the
+    # worker that ran them first)
+    done = shared_outcomes(session_folder(tmp_path_factory))[case.id]
     assert done.returncode == case.code, done.stdout[-2000:] + done.stderr[-2000:]
     assert "Traceback" not in done.stderr + done.stdout, done.stderr[-3000:]
     line = said(case, done)
@@ -49,7 +82,9 @@ def test_other_engines_and_commands_do_not_notice_the_broken_plugins(site, tmp_p
     done = run_case(case, site)
     assert done.returncode == 0 and "written to" in done.stdout, done.stderr[-2000:]
     assert "import pybullet" in (tmp_path / "ball.py").read_text()
-    listed = run_case(plugin_cases.Case("list", "", ["engines", "--timeout", "5"], 2, ()), site)
+    # 2 s: each plugin is loaded in a fork of this command, whose imports are done (milliseconds); only the
+    # plugin built to hang (hang_load) waits it out
+    listed = run_case(plugin_cases.Case("list", "", ["engines", "--timeout", "2"], 2, ()), site)
     rows = [(ln.split()[0], ln.split()[-1]) for ln in listed.stdout.splitlines()[1:]
             if ln.split() and not ln.split()[0].endswith(":")]  # (engine, status); below the table, the reasons
     assert {("mujoco", "ok"), ("pybullet", "ok"), ("line", "ok"), ("backwards", "ok")} <= set(rows), listed.stdout

@@ -11,6 +11,7 @@ from matplotlib.colors import to_rgba
 
 from chatterbench.comparisons.cli.main import main
 from chatterbench.comparisons.pipeline.compare import compare
+from chatterbench.comparisons.pipeline.solution import solve
 from chatterbench.comparisons.outputs.figures import figure_bytes
 from chatterbench.comparisons.pipeline.summary import ROW_COLUMNS, summarize
 from chatterbench.comparisons.pipeline.vocabulary import combine as point_verdict
@@ -28,16 +29,18 @@ W0_DTS = (0.03, 0.1)
 
 
 def _sweep(scene: str, fixed: list[str], grid: dict[str, tuple], dts=DTS, w0_dts=W0_DTS) -> pd.DataFrame:
-    """Rows as a sweep writes them: one compare per (point, engine), summarized."""
+    """Rows as a sweep writes them: one compare per (point, engine), summarized; each point's reference solved once
+    and handed to its runs' compares (``solution=``: the same solution a compare would solve itself)."""
     rows = []
     names = list(grid)
     for values in [dict(zip(names, combo)) for combo in itertools.product(*grid.values())]:
         sc = load_scene(scene, fixed + [f"{k}={v}" for k, v in values.items()])
+        ref = solve(sc)
         for dt in dts:
             for w in w0_dts:
-                c = compare(sc, engines=("mujoco",), dt=dt, overrides=[f"mujoco.w0_dt={w}"])
+                c = compare(sc, engines=("mujoco",), dt=dt, overrides=[f"mujoco.w0_dt={w}"], solution=ref)
                 rows.append(summarize(c, "mujoco", {"dt": dt, **values, "mujoco.w0_dt": w}))
-            c = compare(sc, engines=("pybullet",), dt=dt)
+            c = compare(sc, engines=("pybullet",), dt=dt, solution=ref)
             rows.append(summarize(c, "pybullet", {"dt": dt, **values}))
     return pd.DataFrame(rows)
 

@@ -74,9 +74,15 @@ SMALL = Sweep(scene="bouncing-ball", engines=("mujoco", "pybullet"), fixed={"dur
               grid={"dt": (1e-3, 5e-4), "restitution": (0.3, 0.7)}, timeout=60)
 
 
-def test_dask_cluster_gives_the_rows_of_the_local_pool(tmp_path):
+@pytest.fixture(scope="module")
+def single(tmp_path_factory):
+    """``SMALL`` swept by the local pool, every run alone (the rows that Dask and batches must give)."""
+    return run_sweep(SMALL, tmp_path_factory.mktemp("single"), workers=2, progress=False, batch=1)
+
+
+def test_dask_cluster_gives_the_rows_of_the_local_pool(tmp_path, single):
     distributed = pytest.importorskip("distributed")
-    local = run_sweep(SMALL, tmp_path / "local", workers=2, progress=False)
+    local = single
     with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False, protocol="tcp://",
                                   host="127.0.0.1", dashboard_address=None) as cluster, distributed.Client(cluster) as client:
         remote = run_sweep(SMALL, tmp_path / "dask", executor=client, progress=False)
@@ -84,9 +90,8 @@ def test_dask_cluster_gives_the_rows_of_the_local_pool(tmp_path):
     pd.testing.assert_frame_equal(_rows(remote), _rows(local))
 
 
-def test_units_and_mujoco_batches_give_the_rows_of_single_runs(tmp_path):
+def test_units_and_mujoco_batches_give_the_rows_of_single_runs(tmp_path, single):
     """Units of two runs (MuJoCo: one rollout call per unit) and single runs: the same rows."""
-    single = run_sweep(SMALL, tmp_path / "single", workers=2, progress=False, batch=1)
     batched = run_sweep(SMALL, tmp_path / "batched", workers=2, progress=False, batch=2)
     # 4 MuJoCo runs in 2 batches (one per dt: a batch shares the step count) + 4 PyBullet runs in 2 units
     assert single.attrs["sweep"]["units"] == 8 and batched.attrs["sweep"]["units"] == 4
@@ -122,7 +127,7 @@ def _hanging_runs_limited(monkeypatch) -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("batch", [1, 4])
+@pytest.mark.parametrize("batch", [1, 3])
 def test_crashing_and_hanging_points_are_classified_and_the_rest_kept(tmp_path, batch, monkeypatch):
     monkeypatch.setenv("CHATTERBENCH_FAULT", FAULTS)
     _hanging_runs_limited(monkeypatch)
@@ -136,15 +141,19 @@ duration = 0.6
 dt = 1e-3
 
 [grid]
-restitution = [0.3, 0.31, 0.32, 0.33]
+restitution = [0.3, 0.31, 0.33, 0.32]
 mass2 = [1.0, 2.0]
 """)
-    # batch = 4: two MuJoCo batches, each with a fault; each is rerun one run at a time. The hanging runs' own 1 s
-    # limit ends them (the hanging batch: at the sum of its runs' limits, 1 + 1 + 10 + 10 s); every other run has
-    # 10 s: a run of 600 steps takes well under a second, so a loaded machine cannot make it a timeout
+    # batch = 3: three MuJoCo batches, each with a fault, each rerun one run at a time: (0.3, 0.3, 0.31) crashes
+    # with two good runs in it, (0.31, 0.33, 0.33) crashes and raises, (0.32, 0.32) hangs. The hanging runs' own
+    # 1 s limit ends them (their batch: at the sum of its runs' limits, 1 + 1 s; the hanging runs listed last, so
+    # that no run with the spec's limit shares their batch: with 10 s runs beside them it waited 1 + 1 + 10 + 10 s);
+    # every other run has 10 s: a run of 600 steps takes well under a second, so a loaded machine cannot make it a
+    # timeout
     rows = run_sweep(load_sweep(spec), tmp_path / "out", workers=2, progress=False, batch=batch)
     # 4 restitutions x 2 masses for each engine; the faults hit MuJoCo only
     assert len(rows) == 16 and not rows.duplicated(KEY).any()
+    assert rows.attrs["sweep"]["units"] == {1: 16, 3: 3 + 3}[batch]  # the batches above, and PyBullet's 3 + 3 + 2
     mj = rows[rows["engine"] == "mujoco"].set_index(["restitution", "mass2"])
     for m in (1.0, 2.0):
         assert mj.loc[(0.3, m), "status"] == "ok"

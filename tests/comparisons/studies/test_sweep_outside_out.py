@@ -17,7 +17,7 @@ import time
 from pathlib import Path
 
 import pytest
-from helpers import wait_until
+from helpers import cli, wait_until
 
 from chatterbench.comparisons.studies.sweep.directory import LOCK_NAME
 
@@ -36,8 +36,16 @@ def _listing(*folders: Path) -> dict[str, tuple[int, str]]:
 
 
 def _sweep(cwd: Path, *args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "chatterbench.comparisons.cli", "sweep", *args], cwd=cwd,
-                          capture_output=True, text=True, timeout=300)
+    """``chatterbench sweep ARGS`` run in ``cwd``, in this process (what these tests check is what the command writes,
+    refuses and prints, not how a process starts: the Ctrl-C and terminal tests below start their own), as a finished
+    process: its exit code, stdout and stderr."""
+    old = os.getcwd()
+    os.chdir(cwd)
+    try:
+        done = cli(["sweep", *args])
+    finally:
+        os.chdir(old)
+    return subprocess.CompletedProcess(["chatterbench", "sweep", *args], done.code, done.out, done.err)
 
 
 def _refused(proc: subprocess.CompletedProcess, *words: str) -> str:
