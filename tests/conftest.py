@@ -1,4 +1,4 @@
-"""Hypothesis profiles for the property and fuzz tests.
+"""Hypothesis profiles for the property and fuzz tests, and Ctrl-C as a terminal delivers it.
 
     $ pytest                                   # "dev": 50 random examples per test
     $ CI=true pytest                           # "ci": 25 derandomized examples, reproducible
@@ -11,12 +11,19 @@ derandomized, so a CI failure is the same failure on every rerun and on a laptop
 hypothesis suite within about a minute on two cores. No profile has a deadline: a
 reference run's time depends on how many impacts the drawn scene has (a chatter at
 R = 0.9 takes a few hundred), not on a regression.
+
+Ctrl-C: a suite started in the background of a non-interactive shell (``pytest &``, some CI
+runners) has SIGINT ignored, and every command a test starts inherits that, so a Ctrl-C test's
+SIGINT would never reach the command under test. The suite restores Python's own handler
+(``_ctrl_c_as_a_terminal_sends_it``): the commands it starts then get SIGINT as a user's terminal
+delivers it, whichever way the suite was started.
 """
 
 from __future__ import annotations
 
 import functools
 import os
+import signal
 
 import pytest
 from hypothesis import HealthCheck, settings
@@ -38,6 +45,15 @@ def _profile() -> str:
 
 
 settings.load_profile(_profile())
+
+
+def _ctrl_c_as_a_terminal_sends_it() -> None:
+    """SIGINT to Python's own handler when this process was started with it ignored (module docstring)."""
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
+_ctrl_c_as_a_terminal_sends_it()
 
 # A command that runs 5 s without a word prints a plain progress line on stderr (cli/progress.py). On a loaded
 # machine any command may, so tests that read stderr line by line would read a line the load put there: they run

@@ -36,3 +36,21 @@ def test_a_ctrl_c_swallowed_by_a_callback_still_exits_130():
     proc = subprocess.run([sys.executable, "-c", SWALLOWED], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 130, (proc.returncode, proc.stderr)
     assert proc.stderr.strip().splitlines() == ["chatterbench: interrupted"], proc.stderr
+
+
+INTERRUPTED_TEST = "tests/comparisons/studies/test_sweep_outside_out.py::test_ctrl_c_of_a_sweep_is_one_line_exit_130_promptly[1.2]"
+IGNORING = r'''
+import signal, subprocess, sys
+signal.signal(signal.SIGINT, signal.SIG_IGN)  # as `pytest &` in a non-interactive shell starts the suite
+sys.exit(subprocess.call([sys.executable, "-m", "pytest", "-q", "-n", "0", "-p", "no:cacheprovider", sys.argv[1]]))
+'''
+
+
+def test_the_ctrl_c_tests_hold_in_a_suite_started_with_sigint_ignored():
+    # before: a suite started in the background (SIGINT ignored, inherited by every command a test starts) failed every
+    # Ctrl-C test: the sweep never saw the interrupt and finished (tests/conftest.py restores Python's handler)
+    root = __import__("pathlib").Path(__file__).resolve().parents[3]
+    proc = subprocess.run([sys.executable, "-c", IGNORING, INTERRUPTED_TEST], cwd=root, capture_output=True, text=True,
+                          timeout=600)
+    assert proc.returncode == 0, proc.stdout[-3000:]
+    assert "1 passed" in proc.stdout
