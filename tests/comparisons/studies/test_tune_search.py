@@ -67,13 +67,27 @@ def test_recommended_setting_reproduces_match_and_passes_at_its_neighbours(fp_py
         assert rec["fragile"]["cost_steps_per_s"] < rec["cost_steps_per_s"] and rec["fragile"]["neighbourhood_fails"]
 
 
-@pytest.mark.slow  # one default tune each (8-13 s on a quiet machine) and three compares
-@pytest.mark.parametrize("name", ["bouncing-ball", "spring-pair"])
+# PyBullet's default knobs fixed at the answers of the default search (600 runs: bouncing-ball 0.0031 with threshold 0,
+# spring-pair 0.0016 with threshold 0.055, 50 iterations each; measured) and dt on the default lattice's values around
+# them (1.25 apart): the whole lattice runs (9 and 5 settings), fragile passes beside each answer included. Measured on
+# this lattice: the ball's 0.00758, 0.00606 and 0.00485 pass and each fails at an exact x 0.8 or x 1.25 (0.00606 at
+# 0.007575: unmeasured); with the lattice's adjacent dt as the neighbourhood (the bug) 0.00606 was answered, and the
+# test failed. Spring-pair's 0.002 passes and is late at x 1.25 (dropping the x 1.25 neighbour answered it: caught)
+NEAR_ANSWER = {
+    "bouncing-ball": {"dt": (0.0185, 0.00758, 0.0031), "pybullet.restitution_velocity_threshold": (0.0,),
+                      "pybullet.num_solver_iterations": (50,)},
+    "spring-pair": {"dt": (0.00313, 0.00128), "pybullet.restitution_velocity_threshold": (0.055,),
+                    "pybullet.num_solver_iterations": (50,)},
+}
+
+
+@pytest.mark.slow  # one small tune each (5 and 9 lattice settings and their neighbourhoods) and three compares
+@pytest.mark.parametrize("name", NEAR_ANSWER)
 def test_pybullet_answer_passes_at_exactly_0_8_and_1_25_times_its_dt(name):
     # before: the neighbourhood was the lattice's adjacent dt (3 significant digits); bouncing-ball's answer,
     # dt 0.00606, passed at the lattice's 0.00758 but was `late` at 0.007575 = 0.00606 x 1.25, as a user checks it
     scene = load_scene(name)
-    rec = recommended(tune(scene, "pybullet", T, workers=2, ladder=None))
+    rec = recommended(tune(scene, "pybullet", T, space=NEAR_ANSWER[name], workers=2, ladder=None))
     assert rec["robust"] is True, rec
     for dt in (rec["dt"], rec["dt"] * 0.8, rec["dt"] * 1.25):
         verdicts = _verdicts(scene, rec, dt)
