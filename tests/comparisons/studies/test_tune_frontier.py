@@ -89,7 +89,7 @@ CLIENT = textwrap.dedent("""
     for i, point in enumerate(rec["frontier"]):
         tol = point["tolerances"]
         args = [sys.executable, "-m", "chatterbench.comparisons.cli", "compare", rec["scene"], "--engines", rec["engine"],
-                "--dt", repr(point["dt"]), "--out", f"{work}/{i}"]
+                "--dt", repr(point["dt"]), "--no-figures", "--out", f"{work}/{i}"]
         for key in ("stick", "exit", "first_impact", "restitution"):
             args += ["--tolerance", f"{key}={tol[key]!r}"]
         for key, value in point["settings"].items():
