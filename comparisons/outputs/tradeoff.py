@@ -3,7 +3,8 @@
     >>> from chatterbench.reference.scene import load_scene
     >>> from chatterbench.comparisons.outputs.tradeoff import tradeoff_figure
     >>> from chatterbench.comparisons.studies.tune import tune
-    >>> result = tune(load_scene("bouncing-ball"), "pybullet", 0.05, space={"dt": (1e-3, 3e-4)}, workers=1, refine_steps=0)
+    >>> result = tune(load_scene("bouncing-ball"), "pybullet", 0.05, space={"dt": (1e-3, 3e-4)}, workers=1, refine_steps=0,
+    ...               ladder=None)                        # the asked tolerances alone (no frontier ladder)
     >>> fig = tradeoff_figure(result)
     >>> len(fig.axes), fig.axes[0].get_xlabel().startswith("dt")
     (1, True)

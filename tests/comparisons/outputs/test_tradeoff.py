@@ -10,10 +10,12 @@ from chatterbench.reference import load_scene
 @pytest.fixture(scope="module")
 def result():
     # PyBullet on the ball: dt 1e-3 .. 3e-4 x threshold 0 .. 3 m/s, in two slices (50 and 10 iterations), one level of
-    # refinement and every pass's neighbourhood (the 3 m/s threshold sticks early: measured)
+    # refinement and every pass's neighbourhood (the 3 m/s threshold sticks early: measured); the asked tolerances
+    # alone (the map draws the asked verdicts; no frontier ladder): measured, the same 30 runs, 6 fragile passes
     space = {"dt": (1e-3, 3e-4), "pybullet.restitution_velocity_threshold": (0.0, 3.0),
              "pybullet.num_solver_iterations": (50, 10)}
-    return tune(load_scene("bouncing-ball", ["duration=1.6"]), "pybullet", 0.05, space=space, workers=2, refine_steps=1)
+    return tune(load_scene("bouncing-ball", ["duration=1.6"]), "pybullet", 0.05, space=space, workers=2, refine_steps=1,
+                ladder=None)
 
 
 def _on_lattice(result, s):

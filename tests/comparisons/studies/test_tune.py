@@ -28,7 +28,8 @@ def test_tune_mujoco_feigin_pair_reruns_as_match():
     space = {"dt": (1e-3, 3e-4), "mujoco.w0_dt": (0.1,), "mujoco.integrator": ("euler",)}
     tol = Tolerances(restitution=0.2)
     # a budget of 6 runs: the whole lattice (5 settings) does not fit in its share, so tune refines instead of running it all
-    result = tune(scene, "mujoco", tol, space=space, workers=2, refine_steps=2, check_robust=False, max_runs=6)
+    result = tune(scene, "mujoco", tol, space=space, workers=2, refine_steps=2, check_robust=False, max_runs=6,
+                  ladder=None)  # the asked tolerances alone: no frontier here
     assert not result.extra["searched"]["exhaustive"]
     assert result.best is not None
     assert result.table["stage"].str.startswith("refine").any()  # the front was refined, not brute-forced
@@ -145,9 +146,9 @@ def test_tune_prints_the_time_the_user_waited(tmp_path):
 
     from helpers import check_printed_age, run_timed
 
-    # a budget of 20 runs and one timing each: what is timed is the whole command, whatever the search's size
+    # a budget of 5 runs and one timing each: what is timed is the whole command, whatever the search's size
     run = run_timed([sys.executable, "-m", "chatterbench.comparisons.cli", "tune", "bouncing-ball", "--engine",
-                     "pybullet", "--set", "duration=0.2", "--workers", "1", "--max-runs", "20", "--repeats", "1",
+                     "pybullet", "--set", "duration=0.2", "--workers", "1", "--max-runs", "5", "--repeats", "1",
                      "--out", str(tmp_path / "t")])
     said = float(re.search(r"tune took ([0-9.]+) s", run.proc.stdout).group(1))
     # the printed time covers the imports, the search and the guide's files (written before the line), never just

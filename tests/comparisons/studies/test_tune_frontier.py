@@ -89,7 +89,7 @@ CLIENT = textwrap.dedent("""
     for i, point in enumerate(rec["frontier"]):
         tol = point["tolerances"]
         args = [sys.executable, "-m", "chatterbench.comparisons.cli", "compare", rec["scene"], "--engines", rec["engine"],
-                "--dt", repr(point["dt"]), "--out", f"{work}/{i}"]
+                "--dt", repr(point["dt"]), "--no-figures", "--out", f"{work}/{i}"]
         for key in ("stick", "exit", "first_impact", "restitution"):
             args += ["--tolerance", f"{key}={tol[key]!r}"]
         for key, value in point["settings"].items():
@@ -118,12 +118,14 @@ def test_a_client_from_scratch_checks_each_frontier_point_with_a_fresh_compare(b
 
 # -- brute force: the same grid, a plain loop over judge_run, the frontier by its definition -----------------------
 
-def _brute_frontier(scene, engine: str, lattice: list[dict], neighbours, points: list[Tolerances], defaults: dict):
+def _brute_frontier(scene, engine: str, lattice: list[dict], neighbours, points: list[Tolerances], defaults: dict,
+                    cache: dict | None = None):
     """The frontier by definition: every lattice setting and every neighbour judged at every point; robust = it and
     all its neighbours pass; per point the fewest steps (then the fewest non-default settings, the larger dt);
-    a point left out when another, as tight on both axes, is as cheap."""
+    a point left out when another, as tight on both axes, is as cheap. ``cache``: settings -> (passed points, margins),
+    shared by calls on the same scene, engine and points (each setting run and judged once)."""
     ref = solve(scene)
-    cache: dict[tuple, tuple] = {}
+    cache = {} if cache is None else cache
 
     def judged(params: dict) -> tuple[set, dict]:
         key = tuple(sorted(params.items()))
@@ -185,11 +187,12 @@ def test_brute_force_equals_tunes_frontier_mujoco():
         return _dt_neighbours(p) + [{**p, "mujoco.w0_dt": knobs[k]} for k in (j - 1, j + 1) if 0 <= k < len(knobs)]
 
     points = list(ladder.points(result.tolerance))
-    brute = _brute_frontier(scene, "mujoco", lattice, neighbours, points, {"mujoco.w0_dt": 0.3})
+    judged: dict = {}  # the loop's own runs and judgements, shared by its two frontiers below
+    brute = _brute_frontier(scene, "mujoco", lattice, neighbours, points, {"mujoco.w0_dt": 0.3}, judged)
     assert brute and _tune_frontier(result) == brute
     # the other way: without the neighbourhood (every pass counted robust) the frontier is another, so the
     # comparison can tell a frontier of isolated passes from the robust one
-    fragile = _brute_frontier(scene, "mujoco", lattice, lambda p: [], points, {"mujoco.w0_dt": 0.3})
+    fragile = _brute_frontier(scene, "mujoco", lattice, lambda p: [], points, {"mujoco.w0_dt": 0.3}, judged)
     assert fragile != brute
 
 

@@ -89,9 +89,10 @@ def test_mujoco_restitution_error_follows_the_tolerance_up_on_feigin_pair():
 def test_mujoco_bouncing_ball_at_t_0_05_is_reported_not_robust_with_the_reason():
     # before the brute force it was open whether tune missed a robust MuJoCo setting here; the grid has none
     # (6 isolated passes in 936 settings, each failing at dt x 0.8 or x 1.25), nor does tune with 2000 runs.
-    # A tune within 100 runs of the bouncing ball (2.3 s on this machine) and one compare
+    # A tune within 100 runs of the bouncing ball at the asked tolerances alone (no frontier ladder: the answer is
+    # the asked point's; measured, the same best reachable as with the ladder, at a quarter of the CPU) and one compare
     scene = load_scene("bouncing-ball")
-    result = tune(scene, "mujoco", T, workers=1, max_runs=100, repeats=1)
+    result = tune(scene, "mujoco", T, workers=1, max_runs=100, repeats=1, ladder=None)
     rec = recommended(result)
     assert result.best is None and rec["robust"] is False
     assert rec["failed"] or rec["neighbourhood_fails"]  # the check that fails: its own, or its neighbours'
