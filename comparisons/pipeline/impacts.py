@@ -97,25 +97,27 @@ def pair_impacts(ref_impacts: pd.DataFrame, ref_flights: np.ndarray, eng_impacts
         The restitution tolerance [-]: the allowance, and the largest uncertainty an impact may have to be measured.
     """
     need = resolved_steps * dt
-    ref = ref_impacts[np.asarray(ref_flights) >= need]
+    ref_kept = np.asarray(ref_flights) >= need
     flights = eng_impacts["flight_seen"].to_numpy(dtype=float) if len(eng_impacts) else np.empty(0)
-    eng = eng_impacts[np.nan_to_num(flights, nan=-1.0) >= need]
-    n = min(len(ref), len(eng))
+    eng_kept = np.nan_to_num(flights, nan=-1.0) >= need
+    n_ref, n_eng = int(ref_kept.sum()), int(eng_kept.sum())
+    n = min(n_ref, n_eng)
     rows = []
-    if n:
-        r, e = ref.iloc[:n], eng.iloc[:n]
+    if n:  # the first n resolved of each, as arrays (a visit's pandas rows cost more than the pairing)
+        r = {c: ref_impacts[c].to_numpy(float)[ref_kept][:n] for c in ("t", "v_minus", "v_plus")}
+        e = {c: eng_impacts[c].to_numpy(float)[eng_kept][:n] for c in ("t", "v_minus", "v_plus", "v_error")}
         with np.errstate(divide="ignore", invalid="ignore"):
-            e_ref = -r["v_plus"].to_numpy(float) / r["v_minus"].to_numpy(float)
-            e_eng = -e["v_plus"].to_numpy(float) / e["v_minus"].to_numpy(float)
+            e_ref = -r["v_plus"] / r["v_minus"]
+            e_eng = -e["v_plus"] / e["v_minus"]
         err = restitution_error(e_eng, restitution)
-        v_in = np.abs(e["v_minus"].to_numpy(float))
+        v_in = np.abs(e["v_minus"])
         with np.errstate(divide="ignore", invalid="ignore"):
             # e / R - 1 moves by de / R (by de itself for R = 0, where the error is e)
-            unc = (1.0 + np.abs(e_eng)) * e["v_error"].to_numpy(float) / ((restitution if restitution > 0 else 1.0) * v_in)
+            unc = (1.0 + np.abs(e_eng)) * e["v_error"] / ((restitution if restitution > 0 else 1.0) * v_in)
         unc = np.where(np.isfinite(unc), unc, np.inf)
         measurable = unc <= tolerance
-        rows = {"k": np.arange(n), "ref_t": r["t"].to_numpy(float), "t": e["t"].to_numpy(float),
-                "ref_v_minus": np.abs(r["v_minus"].to_numpy(float)), "v_minus": v_in,
+        rows = {"k": np.arange(n), "ref_t": r["t"], "t": e["t"],
+                "ref_v_minus": np.abs(r["v_minus"]), "v_minus": v_in,
                 "ref_restitution": e_ref, "restitution": e_eng, "restitution_error": err,
                 "restitution_uncertainty": unc, "measurable": measurable,
                 "excess": np.where(measurable, np.abs(err), np.nan)}
@@ -128,5 +130,5 @@ def pair_impacts(ref_impacts: pd.DataFrame, ref_flights: np.ndarray, eng_impacts
     else:
         worst, worst_excess = math.nan, math.nan
     measured = int(table["measurable"].astype(bool).sum()) if len(table) else 0
-    return ImpactPairs(table=table, resolved=len(eng), ref_resolved=len(ref), worst_error=worst, worst_excess=worst_excess,
+    return ImpactPairs(table=table, resolved=n_eng, ref_resolved=n_ref, worst_error=worst, worst_excess=worst_excess,
                        unmeasured=len(table) - measured, measured=measured)

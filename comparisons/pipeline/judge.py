@@ -166,17 +166,39 @@ def _pairs(ref_eps: pd.DataFrame, eng_eps: pd.DataFrame) -> dict[int, int]:
     return out
 
 
-def _visit(impacts: pd.DataFrame, wall: str, t0: float, t1: float) -> pd.DataFrame:
-    """Every engine impact on ``wall`` in [t0, t1] (NaN t1: to the end), stuck micro-bounces included:
-    which of them are resolved is the flight's business (``impacts.pair_impacts``), not the stick's."""
-    t1 = math.inf if math.isnan(t1) else t1
-    return impacts[(impacts["wall"] == wall) & (impacts["t"] >= t0) & (impacts["t"] <= t1)]
+class _Found:
+    """An extraction's impacts and sticks as arrays, for a judge's per-episode questions (which impacts a visit holds,
+    how many count, an episode's bounds): one pandas mask per question cost more than the rest of the judging."""
 
+    def __init__(self, found: Extraction):
+        self.impacts, self.sticks = found.impacts, found.sticks
+        self.wall = self.impacts["wall"].to_numpy(dtype=object)
+        self.t = self.impacts["t"].to_numpy(dtype=float)
+        self.stuck = self.impacts["stuck"].to_numpy(dtype=bool)
+        self.stick_wall = self.sticks["wall"].to_numpy(dtype=object)
+        self.t_stick = self.sticks["t_stick"].to_numpy(dtype=float)
 
-def _count(impacts: pd.DataFrame, wall: str, t0: float, t1: float) -> int:
-    """Engine impacts on ``wall`` in [t0, t1] that are not unresolved micro-bounces of a stuck stretch."""
-    t1 = math.inf if math.isnan(t1) else t1
-    return int(((impacts["wall"] == wall) & (impacts["t"] >= t0) & (impacts["t"] <= t1) & ~impacts["stuck"]).sum())
+    def _on(self, wall: str, t0: float, t1: float) -> np.ndarray:
+        t1 = math.inf if math.isnan(t1) else t1
+        return (self.wall == wall) & (self.t >= t0) & (self.t <= t1)
+
+    def visit(self, wall: str, t0: float, t1: float) -> pd.DataFrame:
+        """Every engine impact on ``wall`` in [t0, t1] (NaN t1: to the end), stuck micro-bounces included:
+        which of them are resolved is the flight's business (``impacts.pair_impacts``), not the stick's."""
+        return self.impacts[self._on(wall, t0, t1)]
+
+    def count(self, wall: str, t0: float, t1: float) -> int:
+        """Engine impacts on ``wall`` in [t0, t1] that are not unresolved micro-bounces of a stuck stretch."""
+        return int((self._on(wall, t0, t1) & ~self.stuck).sum())
+
+    def bounds(self, episode) -> dict[str, float]:
+        """``BOUND_COLUMNS`` of one engine episode (a row of ``found.episodes``): its times' bounds from the
+        extraction (the first stick and the first impact that are the episode's)."""
+        stick = np.flatnonzero((self.stick_wall == episode["wall"]) & (self.t_stick == episode["t_stick"]))
+        first = np.flatnonzero((self.wall == episode["wall"]) & (self.t == episode["t_first_impact"]))
+        return {"stick_bound": float(self.sticks["stick_bound"].iloc[stick[0]]) if len(stick) else math.nan,
+                "exit_bound": float(self.sticks["exit_bound"].iloc[stick[0]]) if len(stick) else math.nan,
+                "first_impact_bound": float(self.impacts["t_bound"].iloc[first[0]]) if len(first) else math.nan}
 
 
 def judge(ref: ReferenceSolution, found: Extraction, traj: Trajectory, tol: Tolerances | None = None) -> Judgement:
@@ -186,7 +208,7 @@ def judge(ref: ReferenceSolution, found: Extraction, traj: Trajectory, tol: Tole
     t = np.asarray(traj.t, dtype=float)
     dt = traj.sampling_step()
     t_end = float(t[-1]) if len(t) else -math.inf
-    ref_eps, eng_eps, imps = ref.episodes, found.episodes, found.impacts
+    ref_eps, eng_eps, imps = ref.episodes, found.episodes, _Found(found)
     paired = _pairs(ref_eps, eng_eps)
     pen = penetration(scene, np.asarray(traj.y, float)) if len(t) else np.empty(0)
     allowance = tol.penetration * ref.length_scale
@@ -203,11 +225,11 @@ def judge(ref: ReferenceSolution, found: Extraction, traj: Trajectory, tol: Tole
         if j is not None:
             e = eng_eps.iloc[j]
             row.update(t_first_impact=e["t_first_impact"], t_stick=e["t_stick"], t_exit=e["t_exit"],
-                       n_impacts=int(e["n_impacts"]), **bounds(found, e))
-            visit = _visit(imps, r.wall, e["t_first_impact"], e["t_exit"])
+                       n_impacts=int(e["n_impacts"]), **imps.bounds(e))
+            visit = imps.visit(r.wall, e["t_first_impact"], e["t_exit"])
         else:
-            row["n_impacts"] = _count(imps, r.wall, r.t_first_impact, r.t_exit)
-            visit = _visit(imps, r.wall, r.t_first_impact, r.t_exit)
+            row["n_impacts"] = imps.count(r.wall, r.t_first_impact, r.t_exit)
+            visit = imps.visit(r.wall, r.t_first_impact, r.t_exit)
         ref_visit = ref.visit_impacts(r)
         pairs = pair_impacts(ref_visit, reference_flights(ref_visit, r.t_stick), visit, dt, tol.resolved_steps,
                              scene.restitution, tol.restitution)
@@ -227,7 +249,7 @@ def judge(ref: ReferenceSolution, found: Extraction, traj: Trajectory, tol: Tole
         rows.append({"wall": e.wall, "ref_t_first_impact": math.nan, "ref_t_plate_entry": math.nan, "ref_t_stick": math.nan,
                      "ref_t_exit": math.nan, "ref_n_impacts": 0, "chatter_duration": math.nan, "sliding_duration": math.nan,
                      "ref_v_first_impact": math.nan, "stick_scale": math.nan, "t_first_impact": e.t_first_impact,
-                     "t_stick": e.t_stick, "t_exit": e.t_exit, **bounds(found, eng_eps.iloc[j]),
+                     "t_stick": e.t_stick, "t_exit": e.t_exit, **imps.bounds(eng_eps.iloc[j]),
                      "n_impacts": int(e.n_impacts), "resolved_impacts": 0,
                      "ref_resolved_impacts": 0, "restitution_error": math.nan, "restitution_excess": math.nan,
                      "unmeasured_impacts": 0, "measured_impacts": 0})
@@ -245,7 +267,7 @@ def judge(ref: ReferenceSolution, found: Extraction, traj: Trajectory, tol: Tole
     beyond = pen > allowance
     facts = RunFacts(status=traj.status, t_end=t_end, t_diverged=t_div,
                      t_penetrated=float(t[np.argmax(beyond)]) if beyond.any() else math.nan,
-                     penetration_allowance=allowance, inside_impacts=lambda w, t0, t1: _count(imps, w, t0, t1),
+                     penetration_allowance=allowance, inside_impacts=imps.count,
                      sliding_min=sliding_min(found.flight_min, scene.restitution), dt=dt)
     table = assign_verdicts(table, tol, facts, float(pen.max()) if len(pen) else math.nan)
     start = table["ref_t_stick"].fillna(table["t_stick"]).fillna(math.inf)
@@ -320,16 +342,6 @@ def run_failure_words(run: RunFacts) -> str:
     if failure == "diverged":
         return f"diverged at {run.t_diverged:.6g} s"
     return f"went past the penetration allowance {run.penetration_allowance:.3g} m at {run.t_penetrated:.6g} s"
-
-
-def bounds(found: Extraction, episode) -> dict[str, float]:
-    """``BOUND_COLUMNS`` of one engine episode (a row of ``found.episodes``): its times' bounds from the extraction."""
-    sticks, imps = found.sticks, found.impacts
-    stick = sticks[(sticks["wall"] == episode["wall"]) & (sticks["t_stick"] == episode["t_stick"])]
-    first = imps[(imps["wall"] == episode["wall"]) & (imps["t"] == episode["t_first_impact"])]
-    return {"stick_bound": float(stick["stick_bound"].iloc[0]) if len(stick) else math.nan,
-            "exit_bound": float(stick["exit_bound"].iloc[0]) if len(stick) else math.nan,
-            "first_impact_bound": float(first["t_bound"].iloc[0]) if len(first) else math.nan}
 
 
 def run_failure(run: RunFacts) -> str:

@@ -22,6 +22,7 @@ engines are never judged against an unfinished reference); its exhaustive impact
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from dataclasses import dataclass
@@ -61,16 +62,25 @@ class ReferenceSolution:
     wall_time: float  # [s] both runs
     feigin_wall_time: float  # [s] Feigin's model alone: the reference's own cost
 
-    @property
+    @functools.cached_property
     def impacts(self) -> pd.DataFrame:
-        """Every impact of the exhaustive run (log rows of kind ``impact``)."""
+        """Every impact of the exhaustive run (log rows of kind ``impact``); found once (a judge asks per visit)."""
         log = self.exhaustive.log
         return log[log["kind"] == "impact"]
 
     def visit_impacts(self, episode) -> pd.DataFrame:
-        """The exhaustive impacts of one visit (an ``episodes`` row): its wall, first impact to Zeno point."""
-        imp = self.impacts
-        return imp[(imp["wall"] == episode.wall) & (imp["t"] >= episode.t_first_impact) & (imp["t"] <= episode.t_stick)]
+        """The exhaustive impacts of one visit (an ``episodes`` row): its wall, first impact to Zeno point. Found once
+        per visit and kept (every judge of every run asks for them): read it, never change it."""
+        key = (episode.wall, float(episode.t_first_impact), float(episode.t_stick))
+        if key not in self._visits:
+            imp = self.impacts
+            self._visits[key] = imp[(imp["wall"] == episode.wall) & (imp["t"] >= episode.t_first_impact)
+                                    & (imp["t"] <= episode.t_stick)]
+        return self._visits[key]
+
+    @functools.cached_property
+    def _visits(self) -> dict[tuple, pd.DataFrame]:
+        return {}
 
     @property
     def cost_per_sim_s(self) -> float:

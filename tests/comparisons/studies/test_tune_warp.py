@@ -56,7 +56,7 @@ CLIENT = textwrap.dedent("""
 def test_tune_answers_for_mujoco_warp_and_reruns_each_answer_in_mujoco_c(tmp_path):
     out = tmp_path / "tune"
     args = [sys.executable, "-m", "chatterbench.comparisons.cli", "tune", "bouncing-ball", "--engines", "mujoco_warp",
-            "--tolerance", "0.2", "--tolerance", "restitution=0.2", "--max-cost", "800", "--workers", "2",
+            "--tolerance", "0.2", "--tolerance", "restitution=0.2", "--max-cost", "800", "--max-runs", "8", "--workers", "2",
             "--set", "mujoco_warp.w0_dt=0.1", "--set", "mujoco_warp.integrator=euler",
             "--set", "mujoco_warp.impedance=0.99", "--out", str(out)]
     done = subprocess.run(args, capture_output=True, text=True, timeout=900)
@@ -117,15 +117,16 @@ def test_an_engine_that_steps_its_own_model_has_no_same_model_check():
 
 @pytest.mark.slow
 def test_a_batched_search_is_row_for_row_the_search_of_runs_alone():
-    # the issue's must-show for a study: the search's candidates as worlds of one batch (as on cuda) give the rows of
-    # the same candidates run one by one in the workers (MuJoCo Warp: a world is bit for bit the run alone)
+    # the issue's must-show for a study: a search pass's candidates as the worlds of one batch (as on cuda) give the
+    # rows of the same candidates run one by one in the workers (MuJoCo Warp: a world is bit for bit the run alone);
+    # two integrators: two compiled structures, a block each
     space = {"dt": (1e-3,), "mujoco_warp.w0_dt": (0.1, 0.3), "mujoco_warp.integrator": ("euler", "implicitfast")}
-    runs = {b: tune(BALL, "mujoco_warp", LOOSE, space=space, workers=2, refine_steps=0, batched=b) for b in (False, True)}
+    runs = {b: tune(BALL, "mujoco_warp", LOOSE, space=space, workers=1, refine_steps=0, ladder=None, check_robust=False,
+                    batched=b) for b in (False, True)}
     assert runs[True].extra["searched"]["batched"] and not runs[False].extra["searched"]["batched"]
     timing = ["cost_per_sim_s", "cost_repeats"]
     # rows in the order of their settings (candidates of equal steps are ordered by wall time, which is the load's)
     alone, batched = (runs[b].table.drop(columns=timing).sort_values("settings", ignore_index=True) for b in (False, True))
-    assert len(alone) >= 8  # the lattice and the neighbourhoods (two integrators: two blocks a pass)
+    assert len(alone) == 4 and set(alone["verdict"]) >= {"match"}  # the lattice, one batch; something passes
     pd.testing.assert_frame_equal(alone, batched)
-    assert runs[True].frontier == runs[False].frontier
     assert not math.isnan(alone["stick_error_max"].abs().max())  # errors measured, so equal frames say something
