@@ -49,6 +49,9 @@ CHATTER_MODES = ("feigin", "exhaustive")
 # a Taylor coefficient of (3.1) this small against the largest (in units of the flow step)
 # is rounding, not a sign (see ``_Simulator._rest``)
 NEGLIGIBLE = 1e-14
+# [m per m of |wall position|, at least 1 m] a start this close to a wall is on it: below what positions resolve (a root
+# of the flight this close to its start lies under the resolution of t, and the impact would go unseen)
+ON_WALL = 1e-15
 
 
 @dataclass(frozen=True)
@@ -214,9 +217,11 @@ class _Simulator:
         deflate = {w: 0 for w in self.walls}
         plate_seen = False  # a plate entry was logged in the current visit (exhaustive mode)
         visit_wall = None
-        # a state starting on a wall, moving into it or resting, is handled as a strike
+        # a state starting on a wall, moving into it or resting, is handled as a strike; "on" to within ON_WALL (a start
+        # closer than positions resolve: from y = 5e-85 m at rest, pressed in, the impact's time is below t's resolution)
         for w in self.walls:
-            if s[Y] == self.wall_y[w] and _normal(w) * s[VY] <= 0.0:
+            if abs(s[Y] - self.wall_y[w]) <= ON_WALL * max(1.0, abs(self.wall_y[w])) and _normal(w) * s[VY] <= 0.0:
+                s[Y] = self.wall_y[w]
                 outcome = self._strike(t, s, w, plate_seen)
                 t, s, stuck_wall, plate_seen = outcome
                 visit_wall = w

@@ -59,10 +59,17 @@ def test_test_module_examples_run(path, monkeypatch):
     assert result.failed == 0 and result.attempted > 0, f"{result} in {path} (printed above)"
 
 
+# modules outside an adapter package whose examples run an optional engine
+EXAMPLE_ENGINES = {"chatterbench.comparisons.studies.tune_conformance": "mujoco_warp"}  # MuJoCo Warp's tune against MuJoCo C
+
+
 def _engine_of(module: str) -> str:
-    """The built-in engine whose adapter package holds ``module`` ("": none): its examples run that engine."""
+    """The built-in engine whose adapter package holds ``module``, or that its examples run (``EXAMPLE_ENGINES``;
+    "": none)."""
     from chatterbench.engines.registry import BUILT_IN
 
+    if module in EXAMPLE_ENGINES:
+        return EXAMPLE_ENGINES[module]
     for row in BUILT_IN:
         package = row.adapter.partition(":")[0]
         if module == package or module.startswith(package + "."):

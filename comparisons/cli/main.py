@@ -18,6 +18,7 @@ import os
 import sys
 from typing import Iterable
 
+from chatterbench.engines.isolate import run_limit, set_run_limit
 from chatterbench.reference.errors import InputError
 
 from . import Terminated, interrupt, quiet_interrupts
@@ -59,8 +60,12 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser([w for w in argv[:1] if w in COMMANDS])  # the top level has no option but --help
     args = parser.parse_args(argv)
-    with held_warnings() as held:  # numpy's overflow warnings, say: shown after the work, never around an error line
-        held.keep = (code := _run(args)) != 2
+    limit = run_limit()
+    try:
+        with held_warnings() as held:  # numpy's overflow warnings, say: shown after the work, never around an error line
+            held.keep = (code := _run(args)) != 2
+    finally:  # --timeout holds the command's own runs, never a caller's after it (main called in a process that goes on)
+        set_run_limit(limit)
     return code
 
 

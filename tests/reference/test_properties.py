@@ -390,3 +390,20 @@ def test_rest_without_force_stays(mode):
     result = simulate(scene, mode, Options(chatter=mode, max_events=1000))
     assert result.status == "ok", result.message
     assert result.log.kind.tolist() == ["impact", "stick"]
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_a_start_closer_to_the_wall_than_positions_resolve_is_on_it(mode):
+    # found by hypothesis (a venv run's random examples): at rest 5e-85 m above the wall and pressed into it, the
+    # flight's root lay under the resolution of t; before, no impact was seen and y went 1.5e-7 m through the wall
+    scene = scene_from_dict({
+        "name": "spring-pair", "mass1": 1.0, "mass2": 1.0, "restitution": 0.0, "gap": {"lower": 0.0},
+        "forces": [{"kind": "spring", "on": "coupling", "stiffness": 5.0, "rest": 0.0},
+                   {"kind": "harmonic", "on": "body2", "amplitude": 1.0, "omega": 8.375, "phase": 4.5625}],
+        "initial": {"t": 2.453125, "x1": 0.0, "v1": 0.0, "y": 5.119600830865138e-85, "vy": 0.0},
+        "duration": 0.750231081454279})
+    result = simulate(scene, mode, Options(chatter=mode, max_events=MAX_EVENTS))
+    assert result.status == "ok", result.message
+    check_in_gap(result)
+    check_exits(result)
+    assert result.log["kind"].tolist()[:2] == ["impact", "stick"] and result.log["t"].iloc[1] == scene.initial.t
