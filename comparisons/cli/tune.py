@@ -6,9 +6,9 @@ ladder of tolerances, and a guide to paste them.
 
 Each engine's answer leads with whether the asked tolerances have a robust setting and what is reachable
 (``studies.tune_answer.frontier_line``), then its frontier as a table; an engine that steps another's model (MuJoCo
-Warp: MuJoCo's) has each answer rerun in that engine at the same settings (``studies.tune_conformance``). Exit codes: 0 every engine has a robust
-candidate at the asked tolerances (its neighbourhood too), 1 one has none (the guide and recommended.json say what
-is reachable, and the best reachable), 2 bad input.
+Warp: MuJoCo's) has each answer rerun in that engine at the same settings (``studies.tune_conformance``). Exit codes:
+0 every engine has a robust candidate at the asked tolerances (its neighbourhood too), 1 one has none (the guide and
+recommended.json say what is reachable, and the best reachable), 2 bad input.
 """
 
 from __future__ import annotations
@@ -76,8 +76,8 @@ def cmd_tune(args: argparse.Namespace) -> int:
             bar.set_postfix(budget=f"{args.max_runs} runs")
             result = tune(scene, engine, tol, space=spaces[engine], executor=CountingExecutor(pool, bar),
                           repeats=args.repeats, max_runs=args.max_runs, max_cost=args.max_cost, solution=solution)
-            if same_model_of(engine):  # its answers rerun in the engine whose model it steps (MuJoCo Warp: MuJoCo's)
-                bar.stage(f"its answers rerun in {same_model_of(engine)}")
+            if other := same_model_of(engine):  # its answers rerun in the engine whose model it steps (MuJoCo Warp's)
+                bar.stage(f"its answers rerun in {other}")
             result.extra["same_model"] = same_model_check(result)
         _print_result(result)
         results.append(result)

@@ -81,11 +81,12 @@ from ..pipeline.compare import judge_run
 from ..pipeline.solution import ReferenceSolution, solve
 from ..pipeline.summary import METRIC_COLUMNS, metrics
 from ..pipeline.tolerances import Tolerances
-from .tune_checks import RATIO_COLUMNS, STRIKE_COLUMNS, check_ratios, describe_failures, judged_margin, scene_strikes, strike_summary
+from .tune_checks import RATIO_COLUMNS, STRIKE_COLUMNS, check_ratios, describe_failures, judged_margin, strike_summary
 from .tune_frontier import answers, frontier_entries, json_value, tightest
 from .tune_ladder import Ladder, judge_levels
 from .tune_search import DT_RATIO, SEARCH_COLUMNS, Grid, agrees, need, round_dt, search
-from .tune_runs import batch_runs, batches_on_device, candidate_settings, settings_label, steps_per_sim_s, time_runs
+from .tune_runs import (batch_runs, batches_on_device, candidate_settings, run_and_strike, settings_label, steps_per_sim_s,
+                        time_runs)
 
 TUNE_COLUMNS = ["stage", "dt", "settings", "verdict", "n_episodes", "n_match", "failed", *SEARCH_COLUMNS, "passes",
                 "robust_at", "margins", "unjudged", *RATIO_COLUMNS,
@@ -163,12 +164,8 @@ def _evaluate(ref: ReferenceSolution, engine: str, params: dict, points: tuple[T
     1 / dt); in a worker process. ``ran``: its (trajectory, strikes) already made (``batch_runs``)."""
     tol = points[asked]
     settings = candidate_settings(engine, params)
-    if ran is None:
-        run, table, impacts = judge_run(ref, engine, settings, tol)
-        strikes = scene_strikes(engine, settings, ref, tol, run.trajectory.settings) if run.status == "ok" else None
-    else:
-        run, table, impacts = judge_run(ref, engine, settings, tol, trajectory=ran[0])
-        strikes = ran[1]
+    trajectory, strikes = ran if ran is not None else run_and_strike(ref, engine, settings, tol)
+    run, table, impacts = judge_run(ref, engine, settings, tol, trajectory=trajectory)
     ratios = check_ratios(table, impacts, tol, tol.penetration * ref.length_scale, strikes)
     steps = steps_per_sim_s(engine, settings, run)
     fixed = adapter(engine).cost_lever(settings) == "dt" and math.isfinite(steps)
@@ -195,18 +192,19 @@ def _evaluator(executor: Executor, ref: ReferenceSolution, engine: str, points: 
     def run_batch(batch: list[dict], stage: str, bounds: list[float] | None = None) -> list[dict]:
         ran = batch_runs(ref, engine, batch, points[asked]) if batched else [None] * len(batch)
         futures = [r if isinstance(r, InputError) else executor.submit(_evaluate, ref, engine, p, points, asked, bounds, r)
-                   for p, r in zip(batch, ran)]
-        rows = []
-        for fut, params in zip(futures, batch):
-            try:
-                if isinstance(fut, InputError):
-                    raise fut
-                row = fut.result()
-            except InputError as exc:
-                row = _refused(params, exc)
-            rows.append({**row, "stage": stage})
-        return rows
+                   for p, r in zip(batch, ran)]  # a refusal of the batch's own checks stands in for its future
+        return [{**_row(fut, params), "stage": stage} for fut, params in zip(futures, batch)]
     return run_batch
+
+
+def _row(fut, params: dict) -> dict[str, Any]:
+    """A candidate's row from its future, or the row of its refused settings."""
+    try:
+        if isinstance(fut, InputError):
+            return _refused(params, fut)
+        return fut.result()
+    except InputError as exc:
+        return _refused(params, exc)
 
 
 def cost_key(frame: pd.DataFrame) -> str:

@@ -45,6 +45,7 @@ from chatterbench.engines.registry import adapter, make_settings, unavailable_re
 from ..pipeline.compare import compare
 from ..pipeline.conformance import conformance, describe
 from ..pipeline.tolerances import Tolerances
+from .tune_frontier import json_value
 from .tune_search import agrees
 
 CHECK_COLUMNS = ["point", "stick", "restitution", "dt", "settings", "verdict", "other_verdict", "passes", "other_passes",
@@ -84,9 +85,8 @@ class SameModelCheck:
         return "; ".join(parts)
 
     def records(self) -> list[dict[str, Any]]:
-        """The rows for ``recommended.json`` (NaN as None)."""
-        return [{k: (None if isinstance(v, float) and math.isnan(v) else v.item() if hasattr(v, "item") else v)
-                 for k, v in row.items()} for row in self.table.to_dict("records")]
+        """The rows for ``recommended.json`` (``tune_frontier.json_value``: NaN as None)."""
+        return [{k: json_value(v) for k, v in row.items()} for row in self.table.to_dict("records")]
 
 
 def same_model_of(engine: str) -> str:
@@ -107,7 +107,7 @@ def _answers(result) -> list[tuple[str, Tolerances, float, dict[str, Any]]]:
     keys = [k for k in result.extra["space"] if k != "dt"]
     out = []
     if (c := result.chosen) is not None:
-        out.append(("answer", result.tolerance, float(c["dt"]), {k: _plain(c[k]) for k in keys}))
+        out.append(("answer", result.tolerance, float(c["dt"]), {k: json_value(c[k]) for k in keys}))
     for k, e in enumerate(result.frontier, 1):
         out.append((f"frontier {k}", Tolerances(**e["tolerances"]), float(e["dt"]), dict(e["settings"])))
     seen, kept = set(), []
@@ -117,10 +117,6 @@ def _answers(result) -> list[tuple[str, Tolerances, float, dict[str, Any]]]:
             seen.add(key)
             kept.append(point)
     return kept
-
-
-def _plain(v: Any) -> Any:
-    return v.item() if hasattr(v, "item") else v
 
 
 def _verdicts(table: pd.DataFrame, engine: str) -> tuple[str, bool]:

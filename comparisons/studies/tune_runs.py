@@ -74,17 +74,28 @@ def batch_runs(ref: ReferenceSolution, engine: str, batch: list[dict], tol: Tole
             out.append(s)
             continue
         traj = next(trajectories)
-        out.append((traj, scene_strikes(engine, s, ref, tol, traj.settings) if traj.status == "ok" else None))
+        out.append((traj, strikes_of(ref, engine, s, tol, traj)))
     return out
+
+
+def run_and_strike(ref: ReferenceSolution, engine: str, settings: Any, tol: Tolerances) -> tuple:
+    """One candidate run alone and its strikes (``strikes_of``); InputError for settings the scene cannot run with."""
+    traj = run_engine(engine, ref.scene, settings)
+    return traj, strikes_of(ref, engine, settings, tol, traj)
+
+
+def strikes_of(ref: ReferenceSolution, engine: str, settings: Any, tol: Tolerances, traj) -> Any:
+    """The settings struck under the scene's forces (``tune_checks.scene_strikes``), meeting the contact the run
+    ``traj`` had; None for a run that failed."""
+    return scene_strikes(engine, settings, ref, tol, traj.settings) if traj.status == "ok" else None
 
 
 def _alone(ref: ReferenceSolution, engine: str, settings: Any, tol: Tolerances) -> tuple | InputError:
     """``batch_runs`` of one candidate, run by itself."""
     try:
-        traj = run_engine(engine, ref.scene, settings)
+        return run_and_strike(ref, engine, settings, tol)
     except InputError as exc:
         return exc
-    return traj, scene_strikes(engine, settings, ref, tol, traj.settings) if traj.status == "ok" else None
 
 
 def batches_on_device(engine: str) -> bool:
