@@ -117,9 +117,44 @@ def test_feigin_pair_stays_in_its_gap():
 def test_runs_one_after_another_are_identical():
     scene = load_scene("spring-pair", ["duration=0.2"])
     a, b = PybulletEngine().run(scene, PybulletSettings()), run(scene, PybulletSettings())
-    # Each run has its own DIRECT client; PyBullet is deterministic, so bit-identical.
+    # Each run has a DIRECT client of its own (the first's, reset); PyBullet is deterministic, so bit-identical.
     np.testing.assert_array_equal(a.y, b.y)
     assert PybulletEngine.name == "pybullet"
+
+
+def _same_runs(a, b) -> None:
+    np.testing.assert_array_equal(a.t, b.t)
+    for x, y in ((a.y, b.y), (a.vy, b.vy), *((a.contact[w], b.contact[w]) for w in a.contact),
+                 *((a.normal_force[w], b.normal_force[w]) for w in a.normal_force)):
+        np.testing.assert_array_equal(x, y)
+
+
+def test_a_reused_client_runs_bit_for_bit_as_a_new_one(monkeypatch):
+    # a closed world's client is reset for the next world instead of a new connect (world.py): whatever the runs
+    # before it set (other parameters, bodies, a fixed or a free body 1), a run is the run of a fresh client
+    from chatterbench.engines.pybullet_engine import world
+
+    odd = PybulletSettings(dt=3e-4, restitution_velocity_threshold=0.5, num_solver_iterations=10, use_split_impulse=True)
+    runs = [("bouncing-ball", odd), ("feigin-pair", PybulletSettings(dt=1e-3)), ("spring-pair", odd),
+            ("impact-damper", PybulletSettings(dt=5e-4)), ("bouncing-ball", PybulletSettings(dt=1e-3))]
+    scenes = {name: load_scene(name, ["duration=1.2"]) for name, _ in runs}
+    monkeypatch.setattr(world, "_idle", [])
+    monkeypatch.setattr(world, "IDLE_CLIENTS", 0)  # every world its own new client
+    fresh = [PybulletEngine().run(scenes[name], s) for name, s in runs]
+    monkeypatch.setattr(world, "IDLE_CLIENTS", 1)
+    clients, real_build = [], world.build
+
+    def build(scene, s):
+        built = real_build(scene, s)
+        clients.append(built.client)
+        return built
+
+    monkeypatch.setattr("chatterbench.engines.pybullet_engine.run.build", build)
+    reused = [PybulletEngine().run(scenes[name], s) for name, s in runs]
+    assert len(clients) == len(runs) and len(set(clients)) == 1  # one client, reused by every run after the first
+    for (name, _), a, b in zip(runs, fresh, reused):
+        assert a.status == b.status == "ok", name
+        _same_runs(a, b)
 
 
 def test_settings_snippet_is_python():
