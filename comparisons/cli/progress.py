@@ -17,13 +17,16 @@ the seconds since the command started (``chatterbench: progress: tune pybullet o
 the search, 12 candidates done; budget 600 runs; 63.0 s elapsed``), so a log is never silent for
 longer than that, whatever the command does (``CHATTERBENCH_PROGRESS_LINES=off`` in the
 environment turns these lines off, for a harness that compares stderr line by line; the test
-suite does so, except where it tests them). ``note`` lines (what a step will cost, e.g. a
+suite does so, except where it tests them; ``CHATTERBENCH_PROGRESS_EVERY=S``, a number of seconds
+> 0, prints a line after S s without one instead of ``LINE_EVERY_S``: a log that must speak more
+often, or a short run that tests the lines; anything else is refused, exit 2). ``note`` lines (what a step will cost, e.g. a
 kernel compile, the reference's first numba compile) are printed on every stream, terminal
 or not: a log says why it paused.
 """
 
 from __future__ import annotations
 
+import math
 import os
 import sys
 import threading
@@ -33,6 +36,7 @@ from contextlib import contextmanager
 from typing import Any, Callable, Iterator
 
 from chatterbench.engines.registry import ENGINE_NAMES, adapter, unavailable_reason
+from chatterbench.reference.errors import InputError
 
 REFRESH_S = 1.0  # [s] how often the bar is redrawn while one step runs
 # [s] the longest a command is silent where no bar is drawn: a line is printed after this long without one. Half the
@@ -40,6 +44,7 @@ REFRESH_S = 1.0  # [s] how often the bar is redrawn while one step runs
 LINE_EVERY_S = 5.0
 IMPORTS_S = 2.0  # [s] of a process's start counted as the command's silence before its first line
 LINES_ENV = "CHATTERBENCH_PROGRESS_LINES"  # "off": no plain progress lines (the bar on a terminal is unaffected)
+EVERY_ENV = "CHATTERBENCH_PROGRESS_EVERY"  # [s] a number > 0: a line after this long without one (LINE_EVERY_S unset)
 
 _LOADED = time.perf_counter()  # the fallback's origin where /proc is missing
 
@@ -57,6 +62,22 @@ def waited_s() -> float:
         return time.perf_counter() - _LOADED
 
 
+def line_every_s() -> float | None:
+    """The seconds without a line after which one is printed, as ``EVERY_ENV`` sets them [s]; None where it is unset
+    (``LINE_EVERY_S``). Raises ``InputError`` for a value that is not a number of seconds > 0."""
+    text = os.environ.get(EVERY_ENV, "").strip()
+    if not text:
+        return None
+    try:
+        seconds = float(text)
+    except ValueError:
+        seconds = math.nan
+    if not 0 < seconds < math.inf:
+        raise InputError(f"{EVERY_ENV} = {text!r}: must be a number of seconds > 0 (unset: a line after "
+                         f"{LINE_EVERY_S:g} s without one)")
+    return seconds
+
+
 class _Heartbeat:
     """The command's plain progress lines where no bar is drawn (module docstring): a thread that prints one after
     ``LINE_EVERY_S`` s without a line, describing the innermost open ``Progress``."""
@@ -65,6 +86,11 @@ class _Heartbeat:
         self.command = "chatterbench"
         self.bars: list[Progress] = []
         self.last = time.monotonic()  # when the command last said something on stderr
+        self.every: float | None = None  # [s] the command's own interval (``line_every_s``); None: LINE_EVERY_S
+
+    def interval(self) -> float:
+        """The seconds without a line after which one is printed [s]."""
+        return LINE_EVERY_S if self.every is None else self.every
 
     def said(self) -> None:
         self.last = time.monotonic()
@@ -76,8 +102,8 @@ class _Heartbeat:
         return f"chatterbench: progress: {what}{'; ' + compiling if compiling else ''}; {waited_s():.1f} s elapsed"
 
     def beat(self) -> None:
-        """One look: a line when the command has been silent for ``LINE_EVERY_S`` s and no bar shows its time."""
-        if time.monotonic() - self.last < LINE_EVERY_S or any(not b.bar.disable for b in self.bars):
+        """One look: a line when the command has been silent for ``interval()`` s and no bar shows its time."""
+        if time.monotonic() - self.last < self.interval() or any(not b.bar.disable for b in self.bars):
             return
         try:
             print(self.line(), file=sys.stderr, flush=True)
@@ -91,13 +117,14 @@ class _Heartbeat:
         # silent since the process started, its imports included (at most IMPORTS_S of them: a long-lived process, a
         # notebook, runs its first command as a fresh one would)
         self.command, self.bars, self.last = command, [], time.monotonic() - min(waited_s(), IMPORTS_S)
+        self.every = line_every_s()  # a bad value is refused (exit 2), lines on or off
         if os.environ.get(LINES_ENV, "").strip().lower() == "off":
             yield
             return
         stop = threading.Event()
 
         def run() -> None:
-            while not stop.wait(min(0.5, LINE_EVERY_S / 4)):
+            while not stop.wait(min(0.5, self.interval() / 4)):
                 self.beat()
 
         thread = threading.Thread(target=run, name="chatterbench-progress", daemon=True)

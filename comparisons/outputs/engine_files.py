@@ -6,7 +6,8 @@
     >>> from chatterbench.reference.scene import load_scene
     >>> from chatterbench.comparisons.outputs.engine_files import write_engine_files
     >>> from chatterbench.comparisons.studies.tune import tune
-    >>> result = tune(load_scene("bouncing-ball"), "pybullet", 0.05, space={"dt": (1e-3,)}, workers=1, refine_steps=0)
+    >>> result = tune(load_scene("bouncing-ball"), "pybullet", 0.05, space={"dt": (1e-3,)}, workers=1, refine_steps=0,
+    ...               ladder=None, check_robust=False)  # the asked tolerances alone (no frontier ladder, no neighbours)
     >>> write_engine_files(result, tmp)
     ['pybullet/scene.py']
 

@@ -4,7 +4,7 @@
     >>> from chatterbench.comparisons.outputs.tradeoff import tradeoff_figure
     >>> from chatterbench.comparisons.studies.tune import tune
     >>> result = tune(load_scene("bouncing-ball"), "pybullet", 0.05, space={"dt": (1e-3, 3e-4)}, workers=1, refine_steps=0,
-    ...               ladder=None)                        # the asked tolerances alone (no frontier ladder)
+    ...               ladder=None, check_robust=False)  # the asked tolerances alone (no frontier ladder, no neighbours)
     >>> fig = tradeoff_figure(result)
     >>> len(fig.axes), fig.axes[0].get_xlabel().startswith("dt")
     (1, True)

@@ -9,10 +9,11 @@ from chatterbench.reference import load_scene
 
 @pytest.fixture(scope="module")
 def result():
-    # PyBullet on the ball: dt 1e-3 .. 3e-4 x threshold 0 .. 3 m/s, in two slices (50 and 10 iterations), one level of
+    # PyBullet on the ball: dt 3e-3 .. 1e-3 x threshold 0 .. 3 m/s, in two slices (50 and 10 iterations), one level of
     # refinement and every pass's neighbourhood (the 3 m/s threshold sticks early: measured); the asked tolerances
-    # alone (the map draws the asked verdicts; no frontier ladder): measured, the same 30 runs, 6 fragile passes
-    space = {"dt": (1e-3, 3e-4), "pybullet.restitution_velocity_threshold": (0.0, 3.0),
+    # alone (the map draws the asked verdicts; no frontier ladder): measured, the same 30 runs, 6 fragile passes, as
+    # on dt 1e-3 .. 3e-4 before (whose finer runs resolve more impacts to strike: 12.1 s of CPU, now 7.7 s)
+    space = {"dt": (3e-3, 1e-3), "pybullet.restitution_velocity_threshold": (0.0, 3.0),
              "pybullet.num_solver_iterations": (50, 10)}
     return tune(load_scene("bouncing-ball", ["duration=1.6"]), "pybullet", 0.05, space=space, workers=2, refine_steps=1,
                 ladder=None)
