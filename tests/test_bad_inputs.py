@@ -31,6 +31,7 @@ from pathlib import Path
 import pytest
 
 from helpers import cli, cli_process, needs_engine
+from shared_runs import session_folder
 
 FILE = "bad.toml"  # argv placeholder for the case's scene file
 AFILE, ADIR = "afile", "adir"  # in every scratch directory: a file where a directory is wanted, and the reverse
@@ -531,7 +532,7 @@ _REFUSED: dict[str, tuple[int, str]] = {}
 
 
 def _engines_tests():
-    """``tests/engines/test_plugin_faults.py`` as a module: its plugin cases' runs and the workers' shared folder."""
+    """``tests/engines/test_plugin_faults.py`` as a module: its plugin cases' runs (``shared_outcomes``)."""
     folder = str(Path(__file__).resolve().parent / "engines")
     if folder not in sys.path:
         sys.path.insert(0, folder)
@@ -551,7 +552,7 @@ def test_bad_input_is_refused(case, engine_runs, tmp_path_factory):
     _, _, argv, content, words = case
     needs_engine(*_engines_named(argv))
     code, err = _REFUSED[case[0]] = run_cli(argv, content)
-    folder = _engines_tests().session_folder(tmp_path_factory)
+    folder = session_folder(tmp_path_factory)
     if folder is not None:  # for the doc check of another worker (test_doc_is_current): the run as it was made here
         (folder / "bad-inputs").mkdir(exist_ok=True)
         path = folder / "bad-inputs" / f"{CASES.index(case)}.json"
@@ -584,7 +585,7 @@ def test_doc_is_current(tmp_path_factory):
     if plugins:
         pytest.skip(f"engine plugins installed ({', '.join(plugins)}): docs/bad-inputs.md lists the built-in engines")
     doc = Path(__file__).resolve().parents[1] / "docs" / "bad-inputs.md"
-    shared = _engines_tests().session_folder(tmp_path_factory)  # the runs other workers made (pytest-xdist)
+    shared = session_folder(tmp_path_factory)  # the runs other workers made (pytest-xdist)
     assert doc.read_text() == markdown(shared), "docs/bad-inputs.md is stale: python3 tests/test_bad_inputs.py > docs/bad-inputs.md"
 
 
@@ -689,7 +690,7 @@ def markdown(shared: Path | None = None) -> str:
             "process right after the function named. The message column holds the command's own lines about it and",
             "what was on disk after. (The full-disk case needs root to mount a tmpfs: tested, not shown.)", "",
             "| case | what is wrong | command | what it says and leaves (exit code) |", "|---|---|---|---|",
-            *hostile.markdown_rows()]
+            *hostile.markdown_rows(shared)]
     out += plugin_rows(shared)
     out += [
         "",

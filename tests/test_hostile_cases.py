@@ -30,6 +30,7 @@ from typing import Callable, NamedTuple
 import pytest
 
 from helpers import cli
+from shared_runs import made_once, session_folder
 
 GATE = '[[check]]\nscene = "bouncing-ball"\nengine = "pybullet"\nscene_overrides = { duration = 0.2 }\nlimits = ["status == ok"]\n'
 OTHER_GATE = GATE.replace("duration = 0.2", "duration = 0.3")  # the same check's name, another run
@@ -122,12 +123,13 @@ def _dataset(kind: str) -> Callable[[Path], dict[str, str]]:
             with open(root / "rows.csv", "wb") as f:
                 f.truncate(2 * 2**30)  # 2 GiB, sparse
         elif kind == "rows":  # a few hundred kB of Parquet standing for gigabytes of rows
-            import numpy as np
-            import pandas as pd
+            import pyarrow as pa
+            import pyarrow.parquet as pq
 
-            n = 3_000_000
-            pd.DataFrame({"engine": ["mujoco"] * n, "dt": np.full(n, 1e-4), "verdict": ["match"] * n,
-                          "cost_per_sim_s": np.full(n, 0.1)}).to_parquet(root / "rows.parquet")
+            n = 3_000_000  # each column one value repeated, made by Arrow (pandas' list of 3e6 strings: 0.5 s more)
+            pq.write_table(pa.table({"engine": pa.repeat("mujoco", n), "dt": pa.repeat(1e-4, n),
+                                     "verdict": pa.repeat("match", n), "cost_per_sim_s": pa.repeat(0.1, n)}),
+                           root / "rows.parquet")
         return {}
     return setup
 
@@ -265,14 +267,15 @@ CASES = [
     Case("report --sweep 3e6 rows", "a Parquet dataset of 150 kB and 3 million rows (before: read whole, 0.85 GB peak)",
          ["report", "bouncing-ball", "--sweep", "rows.parquet"], 2,
          ("rows.parquet: 3,000,000 rows, more than the 1,000,000",), setup=_dataset("rows")),
-    # interruption
+    # interruption (tune's: right after its guide.md is made, recommended.json already written and the page's figures
+    # not yet rendered, which took 0.9 s more of each run after guide_html)
     Case("tune Ctrl-C while writing", "Ctrl-C while tune writes its guide (before: the files written so far stayed)",
          [*TUNE, "--out", "d"], 130, ("chatterbench: interrupted",),
-         interrupt=("chatterbench.comparisons.outputs.guide:guide_html", signal.SIGINT), after=_nothing_new("d")),
+         interrupt=("chatterbench.comparisons.outputs.guide:guide_markdown", signal.SIGINT), after=_nothing_new("d")),
     Case("second tune killed", "a second tune into the same --out killed by SIGTERM while it writes (before: its new "
          "recommended.json, written first, beside the previous tune's guide)", [*TUNE, "--out", "d"], 143,
          ("chatterbench: terminated",),
-         setup=_previous_tune, interrupt=("chatterbench.comparisons.outputs.guide:guide_html", signal.SIGTERM),
+         setup=_previous_tune, interrupt=("chatterbench.comparisons.outputs.guide:guide_markdown", signal.SIGTERM),
          after=_previous_kept),
     Case("report Ctrl-C while writing", "Ctrl-C while report writes its pages (before: index.html without its report.md)",
          REPORT, 130, ("chatterbench: interrupted",),
@@ -320,15 +323,19 @@ def _scratch():
 _DONE: dict[str, tuple[Outcome, str]] = {}  # case id -> its run, made once per process (the test and the doc read it)
 
 
-def run_case(case: Case) -> tuple[Outcome, str]:
-    """Run one case, once per process (``test_hostile_case`` and ``docs/bad-inputs.md`` read the same run); returns
-    its outcome and what ``after`` says of the disk ("" without one)."""
+def run_case(case: Case, shared: Path | None = None) -> tuple[Outcome, str]:
+    """Run one case, once per test session (``test_hostile_case`` and ``docs/bad-inputs.md`` read the same run: in
+    this process, or left in ``shared`` by another pytest-xdist worker, ``shared_runs.made_once``); returns its
+    outcome and what ``after`` says of the disk ("" without one)."""
     if case.id not in _DONE:
-        _DONE[case.id] = _run_case(case)
+        code, output, root, said = made_once(shared, f"hostile-{CASES.index(case)}", lambda: _run_case(case))
+        _DONE[case.id] = Outcome(code, output, Path(root)), said
     return _DONE[case.id]
 
 
-def _run_case(case: Case) -> tuple[Outcome, str]:
+def _run_case(case: Case) -> tuple[int, str, str, str]:
+    """``case`` run in a scratch directory: its exit code, output, the scratch directory (gone after) and what
+    ``after`` said of the disk while it was there."""
     with _scratch() as root:
         env = case.setup(root) if case.setup else {}
         saved = {k: os.environ.get(k) for k in (*env, "GITHUB_ACTIONS", "GITHUB_STEP_SUMMARY")}
@@ -350,7 +357,7 @@ def _run_case(case: Case) -> tuple[Outcome, str]:
                 else:
                     os.environ[k] = v
         said = case.after(got) if case.after else ""
-    return got, said
+    return got.code, got.output, str(got.root), said
 
 
 SLOW = {"report --tune hostile"}  # besides the interrupted ones: a run of several seconds before the check
@@ -358,8 +365,8 @@ SLOW = {"report --tune hostile"}  # besides the interrupted ones: a run of sever
 
 @pytest.mark.parametrize("case", [pytest.param(c, marks=[pytest.mark.slow] if c.interrupt or c.id in SLOW else [])
                                   for c in CASES], ids=[c.id for c in CASES])
-def test_hostile_case(case):
-    got, _ = run_case(case)
+def test_hostile_case(case, tmp_path_factory):
+    got, _ = run_case(case, session_folder(tmp_path_factory))
     assert got.code == case.code, (got.code, got.output[-3000:])
     assert "Traceback" not in got.output, got.output
     for word in case.words:
@@ -385,13 +392,14 @@ def _cell(text: str) -> str:
     return text.replace("|", "\\|")
 
 
-def markdown_rows() -> list[str]:
-    """The rows ``docs/bad-inputs.md`` shows (``tests/test_bad_inputs.py``), every case but the root-only ones."""
+def markdown_rows(shared: Path | None = None) -> list[str]:
+    """The rows ``docs/bad-inputs.md`` shows (``tests/test_bad_inputs.py``), every case but the root-only ones (the
+    runs of this test session: ``run_case``)."""
     rows = []
     for case in CASES:
         if case.root_only:
             continue
-        got, said = run_case(case)
+        got, said = run_case(case, shared)
         shown = "chatterbench " + " ".join(a if a and " " not in a else repr(a) for a in case.argv)
         if case.interrupt:
             shown += f" (a {signal.Signals(case.interrupt[1]).name} after {case.interrupt[0].split(':')[1]})"

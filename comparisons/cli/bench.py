@@ -132,9 +132,9 @@ def check_options(args: argparse.Namespace) -> None:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    from chatterbench.comparisons.studies.bench import TUNE_CASES  # the studies load with the bench, not with --help
-
     check_options(args)
+    if args.what == "tune":  # the studies load with the benchmarks that time them: not with --help, a refusal, bench help
+        from chatterbench.comparisons.studies.bench import TUNE_CASES
     parts = ([p for p in ("overhead", "refine", "warp") if args.only in (None, p)] if args.what == "sweep" else
              [*COMMANDS, "top"] if args.what == "help" else TUNE_CASES if args.what == "tune" else [args.what])
     with Progress(len(parts), f"bench {args.what}", unit="part") as bar:  # minutes of timing: say what runs
@@ -169,13 +169,13 @@ def bench_help(repeats: int = 5, progress: Progress | None = None) -> pd.DataFra
 def _run_bench(args: argparse.Namespace, bar: Progress):
     import pandas as pd
 
-    from chatterbench.comparisons.studies.bench import (bench_engines, bench_platemap, bench_reference, bench_refine,
-                                                        bench_sweep, bench_tune)
-
     if args.what == "help":
         figures = bench_help(args.repeats, bar)
         print_table(figures.round(3), title="seconds each --help takes in a fresh process (best and median of --repeats):")
         return figures
+    from chatterbench.comparisons.studies.bench import (bench_engines, bench_platemap, bench_reference, bench_refine,
+                                                        bench_sweep, bench_tune)
+
     first = {None: "overhead", "overhead": "overhead", "refine": "refine"}.get(args.only) or _warp_stage()
     if args.what != "tune":  # tune: each case is a stage of its own (bench_tune's ``started``)
         bar.stage(first if args.what == "sweep" else "timing")

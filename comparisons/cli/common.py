@@ -315,12 +315,13 @@ def local_workers(requested: int | None, max_memory: float = MAX_MEMORY) -> int:
 
 
 ENGINE_TIMEOUT = 600.0  # [s] the command line's limit on one engine run
+# [s] one day, the most --timeout takes: the sweep spec's ``MAX_TIMEOUT``, written here so that parsing --timeout
+# loads no sweep module (0.5 s of pandas); tests/comparisons/cli/test_help.py checks that they agree
+MAX_TIMEOUT = 86400.0
 
 
 def timeout_seconds(text: str) -> float:
     """argparse type: a wall-clock limit in seconds, 0 < t <= one day."""
-    from chatterbench.comparisons.studies.sweep.spec import MAX_TIMEOUT
-
     value = positive_float(text)
     if value > MAX_TIMEOUT:
         raise argparse.ArgumentTypeError(f"{text!r}: must be at most {MAX_TIMEOUT:g} s (one day)")

@@ -149,16 +149,22 @@ def install(folder: str | Path, names=tuple(PLUGINS)) -> Path:
         (folder / name).chmod(0o755)
     for name in names:
         module = f"cbtest_{name}"
-        source = _line_engine() if name == "line" else PLUGINS[name]
-        if source is not None:
-            (folder / module).mkdir(parents=True, exist_ok=True)
-            (folder / module / "__init__.py").write_text(source)
-        info = folder / f"{module}-0.1.dist-info"
-        info.mkdir(exist_ok=True)
-        (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: cbtest-{name}\nVersion: 0.1\n")
-        entry = ENTRIES.get(name, f"{module}:Engine")
-        (info / "entry_points.txt").write_text(f"[chatterbench.engines]\n{name} = {entry}\n")
+        write_installed(folder, module, _line_engine() if name == "line" else PLUGINS[name], f"cbtest-{name}",
+                        f"{name} = {ENTRIES.get(name, f'{module}:Engine')}")
     return folder
+
+
+def write_installed(folder: Path, module: str, source: str | None, package: str, entry: str, version: str = "0.1") -> None:
+    """Module ``module`` (its ``__init__.py`` holding ``source``; None: not written) and the ``MODULE-VERSION.dist-info``
+    of distribution ``package`` declaring ``entry`` (``NAME = module:Class``) in the group ``chatterbench.engines``:
+    what pip writes into the site-packages ``folder`` (module docstring)."""
+    if source is not None:
+        (folder / module).mkdir(parents=True, exist_ok=True)
+        (folder / module / "__init__.py").write_text(source)
+    info = folder / f"{module}-{version}.dist-info"
+    info.mkdir(exist_ok=True)
+    (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {package}\nVersion: {version}\n")
+    (info / "entry_points.txt").write_text(f"[chatterbench.engines]\n{entry}\n")
 
 
 class Case(NamedTuple):

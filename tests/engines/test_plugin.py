@@ -2,7 +2,9 @@
 
 Two packages: the engine the README's "Write an engine plugin" gives whole (its code block and
 its ``pyproject.toml`` block, written to a temporary folder as a user would copy them: nothing
-else is read), and ``examples/engine_plugin`` (pymunk). The venv is made from the running
+else is read) and ``examples/engine_plugin`` (pymunk); beside them, the README's engine with a
+wrong restitution (a known answer the other way), written as pip writes a package
+(``plugin_cases.write_installed``). The venv is made from the running
 interpreter with ``--system-site-packages`` and sees the running environment's packages even
 when the tests themselves run in a venv (whose packages ``--system-site-packages`` alone would
 not give it: it gives the base interpreter's); the repository's environment is never changed.
@@ -20,7 +22,7 @@ from pathlib import Path
 
 import pytest
 
-from plugin_cases import readme_block
+from plugin_cases import readme_block, write_installed
 
 pytest.importorskip("pymunk", reason="pymunk is in the test extra: pip install '.[test]'")
 
@@ -35,13 +37,18 @@ def fresh_venv(where: Path) -> Path:
     """A venv at ``where`` made from this interpreter that sees this environment's packages; its python."""
     assert _run(sys.executable, "-m", "venv", "--system-site-packages", "--without-pip", where).returncode == 0
     python = where / "bin" / "python"
-    purelib = _run(python, "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])").stdout.strip()
+    purelib = site_packages(python)
     # this environment's own site folders (a venv's, or the base's), processed as site folders (their .pth files
     # too: an editable install of chatterbench), after the new venv's own
     ours = [p for p in dict.fromkeys([*site.getsitepackages(), sysconfig.get_paths()["purelib"]]) if Path(p).is_dir()]
     Path(purelib, "zz_running_environment.pth").write_text(
         "".join(f"import site; site.addsitedir({p!r})\n" for p in ours))
     return python
+
+
+def site_packages(python: Path) -> Path:
+    """The folder where ``python`` installs packages (its venv's site-packages)."""
+    return Path(_run(python, "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])").stdout.strip())
 
 
 def _builds_wheels_here() -> bool:
@@ -56,11 +63,11 @@ def _builds_wheels_here() -> bool:
     return importlib.util.find_spec("wheel") is not None or (major, minor) >= (70, 1)
 
 
-def pip_install(python: Path, package: Path, cwd: Path) -> None:
-    """``pip install`` ``package`` into ``python``'s venv as a user would, with this environment's pip: its own
-    setuptools builds it where it can (nothing downloaded), else pip's isolated build (the package index)."""
+def pip_install(python: Path, *packages: Path, cwd: Path) -> None:
+    """``pip install`` ``packages`` into ``python``'s venv as a user would, with this environment's pip: its own
+    setuptools builds them where it can (nothing downloaded), else pip's isolated builds (the package index)."""
     build = ["--no-build-isolation", "--no-index"] if _builds_wheels_here() else []
-    done = _run(sys.executable, "-m", "pip", "--python", python, "install", "-q", "--no-deps", *build, package, cwd=cwd)
+    done = _run(sys.executable, "-m", "pip", "--python", python, "install", "-q", "--no-deps", *build, *packages, cwd=cwd)
     assert done.returncode == 0, done.stdout + done.stderr
 
 
@@ -76,9 +83,20 @@ def summary(done: subprocess.CompletedProcess, engine: str, column: str) -> str:
     return row[header.index(column)]
 
 
+def euler_wrong() -> str:
+    """Known answer the other way: the README's engine with every impact at 0.8 R, as engine ``euler_wrong`` of
+    package ``chatterbench-euler-wrong`` (its module's source)."""
+    code = readme_block("# chatterbench_euler.py").replace("self.R, self.dt = scene.mass1, scene.mass2, scene.restitution",
+                                                           "self.R, self.dt = scene.mass1, scene.mass2, 0.8 * scene.restitution")
+    code = code.replace('"euler', '"euler_wrong').replace("chatterbench-euler", "chatterbench-euler-wrong")
+    assert "0.8 * scene.restitution" in code
+    return code
+
+
 @pytest.fixture(scope="module")
 def venv(tmp_path_factory):
-    """A fresh venv with the README's engine (``euler``) and the example's (``pymunk``) installed; its python."""
+    """A fresh venv with the README's engine (``euler``) and the example's (``pymunk``) installed by pip, and the
+    README's engine made wrong (``euler_wrong``) written beside them as pip writes a package; its python."""
     root = tmp_path_factory.mktemp("plugins")
     python = fresh_venv(root / "venv")
     before = cli(python, "compare", "bouncing-ball", "--engines", "euler", cwd=root)
@@ -87,8 +105,9 @@ def venv(tmp_path_factory):
     euler.mkdir()
     (euler / "chatterbench_euler.py").write_text(readme_block("# chatterbench_euler.py"))
     (euler / "pyproject.toml").write_text(readme_block("# pyproject.toml, beside it"))
-    for package in (euler, EXAMPLE):
-        pip_install(python, package, cwd=root)
+    pip_install(python, euler, EXAMPLE, cwd=root)  # one pip, two isolated builds (3 s of CPU each)
+    write_installed(site_packages(python), "chatterbench_euler_wrong", euler_wrong(), "chatterbench-euler-wrong",
+                    "euler_wrong = chatterbench_euler_wrong:EulerEngine", version="0.1.0")
     return python, root
 
 
@@ -106,7 +125,7 @@ def test_an_engine_written_from_the_readme_is_listed_checked_and_judged_match(ve
     assert judged.returncode == 0, judged.stderr
     assert summary(judged, "euler", "verdict") == "match"
     contract = _run(python, "-m", "pytest", "-q", "-p", "no:cacheprovider", Path(__file__).parent / "test_contract.py",
-                    "-k", "euler", cwd=root)
+                    "-k", "euler and not euler_wrong", cwd=root)  # the README's engine (the wrong one is beside it)
     assert contract.returncode == 0 and re.search(r"\b[1-9]\d* passed", contract.stdout), contract.stdout[-2000:]
 
 
@@ -114,16 +133,6 @@ def test_an_engine_written_from_the_readme_is_listed_checked_and_judged_match(ve
 def test_the_readme_engine_with_a_wrong_restitution_is_not_match(venv):
     python, root = venv
     # known answer the other way: the README's engine with every impact at 0.8 R, installed as its own plugin
-    wrong = root / "wrong"
-    wrong.mkdir(exist_ok=True)
-    code = readme_block("# chatterbench_euler.py").replace("self.R, self.dt = scene.mass1, scene.mass2, scene.restitution",
-                                                           "self.R, self.dt = scene.mass1, scene.mass2, 0.8 * scene.restitution")
-    code = code.replace('"euler', '"euler_wrong').replace("chatterbench-euler", "chatterbench-euler-wrong")
-    assert "0.8 * scene.restitution" in code
-    (wrong / "chatterbench_euler_wrong.py").write_text(code)
-    (wrong / "pyproject.toml").write_text(readme_block("# pyproject.toml, beside it").replace("euler", "euler_wrong")
-                                          .replace("chatterbench_euler_wrong-", "chatterbench-euler-wrong"))
-    pip_install(python, wrong, cwd=root)
     judged = cli(python, "compare", "bouncing-ball", "--engines", "euler_wrong", cwd=root)
     assert judged.returncode == 0, judged.stderr
     assert summary(judged, "euler_wrong", "verdict") != "match"

@@ -11,41 +11,26 @@ segfault of the command itself (exit 139) for a plugin that crashes on import, a
 
 from __future__ import annotations
 
-import fcntl
-import os
-import pickle
+import functools
 import subprocess
 from pathlib import Path
 
 import pytest
+from shared_runs import made_once, session_folder  # noqa: F401  (session_folder: tests/test_bad_inputs.py's too)
 
 import plugin_cases
 from plugin_cases import CASES, install, outcomes, run_case, said
 
 
-def session_folder(tmp_path_factory) -> Path | None:
-    """A folder every pytest-xdist worker of this test session shares (None in a single process, whose own caches
-    already share its runs): where one worker leaves runs that another would otherwise make again."""
-    run = os.environ.get("PYTEST_XDIST_TESTRUNUID")
-    if not run or not os.environ.get("PYTEST_XDIST_WORKER"):
-        return None
-    folder = tmp_path_factory.getbasetemp().parent / f"chatterbench-shared-{run}"
-    folder.mkdir(exist_ok=True)
-    return folder
-
-
+@functools.cache
 def shared_outcomes(folder: Path | None) -> dict[str, subprocess.CompletedProcess]:
-    """``plugin_cases.outcomes()``, made once per test session: the worker that comes first runs every case (holding
-    a lock) and leaves them in ``folder``; a worker that needs them later, or meanwhile, reads them there."""
+    """``plugin_cases.outcomes()``, made once per test session: the worker that comes first runs every case and leaves
+    them in ``folder`` (``shared_runs.made_once``); a worker that needs them later, or meanwhile, reads them there."""
     if folder is None:
         return outcomes()
-    with open(folder / "plugin-outcomes.lock", "w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes, or when its process dies
-        path = folder / "plugin-outcomes.pickle"
-        if not path.exists():
-            (folder / "plugin-outcomes.tmp").write_bytes(pickle.dumps(outcomes()))
-            os.replace(folder / "plugin-outcomes.tmp", path)
-        return pickle.loads(path.read_bytes())
+    made = made_once(folder, "plugin-outcomes", lambda: {case: [done.args, done.returncode, done.stdout, done.stderr]
+                                                          for case, done in outcomes().items()})
+    return {case: subprocess.CompletedProcess(*done) for case, done in made.items()}
 
 
 @pytest.fixture(scope="module")
@@ -105,8 +90,9 @@ def test_sweep_and_tune_pools_survive_a_plugin_that_segfaults(site):
     rows = pd.read_parquet(site / "swept" / "rows.parquet")
     assert sorted(rows[rows.engine == "line"].status) == ["crashed", "crashed"]
     assert set(rows[rows.engine == "pybullet"].status) == {"ok"}
-    # tune searches line.fault in ("", "segfault") (the plugin's tuning space): crashing candidates are rows too
+    # tune searches line.fault in ("", "segfault") (the plugin's tuning space): crashing candidates are rows too (its
+    # first 4 runs, on 2 workers, are 2 dt values each with fault "" and "segfault": measured in its candidates.csv)
     tuned = run_case(plugin_cases.Case("tune", "", ["tune", "bouncing-ball", "--engines", "line", "--tolerance", "0.1",
-                                                    "--max-runs", "8", "--workers", "2"], 1, ()), site)
+                                                    "--max-runs", "4", "--workers", "2"], 1, ()), site)
     assert tuned.returncode in (0, 1) and "Traceback" not in tuned.stderr, tuned.stderr[-2000:]
     assert "fault /segfault" in tuned.stdout, tuned.stdout  # the crashing value was searched

@@ -10,7 +10,7 @@ from helpers import check_printed_age, run_timed
 
 GATE = """description = "one short check"
 [defaults]
-dt = 1e-5
+dt = 1e-4
 [[check]]
 scene = "bouncing-ball"
 engine = "pybullet"
