@@ -149,9 +149,9 @@ def time_diverged(ref: ReferenceSolution, traj: Trajectory, tol: Tolerances) -> 
 
 def _pairs(ref_eps: pd.DataFrame, eng_eps: pd.DataFrame) -> dict[int, int]:
     """Reference row -> engine row: same wall, largest overlap of the visits, each used once."""
-    cands = []
+    cands, eng_rows = [], list(eng_eps.itertuples())  # the rows once, not once per reference row
     for i, r in enumerate(ref_eps.itertuples()):
-        for j, e in enumerate(eng_eps.itertuples()):
+        for j, e in enumerate(eng_rows):
             if e.wall != r.wall:
                 continue
             e0 = e.t_first_impact if not math.isnan(e.t_first_impact) else e.t_stick
