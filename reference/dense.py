@@ -17,12 +17,10 @@ the samples are as exact as the log itself. Columns: t [s], x1, x2, y [m], v1, v
 
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 import pandas as pd
 
-from .flow import Flow
+from .flow import shared_flow
 from .linear import V1, VY, X1, Y, LinearSystem
 from .scene import Scene
 
@@ -49,13 +47,6 @@ def _segments(scene: Scene, log: pd.DataFrame):
     return starts
 
 
-@functools.lru_cache(maxsize=64)
-def _flow(generator: bytes, n: int, horizon: float) -> Flow:
-    """The flow of the n x n generator given as its bytes, built once and shared (read only): every sampling of
-    a scene needs the same two."""
-    return Flow(np.frombuffer(generator).reshape(n, n), horizon=horizon)
-
-
 def sample_states(scene: Scene, log: pd.DataFrame, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Exact (x1, v1, y, vy) at non-decreasing ``times`` [s], shape (n, 4), and the wall y of
     the kinematic constraint at each time (NaN while the masses move freely), shape (n,).
@@ -66,8 +57,7 @@ def sample_states(scene: Scene, log: pd.DataFrame, times: np.ndarray) -> tuple[n
     times = np.asarray(times, dtype=float)
     system = LinearSystem.from_scene(scene)
     horizon = scene.time_scale / 4.0
-    flows = {stuck: _flow(np.ascontiguousarray(a, dtype=float).tobytes(), a.shape[0], horizon)
-             for stuck, a in ((False, system.free), (True, system.stuck))}
+    flows = {False: shared_flow(system.free, horizon), True: shared_flow(system.stuck, horizon)}
     starts = _segments(scene, log)
     t_starts = np.array([s[0] for s in starts])
     # an event shares its time with the ones logged right after it: take the last of them
