@@ -5,11 +5,12 @@
 Each is ``registry.run_engine(engine, scene, make_settings(engine, dt))``, the run a test would make itself. The
 verdict invariance test (``comparisons/pipeline/test_judge.py``), the compact-form tests (``engines/test_window.py``)
 and Feigin's pair compared (``comparisons/pipeline/test_compare.py``) run the same engines on the same scenes (the
-built-in ones at 1e-4 s, PyBullet with a wrong R): the runs are kept in this process (the last few), and under
-pytest-xdist in a folder every worker of the session shares, where the first worker that needs a run makes it
-(holding that run's lock) and leaves it; a worker that needs it later, or meanwhile, reads it there (bit for bit:
-a pickle). A shared run's arrays are read-only: a test that changed one in place would change it for every test
-after it; it raises instead.
+built-in ones at 1e-4 s, PyBullet with a wrong R): each is kept in the session's temporary folder (pytest keeps
+the last three sessions'; about 150 MB when all of these modules run), under pytest-xdist a folder every worker of the
+session shares, where the first worker that needs a run makes it (holding that run's lock) and leaves it; a worker
+that needs it later, or meanwhile, reads it there (bit for bit: a pickle); the last few are kept in memory too. A
+shared run's arrays are read-only: a test that changed one in place would change it for every test after it; it
+raises instead.
 """
 
 from __future__ import annotations
@@ -26,12 +27,13 @@ from chatterbench.engines.trajectory import Trajectory
 from chatterbench.reference.scene import Scene
 
 
-def _session_folder(tmp_path_factory) -> Path | None:
-    """The folder the pytest-xdist workers of this session share (None in a single process)."""
+def _session_folder(tmp_path_factory) -> Path:
+    """The folder the pytest-xdist workers of this session share (in a single process, one of its own)."""
     run = os.environ.get("PYTEST_XDIST_TESTRUNUID")
-    if not run or not os.environ.get("PYTEST_XDIST_WORKER"):
-        return None
-    folder = tmp_path_factory.getbasetemp().parent / f"chatterbench-runs-{run}"
+    if run and os.environ.get("PYTEST_XDIST_WORKER"):
+        folder = tmp_path_factory.getbasetemp().parent / f"chatterbench-runs-{run}"
+    else:
+        folder = tmp_path_factory.getbasetemp() / "chatterbench-runs"
     folder.mkdir(exist_ok=True)
     return folder
 
@@ -44,10 +46,8 @@ def _read_only(traj: Trajectory) -> Trajectory:
     return traj
 
 
-@functools.lru_cache(maxsize=6)
-def _made(engine: str, scene: Scene, dt: float, folder: Path | None) -> Trajectory:
-    if folder is None:
-        return _read_only(run_engine(engine, scene, make_settings(engine, dt)))
+@functools.lru_cache(maxsize=4)
+def _made(engine: str, scene: Scene, dt: float, folder: Path) -> Trajectory:
     key = hashlib.sha256(repr((engine, scene, dt)).encode()).hexdigest()[:32]
     path = folder / f"{key}.pickle"
     with open(folder / f"{key}.lock", "w") as lock:
