@@ -110,7 +110,10 @@ def test_a_run_recorded_compact_is_the_full_run_compacted(engine):
 
 
 def test_the_compact_form_does_not_depend_on_the_chunks():
-    scene = load_scene("bouncing-ball")
+    # the ball to 0.1 s past its Zeno point (1.3546 s): every flight and bounce, the sticking and a rest (its 0.55 s
+    # more of rest, all kept, cost a chunk of one sample 0.8 s CPU and add nothing: a carried margin or speed record
+    # broken in window.py fails here at 1.45 s as at 2 s, measured)
+    scene = load_scene("bouncing-ball", ["duration=1.45"])
     full = run_engine("mujoco", scene, make_settings("mujoco", 1e-4))
     whole = window.compact(full, scene, above=0, chunk=len(full.t))
     for chunk in (1, 2, 7, 777):  # down to one sample at a time: margins and open stretches cross every boundary
