@@ -21,7 +21,7 @@ from chatterbench.reference.catalogue import CATALOGUE
 from chatterbench.reference.scene import load_scene
 
 from helpers import solution
-from shared_runs import engine_run
+from shared_engine_runs import engine_run
 
 ARRAYS = ("t", "x1", "x2", "v1", "v2")
 
@@ -61,7 +61,7 @@ STREAMING = [e for e in ("mujoco", "pybullet", "drake") if e in available_engine
 @pytest.mark.parametrize("engine", STREAMING)
 def test_the_judge_says_the_same_on_the_compact_form(name, engine, tmp_path_factory):
     ref = solution(name)
-    # every built-in scene is under COMPACT_ABOVE: a full run (test_judge.py's run too: shared_runs.py)
+    # every built-in scene is under COMPACT_ABOVE: a full run (test_judge.py's run too: shared_engine_runs.py)
     full = engine_run(tmp_path_factory, engine, ref.scene, 1e-4)
     small, table = _same_judgement(ref, engine, full)
     assert len(table) > 0
@@ -85,7 +85,7 @@ def test_a_wrong_restitution_is_still_caught_on_the_compact_form(name, tmp_path_
     # match, restitution errors -0.004 and -0.005; at 0.9 R both early, -0.113 and -0.100, measured)
     ref = solve(load_scene(name, WRONG_R_SCENES[name]))
     wrong = dataclasses.replace(ref.scene, restitution=ref.scene.restitution * 0.9)
-    full = engine_run(tmp_path_factory, "pybullet", wrong, 1e-4)  # test_judge.py's run too (shared_runs.py)
+    full = engine_run(tmp_path_factory, "pybullet", wrong, 1e-4)  # test_judge.py's run too (shared_engine_runs.py)
     _, table = _same_judgement(ref, "pybullet", full)
     assert not (table["verdict"] == "match").all(), table[["wall", "verdict"]]
     judged = table.dropna(subset=["restitution_error"])

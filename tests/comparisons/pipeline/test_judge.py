@@ -23,7 +23,7 @@ from chatterbench.reference.catalogue import CATALOGUE
 from chatterbench.reference.scene import load_scene
 
 from helpers import solution
-from shared_runs import engine_run
+from shared_engine_runs import engine_run
 
 SCENES = tuple(CATALOGUE)
 DTS = (1e-3, 3e-4, 1e-4)
@@ -63,7 +63,7 @@ SHORTER = {"feigin-pair": ["duration=8"]}
 def test_pybullet_with_the_wrong_restitution_is_caught(name, factor, tmp_path_factory):
     # PyBullet applies R exactly at every impact; run with R x 0.9 or x 1.1 and judged against
     # the scene's R, its resolved impacts are 10% off and its chatter ends early or late
-    # (the runs at 0.9 R of the ball and of Feigin's pair's 8 s are tests/engines/test_window.py's too: shared_runs.py)
+    # (the runs at 0.9 R of the ball and of Feigin's pair's 8 s are tests/engines/test_window.py's too: shared_engine_runs.py)
     ref = solve(load_scene(name, SHORTER[name])) if name in SHORTER else solution(name)
     wrong = dataclasses.replace(ref.scene, restitution=ref.scene.restitution * factor)
     traj = engine_run(tmp_path_factory, "pybullet", wrong, 1e-4)
