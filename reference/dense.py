@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from .flow import Flow
+from .flow import shared_flow
 from .linear import V1, VY, X1, Y, LinearSystem
 from .scene import Scene
 
@@ -57,7 +57,7 @@ def sample_states(scene: Scene, log: pd.DataFrame, times: np.ndarray) -> tuple[n
     times = np.asarray(times, dtype=float)
     system = LinearSystem.from_scene(scene)
     horizon = scene.time_scale / 4.0
-    flows = {False: Flow(system.free, horizon=horizon), True: Flow(system.stuck, horizon=horizon)}
+    flows = {False: shared_flow(system.free, horizon), True: shared_flow(system.stuck, horizon)}
     starts = _segments(scene, log)
     t_starts = np.array([s[0] for s in starts])
     # an event shares its time with the ones logged right after it: take the last of them

@@ -26,6 +26,7 @@ when h shrinks to 1e-12 s and below.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numba
@@ -88,6 +89,18 @@ class Flow:
             s = self.step_matrix @ s
             h -= self.step
         return evaluate(self.taylor(s), h)
+
+
+def shared_flow(A: np.ndarray, horizon: float) -> Flow:
+    """``Flow(A, horizon)``, built once per generator and horizon and shared (every run and every sampling of a
+    scene needs the same two): read it, never change it."""
+    a = np.ascontiguousarray(A, dtype=float)
+    return _shared(a.tobytes(), a.shape, horizon)
+
+
+@functools.lru_cache(maxsize=64)
+def _shared(generator: bytes, shape: tuple[int, int], horizon: float) -> Flow:
+    return Flow(np.frombuffer(generator).reshape(shape), horizon=horizon)
 
 
 @numba.njit(cache=True)

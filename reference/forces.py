@@ -127,5 +127,7 @@ def relative_acceleration(scene: Scene, t, x1, v1, y, vy):
     At a wall this is the sign that decides sticking, (1.4)/(3.1): negative pushes y
     towards the lower wall, positive towards the upper wall.
     """
-    _, f2, f12 = evaluate_forces(scene, t, x1, v1, y, vy)
-    return (f2 - f12) / scene.mass2 - body1_acceleration(scene, t, x1, v1, y, vy)
+    f1, f2, f12 = evaluate_forces(scene, t, x1, v1, y, vy)  # once: body 1's x'' reads the same F1, F12
+    if scene.body1_infinite:
+        return (f2 - f12) / scene.mass2 - body1_acceleration(scene, t, x1, v1, y, vy)
+    return (f2 - f12) / scene.mass2 - (f1 + f12) / scene.mass1

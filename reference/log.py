@@ -92,7 +92,8 @@ def episodes(log: pd.DataFrame) -> pd.DataFrame:
     out = []
     visit = None  # the open visit: dict of episode fields
     stuck = ""  # the wall the masses are stuck on ("" while free)
-    for t, kind, wall in zip(log["t"].tolist(), log["kind"].tolist(), log["wall"].tolist()):
+    kinds, rules = log["kind"].tolist(), log["rule"].tolist()
+    for t, kind, wall in zip(log["t"].tolist(), kinds, log["wall"].tolist()):
         if kind == "impact":
             if stuck:
                 continue
@@ -118,8 +119,7 @@ def episodes(log: pd.DataFrame) -> pd.DataFrame:
             out[-1]["t_exit"] = t
             stuck = ""
             visit = None
-    rules = log.loc[log["kind"] == "stick", "rule"].tolist()
-    for ep, rule in zip(out, rules):
+    for ep, rule in zip(out, (rule for kind, rule in zip(kinds, rules) if kind == "stick")):
         ep["stick_rule"] = rule
     df = pd.DataFrame(out, columns=EPISODE_COLUMNS)
     df["n_impacts"] = df["n_impacts"].astype(int)

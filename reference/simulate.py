@@ -36,7 +36,7 @@ import numpy as np
 import pandas as pd
 
 from .chatter import CHASE_LEFT, CHASE_STRIKE, chase
-from .flow import Flow, evaluate
+from .flow import evaluate, shared_flow
 from .impact import impact
 from .linear import V1, VY, X1, Y, LinearSystem
 from .log import EventLog, episodes
@@ -118,8 +118,8 @@ class _Simulator:
         self.options = options
         self.system = LinearSystem.from_scene(scene)
         horizon = scene.time_scale / 4.0
-        self.free = Flow(self.system.free, horizon=horizon)
-        self.stuck = Flow(self.system.stuck, horizon=horizon)
+        self.free = shared_flow(self.system.free, horizon)  # shared by every run of the scene: read only
+        self.stuck = shared_flow(self.system.stuck, horizon)
         self.accel_row = self.system.accel_row
         self.jerk_row = self.accel_row @ self.system.free  # y''' of the free motion
         self.walls = scene.gap.walls

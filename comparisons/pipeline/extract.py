@@ -248,14 +248,15 @@ def _release_times(t: np.ndarray, force: np.ndarray | None, starts: np.ndarray,
     return out, bound
 
 
-def _wall_impacts(traj: Trajectory, scene: Scene, wall: str, acc: np.ndarray, options: ExtractionOptions,
-                  offsets: Mapping[str, float] | None = None) -> dict:
-    """Every impact on one wall, by time: arrays of the per-impact quantities (normal coordinates)."""
+def _wall_impacts(traj: Trajectory, y: np.ndarray, vy: np.ndarray, scene: Scene, wall: str, acc: np.ndarray,
+                  options: ExtractionOptions, offsets: Mapping[str, float] | None = None) -> dict:
+    """Every impact on one wall, by time: arrays of the per-impact quantities (normal coordinates); ``y``, ``vy``
+    the trajectory's gap and relative velocity, computed once by the caller."""
     t, n_s = traj.t, len(traj.t)
     nrm = 1.0 if wall == "lower" else -1.0
     # a contact skin (``offsets``): the body rests this far from the wall, so its surface is there
-    d = nrm * (traj.y - scene.gap.position(wall)) - (offsets or {}).get(wall, 0.0)
-    u = nrm * traj.vy
+    d = nrm * (y - scene.gap.position(wall)) - (offsets or {}).get(wall, 0.0)
+    u = nrm * vy
     a = nrm * acc
     flag = traj.contact.get(wall) if traj.contact else None
     contact = np.asarray(flag, dtype=bool) if flag is not None and len(flag) == n_s else d <= 0.0
@@ -423,11 +424,12 @@ def extract(traj: Trajectory, scene: Scene, stick_tolerance: float = math.nan,
     f_min = options.floor_steps * dt
     if math.isfinite(stick_tolerance) and stick_tolerance > 0:
         f_min = max(f_min, options.band * stick_tolerance * (1.0 - R))
-    acc = free_relative_acceleration(scene, t, traj.x1, traj.v1, traj.y, traj.vy)
+    y, vy = traj.y, traj.vy  # each a new array per read: read once
+    acc = free_relative_acceleration(scene, t, traj.x1, traj.v1, y, vy)
     x1, v1 = np.asarray(traj.x1, float), np.asarray(traj.v1, float)
     rows, impact_rows, sticks = [], [], []
     for wall in scene.gap.walls:
-        imp = _wall_impacts(traj, scene, wall, acc, options, offsets)
+        imp = _wall_impacts(traj, y, vy, scene, wall, acc, options, offsets)
         nrm = 1.0 if wall == "lower" else -1.0
         pressing = imp["a_release"] < 0.0
         band = np.where(pressing, -imp["a_release"], 0.0) * f_min**2 / 8.0
@@ -460,11 +462,11 @@ def extract(traj: Trajectory, scene: Scene, stick_tolerance: float = math.nan,
                              float(x1[after[i]]), float(v1[after[i]]), ""))
         for i, j, released, stick, end in stretches:
             k = int(min(imp["first"][i], len(t) - 1))
-            rows.append((stick.t, "stick", wall, float(traj.vy[k]), float(traj.vy[k]),
+            rows.append((stick.t, "stick", wall, float(vy[k]), float(vy[k]),
                          float(x1[k]), float(v1[k]), STICK_RULE))
             if released:
                 kk = int(min(imp["begin"][j], len(t) - 1))
-                rows.append((end, "exit", wall, float(traj.vy[kk]), float(traj.vy[kk]), float(x1[kk]), float(v1[kk]), ""))
+                rows.append((end, "exit", wall, float(vy[kk]), float(vy[kk]), float(x1[kk]), float(v1[kk]), ""))
     rows.sort(key=lambda r: (r[0], _KIND_ORDER[r[1]]))
     log = log_frame(rows)
     columns = {c: np.concatenate([w[c] for w in impact_rows]) for c in IMPACT_COLUMNS} if impact_rows else {}

@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Mapping
 
 import numpy as np
 import pandas as pd
@@ -78,7 +79,7 @@ def restitution_error(e: np.ndarray, restitution: float) -> np.ndarray:
     return e / restitution - 1.0 if restitution > 0 else np.asarray(e, dtype=float)
 
 
-def pair_impacts(ref_impacts: pd.DataFrame, ref_flights: np.ndarray, eng_impacts: pd.DataFrame, dt: float,
+def pair_impacts(ref_impacts: pd.DataFrame, ref_flights: np.ndarray, eng_impacts: pd.DataFrame | Mapping, dt: float,
                  resolved_steps: float, restitution: float, tolerance: float) -> ImpactPairs:
     """Pair the resolved impacts of one visit (module docstring).
 
@@ -88,7 +89,7 @@ def pair_impacts(ref_impacts: pd.DataFrame, ref_flights: np.ndarray, eng_impacts
         The reference's impacts of the visit (log rows: ``t``, ``v_minus``, ``v_plus``), by time.
     ref_flights : ndarray, shape (len(ref_impacts),)
         Flight after each of them [s] (``reference_flights``).
-    eng_impacts : DataFrame
+    eng_impacts : DataFrame, or mapping column -> array
         The engine's impacts of the visit (``extract.IMPACT_COLUMNS``: ``t``, ``v_minus``,
         ``v_plus``, ``flight_seen``, ``v_error``), by time.
     dt : float
@@ -98,14 +99,14 @@ def pair_impacts(ref_impacts: pd.DataFrame, ref_flights: np.ndarray, eng_impacts
     """
     need = resolved_steps * dt
     ref_kept = np.asarray(ref_flights) >= need
-    flights = eng_impacts["flight_seen"].to_numpy(dtype=float) if len(eng_impacts) else np.empty(0)
+    flights = np.asarray(eng_impacts["flight_seen"], dtype=float)
     eng_kept = np.nan_to_num(flights, nan=-1.0) >= need
     n_ref, n_eng = int(ref_kept.sum()), int(eng_kept.sum())
     n = min(n_ref, n_eng)
     rows = []
     if n:  # the first n resolved of each, as arrays (a visit's pandas rows cost more than the pairing)
         r = {c: ref_impacts[c].to_numpy(float)[ref_kept][:n] for c in ("t", "v_minus", "v_plus")}
-        e = {c: eng_impacts[c].to_numpy(float)[eng_kept][:n] for c in ("t", "v_minus", "v_plus", "v_error")}
+        e = {c: np.asarray(eng_impacts[c], dtype=float)[eng_kept][:n] for c in ("t", "v_minus", "v_plus", "v_error")}
         with np.errstate(divide="ignore", invalid="ignore"):
             e_ref = -r["v_plus"] / r["v_minus"]
             e_eng = -e["v_plus"] / e["v_minus"]
@@ -122,13 +123,13 @@ def pair_impacts(ref_impacts: pd.DataFrame, ref_flights: np.ndarray, eng_impacts
                 "restitution_uncertainty": unc, "measurable": measurable,
                 "excess": np.where(measurable, np.abs(err), np.nan)}
     table = pd.DataFrame(rows, columns=PAIR_COLUMNS)
-    excess = table["excess"].to_numpy(float)
+    excess = rows["excess"] if n else np.empty(0)  # what follows from the arrays, not from the table's columns
     ok = np.isfinite(excess)
     if ok.any():
         k = int(np.flatnonzero(ok)[np.argmax(excess[ok])])
-        worst, worst_excess = float(table["restitution_error"].iloc[k]), float(excess[k])
+        worst, worst_excess = float(rows["restitution_error"][k]), float(excess[k])
     else:
         worst, worst_excess = math.nan, math.nan
-    measured = int(table["measurable"].astype(bool).sum()) if len(table) else 0
+    measured = int(rows["measurable"].sum()) if n else 0
     return ImpactPairs(table=table, resolved=n_eng, ref_resolved=n_ref, worst_error=worst, worst_excess=worst_excess,
-                       unmeasured=len(table) - measured, measured=measured)
+                       unmeasured=n - measured, measured=measured)

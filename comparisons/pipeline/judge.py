@@ -149,9 +149,9 @@ def time_diverged(ref: ReferenceSolution, traj: Trajectory, tol: Tolerances) -> 
 
 def _pairs(ref_eps: pd.DataFrame, eng_eps: pd.DataFrame) -> dict[int, int]:
     """Reference row -> engine row: same wall, largest overlap of the visits, each used once."""
-    cands = []
+    cands, eng_rows = [], list(eng_eps.itertuples())  # the rows once, not once per reference row
     for i, r in enumerate(ref_eps.itertuples()):
-        for j, e in enumerate(eng_eps.itertuples()):
+        for j, e in enumerate(eng_rows):
             if e.wall != r.wall:
                 continue
             e0 = e.t_first_impact if not math.isnan(e.t_first_impact) else e.t_stick
@@ -177,6 +177,7 @@ class _Found:
         self.stuck = self.impacts["stuck"].to_numpy(dtype=bool)
         self.stick_wall = self.sticks["wall"].to_numpy(dtype=object)
         self.t_stick = self.sticks["t_stick"].to_numpy(dtype=float)
+        self.paired = {c: self.impacts[c].to_numpy(dtype=float) for c in ("t", "v_minus", "v_plus", "v_error", "flight_seen")}
 
     def _on(self, wall: str, t0: float, t1: float) -> np.ndarray:
         t1 = math.inf if math.isnan(t1) else t1
@@ -186,6 +187,11 @@ class _Found:
         """Every engine impact on ``wall`` in [t0, t1] (NaN t1: to the end), stuck micro-bounces included:
         which of them are resolved is the flight's business (``impacts.pair_impacts``), not the stick's."""
         return self.impacts[self._on(wall, t0, t1)]
+
+    def visit_columns(self, wall: str, t0: float, t1: float) -> dict[str, np.ndarray]:
+        """``visit``'s columns that ``impacts.pair_impacts`` reads, as arrays."""
+        on = self._on(wall, t0, t1)
+        return {c: values[on] for c, values in self.paired.items()}
 
     def count(self, wall: str, t0: float, t1: float) -> int:
         """Engine impacts on ``wall`` in [t0, t1] that are not unresolved micro-bounces of a stuck stretch."""
@@ -226,10 +232,10 @@ def judge(ref: ReferenceSolution, found: Extraction, traj: Trajectory, tol: Tole
             e = eng_eps.iloc[j]
             row.update(t_first_impact=e["t_first_impact"], t_stick=e["t_stick"], t_exit=e["t_exit"],
                        n_impacts=int(e["n_impacts"]), **imps.bounds(e))
-            visit = imps.visit(r.wall, e["t_first_impact"], e["t_exit"])
+            visit = imps.visit_columns(r.wall, e["t_first_impact"], e["t_exit"])
         else:
             row["n_impacts"] = imps.count(r.wall, r.t_first_impact, r.t_exit)
-            visit = imps.visit(r.wall, r.t_first_impact, r.t_exit)
+            visit = imps.visit_columns(r.wall, r.t_first_impact, r.t_exit)
         ref_visit = ref.visit_impacts(r)
         pairs = pair_impacts(ref_visit, reference_flights(ref_visit, r.t_stick), visit, dt, tol.resolved_steps,
                              scene.restitution, tol.restitution)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ast
+import json
 import math
 import re
 import subprocess
@@ -61,9 +62,10 @@ def _stepped(model_file, n: int, out, reset: bool = False) -> tuple[np.ndarray, 
 
 @pytest.mark.parametrize("gap_model", ["limit", "geom"])
 def test_exported_mjcf_starts_where_the_scene_starts_and_reproduces_the_run(tmp_path, gap_model):
-    done = cli("run", "bouncing-ball", "--engines", "mujoco", "--dt", "3e-4", "--set", "mujoco.w0_dt=0.1",
-               "--set", f"mujoco.gap_model={gap_model}", "--export-model", str(tmp_path / "m.xml"))
-    assert done.returncode == 0, done.stderr
+    # written by the command in this process (what this test asks is the file, loaded and stepped in a fresh one)
+    done = cli_here(["run", "bouncing-ball", "--engines", "mujoco", "--dt", "3e-4", "--set", "mujoco.w0_dt=0.1",
+                     "--set", f"mujoco.gap_model={gap_model}", "--export-model", str(tmp_path / "m.xml")])
+    assert done.code == 0, done.err
     scene, settings = load_scene("bouncing-ball"), MujocoSettings(dt=3e-4, w0_dt=0.1, gap_model=gap_model)
     traj = MujocoEngine().run(scene, settings, compact_above=math.inf)
     y, printed = _stepped(tmp_path / "m.xml", len(traj.t) - 1, tmp_path / "y.npy")
@@ -92,8 +94,8 @@ def test_the_keyframe_adds_the_initial_velocity(tmp_path):
 def test_a_hostile_scene_name_still_gives_well_formed_xml(tmp_path):
     toml = tmp_path / "hostile.toml"
     toml.write_text(f"name = '{HOSTILE}'\n" + _ball_body())  # a TOML literal string: the name as typed
-    done = cli("run", str(toml), "--engines", "mujoco", "--export-model", str(tmp_path / "h.xml"))
-    assert done.returncode == 0, done.stderr
+    done = cli_here(["run", str(toml), "--engines", "mujoco", "--export-model", str(tmp_path / "h.xml")])
+    assert done.code == 0, done.err
     root = ET.parse(tmp_path / "h.xml").getroot()  # well formed
     assert root.tag == "mujoco" and root.get("model") == f"chatterbench-{HOSTILE}"
     loaded = subprocess.run([sys.executable, "-c", "import mujoco, sys; print(mujoco.MjModel.from_xml_path(sys.argv[1]).nq)",
@@ -108,22 +110,49 @@ def test_a_hostile_scene_name_still_gives_well_formed_xml(tmp_path):
         assert repr(scene.name) in ast.get_docstring(ast.parse(text, name))  # parsed: the name is text, never code
 
 
+# a user's process that loads MJCF files with MuJoCo alone: per file, one JSON line [nq, the model's name] (or the error)
+LOAD_NAMES = """
+import json, sys
+import mujoco
+for path in sys.argv[1:]:
+    try:
+        m = mujoco.MjModel.from_xml_path(path)
+        print(json.dumps([m.nq, m.names.split(b"\\0")[0].decode()]))
+    except Exception as exc:
+        print(json.dumps(["error", repr(exc)]))
+print("chatterbench" in sys.modules)
+"""
+
+
+@pytest.fixture(scope="module")
+def control_named(tmp_path_factory):
+    """Each kind of CONTROL_NAMES: its scene, both engines' ``run --export-model`` (in this process) and what one fresh
+    process, without chatterbench, read from each MJCF ([nq, name]): the files of every kind loaded in that one."""
+    made = {}
+    for kind, typed in CONTROL_NAMES.items():
+        folder = tmp_path_factory.mktemp(f"named-{kind}")
+        toml = folder / "named.toml"
+        toml.write_text(f'name = "{typed}"\n' + _ball_body())
+        done = {engine: cli_here(["run", str(toml), "--engines", engine, "--dt", "1e-3", "--export-model", str(folder / name)])
+                for engine, name in (("mujoco", "m.xml"), ("pybullet", "s.py"))}
+        made[kind] = (load_scene(str(toml)), done, folder)
+    loaded = subprocess.run([sys.executable, "-c", LOAD_NAMES, *(str(folder / "m.xml") for _, _, folder in made.values())],
+                            capture_output=True, text=True)
+    *lines, alone = loaded.stdout.splitlines() or [""]
+    assert loaded.returncode == 0 and alone == "False" and len(lines) == len(made), loaded.stderr
+    return {kind: (*made[kind], json.loads(line)) for kind, line in zip(made, lines)}
+
+
 @pytest.mark.parametrize("kind", CONTROL_NAMES)
-def test_control_characters_in_a_scene_name_are_exported_escaped(tmp_path, kind):
+def test_control_characters_in_a_scene_name_are_exported_escaped(control_named, kind):
     # issue 34: a newline, a tab or triple quotes made --export-model refuse the scene ("the written MJCF does not
     # compile"), BEL, ESC, NUL or U+FFFE gave a traceback; the scene is valid and every file is written
-    toml = tmp_path / "named.toml"
-    toml.write_text(f'name = "{CONTROL_NAMES[kind]}"\n' + _ball_body())
-    scene = load_scene(str(toml))
-    for engine, name in (("mujoco", "m.xml"), ("pybullet", "s.py")):
-        done = cli_here(["run", str(toml), "--engines", engine, "--dt", "1e-3", "--export-model", str(tmp_path / name)])
-        assert done.code == 0 and "Traceback" not in done.err, done.err
+    scene, done, folder, loaded = control_named[kind]
+    for engine in ("mujoco", "pybullet"):
+        assert done[engine].code == 0 and "Traceback" not in done[engine].err, done[engine].err
     escaped = "".join(c if c.isprintable() else c.encode("unicode_escape").decode() for c in scene.name)
-    loaded = subprocess.run([sys.executable, "-c", "import mujoco, sys; m = mujoco.MjModel.from_xml_path(sys.argv[1]); "
-                             "print(m.nq, m.names.split(b'\\0')[0].decode())", str(tmp_path / "m.xml")],
-                            capture_output=True, text=True)
-    assert loaded.stdout.split(None, 1) == ["1", f"chatterbench-{escaped}\n"], loaded.stderr  # the model's name
-    assert repr(scene.name) in ast.get_docstring(ast.parse((tmp_path / "s.py").read_text()))
+    assert loaded == [1, f"chatterbench-{escaped}"]  # the model's name, as a process with MuJoCo alone reads it
+    assert repr(scene.name) in ast.get_docstring(ast.parse((folder / "s.py").read_text()))
 
 
 def test_tune_writes_its_engine_files_for_a_scene_named_with_control_characters(tmp_path):
@@ -167,9 +196,9 @@ def _judged(engine: str, scene, settings) -> pd.DataFrame:
 def test_exported_pybullet_script_prints_the_runs_impacts_as_the_judge_measures_them(tmp_path):
     # the issue's case: `run bouncing-ball --engines pybullet --export-model scene.py` reported 9 impacts, the script
     # printed 11 (two of the ball's last micro-bounces), with e from velocities one step either side of the contact
-    done = cli("run", "bouncing-ball", "--engines", "pybullet", "--export-model", str(tmp_path / "scene.py"))
-    assert done.returncode == 0, done.stderr
-    counted = int(re.search(r"(\d+) impacts", done.stdout).group(1))
+    done = cli_here(["run", "bouncing-ball", "--engines", "pybullet", "--export-model", str(tmp_path / "scene.py")])
+    assert done.code == 0, done.err
+    counted = int(re.search(r"(\d+) impacts", done.out).group(1))
     out = subprocess.run([sys.executable, str(tmp_path / "scene.py")], capture_output=True, text=True, cwd=tmp_path)
     assert out.returncode == 0, out.stderr
     printed = _printed(out.stdout)

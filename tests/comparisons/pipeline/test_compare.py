@@ -11,10 +11,16 @@ from chatterbench.comparisons.cli.main import main
 from chatterbench.comparisons.pipeline.compare import COLUMNS, compare
 from chatterbench.reference import load_scene
 
+from shared_engine_runs import engine_run
+
 
 @pytest.fixture(scope="module")
-def feigin_both():
-    return compare(load_scene("feigin-pair"), engines=("mujoco", "pybullet"), dt=1e-4)
+def feigin_both(tmp_path_factory):
+    # the engines' runs, registry.run_engine's as compare makes them, are test_judge.py's and test_window.py's too
+    # (shared_engine_runs.py); a comparison that runs its engines itself: the tests below
+    scene = load_scene("feigin-pair")
+    runs = {engine: engine_run(tmp_path_factory, engine, scene, 1e-4) for engine in ("mujoco", "pybullet")}
+    return compare(scene, engines=("mujoco", "pybullet"), dt=1e-4, trajectories=runs)
 
 
 @pytest.mark.slow

@@ -19,11 +19,11 @@ from chatterbench.comparisons.pipeline.extract import ExtractionOptions
 from chatterbench.comparisons.pipeline.judge import ERROR_COLUMNS
 from chatterbench.comparisons.pipeline.solution import solve
 from chatterbench.comparisons.pipeline.vocabulary import combine
-from chatterbench.engines.registry import make_settings, run_engine
 from chatterbench.reference.catalogue import CATALOGUE
 from chatterbench.reference.scene import load_scene
 
 from helpers import solution
+from shared_engine_runs import engine_run
 
 SCENES = tuple(CATALOGUE)
 DTS = (1e-3, 3e-4, 1e-4)
@@ -60,12 +60,13 @@ SHORTER = {"feigin-pair": ["duration=8"]}
 @pytest.mark.slow
 @pytest.mark.parametrize("name", SCENES)
 @pytest.mark.parametrize("factor", [0.9, 1.1])
-def test_pybullet_with_the_wrong_restitution_is_caught(name, factor):
+def test_pybullet_with_the_wrong_restitution_is_caught(name, factor, tmp_path_factory):
     # PyBullet applies R exactly at every impact; run with R x 0.9 or x 1.1 and judged against
     # the scene's R, its resolved impacts are 10% off and its chatter ends early or late
+    # (the runs at 0.9 R of the ball and of Feigin's pair's 8 s are tests/engines/test_window.py's too: shared_engine_runs.py)
     ref = solve(load_scene(name, SHORTER[name])) if name in SHORTER else solution(name)
     wrong = dataclasses.replace(ref.scene, restitution=ref.scene.restitution * factor)
-    traj = run_engine("pybullet", wrong, make_settings("pybullet", 1e-4))
+    traj = engine_run(tmp_path_factory, "pybullet", wrong, 1e-4)
     c = compare(ref.scene, engines=("pybullet",), trajectories={"pybullet": traj}, solution=ref)
     assert not (c.table["verdict"] == "match").all(), c.table[["wall", "verdict"]]
     judged = c.table.dropna(subset=["restitution_error"])
@@ -199,13 +200,13 @@ def _variants():
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", SCENES)
-def test_verdicts_do_not_follow_the_extractions_internal_thresholds(name):
+def test_verdicts_do_not_follow_the_extractions_internal_thresholds(name, tmp_path_factory):
     ref = solution(name)
     flips = []
     for dt in DTS:
         runs = {"reference": sampled(name, dt)}
-        for engine in ("mujoco", "pybullet"):
-            runs[engine] = run_engine(engine, ref.scene, make_settings(engine, dt))
+        for engine in ("mujoco", "pybullet"):  # the runs at 1e-4 s are test_window.py's and test_compare.py's too
+            runs[engine] = engine_run(tmp_path_factory, engine, ref.scene, dt)
         for label_engine, traj in runs.items():
             base = compare(ref.scene, engines=("mujoco",), trajectories={"mujoco": traj}, solution=ref)
             for label, options, tol in _variants():

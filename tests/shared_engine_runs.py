@@ -1,0 +1,66 @@
+"""Engine runs that several test modules make alike, made once per test session.
+
+    traj = engine_run(tmp_path_factory, "pybullet", scene, 1e-4)   # in a test (tmp_path_factory: pytest's fixture)
+
+Each is ``registry.run_engine(engine, scene, make_settings(engine, dt))``, the run a test would make itself. The
+verdict invariance test (``comparisons/pipeline/test_judge.py``), the compact-form tests (``engines/test_window.py``)
+and Feigin's pair compared (``comparisons/pipeline/test_compare.py``) run the same engines on the same scenes (the
+built-in ones at 1e-4 s, PyBullet with a wrong R): each is kept in the session's temporary folder (pytest keeps
+the last three sessions'; about 150 MB when all of these modules run), under pytest-xdist a folder every worker of the
+session shares, where the first worker that needs a run makes it (holding that run's lock) and leaves it; a worker
+that needs it later, or meanwhile, reads it there (bit for bit: a pickle); the last few are kept in memory too. A
+shared run's arrays are read-only: a test that changed one in place would change it for every test after it; it
+raises instead.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import functools
+import hashlib
+import os
+import pickle
+from pathlib import Path
+
+from chatterbench.engines.registry import make_settings, run_engine
+from chatterbench.engines.trajectory import Trajectory
+from chatterbench.reference.scene import Scene
+
+
+def _session_folder(tmp_path_factory) -> Path:
+    """The folder the pytest-xdist workers of this session share (in a single process, one of its own)."""
+    run = os.environ.get("PYTEST_XDIST_TESTRUNUID")
+    if run and os.environ.get("PYTEST_XDIST_WORKER"):
+        folder = tmp_path_factory.getbasetemp().parent / f"chatterbench-runs-{run}"
+    else:
+        folder = tmp_path_factory.getbasetemp() / "chatterbench-runs"
+    folder.mkdir(exist_ok=True)
+    return folder
+
+
+def _read_only(traj: Trajectory) -> Trajectory:
+    for values in (traj.t, traj.x1, traj.x2, traj.v1, traj.v2, traj.index, *traj.contact.values(),
+                   *traj.normal_force.values()):
+        if values is not None:
+            values.flags.writeable = False
+    return traj
+
+
+@functools.lru_cache(maxsize=4)
+def _made(engine: str, scene: Scene, dt: float, folder: Path) -> Trajectory:
+    key = hashlib.sha256(repr((engine, scene, dt)).encode()).hexdigest()[:32]
+    path = folder / f"{key}.pickle"
+    with open(folder / f"{key}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes, or when its process dies
+        if not path.exists():
+            traj = run_engine(engine, scene, make_settings(engine, dt))
+            (folder / f"{key}.tmp").write_bytes(pickle.dumps(traj, protocol=pickle.HIGHEST_PROTOCOL))
+            os.replace(folder / f"{key}.tmp", path)
+            return _read_only(traj)
+    return _read_only(pickle.loads(path.read_bytes()))
+
+
+def engine_run(tmp_path_factory, engine: str, scene: Scene, dt: float) -> Trajectory:
+    """``engine``'s run of ``scene`` at its default settings with timestep ``dt`` [s], made once per session (module
+    docstring); ``tmp_path_factory``: the test's pytest fixture (it finds the workers' shared folder)."""
+    return _made(engine, scene, dt, _session_folder(tmp_path_factory))
