@@ -225,3 +225,46 @@ def test_a_run_that_ends_in_the_middle_of_a_bounce_is_not_a_stick():
     c = compare(load_scene("bouncing-ball", ["duration=0.455"]), engines=("mujoco",), dt=1e-4)
     assert c.runs["mujoco"].trajectory.contact["lower"][-1]  # the data do end in contact
     assert c.table.empty and c.summary()["verdict"].tolist() == ["none"]
+
+
+def test_rows_of_gives_what_itertuples_gives_and_errors_what_pandas_gives():
+    # the judge's row iteration and error columns (faster forms of pandas' own): the same values, types and dtypes,
+    # on a reference's episodes (strings, ints, floats, NaN) and on an empty table
+    import math
+
+    import numpy as np
+    import pandas as pd
+
+    from chatterbench.comparisons.pipeline.judge import TABLE_COLUMNS, errors, rows_of
+
+    episodes = solution("feigin-pair").episodes
+    fast, slow = list(rows_of(episodes)), [tuple(r)[1:] for r in episodes.itertuples()]
+    assert repr([tuple(r) for r in fast]) == repr(slow) and fast[0]._fields == tuple(episodes.columns)  # NaN too
+    assert [type(v) for v in fast[0]] == [type(v) for v in slow[0]]
+    assert list(rows_of(episodes.iloc[:0])) == []
+
+    def pandas_errors(table: pd.DataFrame, dt: float) -> None:  # errors() as it was written with pandas
+        table["first_impact_error"] = table["t_first_impact"] - table["ref_t_first_impact"]
+        table["stick_error_plate"] = table["t_stick"] - table["ref_t_plate_entry"]
+        table["stick_error_zeno"] = table["t_stick"] - table["ref_t_stick"]
+        table["exit_error"] = table["t_exit"] - table["ref_t_exit"]
+        scale = table["stick_scale"].where(table["stick_scale"] > 0)
+        table["first_impact_error_rel"] = table["first_impact_error"] / scale
+        table["stick_error_rel"] = table["stick_error_zeno"] / scale
+        table["exit_error_rel"] = table["exit_error"] / table["sliding_duration"].where(table["sliding_duration"] > 0)
+        table["stick_error_steps"] = table["stick_error_zeno"] / dt
+        table["exit_error_steps"] = table["exit_error"] / dt
+
+    nan = math.nan
+    filled = pd.DataFrame({"t_first_impact": [1.0, nan, 2.5], "ref_t_first_impact": [0.9, 1.0, nan],
+                           "t_stick": [1.5, nan, 3.0], "ref_t_plate_entry": [1.4, 1.2, nan], "ref_t_stick": [1.45, 1.3, 2.9],
+                           "t_exit": [2.0, nan, nan], "ref_t_exit": [2.1, 2.0, nan], "stick_scale": [0.5, 0.0, nan],
+                           "sliding_duration": [0.6, -1.0, 0.0]})
+    for table in (filled, pd.DataFrame(columns=[*TABLE_COLUMNS, "stick_scale"])):
+        a, b = table.copy(), table.copy()
+        errors(a, 1e-3)
+        pandas_errors(b, 1e-3)
+        pd.testing.assert_frame_equal(a, b, check_exact=True)
+    errors(filled, 1e-3)  # a known answer: 0.05 s late of a 0.5 s scale; no scale, no relative error
+    assert repr(filled["stick_error_rel"].tolist()) == repr([(1.5 - 1.45) / 0.5, nan, nan])
+    assert np.isnan(filled["exit_error_rel"].to_numpy()[1:]).all()
