@@ -392,6 +392,18 @@ def _segment_max(values: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarr
     return np.maximum.reduceat(padded, np.column_stack((lo, hi)).ravel())[::2]
 
 
+def flight_floor(dt: float, restitution: float, stick_tolerance: float = math.nan,
+                 options: ExtractionOptions | None = None) -> float:
+    """f_min [s], the shortest flight that matters (module docstring, rule 3): ``floor_steps`` samples of ``dt`` [s],
+    or ``band`` of the chatter left within ``stick_tolerance`` [s] (NaN: the floor alone). The one place ``extract``
+    reads the stick tolerance: two tolerances of one f_min extract a run alike."""
+    options = options or ExtractionOptions()
+    f_min = options.floor_steps * dt
+    if math.isfinite(stick_tolerance) and stick_tolerance > 0:
+        f_min = max(f_min, options.band * stick_tolerance * (1.0 - restitution))
+    return f_min
+
+
 def extract(traj: Trajectory, scene: Scene, stick_tolerance: float = math.nan,
             options: ExtractionOptions | None = None, offsets: Mapping[str, float] | None = None) -> Extraction:
     """Impacts, event log and episodes of a sampled trajectory (module docstring).
@@ -421,9 +433,7 @@ def extract(traj: Trajectory, scene: Scene, stick_tolerance: float = math.nan,
                           stick_frame([]), dict(offsets or {}))
     dt = traj.sampling_step()  # the median spacing; a compact trajectory's is the full run's
     R = scene.restitution
-    f_min = options.floor_steps * dt
-    if math.isfinite(stick_tolerance) and stick_tolerance > 0:
-        f_min = max(f_min, options.band * stick_tolerance * (1.0 - R))
+    f_min = flight_floor(dt, R, stick_tolerance, options)
     y, vy = traj.y, traj.vy  # each a new array per read: read once
     acc = free_relative_acceleration(scene, t, traj.x1, traj.v1, y, vy)
     x1, v1 = np.asarray(traj.x1, float), np.asarray(traj.v1, float)

@@ -40,6 +40,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..pipeline.compare import judge_run
+from ..pipeline.extract import flight_floor
 from ..pipeline.judge import judge
 from ..pipeline.solution import ReferenceSolution
 from ..pipeline.tolerances import Tolerances
@@ -115,9 +116,10 @@ def judge_levels(ref: ReferenceSolution, engine: str, settings: Any, trajectory,
     """Judge one run at every ladder point (module docstring).
 
     ``known``: point index -> ``judge_run``'s (run, table, impacts) there, already judged (the asked
-    point's). At each timing level the run is extracted once (``judge_run``; the extraction depends on
-    the sticking tolerance alone) and judged at each restitution level (``judge.judge``, as ``judge_run``
-    does). Returns ``passes``, the indices of the points where every episode agrees (``match`` or
+    point's). The run is extracted once per timing level, or once for the levels whose sticking tolerances
+    give one f_min (``judge_run``; the extraction reads the sticking tolerance only through f_min,
+    ``extract.flight_floor``: at a coarse dt the sampling floor decides it for every level), and judged at
+    each point (``judge.judge``, as ``judge_run`` does). Returns ``passes``, the indices of the points where every episode agrees (``match`` or
     ``none``), and ``margins``, the judged checks' worst error over tolerance at each of them
     (``tune_checks.judged_margin``), and ``unjudged``, the points left out: not in ``only`` (the
     points where the run can still matter: ``tune_search.need``; None: all). ``shortcut`` False judges
@@ -126,18 +128,23 @@ def judge_levels(ref: ReferenceSolution, engine: str, settings: Any, trajectory,
     known = dict(known or {})
     wanted = set(range(len(points)) if only is None else only)
     passes, margins, failed_timing = [], [], set()
-    found = {points[i].stick: run.found for i, (run, _, _) in known.items()}  # extraction per timing level
+    dt = trajectory.sampling_step()
+
+    def floor(tol: Tolerances) -> float:  # what the extraction reads of a timing level: levels of one f_min share it
+        return flight_floor(dt, ref.scene.restitution, ref.stick_tolerance(tol.stick))
+
+    found = {floor(points[i]): run.found for i, (run, _, _) in known.items()}  # one extraction per f_min
     for i, tol in enumerate(points):
         if i not in wanted or shortcut and tol.stick in failed_timing:
             continue
         if i in known:
             _, table, impacts = known[i]
-        elif tol.stick in found:
-            judged = judge(ref, found[tol.stick], trajectory, tol)
+        elif floor(tol) in found:
+            judged = judge(ref, found[floor(tol)], trajectory, tol)
             table, impacts = judged.table, judged.impacts
         else:
             run, table, impacts = judge_run(ref, engine, settings, tol, trajectory=trajectory)
-            found[tol.stick] = run.found
+            found[floor(tol)] = run.found
         if _agrees(table):
             passes.append(i)
             margins.append(judged_margin(check_ratios(table, impacts, tol, tol.penetration * ref.length_scale)))
