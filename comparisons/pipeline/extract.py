@@ -394,9 +394,8 @@ def _segment_max(values: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarr
 
 def flight_floor(dt: float, restitution: float, stick_tolerance: float = math.nan,
                  options: ExtractionOptions | None = None) -> float:
-    """f_min [s], the shortest flight that matters (module docstring, rule 3): ``floor_steps`` samples of ``dt`` [s],
-    or ``band`` of the chatter left within ``stick_tolerance`` [s] (NaN: the floor alone). The one place ``extract``
-    reads the stick tolerance: two tolerances of one f_min extract a run alike."""
+    """f_min [s], the shortest flight that matters (rule 3): ``floor_steps`` samples of ``dt`` [s], or ``band`` of the
+    chatter left within ``stick_tolerance`` [s] (NaN: the floor alone); all ``extract`` reads of the stick tolerance."""
     options = options or ExtractionOptions()
     f_min = options.floor_steps * dt
     if math.isfinite(stick_tolerance) and stick_tolerance > 0:
