@@ -56,7 +56,7 @@ CLIENT = textwrap.dedent("""
 def test_tune_answers_for_mujoco_warp_and_reruns_each_answer_in_mujoco_c(tmp_path):
     out = tmp_path / "tune"
     args = [sys.executable, "-m", "chatterbench.comparisons.cli", "tune", "bouncing-ball", "--engines", "mujoco_warp",
-            "--tolerance", "0.2", "--tolerance", "restitution=0.2", "--max-cost", "800", "--max-runs", "8", "--workers", "1",
+            "--tolerance", "0.2", "--tolerance", "restitution=0.2", "--max-cost", "800", "--max-runs", "4", "--workers", "1",
             "--set", "mujoco_warp.w0_dt=0.1", "--set", "mujoco_warp.integrator=euler",
             "--set", "mujoco_warp.impedance=0.99", "--out", str(out)]
     done = subprocess.run(args, capture_output=True, text=True, timeout=900)
