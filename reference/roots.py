@@ -109,7 +109,11 @@ def first_root_kernel(c, hmax, deflate, rtol):
         q[k] = c[start + k] * x
         x *= hmax
     prev_u = 0.0
-    prev_d = q[1] if m > 1 else 0.0
+    prev_d = 0.0  # q's slope just after u = 0: the sign of its first coefficient after q[0] that is not zero (a
+    for k in range(1, m):  # start at rest, q[1] = 0, still dips when q[2] < 0: its minimum is looked for too)
+        if q[k] != 0.0:
+            prev_d = q[k]
+            break
     for i in range(1, GRID + 1):
         u = i / GRID
         val, der = _horner(q, m, u)

@@ -92,3 +92,15 @@ def test_double_root_touch():
     # q = (h - 0.3)^2 touches zero: q <= 0 only at 0.3; found to sqrt(rounding) ~ 1e-8
     h = first_root([0.09, -0.6, 1.0], hmax=1.0)
     assert h is not None and h == pytest.approx(0.3, abs=1e-7)
+
+
+def test_a_dip_from_rest_within_the_first_grid_step_is_found():
+    # q = 1e-6 - h^2 + 100 h^3: at rest at h = 0 (q'(0) = 0) and curving down, below 0 on (1.05e-3, 0.0099), back above
+    # 0 long before the first grid point (1/16): the dip's minimum must be looked for although q'(0) is not < 0
+    # (before: None, and the reference's y went through a wall from a start at rest; tests/reference/test_properties.py)
+    c = [1e-6, 0.0, -1.0, 100.0]
+    h = first_root(c, hmax=1.0)
+    roots = np.roots(c[::-1])
+    exact = min(r.real for r in roots if abs(r.imag) < 1e-12 and r.real > 0)
+    assert h is not None and h == pytest.approx(exact, rel=1e-12)
+    assert first_root([1e-6, 0.0, -1.0, 1000.0], hmax=1.0) is None  # q > 0 throughout: min 1e-6 - 1.5e-7 at h = 6.7e-4
