@@ -116,8 +116,15 @@ def evaluate_forces(scene: Scene, t, x1, v1, y, vy):
 def body1_acceleration(scene: Scene, t, x1, v1, y, vy):
     """x1'' of the free motion [m/s^2]: (F1 + F12) / m1, or the prescribed x1''(t)."""
     if scene.body1_infinite:
-        return 0.0 * np.asarray(t, dtype=float) if scene.prescribed is None else scene.prescribed.acceleration(t)
+        return _body1_acceleration(scene, t, None, None)
     f1, _, f12 = evaluate_forces(scene, t, x1, v1, y, vy)
+    return _body1_acceleration(scene, t, f1, f12)
+
+
+def _body1_acceleration(scene: Scene, t, f1, f12):
+    """x1'' [m/s^2] from F1 and F12 [N] (not read for an infinite body 1: rest, or its prescribed x1''(t))."""
+    if scene.body1_infinite:
+        return 0.0 * np.asarray(t, dtype=float) if scene.prescribed is None else scene.prescribed.acceleration(t)
     return (f1 + f12) / scene.mass1
 
 
@@ -128,6 +135,4 @@ def relative_acceleration(scene: Scene, t, x1, v1, y, vy):
     towards the lower wall, positive towards the upper wall.
     """
     f1, f2, f12 = evaluate_forces(scene, t, x1, v1, y, vy)  # once: body 1's x'' reads the same F1, F12
-    if scene.body1_infinite:
-        return (f2 - f12) / scene.mass2 - body1_acceleration(scene, t, x1, v1, y, vy)
-    return (f2 - f12) / scene.mass2 - (f1 + f12) / scene.mass1
+    return (f2 - f12) / scene.mass2 - _body1_acceleration(scene, t, f1, f12)

@@ -26,14 +26,13 @@ from chatterbench.engines.registry import make_settings, run_engine
 from chatterbench.engines.trajectory import Trajectory
 from chatterbench.reference.scene import Scene
 
+from shared_runs import session_folder
+
 
 def _session_folder(tmp_path_factory) -> Path:
-    """The folder the pytest-xdist workers of this session share (in a single process, one of its own)."""
-    run = os.environ.get("PYTEST_XDIST_TESTRUNUID")
-    if run and os.environ.get("PYTEST_XDIST_WORKER"):
-        folder = tmp_path_factory.getbasetemp().parent / f"chatterbench-runs-{run}"
-    else:
-        folder = tmp_path_factory.getbasetemp() / "chatterbench-runs"
+    """The folder the pytest-xdist workers of this session share (``shared_runs.session_folder``; in a single
+    process, one of its own)."""
+    folder = (session_folder(tmp_path_factory) or tmp_path_factory.getbasetemp()) / "chatterbench-runs"
     folder.mkdir(exist_ok=True)
     return folder
 

@@ -78,7 +78,7 @@ def cmd_tune(args: argparse.Namespace) -> int:
                           repeats=args.repeats, max_runs=args.max_runs, max_cost=args.max_cost, solution=solution)
             if other := same_model_of(engine):  # its answers rerun in the engine whose model it steps (MuJoCo Warp's)
                 bar.stage(f"its answers rerun in {other}")
-            result.extra["same_model"] = same_model_check(result)
+            result.extra["same_model"] = same_model_check(result, other)  # "": none to check against
         _print_result(result)
         results.append(result)
     if args.out:

@@ -161,9 +161,10 @@ def rows_of(frame: pd.DataFrame) -> Iterator[tuple]:
     return map(kind._make, zip(*(frame.iloc[:, k] for k in range(frame.shape[1]))))
 
 
-def _pairs(ref_eps: pd.DataFrame, eng_eps: pd.DataFrame) -> dict[int, int]:
-    """Reference row -> engine row: same wall, largest overlap of the visits, each used once."""
-    cands, eng_rows = [], list(rows_of(eng_eps))  # the rows once, not once per reference row
+def _pairs(ref_eps: pd.DataFrame, eng_rows: list[tuple]) -> dict[int, int]:
+    """Reference row -> engine row (of ``eng_rows``, the engine episodes' ``rows_of``): same wall, largest overlap of
+    the visits, each used once."""
+    cands = []
     for i, r in enumerate(rows_of(ref_eps)):
         for j, e in enumerate(eng_rows):
             if e.wall != r.wall:
@@ -200,13 +201,10 @@ class _Found:
         t1 = math.inf if math.isnan(t1) else t1
         return (self.wall == wall) & (self.t >= t0) & (self.t <= t1)
 
-    def visit(self, wall: str, t0: float, t1: float) -> pd.DataFrame:
-        """Every engine impact on ``wall`` in [t0, t1] (NaN t1: to the end), stuck micro-bounces included:
-        which of them are resolved is the flight's business (``impacts.pair_impacts``), not the stick's."""
-        return self.impacts[self._on(wall, t0, t1)]
-
     def visit_columns(self, wall: str, t0: float, t1: float) -> dict[str, np.ndarray]:
-        """``visit``'s columns that ``impacts.pair_impacts`` reads, as arrays."""
+        """Every engine impact on ``wall`` in [t0, t1] (NaN t1: to the end), stuck micro-bounces included (which of
+        them are resolved is the flight's business, ``impacts.pair_impacts``, not the stick's): the columns
+        ``pair_impacts`` reads, as arrays."""
         on = self._on(wall, t0, t1)
         return {c: values[on] for c, values in self.paired.items()}
 
@@ -233,7 +231,7 @@ def judge(ref: ReferenceSolution, found: Extraction, traj: Trajectory, tol: Tole
     t_end = float(t[-1]) if len(t) else -math.inf
     ref_eps, eng_eps, imps = ref.episodes, found.episodes, _Found(found)
     eng_rows = list(rows_of(eng_eps))
-    paired = _pairs(ref_eps, eng_eps)
+    paired = _pairs(ref_eps, eng_rows)
     pen = penetration(scene, np.asarray(traj.y, float)) if len(t) else np.empty(0)
     allowance = tol.penetration * ref.length_scale
 

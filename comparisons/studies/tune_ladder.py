@@ -119,8 +119,8 @@ def judge_levels(ref: ReferenceSolution, engine: str, settings: Any, trajectory,
     point's). The run is extracted once per timing level, or once for the levels whose sticking tolerances
     give one f_min (``judge_run``; the extraction reads the sticking tolerance only through f_min,
     ``extract.flight_floor``: at a coarse dt the sampling floor decides it for every level), and judged at
-    each point (``judge.judge``, as ``judge_run`` does). Returns ``passes``, the indices of the points where every episode agrees (``match`` or
-    ``none``), and ``margins``, the judged checks' worst error over tolerance at each of them
+    each point (``judge.judge``, as ``judge_run`` does). Returns ``passes``, the indices of the points where
+    every episode agrees (``match`` or ``none``), and ``margins``, the judged checks' worst error over tolerance at each of them
     (``tune_checks.judged_margin``), and ``unjudged``, the points left out: not in ``only`` (the
     points where the run can still matter: ``tune_search.need``; None: all). ``shortcut`` False judges
     every point (the shortcut's check).
@@ -137,14 +137,15 @@ def judge_levels(ref: ReferenceSolution, engine: str, settings: Any, trajectory,
     for i, tol in enumerate(points):
         if i not in wanted or shortcut and tol.stick in failed_timing:
             continue
+        f_min = floor(tol)
         if i in known:
             _, table, impacts = known[i]
-        elif floor(tol) in found:
-            judged = judge(ref, found[floor(tol)], trajectory, tol)
+        elif f_min in found:
+            judged = judge(ref, found[f_min], trajectory, tol)
             table, impacts = judged.table, judged.impacts
         else:
             run, table, impacts = judge_run(ref, engine, settings, tol, trajectory=trajectory)
-            found[floor(tol)] = run.found
+            found[f_min] = run.found
         if _agrees(table):
             passes.append(i)
             margins.append(judged_margin(check_ratios(table, impacts, tol, tol.penetration * ref.length_scale)))

@@ -45,7 +45,7 @@ def steps_per_sim_s(engine: str, settings: Any, run) -> float:
     its trajectory), else 1 / dt for a fixed-step engine (``cost_lever`` "dt"); NaN when unknown (an
     error-controlled integrator that does not report its steps: then wall time ranks)."""
     traj = run.trajectory
-    sim = float(traj.t[-1] - traj.t[0]) if len(traj.t) > 1 else 0.0
+    sim = _simulated(traj)
     taken = traj.settings.get("steps_taken")
     if taken is not None and sim > 0:
         return float(taken) / sim
@@ -112,7 +112,12 @@ def time_runs(scene: Scene, engine: str, candidates: list[dict], repeats: int) -
     for _ in range(repeats):
         for times, s in zip(out, settings):
             traj = run_engine(engine, scene, s)
-            sim = float(traj.t[-1] - traj.t[0]) if len(traj.t) > 1 else 0.0
+            sim = _simulated(traj)
             if traj.status == "ok" and sim > 0:
                 times.append(traj.wall_time / sim)
     return out
+
+
+def _simulated(traj) -> float:
+    """The simulated seconds a trajectory spans [s] (0 below two samples)."""
+    return float(traj.t[-1] - traj.t[0]) if len(traj.t) > 1 else 0.0
