@@ -21,6 +21,16 @@ from chatterbench.reference.scene import load_scene
 
 
 @functools.cache
+def reference_run(name: str, mode: str, overrides: tuple[str, ...] = ()):
+    """The reference result for a catalogue scene in a chatter mode, simulated once per test session (bit-identical
+    per input). Here, not in ``tests/reference/conftest.py``: a test module that imported it from ``conftest`` got
+    another folder's conftest when both folders were collected."""
+    from chatterbench.reference import simulate
+
+    return simulate(load_scene(name, list(overrides)), mode)
+
+
+@functools.cache
 def solution(scene: str | Path) -> ReferenceSolution:
     """The reference solution of a built-in scene's name or a scene file, solved once per test session."""
     return solve(load_scene(scene))

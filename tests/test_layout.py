@@ -213,3 +213,14 @@ def test_the_duplicate_finder_reports_what_pylints_own_trees_give(tmp_path):
     assert "one.py" in fast and "two.py" in fast  # the module's copy
     assert "7 similar lines in 2 files" in fast and "seven_a.py" in fast  # 7 shared lines: a copy
     assert "six_a.py" not in fast and "six_b.py" not in fast  # 6: not
+
+
+def test_no_test_module_imports_from_a_conftest():
+    # `from conftest import run` in tests/reference got tests/comparisons/studies/conftest.py when both folders were
+    # collected (`pytest tests/reference tests/comparisons/studies/test_tune_warp.py ...`: 2 collection errors); shared
+    # test code lives in modules of its own name (tests/helpers.py and the like)
+    found = [str(p.relative_to(ROOT)) for p in (ROOT / "tests").rglob("*.py")
+             if any(isinstance(n, ast.ImportFrom) and n.module == "conftest"
+                    or isinstance(n, ast.Import) and any(a.name == "conftest" for a in n.names)
+                    for n in ast.walk(ast.parse(p.read_text(encoding="utf-8"))))]
+    assert not found, f"import shared test code from a module of its own name, not from conftest: {found}"

@@ -11,7 +11,7 @@ from chatterbench.reference.dense import sample
 from chatterbench.reference.flow import Flow
 from chatterbench.reference.linear import V1, VY, Y, LinearSystem
 
-from conftest import run
+from helpers import reference_run as run
 
 
 def test_runs_complete(scene_name, mode):

@@ -12,7 +12,7 @@ from chatterbench.reference.catalogue import G
 from chatterbench.reference.dense import sample
 from chatterbench.reference.forces import relative_acceleration
 
-from conftest import run
+from helpers import reference_run as run
 
 TWO_PI = 2.0 * math.pi
 FIVE_24 = 5.0 / 24.0  # 5 (1 - R) / (24 R) at R = 0.5, the (4.2) bound
