@@ -24,9 +24,16 @@ from __future__ import annotations
 import functools
 import os
 import signal
+import sys
 
 import pytest
 from hypothesis import HealthCheck, settings
+
+# The test modules are rewritten by pytest (its assertions) and compiled once, not again by each worker at every
+# start: where PYTHONDONTWRITEBYTECODE is set (this project's CI machines set it), each of the two workers would
+# rewrite and compile the 200-odd test modules on every run, 3 s each. The bytecode goes to __pycache__ folders
+# (.gitignore); the commands the tests start keep the environment's setting.
+sys.dont_write_bytecode = False
 
 _COMMON = dict(deadline=None, suppress_health_check=[HealthCheck.too_slow])
 

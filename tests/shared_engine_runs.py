@@ -10,7 +10,8 @@ the last three sessions'; about 150 MB when all of these modules run), under pyt
 session shares, where the first worker that needs a run makes it (holding that run's lock) and leaves it; a worker
 that needs it later, or meanwhile, reads it there (bit for bit: a pickle); the last few are kept in memory too. A
 shared run's arrays are read-only: a test that changed one in place would change it for every test after it; it
-raises instead.
+raises instead. ``share_compares_runs`` hands them to ``compare`` in one test: this repo's default gate, the README's
+report and the ``chatter_gate`` fixture judge the same runs (the built-in engines at their defaults, 1e-4 s).
 """
 
 from __future__ import annotations
@@ -63,3 +64,32 @@ def engine_run(tmp_path_factory, engine: str, scene: Scene, dt: float) -> Trajec
     """``engine``'s run of ``scene`` at its default settings with timestep ``dt`` [s], made once per session (module
     docstring); ``tmp_path_factory``: the test's pytest fixture (it finds the workers' shared folder)."""
     return _made(engine, scene, dt, _session_folder(tmp_path_factory))
+
+
+def share_compares_runs(monkeypatch, tmp_path_factory) -> None:
+    """For one test (``monkeypatch``, ``tmp_path_factory``: its pytest fixtures): ``compare``, and what runs through
+    it (a gate, a report, the ``chatter_gate`` fixture), takes a built-in engine's run at its default settings (any
+    dt) from this session's shared runs (``engine_run``) instead of making it again; every other run it makes as
+    before. The shared run is the run ``compare`` would make, bit for bit, an isolated one (forked, under a time
+    limit) included (tests/engines/test_determinism.py): what changes is that the test does not wait for it twice.
+    Not for a test that plans a fault (``faults.py``): the shared run never saw it."""
+    from chatterbench.comparisons.pipeline import compare as module
+    from chatterbench.engines.registry import is_plugin
+
+    real, real_isolated = module.run_engine, module.run_engine_isolated
+
+    def default(name: str, settings) -> bool:
+        return not is_plugin(name) and settings == make_settings(name, settings.dt)
+
+    def run(name: str, scene: Scene, settings) -> Trajectory:
+        if default(name, settings):
+            return engine_run(tmp_path_factory, name, scene, settings.dt)
+        return real(name, scene, settings)
+
+    def run_isolated(name: str, scene: Scene, settings, timeout: float) -> Trajectory:
+        if default(name, settings):
+            return engine_run(tmp_path_factory, name, scene, settings.dt)
+        return real_isolated(name, scene, settings, timeout)
+
+    monkeypatch.setattr(module, "run_engine", run)
+    monkeypatch.setattr(module, "run_engine_isolated", run_isolated)

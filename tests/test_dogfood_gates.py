@@ -7,6 +7,7 @@ from xml.etree import ElementTree as ET
 import pytest
 
 from chatterbench.comparisons.cli.main import main
+from shared_engine_runs import share_compares_runs
 
 GATES = Path(__file__).resolve().parents[1] / "gates" / "default.toml"
 _REGISTERED = any(ep.value == "chatterbench.comparisons.ci.pytest_plugin" for ep in entry_points(group="pytest11"))
@@ -16,7 +17,8 @@ if not _REGISTERED:
 
 
 @pytest.mark.slow
-def test_default_gate_passes(tmp_path, capsys):
+def test_default_gate_passes(tmp_path, capsys, monkeypatch, tmp_path_factory):
+    share_compares_runs(monkeypatch, tmp_path_factory)  # its seven runs are the README report's and the judge tests'
     junit, summary = tmp_path / "gate.xml", tmp_path / "summary.md"
     code = main(["gate", str(GATES), "--junit", str(junit), "--summary", str(summary)])
     out = capsys.readouterr().out
@@ -27,7 +29,8 @@ def test_default_gate_passes(tmp_path, capsys):
     assert summary.read_text().splitlines()[0].endswith(": PASS")
 
 
-def test_chatter_gate_fixture(chatter_gate):
+def test_chatter_gate_fixture(chatter_gate, monkeypatch, tmp_path_factory):
+    share_compares_runs(monkeypatch, tmp_path_factory)  # the gate's run of MuJoCo on the pair
     # the README's example: MuJoCo's defaults stick and let go on time on Feigin's pair (every
     # sticking start within 5% of its chatter, every exit within 2 steps of the reference), while
     # their slow bounces lose more than R says: timing right, impacts off (rebound)

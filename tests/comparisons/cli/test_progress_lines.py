@@ -93,9 +93,13 @@ def test_sweep_writing_to_a_file_says_where_it_is_at_least_every_10_s(tmp_path):
     said, took, stderr = _logged(["sweep", "spec.toml", "--out", "o", "--workers", "1"], tmp_path)
     assert _longest_silence(said, took) <= PROMISE_S, stderr
     assert len(said) >= int(took // PROMISE_S), stderr
-    counts = [re.search(r"(\d+) of 12 runs done", line) for line in stderr.splitlines() if "progress:" in line]
-    assert all(counts), stderr
-    done = [int(m[1]) for m in counts]
+    lines = [line for line in stderr.splitlines() if line.startswith("chatterbench: progress:")]
+    counts = [re.search(r"(\d+) of 12 runs done", line) for line in lines]
+    # while the sweep's runs go, n of N; before they start and after they end (its imports and plan, the rows written:
+    # over 5 s each on a loaded machine, 16 busy processes on 2 cores), the command that runs
+    assert all(m or line.startswith("chatterbench: progress: chatterbench sweep: working;")
+               for m, line in zip(counts, lines)), stderr
+    done = [int(m[1]) for m in counts if m]
     assert done == sorted(done)  # n of N only grows
 
 

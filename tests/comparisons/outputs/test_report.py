@@ -16,6 +16,7 @@ from chatterbench.comparisons.cli.main import main
 from chatterbench.comparisons.pipeline.compare import compare
 from chatterbench.comparisons.pipeline.summary import summarize
 from chatterbench.reference import load_scene
+from shared_engine_runs import share_compares_runs
 
 CHROMIUM = next((p for p in ("/usr/bin/chromium", shutil.which("chromium") or "", shutil.which("chromium-browser") or "",
                              shutil.which("google-chrome") or "") if p and Path(p).exists()), None)
@@ -164,8 +165,10 @@ def test_report_renders_in_chromium(report_dir, tmp_path):
 
 @pytest.mark.slow
 @pytest.mark.skipif(CHROMIUM is None, reason="no Chromium installed (apt-get install chromium) to render the report")
-def test_the_readmes_report_loads_every_figure_in_chromium(tmp_path):
-    # the README's main command, all built-in scenes on the default engines, as a new user runs it
+def test_the_readmes_report_loads_every_figure_in_chromium(tmp_path, monkeypatch, tmp_path_factory):
+    # the README's main command, all built-in scenes on the default engines, as a new user runs it (their runs made
+    # once in the session: the default gate and the judge tests judge them too)
+    share_compares_runs(monkeypatch, tmp_path_factory)
     out = tmp_path / "report"
     assert main(["report", "--out", str(out)]) == 0
     page = (out / "index.html").read_text()

@@ -12,13 +12,13 @@ import pytest
 from chatterbench.comparisons.pipeline.extract import ExtractionOptions, contact_runs, extract
 from chatterbench.comparisons.pipeline.sampling import reference_trajectory, sample_grid
 from chatterbench.comparisons.pipeline.tolerances import Tolerances, ToleranceError
-from chatterbench.engines.registry import make_settings, run_engine
 from chatterbench.engines.trajectory import Trajectory
 from chatterbench.reference.dense import sample
 from chatterbench.reference.log import EPISODE_COLUMNS, LOG_COLUMNS
 from chatterbench.reference.scene import load_scene
 
 from helpers import solution
+from shared_engine_runs import engine_run
 
 SCENES = ("bouncing-ball", "feigin-pair", "impact-damper", "spring-pair")
 CASES = [(name, dt) for name in SCENES for dt in (1e-3, 1e-4)]
@@ -168,10 +168,10 @@ def test_a_rigid_engines_micro_bounces_are_sticking_not_impacts():
 
 @pytest.mark.parametrize("engine, name", [("mujoco", "bouncing-ball"), ("mujoco", "spring-pair"),
                                           ("mujoco", "feigin-pair"), ("pybullet", "bouncing-ball")])
-def test_extraction_on_engine_trajectory(engine, name):
+def test_extraction_on_engine_trajectory(engine, name, tmp_path_factory):
     dt = 1e-4
     ref = solution(name)
-    traj = run_engine(engine, ref.scene, make_settings(engine, dt))
+    traj = engine_run(tmp_path_factory, engine, ref.scene, dt)  # the judge tests' run too (shared_engine_runs.py)
     assert traj.status == "ok", traj.message
     got = extract(traj, ref.scene, ref.stick_tolerance(Tolerances().stick)).episodes
     want = ref.episodes
@@ -188,13 +188,13 @@ def test_extraction_on_engine_trajectory(engine, name):
     np.testing.assert_allclose(got["t_exit"], want["t_exit"], rtol=0, atol=2 * dt)
 
 
-def test_mujoco_exit_on_feigin_pair_is_where_the_force_lets_go():
+def test_mujoco_exit_on_feigin_pair_is_where_the_force_lets_go(tmp_path_factory):
     # The lower wall's exit is at t = pi (mod 2 pi), the upper's at 0. MuJoCo's limit force
     # falls linearly to zero at the exit (the impedance d = 0.99 leaves a quasi-static sink of
     # (1 - d) |y''| / w0^2, gone at the exit); "d <= 0 is contact" would wait ~9 dt longer.
     dt = 1e-4
     scene = load_scene("feigin-pair")
-    traj = run_engine("mujoco", scene, make_settings("mujoco", dt))
+    traj = engine_run(tmp_path_factory, "mujoco", scene, dt)
     eps = extract(traj, scene, solution("feigin-pair").stick_tolerance(Tolerances().stick)).episodes.dropna(subset=["t_exit"])
     assert len(eps) == 12
     phase = np.where(eps["wall"] == "lower", math.pi, 0.0)
