@@ -12,7 +12,8 @@ Siconos is not on the package index: Debian's ``python3-siconos`` serves the sys
 environment variable ``CHATTERBENCH_SICONOS_PYTHON`` (when it is set, only that one), else
 ``/usr/bin/python3``, else the first ``python3`` on PATH that has Siconos (``interpreter``).
 The request and the reply are ``protocol.py``'s. A child costs a fixed start (the interpreter,
-numpy and Siconos's import: 0.08 to 0.27 s measured, README) on top of its steps.
+numpy and Siconos's import: 0.11 s measured on 2 quiet cores, README) on top of its steps; ``OPENBLAS_NUM_THREADS`` and
+``OMP_NUM_THREADS`` are 1 there where the environment does not set them (``CHILD_THREADS``: one BLAS thread).
 
 Promises: a child that exits non-zero, dies of a signal or sends what is not the protocol
 raises ``SiconosFailure`` with one line saying which (its last stderr line), and the base
@@ -61,6 +62,10 @@ INSTALL = (f"apt-get install python3-siconos (Debian/Ubuntu: for /usr/bin/python
 CHILD = Path(__file__).with_name("child.py")
 PARENT = "CHATTERBENCH_SICONOS_PARENT"  # the child's check that its parent is alive (``child.die_with_parent``)
 PROBE_TIMEOUT = 60.0  # [s] for ``python -c "import siconos.kernel"`` (a cold disk cache: a few seconds)
+# One BLAS thread in a child unless the environment says otherwise: its LCPs are of one or two contacts, and numpy's
+# OpenBLAS starting a thread per core cost each child's start more than half its CPU (0.22 -> 0.13 s, measured with
+# run.start_seconds on 2 cores); the same bits (tests/engines/test_unchanged_runs.py)
+CHILD_THREADS = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
 EXIT_GRACE = 2.0  # [s] a failed child has to exit in before it is killed (one that sent garbage may be blocked writing)
 _PROBE = "import numpy, siconos, siconos.kernel; print(siconos.version)"
 
@@ -146,7 +151,7 @@ class Child:
         self.timed_out = False
         self.stderr = tempfile.TemporaryFile()
         self.proc = subprocess.Popen([python, str(CHILD)], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                     stderr=self.stderr, env={**os.environ, PARENT: str(os.getpid())},
+                                     stderr=self.stderr, env={**CHILD_THREADS, **os.environ, PARENT: str(os.getpid())},
                                      start_new_session=True)
         self.timer = threading.Timer(self.limit, self._time_up)
         self.timer.daemon = True
