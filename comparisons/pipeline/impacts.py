@@ -44,6 +44,7 @@ error of the measurable pair with the largest (negative: the engine loses more t
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Mapping
@@ -59,13 +60,22 @@ PAIR_COLUMNS = ["k", "ref_t", "t", "ref_v_minus", "v_minus", "ref_restitution", 
 class ImpactPairs:
     """The resolved impacts of one visit, paired (``PAIR_COLUMNS``), and what they add up to."""
 
-    table: pd.DataFrame  # one row per pair: k, times [s], incoming speeds [m/s] (> 0), restitutions [-], error [-]
+    columns: dict  # PAIR_COLUMNS -> array, one entry per pair: k, times [s], speeds [m/s] (> 0), restitutions [-], error [-]
     resolved: int  # resolved engine impacts of the visit
     ref_resolved: int  # resolved reference impacts of the visit
     worst_error: float  # signed relative restitution error of the measurable pair with the largest |error| (NaN: none)
     worst_excess: float  # |error| of that pair [-] (NaN: no measurable pair)
     unmeasured: int = 0  # paired engine impacts whose uncertainty exceeds the tolerance
     measured: int = 0  # paired engine impacts measurable to the tolerance
+
+    @functools.cached_property
+    def table(self) -> pd.DataFrame:
+        """The pairs as a table (``PAIR_COLUMNS``), one row per pair; made when asked (a judge joins the columns of
+        every visit into one table instead)."""
+        return pd.DataFrame(self.columns, columns=PAIR_COLUMNS)
+
+    def __len__(self) -> int:
+        return len(self.columns["k"]) if self.columns else 0
 
 
 def reference_flights(impacts: pd.DataFrame, t_end: float) -> np.ndarray:
@@ -122,7 +132,6 @@ def pair_impacts(ref_impacts: pd.DataFrame, ref_flights: np.ndarray, eng_impacts
                 "ref_restitution": e_ref, "restitution": e_eng, "restitution_error": err,
                 "restitution_uncertainty": unc, "measurable": measurable,
                 "excess": np.where(measurable, np.abs(err), np.nan)}
-    table = pd.DataFrame(rows, columns=PAIR_COLUMNS)
     excess = rows["excess"] if n else np.empty(0)  # what follows from the arrays, not from the table's columns
     ok = np.isfinite(excess)
     if ok.any():
@@ -131,5 +140,5 @@ def pair_impacts(ref_impacts: pd.DataFrame, ref_flights: np.ndarray, eng_impacts
     else:
         worst, worst_excess = math.nan, math.nan
     measured = int(rows["measurable"].sum()) if n else 0
-    return ImpactPairs(table=table, resolved=n_eng, ref_resolved=n_ref, worst_error=worst, worst_excess=worst_excess,
+    return ImpactPairs(columns=rows if n else {}, resolved=n_eng, ref_resolved=n_ref, worst_error=worst, worst_excess=worst_excess,
                        unmeasured=n - measured, measured=measured)

@@ -30,7 +30,7 @@ and in timesteps (``_steps``):
   exit or an impact lies in;
 - ``reason``: why the episode is not ``match``, in one line ("" when it is).
 
-Verdicts (``vocabulary.py``), the first that applies:
+Verdicts (``vocabulary.py``; each row's in ``verdict_rules.py``), the first that applies:
 
 1. the run's failure: ``diverged`` from the time the state went non-finite or the energy
    passed (1 + ``energy_gain``) x the reference's largest; ``error``, ``timeout``,
@@ -68,7 +68,7 @@ import collections
 import functools
 import math
 from dataclasses import dataclass
-from typing import Callable, Iterator
+from typing import Iterator
 
 import numpy as np
 import pandas as pd
@@ -79,7 +79,8 @@ from .extract import Extraction
 from .impacts import PAIR_COLUMNS, pair_impacts, reference_flights
 from .solution import ReferenceSolution, overlaps, reduced_mass
 from .tolerances import Tolerances
-from .vocabulary import FAILURES, combine, rank
+from .verdict_rules import RunFacts, run_failure, run_failure_words, timing, verdict, verdict_reason  # noqa: F401  (the rules: there)
+from .vocabulary import combine, rank
 
 ERROR_COLUMNS = ["first_impact_error", "stick_error_plate", "stick_error_zeno", "exit_error",
                  "first_impact_error_rel", "stick_error_rel", "exit_error_rel", "stick_error_steps", "exit_error_steps"]
@@ -91,20 +92,6 @@ TABLE_COLUMNS = [
     *ERROR_COLUMNS, *BOUND_COLUMNS, "restitution_error", "unmeasured_impacts", "penetration_max", "verdict", "reason",
 ]
 IMPACT_PAIR_COLUMNS = ["episode", "wall", *PAIR_COLUMNS]
-
-
-@dataclass(frozen=True)
-class RunFacts:
-    """What the verdict rules need to know of the run besides its episodes."""
-
-    status: str = "ok"  # the trajectory's status: "ok" or a failure class
-    t_end: float = math.inf  # [s] the last sample's time
-    t_diverged: float = math.nan  # [s] first non-finite state or energy past its bound; NaN if never
-    t_penetrated: float = math.nan  # [s] first time past the penetration allowance; NaN if never
-    penetration_allowance: float = math.inf  # [m]
-    inside_impacts: Callable[[str, float, float], int] = lambda wall, t0, t1: 0  # engine impacts on wall in [t0, t1]
-    sliding_min: float = 0.0  # [s] the shortest sliding the samples can show (``sliding_min``)
-    dt: float = math.nan  # [s] the sampling step (the median spacing)
 
 
 @dataclass(frozen=True)
@@ -156,9 +143,10 @@ def _row_type(columns: tuple[str, ...]) -> type:
 
 def rows_of(frame: pd.DataFrame) -> Iterator[tuple]:
     """``frame``'s rows as named tuples, the values ``itertuples`` gives (without the index): its row class made once
-    per set of columns, not once per call (a judge iterates small tables often; making the class cost the most)."""
+    per set of columns, not once per call, and its values read as one object array, not a Series per column (a judge
+    iterates small tables often: each cost more than the rest of it)."""
     kind = _row_type(tuple(frame.columns))
-    return map(kind._make, zip(*(frame.iloc[:, k] for k in range(frame.shape[1]))))
+    return map(kind._make, frame.to_numpy(dtype=object).tolist())
 
 
 def _pairs(ref_eps: pd.DataFrame, eng_rows: list[tuple]) -> dict[int, int]:
@@ -235,7 +223,7 @@ def judge(ref: ReferenceSolution, found: Extraction, traj: Trajectory, tol: Tole
     pen = penetration(scene, np.asarray(traj.y, float)) if len(t) else np.empty(0)
     allowance = tol.penetration * ref.length_scale
 
-    rows, pair_tables, windows = [], [], []
+    rows, visit_pairs, windows = [], [], []
     prev_end = scene.initial.t
     for i, r in enumerate(rows_of(ref_eps)):
         row = {"wall": r.wall, "ref_t_first_impact": r.t_first_impact, "ref_t_plate_entry": r.t_plate_entry,
@@ -258,7 +246,7 @@ def judge(ref: ReferenceSolution, found: Extraction, traj: Trajectory, tol: Tole
         row.update(resolved_impacts=pairs.resolved, ref_resolved_impacts=pairs.ref_resolved,
                    restitution_error=pairs.worst_error, restitution_excess=pairs.worst_excess,
                    unmeasured_impacts=pairs.unmeasured, measured_impacts=pairs.measured)
-        pair_tables.append((len(rows), r.wall, pairs.table))
+        visit_pairs.append((len(rows), r.wall, pairs))
         rows.append(row)
         windows.append((prev_end, r.t_exit))
         prev_end = r.t_stick if math.isnan(r.t_exit) else r.t_exit
@@ -276,32 +264,76 @@ def judge(ref: ReferenceSolution, found: Extraction, traj: Trajectory, tol: Tole
                      "ref_resolved_impacts": 0, "restitution_error": math.nan, "restitution_excess": math.nan,
                      "unmeasured_impacts": 0, "measured_impacts": 0})
         windows.append((e.t_first_impact if not math.isnan(e.t_first_impact) else e.t_stick, e.t_exit))
-    table = pd.DataFrame(rows)
-    if table.empty:
-        table = pd.DataFrame(columns=[*TABLE_COLUMNS, "stick_scale", "restitution_excess"])
-    for c in BOUND_COLUMNS:
-        table[c] = table[c] if c in table else math.nan
-    for c in ("unmeasured_impacts", "measured_impacts"):
-        table[c] = table[c].fillna(0) if c in table else 0
-    table["penetration_max"] = [_window_max(t, pen, w0, w1, traj.index) for w0, w1 in windows]
-    errors(table, dt)
-
     beyond = pen > allowance
     facts = RunFacts(status=traj.status, t_end=t_end, t_diverged=t_div,
                      t_penetrated=float(t[np.argmax(beyond)]) if beyond.any() else math.nan,
                      penetration_allowance=allowance, inside_impacts=imps.count,
                      sliding_min=sliding_min(found.flight_min, scene.restitution), dt=dt)
-    table = assign_verdicts(table, tol, facts, float(pen.max()) if len(pen) else math.nan)
-    start = table["ref_t_stick"].fillna(table["t_stick"]).fillna(math.inf)
-    order = np.argsort(start.to_numpy(dtype=float), kind="stable")
-    table = table.iloc[order].reset_index(drop=True)
+    deepest = float(pen.max()) if len(pen) else math.nan
+    penetration_max = [_window_max(t, pen, w0, w1, traj.index) for w0, w1 in windows]
+    if rows:
+        table, order = _judged_table(rows, penetration_max, dt, tol, facts, deepest)
+    else:  # no episode on either side: the pandas path gives the empty table's columns (and a failed run's row)
+        table = pd.DataFrame(columns=[*TABLE_COLUMNS, "stick_scale", "restitution_excess"])
+        for c in BOUND_COLUMNS:
+            table[c] = table[c]
+        for c in ("unmeasured_impacts", "measured_impacts"):
+            table[c] = table[c].fillna(0) if c in table else 0
+        table["penetration_max"] = penetration_max
+        errors(table, dt)
+        table = assign_verdicts(table, tol, facts, deepest)
+        order = np.arange(len(table))
+        for c in _COUNT_COLUMNS:
+            table[c] = table[c].fillna(0).astype(int)
     renumber = {int(old): new for new, old in enumerate(order)}
-    frames = [p.assign(episode=renumber[k], wall=w) for k, w, p in pair_tables if len(p)]
-    impacts = pd.concat(frames, ignore_index=True)[IMPACT_PAIR_COLUMNS] if frames else pd.DataFrame(columns=IMPACT_PAIR_COLUMNS)
-    for c in ("n_impacts", "ref_n_impacts", "resolved_impacts", "ref_resolved_impacts", "unmeasured_impacts"):
-        table[c] = table[c].fillna(0).astype(int)
+    kept = [(renumber[k], w, p) for k, w, p in visit_pairs if len(p)]
+    if kept:  # the visits' pairs joined as columns, one table made (a table per visit cost a quarter of a judge)
+        counts = [len(p) for _, _, p in kept]
+        impacts = pd.DataFrame({"episode": np.repeat(np.array([k for k, _, _ in kept], dtype=np.int64), counts),
+                                "wall": [w for (_, w, _), n in zip(kept, counts) for _ in range(n)],
+                                **{c: np.concatenate([p.columns[c] for _, _, p in kept]) for c in PAIR_COLUMNS}})
+    else:
+        impacts = pd.DataFrame(columns=IMPACT_PAIR_COLUMNS)
     return Judgement(table=table[TABLE_COLUMNS], impacts=impacts, t_diverged=facts.t_diverged,
                      t_penetrated=facts.t_penetrated, penetration_allowance=allowance)
+
+
+_COUNT_COLUMNS = ("n_impacts", "ref_n_impacts", "resolved_impacts", "ref_resolved_impacts", "unmeasured_impacts")
+_JUDGED_COLUMNS = (tuple(c for c in TABLE_COLUMNS if c not in ("verdict", "reason"))
+                   + ("stick_scale", "restitution_excess", "measured_impacts"))  # what ``verdict_reason`` reads
+
+
+def _judged_table(rows: list[dict], penetration_max: list[float], dt: float, tol: Tolerances, run: RunFacts,
+                  deepest: float) -> tuple[pd.DataFrame, np.ndarray]:
+    """The judged table of ``judge``'s episode rows (at least one), made once from columns: each row's errors
+    (``error_values``), verdict and reason (``verdict_reason``), the run's row when it failed and no row says so
+    (``run_row``), in the order of the sticking starts (reference, else engine; none: last); and that order (the
+    rows' positions). The table ``pd.DataFrame(rows)`` with ``errors`` and ``assign_verdicts`` gives, built without a
+    pandas column assignment per column (they cost most of a judge)."""
+    cols = {c: [row.get(c, math.nan) for row in rows] for c in _JUDGED_COLUMNS if c != "penetration_max"}
+    for c in ("unmeasured_impacts", "measured_impacts"):
+        cols[c] = [0 if v != v else v for v in cols[c]]  # NaN -> 0: fillna(0)
+    cols["penetration_max"] = penetration_max
+    floats = {k: np.asarray(cols[k], dtype=float) for k in _ERROR_INPUTS}
+    cols.update({k: v.tolist() for k, v in error_values(floats, dt).items()})
+    kind = _row_type(_JUDGED_COLUMNS)
+    judged = [verdict_reason(r, tol, run) for r in map(kind._make, zip(*(cols[c] for c in _JUDGED_COLUMNS)))]
+    cols["verdict"], cols["reason"] = [v for v, _ in judged], [why for _, why in judged]
+    failure = run_failure(run)
+    if failure and rank(failure) < rank(combine(cols["verdict"])):
+        for c, v in run_row(run, failure, deepest).items():
+            cols.setdefault(c, [math.nan] * len(rows)).append(v)
+        for c in cols:
+            if len(cols[c]) == len(rows):
+                cols[c].append(math.nan)
+    start = np.asarray(cols["ref_t_stick"], dtype=float)
+    start = np.where(np.isnan(start), np.asarray(cols["t_stick"], dtype=float), start)
+    order = np.argsort(np.where(np.isnan(start), math.inf, start), kind="stable")
+    table = pd.DataFrame({c: [cols[c][k] for k in order] for c in TABLE_COLUMNS})
+    for c in _COUNT_COLUMNS:
+        if table[c].isna().any() or table[c].dtype != np.int64:
+            table[c] = table[c].fillna(0).astype(int)
+    return table, order
 
 
 def assign_verdicts(table: pd.DataFrame, tol: Tolerances, run: RunFacts, penetration_max: float = math.nan) -> pd.DataFrame:
@@ -313,11 +345,18 @@ def assign_verdicts(table: pd.DataFrame, tol: Tolerances, run: RunFacts, penetra
     table["reason"] = [why for _, why in judged] if len(table) else pd.Series(dtype=object)
     failure = run_failure(run)
     if failure and rank(failure) < rank(combine(table["verdict"])):
-        row = {c: math.nan for c in TABLE_COLUMNS}
-        row.update(wall="", n_impacts=0, ref_n_impacts=0, resolved_impacts=0, ref_resolved_impacts=0, unmeasured_impacts=0,
-                   penetration_max=penetration_max, verdict=failure, reason=f"the run {run_failure_words(run)}")
+        row = run_row(run, failure, penetration_max)
         table = pd.concat([table, pd.DataFrame([row])], ignore_index=True) if len(table) else pd.DataFrame([row])
     return table
+
+
+def run_row(run: RunFacts, failure: str, penetration_max: float) -> dict:
+    """The row (``TABLE_COLUMNS``) that carries a failed run's verdict ``failure`` (``run_failure``) where no episode
+    row says it: wall "", no times, no impacts, the run's deepest penetration [m]."""
+    row = {c: math.nan for c in TABLE_COLUMNS}
+    row.update(wall="", n_impacts=0, ref_n_impacts=0, resolved_impacts=0, ref_resolved_impacts=0, unmeasured_impacts=0,
+               penetration_max=penetration_max, verdict=failure, reason=f"the run {run_failure_words(run)}")
+    return row
 
 
 def _window_max(t: np.ndarray, values: np.ndarray, t0: float, t1: float, index: np.ndarray | None = None) -> float:
@@ -336,151 +375,34 @@ def _window_max(t: np.ndarray, values: np.ndarray, t0: float, t1: float, index: 
     return math.nan
 
 
-def errors(table: pd.DataFrame, dt: float) -> None:
-    """Errors in seconds, relative to their scales and in timesteps (in place).
+_ERROR_INPUTS = ("t_first_impact", "ref_t_first_impact", "t_stick", "ref_t_plate_entry", "ref_t_stick", "t_exit",
+                 "ref_t_exit", "stick_scale", "sliding_duration")
 
-    On the columns' arrays (pandas' own arithmetic per column cost a tenth of a judge): the same values and dtypes.
-    """
-    c = {k: table[k].to_numpy() for k in ("t_first_impact", "ref_t_first_impact", "t_stick", "ref_t_plate_entry",
-                                          "ref_t_stick", "t_exit", "ref_t_exit", "stick_scale", "sliding_duration")}
-    with np.errstate(divide="ignore", invalid="ignore"):  # NaN where a time or a scale is missing, as pandas gives
+
+def errors(table: pd.DataFrame, dt: float) -> None:
+    """Errors in seconds, relative to their scales and in timesteps (in place): ``error_values`` of its columns."""
+    for k, v in error_values({k: table[k].to_numpy() for k in _ERROR_INPUTS}, dt).items():
+        table[k] = v
+
+
+def error_values(c: dict[str, np.ndarray], dt: float) -> dict[str, np.ndarray]:
+    """``ERROR_COLUMNS`` from the times and scales of ``_ERROR_INPUTS`` (arrays [s]) and the sampling step ``dt``
+    [s]: engine minus reference in seconds, over the visit's scale (chatter for the first impact and the stick,
+    sliding for the exit) and in steps; NaN where a time or a scale is missing (a scale <= 0 is missing), as pandas'
+    own column arithmetic gives."""
+    with np.errstate(divide="ignore", invalid="ignore"):
         first = c["t_first_impact"] - c["ref_t_first_impact"]
         zeno = c["t_stick"] - c["ref_t_stick"]
         exit_ = c["t_exit"] - c["ref_t_exit"]
         scale = np.where(c["stick_scale"] > 0, c["stick_scale"], np.nan)
         sliding = np.where(c["sliding_duration"] > 0, c["sliding_duration"], np.nan)
-        table["first_impact_error"] = first
-        table["stick_error_plate"] = c["t_stick"] - c["ref_t_plate_entry"]
-        table["stick_error_zeno"] = zeno
-        table["exit_error"] = exit_
-        table["first_impact_error_rel"] = first / scale
-        table["stick_error_rel"] = zeno / scale
-        table["exit_error_rel"] = exit_ / sliding
-        table["stick_error_steps"] = zeno / dt
-        table["exit_error_steps"] = exit_ / dt
+        return {"first_impact_error": first, "stick_error_plate": c["t_stick"] - c["ref_t_plate_entry"],
+                "stick_error_zeno": zeno, "exit_error": exit_, "first_impact_error_rel": first / scale,
+                "stick_error_rel": zeno / scale, "exit_error_rel": exit_ / sliding, "stick_error_steps": zeno / dt,
+                "exit_error_steps": exit_ / dt}
 
 
 def sliding_min(flight_min: float, restitution: float) -> float:
     """The shortest sliding [s] samples can show: f_min (``extract.py``, rule 3) past a sticking start that
     Feigin's ladder places to within f_min / (1 - R) (``sticking.py``); 0 when nothing was extracted."""
     return flight_min * (1.0 + 1.0 / (1.0 - restitution)) if math.isfinite(flight_min) else 0.0
-
-
-def run_failure_words(run: RunFacts) -> str:
-    """What ``run_failure`` found, in words: "diverged at 2.5 s", "ended (timeout) at 1.2 s", ..."""
-    failure = run_failure(run)
-    if failure in FAILURES and failure != "diverged":
-        return f"ended ({failure}) at {run.t_end:.6g} s"
-    if failure == "diverged":
-        return f"diverged at {run.t_diverged:.6g} s"
-    return f"went past the penetration allowance {run.penetration_allowance:.3g} m at {run.t_penetrated:.6g} s"
-
-
-def run_failure(run: RunFacts) -> str:
-    """The run's own failure verdict ("" when it did not fail): its status, else diverged, else penetrated."""
-    if run.status in FAILURES:
-        return run.status
-    if not math.isnan(run.t_diverged):
-        return "diverged"
-    return "penetrated" if not math.isnan(run.t_penetrated) else ""
-
-
-def _beyond(value: float, limit: float) -> bool:
-    """|value| > limit; a NaN value (nothing to compare) is not beyond."""
-    return not math.isnan(value) and abs(value) > limit
-
-
-def timing(error: float, bound: float, limit: float) -> str:
-    """One timing criterion: ``""`` (within), ``early``/``late`` or ``unresolved`` (all in seconds).
-
-    ``bound``: how far the samples let the engine's time be off (NaN: not known, 0). Beyond the
-    tolerance even with the bound taken off: early or late, whatever the bound. Otherwise, a
-    bound over the tolerance leaves the criterion ``unresolved`` unless the error is within the
-    tolerance even with the bound added; a bound within it: the error alone decides.
-    """
-    if math.isnan(error) or math.isnan(limit):
-        return ""
-    b = 0.0 if math.isnan(bound) else bound
-    side = "early" if error < 0 else "late"
-    if abs(error) - b > limit:
-        return side
-    if b <= limit:
-        return side if abs(error) > limit else ""
-    return "" if abs(error) + b <= limit else "unresolved"
-
-
-# timing criteria in the order the verdict checks them: (name, error column, bound column, tolerance, scale column, scale)
-_TIMING = (("sticking start", "stick_error_zeno", "stick_bound", "stick", "stick_scale", "the chatter"),
-           ("first impact", "first_impact_error", "first_impact_bound", "first_impact", "stick_scale", "the chatter"),
-           ("exit", "exit_error", "exit_bound", "exit", "sliding_duration", "the sliding"))
-
-
-def _seconds(value: float) -> str:
-    return f"{value * 1e3:.3g} ms" if abs(value) < 1.0 else f"{value:.4g} s"
-
-
-def _timing_reason(name: str, error: float, bound: float, limit: float, fraction: float, scale: str,
-                   found: str, dt: float) -> str:
-    """Why one timing criterion got ``found`` (early, late, unresolved), in words a user can act on."""
-    pct = f"{100 * fraction:g}% of {scale}, {_seconds(limit)}"
-    sign = "+" if error >= 0 else "-"
-    if found != "unresolved":
-        known = f" (known to +-{_seconds(bound)})" if bound > 0 else ""
-        return f"{name} {sign}{_seconds(abs(error))}{known}, beyond the tolerance {pct}"
-    finer = f"; samples every {dt * limit / bound:.2g} s or closer would resolve it" if dt > 0 else ""
-    return (f"{name} {sign}{_seconds(abs(error))}, but this sampling places it only to +-{_seconds(bound)}, more than "
-            f"the tolerance {pct}{finer}")
-
-
-def verdict(r, tol: Tolerances, run: RunFacts) -> str:
-    """The verdict of one judged row (a ``TABLE_COLUMNS`` namedtuple with ``restitution_excess``): module docstring."""
-    return verdict_reason(r, tol, run)[0]
-
-
-def verdict_reason(r, tol: Tolerances, run: RunFacts) -> tuple[str, str]:
-    """The verdict of one judged row and why, in one line ("" for ``match`` and ``none``): module docstring."""
-    has_ref = not math.isnan(r.ref_t_stick)
-    has_eng = not math.isnan(r.t_stick)
-    stop = r.ref_t_exit if has_ref else r.t_exit
-    stop = math.inf if math.isnan(stop) else stop
-    if not math.isnan(run.t_diverged) and run.t_diverged <= stop:
-        return "diverged", f"the run diverged at {run.t_diverged:.6g} s"
-    if run.status in FAILURES and stop > run.t_end:
-        return run.status, f"the run ended ({run.status}) at {run.t_end:.6g} s, before this episode did"
-    if not math.isnan(r.penetration_max) and r.penetration_max > run.penetration_allowance:
-        return "penetrated", f"penetration {r.penetration_max:.3g} m > the allowance {run.penetration_allowance:.3g} m"
-    if has_ref and not has_eng:
-        inside = run.inside_impacts(r.wall, r.ref_t_stick, r.ref_t_exit)
-        if inside >= tol.endless_impacts:
-            return "endless", f"{inside} impacts inside the reference's sliding, and no stick"
-        if r.sliding_duration < run.sliding_min:
-            return "unresolved", (f"no stick, but the reference slides only {_seconds(r.sliding_duration)}: this sampling "
-                                  f"shows no sliding shorter than {_seconds(run.sliding_min)}")
-        return "missed", f"no stick where the reference slides {_seconds(r.sliding_duration)}"
-    if has_eng and not has_ref:
-        return "spurious", "sticks where the reference does not"
-    unresolved = []
-    for name, err, bound, key, scale, words in _TIMING:
-        if key == "exit" and math.isnan(r.ref_t_exit) != math.isnan(r.t_exit):
-            found = "late" if math.isnan(r.t_exit) else "early"  # one of them is still stuck at the end of the run
-            return found, f"{'the engine' if found == 'late' else 'the reference'} is still stuck at the end of the run"
-        value, size = getattr(r, err), getattr(r, scale)
-        limit = getattr(tol, key) * size if size > 0 else math.nan
-        b = getattr(r, bound, math.nan)
-        found = timing(value, b, limit)
-        if found in ("early", "late"):
-            return found, _timing_reason(name, value, b, limit, getattr(tol, key), words, found, run.dt)
-        if found:
-            unresolved.append(_timing_reason(name, value, b, limit, getattr(tol, key), words, found, run.dt))
-    if not math.isnan(r.restitution_excess) and r.restitution_excess > tol.restitution:
-        return "rebound", (f"restitution: a resolved impact's e / R - 1 = {r.restitution_error:+.1%}, beyond the "
-                           f"tolerance {tol.restitution:.0%}")
-    if abs(r.resolved_impacts - r.ref_resolved_impacts) > tol.impact_count:
-        return "rebound", (f"impact count: {r.resolved_impacts} resolved impacts against the reference's "
-                           f"{r.ref_resolved_impacts}, more than {tol.impact_count} apart")
-    if unresolved:
-        return "unresolved", "; ".join(unresolved)
-    if getattr(r, "unmeasured_impacts", 0) > 0 and getattr(r, "measured_impacts", 0) == 0:
-        return "unmeasured", (f"none of the {r.unmeasured_impacts} resolved impacts is measurable to the restitution "
-                              f"tolerance {tol.restitution:.0%} at this step")
-    return "match", ""

@@ -13,7 +13,7 @@
 
 A ratio is the check's measure over its tolerance (``Tolerances``), taken over the run's
 episodes at their worst, so a ratio above 1 is a failed check and ``worst_ratio`` (the largest)
-is the run's distance from passing in one number: the same rules as ``pipeline.judge.verdict``
+is the run's distance from passing in one number: the same rules as ``pipeline.verdict_rules.verdict``
 (stick and first impact against the chatter duration, exit against the sliding duration,
 restitution of the impacts the step can measure to the tolerance, the resolved-impact count, the penetration
 against the scene's length scale), and one the judge cannot make from a whole run:

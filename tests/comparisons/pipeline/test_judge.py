@@ -268,3 +268,41 @@ def test_rows_of_gives_what_itertuples_gives_and_errors_what_pandas_gives():
     errors(filled, 1e-3)  # a known answer: 0.05 s late of a 0.5 s scale; no scale, no relative error
     assert repr(filled["stick_error_rel"].tolist()) == repr([(1.5 - 1.45) / 0.5, nan, nan])
     assert np.isnan(filled["exit_error_rel"].to_numpy()[1:]).all()
+
+
+def test_a_judged_table_has_one_type_per_column_with_episodes_with_a_run_row_and_with_neither():
+    # judge makes its table once from columns (not a pandas assignment per column): the types a reader gets stay those
+    # of the table pandas made from the rows (counts int64, times and errors float64, words strings), with episodes,
+    # with the row of a failed run whose episodes do not say so, and with no row at all
+    import numpy as np
+
+    from chatterbench.comparisons.pipeline.extract import extract
+    from chatterbench.comparisons.pipeline.judge import TABLE_COLUMNS, judge
+
+    counts = {"n_impacts", "ref_n_impacts", "resolved_impacts", "ref_resolved_impacts", "unmeasured_impacts"}
+    words = {"wall", "verdict", "reason"}
+    ref = solution("impact-damper")
+    traj = reference_trajectory(ref.scene, 1e-3, ref.exhaustive)
+    found = extract(traj, ref.scene, ref.stick_tolerance(Tolerances().stick))
+    failed = dataclasses.replace(traj, status="error")
+    short = solve(load_scene("bouncing-ball", ["duration=0.3"]))  # no episode on either side
+    short_traj = reference_trajectory(short.scene, 1e-3, short.exhaustive)
+    short_found = extract(short_traj, short.scene, short.stick_tolerance(Tolerances().stick))
+    tables = {"episodes": judge(ref, found, traj).table, "run row": judge(ref, found, failed).table,
+              "none": judge(short, short_found, short_traj).table,
+              "none, failed": judge(short, short_found, dataclasses.replace(short_traj, status="error")).table}
+    assert len(tables["episodes"]) == 9 and set(tables["episodes"]["verdict"]) == {"match"}
+    assert tables["run row"]["wall"].tolist()[-1] == "" and tables["run row"]["verdict"].tolist()[-1] == "error"
+    assert tables["none"].empty and tables["none, failed"]["verdict"].tolist() == ["error"]
+    for name in ("episodes", "run row", "none, failed"):
+        table = tables[name]
+        assert list(table.columns) == TABLE_COLUMNS
+        for c in TABLE_COLUMNS:
+            kind = table[c].dtype
+            if c in counts:
+                assert kind == np.int64, (name, c, kind)
+            elif c in words:
+                assert kind.kind in "OUT" or str(kind) == "str", (name, c, kind)
+                assert all(isinstance(v, str) for v in table[c]), (name, c)
+            else:
+                assert kind == np.float64, (name, c, kind)
