@@ -76,7 +76,7 @@ import pandas as pd
 from chatterbench.engines.trajectory import Trajectory
 
 from .extract import Extraction
-from .impacts import PAIR_COLUMNS, pair_impacts, reference_flights
+from .impacts import PAIR_COLUMNS, ImpactPairs, pair_impacts, reference_flights
 from .solution import ReferenceSolution, overlaps, reduced_mass
 from .tolerances import Tolerances
 from .verdict_rules import RunFacts, run_failure, run_failure_words, timing, verdict, verdict_reason  # noqa: F401  (the rules: there)
@@ -273,29 +273,40 @@ def judge(ref: ReferenceSolution, found: Extraction, traj: Trajectory, tol: Tole
     penetration_max = [_window_max(t, pen, w0, w1, traj.index) for w0, w1 in windows]
     if rows:
         table, order = _judged_table(rows, penetration_max, dt, tol, facts, deepest)
-    else:  # no episode on either side: the pandas path gives the empty table's columns (and a failed run's row)
-        table = pd.DataFrame(columns=[*TABLE_COLUMNS, "stick_scale", "restitution_excess"])
-        for c in BOUND_COLUMNS:
-            table[c] = table[c]
-        for c in ("unmeasured_impacts", "measured_impacts"):
-            table[c] = table[c].fillna(0) if c in table else 0
-        table["penetration_max"] = penetration_max
-        errors(table, dt)
-        table = assign_verdicts(table, tol, facts, deepest)
-        order = np.arange(len(table))
-        for c in _COUNT_COLUMNS:
-            table[c] = table[c].fillna(0).astype(int)
-    renumber = {int(old): new for new, old in enumerate(order)}
-    kept = [(renumber[k], w, p) for k, w, p in visit_pairs if len(p)]
-    if kept:  # the visits' pairs joined as columns, one table made (a table per visit cost a quarter of a judge)
-        counts = [len(p) for _, _, p in kept]
-        impacts = pd.DataFrame({"episode": np.repeat(np.array([k for k, _, _ in kept], dtype=np.int64), counts),
-                                "wall": [w for (_, w, _), n in zip(kept, counts) for _ in range(n)],
-                                **{c: np.concatenate([p.columns[c] for _, _, p in kept]) for c in PAIR_COLUMNS}})
     else:
-        impacts = pd.DataFrame(columns=IMPACT_PAIR_COLUMNS)
+        table, order = _empty_table(dt, tol, facts, deepest), []
+    renumber = {int(old): new for new, old in enumerate(order)}
+    impacts = _joined_pairs([(renumber[k], w, p) for k, w, p in visit_pairs if len(p)])
     return Judgement(table=table[TABLE_COLUMNS], impacts=impacts, t_diverged=facts.t_diverged,
                      t_penetrated=facts.t_penetrated, penetration_allowance=allowance)
+
+
+def _empty_table(dt: float, tol: Tolerances, run: RunFacts, deepest: float) -> pd.DataFrame:
+    """The judged table where neither side has an episode: no row, or the failed run's row (``assign_verdicts``),
+    with the columns and types pandas gives them."""
+    table = pd.DataFrame(columns=[*TABLE_COLUMNS, "stick_scale", "restitution_excess"])
+    for c in BOUND_COLUMNS:
+        table[c] = table[c]
+    for c in ("unmeasured_impacts", "measured_impacts"):
+        table[c] = table[c].fillna(0) if c in table else 0
+    table["penetration_max"] = []
+    errors(table, dt)
+    table = assign_verdicts(table, tol, run, deepest)
+    for c in _COUNT_COLUMNS:
+        table[c] = table[c].fillna(0).astype(int)
+    return table
+
+
+def _joined_pairs(kept: list[tuple[int, str, ImpactPairs]]) -> pd.DataFrame:
+    """The paired impacts of every visit with pairs (its row of the judged table, its wall, its ``ImpactPairs``) as
+    one table (``IMPACT_PAIR_COLUMNS``), made once from the joined columns (a table per visit cost a quarter of a
+    judge)."""
+    if not kept:
+        return pd.DataFrame(columns=IMPACT_PAIR_COLUMNS)
+    counts = [len(p) for _, _, p in kept]
+    return pd.DataFrame({"episode": np.repeat(np.array([k for k, _, _ in kept], dtype=np.int64), counts),
+                         "wall": [w for (_, w, _), n in zip(kept, counts) for _ in range(n)],
+                         **{c: np.concatenate([p.columns[c] for _, _, p in kept]) for c in PAIR_COLUMNS}})
 
 
 _COUNT_COLUMNS = ("n_impacts", "ref_n_impacts", "resolved_impacts", "ref_resolved_impacts", "unmeasured_impacts")
