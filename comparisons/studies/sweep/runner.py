@@ -65,13 +65,17 @@ def _worker_start() -> None:
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
 
 
-def _local_pool(workers: int | None) -> ProcessPoolExecutor:
-    """A process pool whose workers are all started now, with Ctrl-C held back while they fork.
+def _local_pool(workers: int | None, started: list) -> ProcessPoolExecutor:
+    """A process pool whose workers are all started now, with Ctrl-C held back while they fork; appended to
+    ``started`` before any worker exists, so that the caller stops it (``_stop_pool``) whatever ends the sweep, a
+    Ctrl-C while the pool starts or before its caller holds it included (an unstopped pool's workers, which ignore
+    Ctrl-C, kept the interrupted sweep from exiting, or let it die of SIGINT: seen under load).
 
     A Ctrl-C that reaches a child in the middle of ``fork`` prints "Exception ignored in ...
     _releaseLock ... KeyboardInterrupt"; held back (blocked), it reaches the sweep once they exist.
     """
     pool = ProcessPoolExecutor(max_workers=workers or os.cpu_count() or 1, initializer=_worker_start)
+    started.append(pool)
     old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
         pool.submit(int).result()  # a fork-context pool starts every worker at its first submit
@@ -278,13 +282,13 @@ def run_sweep(
 def _run_levels(sweep: Sweep, levels: Levels, out: Path, runs: list, have: pd.DataFrame, executor: Any,
                 options: tuple) -> tuple[dict[str, Any], list]:
     """Level 0 (``runs``), then each level's runs from the rows so far; returns the stats and every run in order."""
-    owned = None
-    if executor is None:  # one pool for every level: its workers stay warm
-        owned = executor = _local_pool(options[0])
+    owned: list = []  # the pool this sweep starts, once it exists
     total: dict[str, Any] = {"levels": []}
     every, seen = list(runs), {r.point_id for r in runs}
     interrupted = True
     try:
+        if executor is None:  # one pool for every level: its workers stay warm
+            executor = _local_pool(options[0], owned)
         for level in range(sweep.refine.depth + 1):
             if level:
                 have = read_rows(out)  # the rows of the levels before, this session's and earlier ones
@@ -296,19 +300,18 @@ def _run_levels(sweep: Sweep, levels: Levels, out: Path, runs: list, have: pd.Da
             total["levels"].append(len(runs))
         interrupted = False
     finally:
-        if owned is not None:
-            _stop_pool(owned, interrupted)
+        for pool in owned:
+            _stop_pool(pool, interrupted)
     return total, every
 
 
-def _executor(executor: Any, workers: int | None) -> tuple[Any, ProcessPoolExecutor | None, Any]:
-    """(where to submit, the local pool this sweep owns or None, the Dask client to watch or None)."""
+def _executor(executor: Any, workers: int | None, started: list) -> tuple[Any, Any]:
+    """(where to submit, the Dask client to watch or None); a local pool it starts goes to ``started``."""
     if executor is None:
-        pool = _local_pool(workers)
-        return pool, pool, None
+        return _local_pool(workers, started), None
     if hasattr(executor, "get_executor"):  # a dask.distributed Client
-        return executor.get_executor(pure=False), None, executor
-    return executor, None, getattr(executor, "_client", None)  # a Dask ClientExecutor given as is, or any Executor
+        return executor.get_executor(pure=False), executor
+    return executor, getattr(executor, "_client", None)  # a Dask ClientExecutor given as is, or any Executor
 
 
 class _Tally:
@@ -378,22 +381,24 @@ def _run(sweep: Sweep, out: Path, runs: list, have: pd.DataFrame, executor: Any,
     stats = {"wall_s": 0.0, "runs": 0, "units": 0, "run_s_sum": 0.0, "engine_s_sum": 0.0, "workers": 0}
     start = time.perf_counter()
     if todo:
-        executor, owned, client = _executor(executor, workers)
-        stats["workers"] = slots = workers or _slots(executor) or os.cpu_count() or 1
-        units = work_units(todo, batch, slots)
-        stats["units"] = len(units)
-        bar = _progress(len(runs), len(runs) - len(todo), progress, "sweep" if level is None else f"level {level}")
-        failures = int(have["status"].isin(FAILED).sum()) if len(have) else 0
-        tally = _Tally(writer, stats, bar, failures, level)
-        interrupted = True
+        owned: list = []  # a pool this run starts, once it exists
+        bar, interrupted = None, True
         try:
+            executor, client = _executor(executor, workers, owned)
+            stats["workers"] = slots = workers or _slots(executor) or os.cpu_count() or 1
+            units = work_units(todo, batch, slots)
+            stats["units"] = len(units)
+            bar = _progress(len(runs), len(runs) - len(todo), progress, "sweep" if level is None else f"level {level}")
+            failures = int(have["status"].isin(FAILED).sum()) if len(have) else 0
+            tally = _Tally(writer, stats, bar, failures, level)
             _drain(executor, units, slots, _WorkerWatch(client, no_worker_wait, no_workers, len(runs)), tally,
                    len(runs) - len(todo))
             interrupted = False
         finally:
-            bar.close()
-            if owned is not None:
-                _stop_pool(owned, interrupted)
+            if bar is not None:
+                bar.close()
+            for pool in owned:
+                _stop_pool(pool, interrupted)
     stats["wall_s"] = time.perf_counter() - start
     return stats
 
