@@ -22,6 +22,7 @@ from chatterbench.engines.isolate import run_limit, set_run_limit
 from chatterbench.reference.errors import InputError
 
 from . import Terminated, interrupt, quiet_interrupts
+from .. import cli as cli_package
 from .commands import COMMANDS
 from .common import HelpFormatter, Parser, UsageError, check_settings, held_warnings, one_line
 from .paths import write_error
@@ -91,6 +92,11 @@ def _run(args) -> int:
         return 2
     except KeyboardInterrupt:
         print("chatterbench: interrupted", file=sys.stderr)
+        if cli_package._COMMAND:  # as the command: leave now, before the interpreter's finalization gives SIGINT its
+            # default action again (a Ctrl-C still pending there killed the process: -2 after this line)
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(130)
         return 130
     except Terminated:  # SIGTERM: what was being written is removed (atomic.staged), as for Ctrl-C
         print("chatterbench: terminated", file=sys.stderr)
