@@ -21,8 +21,7 @@ from typing import Iterable
 from chatterbench.engines.isolate import run_limit, set_run_limit
 from chatterbench.reference.errors import InputError
 
-from . import Terminated, interrupt, quiet_interrupts
-from .. import cli as cli_package
+from . import _COMMAND, Terminated, interrupt, quiet_interrupts
 from .commands import COMMANDS
 from .common import HelpFormatter, Parser, UsageError, check_settings, held_warnings, one_line
 from .paths import write_error
@@ -92,7 +91,7 @@ def _run(args) -> int:
         return 2
     except KeyboardInterrupt:
         print("chatterbench: interrupted", file=sys.stderr)
-        if cli_package._COMMAND:  # as the command: leave now, before the interpreter's finalization gives SIGINT its
+        if _COMMAND:  # as the command: leave now, before the interpreter's finalization gives SIGINT its
             # default action again (a Ctrl-C still pending there killed the process: -2 after this line)
             sys.stdout.flush()
             sys.stderr.flush()

@@ -328,11 +328,10 @@ def _judged_table(rows: list[dict], penetration_max: list[float], dt: float, tol
     floats = {k: np.asarray(cols[k], dtype=float) for k in _ERROR_INPUTS}
     cols.update({k: v.tolist() for k, v in error_values(floats, dt).items()})
     kind = _row_type(_JUDGED_COLUMNS)
-    judged = [verdict_reason(r, tol, run) for r in map(kind._make, zip(*(cols[c] for c in _JUDGED_COLUMNS)))]
-    cols["verdict"], cols["reason"] = [v for v, _ in judged], [why for _, why in judged]
-    failure = run_failure(run)
-    if failure and rank(failure) < rank(combine(cols["verdict"])):
-        for c, v in run_row(run, failure, deepest).items():
+    cols["verdict"], cols["reason"], extra = _verdicts(map(kind._make, zip(*(cols[c] for c in _JUDGED_COLUMNS))),
+                                                       tol, run, deepest)
+    if extra is not None:
+        for c, v in extra.items():
             cols.setdefault(c, [math.nan] * len(rows)).append(v)
         for c in cols:
             if len(cols[c]) == len(rows):
@@ -351,14 +350,23 @@ def assign_verdicts(table: pd.DataFrame, tol: Tolerances, run: RunFacts, penetra
     """``table`` (``TABLE_COLUMNS`` but ``verdict``, plus ``restitution_excess``) with each row's verdict
     (``verdict``), and a run row when the run failed and no row says so (module docstring)."""
     table = table.copy()
-    judged = [verdict_reason(r, tol, run) for r in rows_of(table)]
-    table["verdict"] = [v for v, _ in judged] if len(table) else pd.Series(dtype=object)
-    table["reason"] = [why for _, why in judged] if len(table) else pd.Series(dtype=object)
-    failure = run_failure(run)
-    if failure and rank(failure) < rank(combine(table["verdict"])):
-        row = run_row(run, failure, penetration_max)
-        table = pd.concat([table, pd.DataFrame([row])], ignore_index=True) if len(table) else pd.DataFrame([row])
+    verdicts, reasons, extra = _verdicts(rows_of(table), tol, run, penetration_max)
+    table["verdict"] = verdicts if len(table) else pd.Series(dtype=object)
+    table["reason"] = reasons if len(table) else pd.Series(dtype=object)
+    if extra is not None:
+        table = pd.concat([table, pd.DataFrame([extra])], ignore_index=True) if len(table) else pd.DataFrame([extra])
     return table
+
+
+def _verdicts(rows, tol: Tolerances, run: RunFacts, penetration_max: float) -> tuple[list[str], list[str], dict | None]:
+    """Each judged row's verdict and reason (``verdict_reason``), and the failed run's row (``run_row``) where the run
+    failed and no row says so (None otherwise); ``penetration_max`` [m]: the run's deepest penetration."""
+    judged = [verdict_reason(r, tol, run) for r in rows]
+    verdicts, reasons = [v for v, _ in judged], [why for _, why in judged]
+    failure = run_failure(run)
+    if failure and rank(failure) < rank(combine(verdicts)):
+        return verdicts, reasons, run_row(run, failure, penetration_max)
+    return verdicts, reasons, None
 
 
 def run_row(run: RunFacts, failure: str, penetration_max: float) -> dict:

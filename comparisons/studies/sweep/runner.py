@@ -68,8 +68,8 @@ def _worker_start() -> None:
 def _local_pool(workers: int | None, started: list) -> ProcessPoolExecutor:
     """A process pool whose workers are all started now, with Ctrl-C held back while they fork; appended to
     ``started`` before any worker exists, so that the caller stops it (``_stop_pool``) whatever ends the sweep, a
-    Ctrl-C while the pool starts or before its caller holds it included (an unstopped pool's workers, which ignore
-    Ctrl-C, kept the interrupted sweep from exiting, or let it die of SIGINT: seen under load).
+    Ctrl-C while the pool starts or before its caller holds it included (an unstopped pool, whose workers ignore
+    Ctrl-C, kept the interrupted sweep from exiting: seen under load).
 
     A Ctrl-C that reaches a child in the middle of ``fork`` prints "Exception ignored in ...
     _releaseLock ... KeyboardInterrupt"; held back (blocked), it reaches the sweep once they exist.
