@@ -157,6 +157,36 @@ def test_a_reused_client_runs_bit_for_bit_as_a_new_one(monkeypatch):
         _same_runs(a, b)
 
 
+def test_a_world_with_the_bodies_kept_runs_bit_for_bit_as_a_new_one(monkeypatch):
+    # a closed world whose bodies are the next scene's (world.Bodies: walls, masses, R and settings alike) keeps them
+    # and is set to the next scene's start (world.py): whatever the run before it left (body 2 pressed on a wall,
+    # contact points and their impulses, warm starting on), a run is a fresh client's; another R is another body
+    from chatterbench.engines.pybullet_engine import world
+
+    warm = PybulletSettings(dt=1e-3, warm_starting_factor=0.85)
+    runs = [("feigin-pair", ["duration=2.5"]),  # ends sliding on the lower wall (Feigin's first episode: 1.60-3.14 s)
+            ("feigin-pair", ["initial.t=2.0", "initial.y=-0.0995", "initial.vy=-0.2", "duration=0.3"]),  # a strike there
+            ("bouncing-ball", ["duration=2.0"]),  # ends resting on the floor
+            ("feigin-pair", ["initial.t=2.4", "initial.y=-0.1", "duration=0.4"]),  # starts pressed on the lower wall
+            ("bouncing-ball", ["initial.y=0.002", "initial.vy=-0.3", "duration=0.2"]),  # a strike on that floor
+            ("feigin-pair", ["initial.y=0.0995", "initial.vy=0.4", "duration=0.3"]),  # a strike on the upper wall
+            ("feigin-pair", ["initial.y=0.0995", "initial.vy=0.4", "duration=0.3", "restitution=0.8"])]  # made anew
+    scenes = [load_scene(name, items) for name, items in runs]
+    monkeypatch.setattr(world, "_idle", [])
+    monkeypatch.setattr(world, "IDLE_CLIENTS", 0)  # every world its own new client
+    fresh = [PybulletEngine().run(scene, warm) for scene in scenes]
+    monkeypatch.setattr(world, "IDLE_CLIENTS", 2)  # the ball's bodies and the pair's, each kept
+    made, real_make = [], world._make
+    monkeypatch.setattr(world, "_make", lambda *args: made.append(args[0].name) or real_make(*args))
+    kept = [PybulletEngine().run(scene, warm) for scene in scenes]
+    assert made == ["feigin-pair", "bouncing-ball", "feigin-pair"]  # made once each, and for R = 0.8; the rest kept
+    for scene, a, b in zip(scenes, fresh, kept):
+        assert a.status == b.status == "ok", scene.initial
+        _same_runs(a, b)
+    for k in (0, 2):  # the runs before restored ones end on the lower wall, pushed by it
+        assert abs(fresh[k].y[-1] - scenes[k].gap.lower) < 1e-5 and fresh[k].contact["lower"][-3:].any()
+
+
 def test_settings_snippet_is_python():
     snippet = settings_snippet(PybulletSettings(), restitution=0.5)
     compile(snippet, "<snippet>", "exec")
