@@ -368,8 +368,10 @@ def _inline(markdown: str) -> str:
     return out
 
 
-def guide_section_html(result, figures: dict[str, Figure] | None = None, ev=None) -> str:
-    """The guide as an HTML fragment (a report section, ``report --tune``): the same content, figures embedded."""
+def guide_section_html(result, figures: dict[str, Figure] | None = None, ev=None,
+                       png: dict[str, bytes] | None = None) -> str:
+    """The guide as an HTML fragment (a report section, ``report --tune``): the same content, figures embedded
+    (``png``: those already rendered, by name; the others are rendered here)."""
     esc = html.escape
     anchor = f"tuning-{esc(result.engine)}-{esc(result.scene.name)}"
     parts = [f'<h2 id="{anchor}">Tuning {esc(result.engine)} for {esc(result.scene.name)}</h2>',
@@ -384,9 +386,10 @@ def guide_section_html(result, figures: dict[str, Figure] | None = None, ev=None
         parts.append(_plain_html_table(frontier_frame(result)))
 
     def html_figure(name: str) -> str:
-        png = base64.b64encode(figure_bytes(figures[name], "png")).decode()
+        drawn = png[name] if png and name in png else figure_bytes(figures[name], "png")
+        encoded = base64.b64encode(drawn).decode()
         wide = ' style="width: 100%"' if name in BESIDE_SNIPPET else ""  # the R(v) figure at the page's full width
-        return (f'<figure><img alt="{esc(name)}"{wide} src="data:image/png;base64,{png}">'
+        return (f'<figure><img alt="{esc(name)}"{wide} src="data:image/png;base64,{encoded}">'
                 f"<figcaption>{esc(CAPTIONS[name])}</figcaption></figure>")
 
     parts += [html_figure(n) for n in figures if n in IN_FRONTIER]

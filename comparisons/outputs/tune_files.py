@@ -37,7 +37,7 @@ from chatterbench.comparisons.studies.tune_answer import frontier_line, recommen
 from chatterbench.comparisons.studies.tune_evidence import evidence
 
 from .engine_files import write_engine_files
-from .figures import figure_bytes, write_figure
+from .figures import figure_files, write_figure
 from .frontier_chart import frontier_figure
 from .guide import CAPTIONS, FIGURE_FILES, guide_figures, guide_html, guide_markdown, guide_section_html, html_page
 
@@ -72,13 +72,15 @@ def write_engine_set(result, out: Path) -> tuple[list[str], str]:
         write_text(out / "recommended.json", json.dumps(rec, indent=2) + "\n")
         written.append("recommended.json")
     write_text(out / "guide.md", guide_markdown(result, figures, ev))
-    section = guide_section_html(result, figures, ev)  # rendered once: the page and `report --tune DIR` embed it
+    files = {name: figure_files(fig) for name, fig in figures.items()}  # each drawn once, for the page and the files
+    section = guide_section_html(result, figures, ev, png={name: f["png"] for name, f in files.items()})  # rendered
+    # once: the page and `report --tune DIR` embed it
     write_text(out / "guide.html", guide_html(result, section=section))
     write_text(out / "guide_section.html", section)
     write_frame(out / "candidates.csv", candidates_frame(result))
     written += ["guide.md", "guide.html", "guide_section.html", "candidates.csv"]
     for name, fig in figures.items():
-        write_figure(fig, out, FIGURE_FILES[name])
+        write_figure(fig, out, FIGURE_FILES[name], files[name])
         written.append(f"{FIGURE_FILES[name]}.png/.svg")
     return written + write_engine_files(result, out), section  # engine files at recommended.json's settings
 
@@ -96,8 +98,9 @@ def write_tune_files(results: Sequence, out: Path) -> list[str]:
     first = results[0]
     fig = frontier_figure({r.engine: r.frontier for r in results}, first.scene.name,
                           {"stick": first.tolerance.stick, "restitution": first.tolerance.restitution})
-    write_figure(fig, out, "frontier")
-    section = _combined_section(results, fig, sections)
+    files = figure_files(fig)
+    write_figure(fig, out, "frontier", files)
+    section = _combined_section(results, files["png"], sections)
     write_text(out / "guide_section.html", section)
     write_text(out / "guide.html", html_page(f"tuning {first.scene.name}", section))
     write_text(out / "guide.md", _combined_markdown(results))
@@ -115,11 +118,11 @@ def _combined_markdown(results: Sequence) -> str:
     return "\n".join(lines)
 
 
-def _combined_section(results: Sequence, fig, sections: list[str]) -> str:
+def _combined_section(results: Sequence, frontier_png: bytes, sections: list[str]) -> str:
     import base64
 
     first = results[0]
-    png = base64.b64encode(figure_bytes(fig, "png")).decode()
+    png = base64.b64encode(frontier_png).decode()
     parts = [f'<h2 id="tuning-{html.escape(first.scene.name)}">Tuning {html.escape(", ".join(r.engine for r in results))} '
              f"for {html.escape(first.scene.name)}</h2>",
              f'<p class="note">Tolerances: {html.escape(first.tolerance.describe())}; every episode must pass.</p>',
