@@ -18,18 +18,47 @@ def _interrupted(signum, frame):  # noqa: ARG001 - a signal handler's signature
     os._exit(130)
 
 
+IMPORT_GRACE_S = 2.0  # [s] a Ctrl-C during an import waits for its end at most this long
+
+
+def _importing(frame) -> bool:
+    """Whether ``frame`` runs inside an import (a module's code, or what an extension module's init calls)."""
+    while frame is not None:
+        if frame.f_code.co_filename.startswith("<frozen importlib._bootstrap"):
+            return True
+        frame = frame.f_back
+    return False
+
+
 class _Interrupt:
     """SIGINT during the work: remember it, then raise ``KeyboardInterrupt``.
 
     Python drops an exception raised inside a weakref callback or ``__del__`` ("Exception ignored
     in ..."), so a Ctrl-C that lands while matplotlib collects garbage would be lost and the command
     would run to the end with exit 0; ``main`` reads ``seen`` after the work and exits 130 all the same.
+
+    A Ctrl-C during an import waits for the import's end (sent again every 20 ms, for at most
+    ``IMPORT_GRACE_S``): raised inside an extension module's init, the ``KeyboardInterrupt`` came out
+    as that module's ``ImportError`` and a traceback (numba's ``_dispatcher`` importing ``_devicearray``).
     """
 
     seen = False
+    deferred_at: float | None = None  # time.monotonic() of the first Ctrl-C held for an import
 
     def __call__(self, signum, frame):  # noqa: ARG002 - a signal handler's signature
         type(self).seen = True
+        if _importing(frame):
+            import threading
+            import time
+
+            now = time.monotonic()
+            since = type(self).deferred_at = type(self).deferred_at or now
+            if now - since < IMPORT_GRACE_S:
+                again = threading.Timer(0.02, os.kill, (os.getpid(), signal.SIGINT))
+                again.daemon = True
+                again.start()
+                return
+        type(self).deferred_at = None
         raise KeyboardInterrupt
 
 

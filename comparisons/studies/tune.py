@@ -85,6 +85,7 @@ from .tune_checks import RATIO_COLUMNS, STRIKE_COLUMNS, check_ratios, describe_f
 from .tune_frontier import answers, frontier_entries, json_value, tightest
 from .tune_ladder import Ladder, judge_levels
 from .tune_search import DT_RATIO, SEARCH_COLUMNS, Grid, agrees, need, round_dt, search
+from . import waits
 from .tune_runs import (batch_runs, batches_on_device, candidate_settings, run_and_strike, settings_label, steps_per_sim_s,
                         time_runs)
 
@@ -202,7 +203,7 @@ def _row(fut, params: dict) -> dict[str, Any]:
     try:
         if isinstance(fut, InputError):
             return _refused(params, fut)
-        return fut.result()
+        return waits.result(fut)  # in slices: a Ctrl-C is acted on while the workers run
     except InputError as exc:
         return _refused(params, exc)
 

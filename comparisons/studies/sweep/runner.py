@@ -50,6 +50,7 @@ from .directory import OutLock, clean_temps, refuse_links
 from .spec import FAILED, MAX_TIMEOUT, SpecError, Sweep, load_sweep, sweep_runs
 from .worker import run_batch_task, work_units
 from ..limits import NO_WORKER_WAIT, NO_WORKERS  # shown by `sweep --help` without loading this module
+from ..waits import POLL_S
 
 _SHOWN_ASIDE = 3  # set-aside parts named per reason; more are counted
 
@@ -134,8 +135,9 @@ class _WorkerWatch:
         self.client, self.patience, self.policy, self.total = client, patience, policy, total
         self.since: float | None = None  # when the cluster was first seen without a worker
         self.said = False
-        # wait() returns at this interval [s] to look at the cluster; locally it need not
-        self.interval = None if client is None else min(1.0, patience / 4)
+        # wait() returns at this interval [s] to look at the cluster; locally at POLL_S, so that a Ctrl-C that another
+        # thread received is acted on (waits.py)
+        self.interval = POLL_S if client is None else min(1.0, patience / 4)
 
     def idle(self, done: int) -> None:
         """Nothing finished for ``interval`` s: look for workers."""

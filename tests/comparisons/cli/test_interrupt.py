@@ -11,6 +11,8 @@ from __future__ import annotations
 import subprocess
 import sys
 
+import pytest
+
 SWALLOWED = r'''
 import os, signal, sys, weakref
 sys.argv[0] = "chatterbench"          # as the console script
@@ -57,3 +59,98 @@ def test_the_ctrl_c_tests_hold_in_a_suite_started_with_sigint_ignored():
                           timeout=600)
     assert proc.returncode == 0, proc.stdout[-3000:]
     assert "1 passed" in proc.stdout
+
+
+# A Ctrl-C while an extension module's init imports another module: numba._dispatcher's init imports
+# numba._devicearray, and a KeyboardInterrupt raised in there comes out of numba as "ImportError: numba._devicearray
+# failed to import" (seen once in 60 Ctrl-Cs of a sweep under load). Here the SIGINT is sent, deterministically,
+# as that import starts, in a command whose work loads numba (the reference's solve).
+IN_AN_IMPORT = r'''
+import os, signal, sys
+sys.argv[0] = "chatterbench"          # as the console script
+from chatterbench.comparisons.cli import main as cli_main
+
+class Kick:
+    def find_spec(self, name, path, target=None):
+        if name == sys.argv[1]:
+            os.kill(os.getpid(), signal.SIGINT)
+        return None
+
+sys.meta_path.insert(0, Kick())
+assert "numba" not in sys.modules
+sys.exit(cli_main.main(["compare", "bouncing-ball", "--engines", "mujoco", "--out", sys.argv[2]]))
+'''
+
+
+def test_a_ctrl_c_inside_an_extensions_import_is_one_line_exit_130(tmp_path):
+    for module in ("numba._devicearray", "numba.core.config"):  # inside numba's C init, and a plain module's import
+        proc = subprocess.run([sys.executable, "-c", IN_AN_IMPORT, module, str(tmp_path / module)], capture_output=True,
+                              text=True, timeout=120)
+        assert proc.returncode == 130, (module, proc.returncode, proc.stderr[-3000:])
+        assert proc.stderr.strip().splitlines() == ["chatterbench: interrupted"], (module, proc.stderr[-3000:])
+        assert not (tmp_path / module / "episodes.csv").exists()  # interrupted long before the comparison's files
+
+
+# A Ctrl-C received by another thread than the main one (the kernel hands SIGINT to any thread not blocking it: a
+# progress thread, tqdm's monitor, a BLAS thread while the main thread blocks it): Python 3.11 notices it only when
+# the main thread runs again, and a sweep whose main thread waited for its workers without a timeout went on until
+# its next run finished (8.9 s under load, seen). Here the SIGINT is sent to a thread of the command's own, once its
+# main thread waits for its workers (in _drain); every run lasts far longer than that.
+ELSEWHERE = r'''
+import signal, sys, threading, time
+sys.argv[0] = "chatterbench"          # as the console script
+from chatterbench.comparisons.cli import main as cli_main
+
+def kick():
+    main = threading.main_thread().ident
+    while True:  # until the main thread waits for the workers
+        frame, names = sys._current_frames().get(main), set()
+        while frame is not None:
+            names.add(frame.f_code.co_name)
+            frame = frame.f_back
+        if sys.argv[1] in names:
+            break
+        time.sleep(0.05)
+    time.sleep(0.5)
+    signal.pthread_kill(threading.get_ident(), signal.SIGINT)  # to this thread, not the main one
+
+threading.Thread(target=kick, daemon=True).start()
+sys.exit(cli_main.main(sys.argv[2:]))
+'''
+
+
+def test_a_ctrl_c_another_thread_receives_stops_a_sweep_before_any_run_ends(tmp_path):
+    # runs of the bouncing ball of 10 million steps (a minute or more each): none ends before the Ctrl-C
+    (tmp_path / "long.toml").write_text('scene = "bouncing-ball"\nengines = ["pybullet"]\n[set]\nduration = 100\n'
+                                        "[grid]\ndt = [1e-5, 2e-5]\n")
+    proc = subprocess.run([sys.executable, "-c", ELSEWHERE, "_drain", "sweep", "long.toml", "--out", "swept", "--workers",
+                           "2"], cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 130, (proc.returncode, proc.stderr[-3000:])
+    assert proc.stderr.strip().splitlines()[-1] == "chatterbench: interrupted", proc.stderr[-3000:]
+    assert not list((tmp_path / "swept" / "rows").glob("*.parquet"))  # stopped before any run finished: no row
+
+
+def test_a_wait_for_a_worker_hears_a_ctrl_c_another_thread_received():
+    # tune's wait for a candidate's row (studies/tune.py, _row) is waits.result: the interrupt comes before the result
+    import signal
+    import threading
+    import time
+    from concurrent.futures import Future
+
+    from chatterbench.comparisons.studies import waits
+
+    never = Future()  # a worker's result that does not come ...
+    guard = threading.Timer(60.0, never.set_result, ("came after 60 s",))  # ... until this guard gives up on the test
+
+    def kick():
+        time.sleep(0.3)
+        signal.pthread_kill(threading.get_ident(), signal.SIGINT)  # to this thread, not the main one
+
+    guard.start()
+    threading.Thread(target=kick, daemon=True).start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            waits.result(never)
+    finally:
+        guard.cancel()
+    assert not never.done()
