@@ -37,9 +37,9 @@ class _Interrupt:
     in ..."), so a Ctrl-C that lands while matplotlib collects garbage would be lost and the command
     would run to the end with exit 0; ``main`` reads ``seen`` after the work and exits 130 all the same.
 
-    A Ctrl-C during an import waits for the import's end (sent again every 20 ms, for at most
-    ``IMPORT_GRACE_S``): raised inside an extension module's init, the ``KeyboardInterrupt`` came out
-    as that module's ``ImportError`` and a traceback (numba's ``_dispatcher`` importing ``_devicearray``).
+    A Ctrl-C during an import waits for the import's end (sent again every 20 ms, ``_again``, for at
+    most ``IMPORT_GRACE_S``): raised inside an extension module's init, the ``KeyboardInterrupt`` came
+    out as that module's ``ImportError`` and a traceback (numba's ``_dispatcher`` importing ``_devicearray``).
     """
 
     seen = False
@@ -48,26 +48,37 @@ class _Interrupt:
     def __call__(self, signum, frame):  # noqa: ARG002 - a signal handler's signature
         type(self).seen = True
         if _importing(frame):
-            import threading
             import time
 
             now = time.monotonic()
             since = type(self).deferred_at = type(self).deferred_at or now
             if now - since < IMPORT_GRACE_S:
-                again = threading.Timer(0.02, os.kill, (os.getpid(), signal.SIGINT))
-                again.daemon = True
-                again.start()
+                _again()
                 return
         type(self).deferred_at = None
         raise KeyboardInterrupt
+
+
+def _again() -> None:
+    """Send this process SIGINT again in 20 ms (a daemon timer thread): a Ctrl-C held, or swallowed, is raised anew."""
+    import threading
+
+    again = threading.Timer(0.02, os.kill, (os.getpid(), signal.SIGINT))
+    again.daemon = True
+    again.start()
 
 
 interrupt = _Interrupt()
 
 
 def _unraisable(hook_args, _default=sys.unraisablehook):
-    """The swallowed Ctrl-C is said once, by ``main`` ("interrupted"); every other unraisable as Python does."""
-    if not (_Interrupt.seen and isinstance(hook_args.exc_value, KeyboardInterrupt)):
+    """A Ctrl-C that Python swallowed (raised in a garbage-collection callback, a ``__del__``, or a fork hook such as
+    logging's ``_releaseLock`` while a pool forks its workers) is sent again, to be raised where it can end the work,
+    and said once, by ``main`` ("interrupted"); every other unraisable as Python does. Swallowed in a fork hook, it
+    had left a sweep running until its workers' next run finished (9 s under load, seen)."""
+    if _Interrupt.seen and isinstance(hook_args.exc_value, KeyboardInterrupt):
+        _again()
+    else:
         _default(hook_args)
 
 

@@ -154,3 +154,35 @@ def test_a_wait_for_a_worker_hears_a_ctrl_c_another_thread_received():
     finally:
         guard.cancel()
     assert not never.done()
+
+
+# A Ctrl-C whose KeyboardInterrupt is raised inside a fork hook while the sweep's pool forks its workers (logging's
+# _releaseLock runs after each fork): Python reports it as unraisable and goes on, and the sweep ran until its runs
+# finished (seen under load, 9 s). Here the SIGINT arrives, deterministically, inside such a hook at the first fork.
+IN_A_FORK_HOOK = r'''
+import os, signal, sys
+sys.argv[0] = "chatterbench"          # as the console script
+from chatterbench.comparisons.cli import main as cli_main
+
+parent, done = os.getpid(), []
+
+def hook():
+    if os.getpid() == parent and not done:
+        done.append(1)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})  # the pool's start holds it back; let it in here
+        os.kill(parent, signal.SIGINT)
+        sum(range(1000))  # Python code in the hook: the handler runs, its KeyboardInterrupt is swallowed
+
+os.register_at_fork(after_in_parent=hook)
+sys.exit(cli_main.main(sys.argv[1:]))
+'''
+
+
+def test_a_ctrl_c_swallowed_in_a_fork_hook_stops_a_sweep_before_any_run_ends(tmp_path):
+    (tmp_path / "long.toml").write_text('scene = "bouncing-ball"\nengines = ["pybullet"]\n[set]\nduration = 30\n'
+                                        "[grid]\ndt = [1e-5, 2e-5]\n")  # 3 and 1.5 million steps: 10 s or more each
+    proc = subprocess.run([sys.executable, "-c", IN_A_FORK_HOOK, "sweep", "long.toml", "--out", "swept", "--workers",
+                           "2"], cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 130, (proc.returncode, proc.stderr[-3000:])
+    assert proc.stderr.strip().splitlines() == ["chatterbench: interrupted"], proc.stderr[-3000:]
+    assert not list((tmp_path / "swept" / "rows").glob("*.parquet"))  # stopped before any run finished: no row
