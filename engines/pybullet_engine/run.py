@@ -85,6 +85,7 @@ class PybulletEngine(EngineAdapter):
         """``stepSimulation`` with the forces applied; the joints read; the walls' pushes where one can have pushed."""
         f1, f2 = forces
         world, cid = w.world, w.cid
+        world.stepping = True  # until the state is read: a world left here is not kept (world.close)
         # pybullet's arguments by position (physicsClientId last): each call parses no keyword, 0.15 us a call
         if w.on1:
             p.applyExternalForce(w.b1, w.l1, (f1, 0.0, 0.0), _ORIGIN, _LINK_FRAME, cid)
@@ -100,7 +101,7 @@ class PybulletEngine(EngineAdapter):
             x1, v1, _, _ = p.getJointState(w.b1, 0, cid)
             world.x1 = x1
         x2, v2, _, _ = p.getJointState(w.b2, 0, cid)
-        world.x2, world.v2 = x2, v2
+        world.x2, world.v2, world.stepping = x2, v2, False
         if near and abs(v2 - w2) > IMPULSE_RELATIVE_TOLERANCE * abs(w2) + IMPULSE_ABSOLUTE_TOLERANCE:
             return (x1, v1, x2, v2), _pushes(p.getContactPoints(w.b1, w.b2, physicsClientId=cid), w.upper_wall)
         return (x1, v1, x2, v2), ()

@@ -86,12 +86,18 @@ class PybulletWorld:
     x1: float  # [m] body 1 at the start of the next step (the walls' place: which steps can touch)
     x2: float  # [m] body 2 at the start of the next step
     v2: float  # [m/s] body 2's velocity then
+    stepping: bool = False  # a step under way: forces applied, the state not read yet (set by the adapter's step)
 
     def close(self) -> None:
-        """Hand the world's client to the idle ones (disconnect it when ``IDLE_CLIENTS`` are idle); the world is gone."""
+        """Hand the world's client to the idle ones (disconnect it when ``IDLE_CLIENTS`` are idle); the world is gone.
+        Its bodies are kept for a next scene with the same ones only after a whole last step and a finite state: a step
+        cut short leaves its external forces on the bodies for the next ``stepSimulation``, and a blown-up run may
+        leave what ``resetJointState`` does not reset; such a client is reset and built anew."""
         cid, self.client = self.client, -1
         if cid < 0:
             return
+        if self.stepping or not math.isfinite(self.x1 + self.x2 + self.v2):
+            self.held.bodies = None
         with _idle_lock:
             if len(_idle) < IDLE_CLIENTS:
                 _idle.append(self.held)

@@ -187,6 +187,40 @@ def test_a_world_with_the_bodies_kept_runs_bit_for_bit_as_a_new_one(monkeypatch)
         assert abs(fresh[k].y[-1] - scenes[k].gap.lower) < 1e-5 and fresh[k].contact["lower"][-3:].any()
 
 
+def test_a_world_left_in_the_middle_of_a_step_is_not_kept(monkeypatch):
+    # a step cut short after its forces were applied (a Ctrl-C in a notebook, an engine error) leaves those forces for
+    # the next stepSimulation: kept, the bodies gave the next run of the same scene a first step pushed by them
+    from chatterbench.engines.pybullet_engine import run as stepping, world
+
+    s = PybulletSettings(dt=1e-3)
+    scene = load_scene("feigin-pair", ["duration=1", "initial.t=1.2"])  # forced: external forces on body 1 each step
+    monkeypatch.setattr(world, "_idle", [])
+    monkeypatch.setattr(world, "IDLE_CLIENTS", 0)
+    fresh = PybulletEngine().run(scene, s)
+    monkeypatch.setattr(world, "IDLE_CLIENTS", 2)
+    real = stepping.p
+
+    class Cut:  # pybullet whose 300th stepSimulation is interrupted before it steps
+        calls = 0
+
+        def __getattr__(self, name):
+            return getattr(real, name)
+
+        def stepSimulation(self, *args):
+            Cut.calls += 1
+            if Cut.calls == 300:
+                raise KeyboardInterrupt
+            return real.stepSimulation(*args)
+
+    monkeypatch.setattr(stepping, "p", Cut())
+    with pytest.raises(KeyboardInterrupt):
+        PybulletEngine().run(scene, s)
+    monkeypatch.setattr(stepping, "p", real)
+    after = PybulletEngine().run(scene, s)
+    assert after.status == "ok"
+    _same_runs(fresh, after)
+
+
 def test_settings_snippet_is_python():
     snippet = settings_snippet(PybulletSettings(), restitution=0.5)
     compile(snippet, "<snippet>", "exec")
