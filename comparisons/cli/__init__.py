@@ -59,12 +59,25 @@ class _Interrupt:
         raise KeyboardInterrupt
 
 
+_resend: list = []  # the timer of a SIGINT to be sent again, while one is armed: never two
+
+
 def _again() -> None:
-    """Send this process SIGINT again in 20 ms (a daemon timer thread): a Ctrl-C held, or swallowed, is raised anew."""
+    """Send this process SIGINT again in 20 ms (a daemon timer thread): a Ctrl-C held, or swallowed, is raised anew.
+    One at a time: further Ctrl-Cs meanwhile add none (each had raised its own interrupt 10 ms after the first one,
+    in the middle of the cleanup that one began)."""
     import threading
 
-    again = threading.Timer(0.02, os.kill, (os.getpid(), signal.SIGINT))
+    if _resend and _resend[0].is_alive():
+        return
+
+    def send() -> None:
+        _resend.clear()
+        os.kill(os.getpid(), signal.SIGINT)
+
+    again = threading.Timer(0.02, send)
     again.daemon = True
+    _resend[:] = [again]
     again.start()
 
 

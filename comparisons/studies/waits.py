@@ -29,5 +29,5 @@ def result(future: Any) -> Any:
         try:
             return future.result(timeout=POLL_S)
         except TimeoutError:
-            if future.done():  # the task's own TimeoutError
-                raise
+            if future.done():  # the task's own TimeoutError, or its result that came just after the slice ended
+                return future.result()

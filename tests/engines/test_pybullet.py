@@ -221,6 +221,26 @@ def test_a_world_left_in_the_middle_of_a_step_is_not_kept(monkeypatch):
     _same_runs(fresh, after)
 
 
+def test_a_world_whose_run_blew_up_is_not_kept(monkeypatch):
+    # found in review: a run driven to NaN (1e200 N on body 2, joint speeds unclamped) left bodies that resetJointState
+    # does not mend; kept, the next run of the same bodies passed through the wall (y down to -0.94 m) and said "ok"
+    from chatterbench.engines.pybullet_engine import world
+
+    s = PybulletSettings(dt=1e-3, max_joint_velocity=1e300)
+    plain = load_scene("feigin-pair", ["duration=3"])
+    data = plain.to_dict()
+    data["forces"] = [*data["forces"], {"kind": "constant", "on": "body2", "value": 1e200}]
+    blown = scene_from_dict(data)
+    monkeypatch.setattr(world, "_idle", [])
+    monkeypatch.setattr(world, "IDLE_CLIENTS", 0)
+    fresh = PybulletEngine().run(plain, s)
+    monkeypatch.setattr(world, "IDLE_CLIENTS", 2)
+    assert PybulletEngine().run(blown, s).status == "diverged"
+    after = PybulletEngine().run(plain, s)
+    assert after.status == "ok" and after.y.min() > plain.gap.lower - 1e-3
+    _same_runs(fresh, after)
+
+
 def test_settings_snippet_is_python():
     snippet = settings_snippet(PybulletSettings(), restitution=0.5)
     compile(snippet, "<snippet>", "exec")

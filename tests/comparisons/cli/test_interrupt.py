@@ -186,3 +186,71 @@ def test_a_ctrl_c_swallowed_in_a_fork_hook_stops_a_sweep_before_any_run_ends(tmp
     assert proc.returncode == 130, (proc.returncode, proc.stderr[-3000:])
     assert proc.stderr.strip().splitlines() == ["chatterbench: interrupted"], proc.stderr[-3000:]
     assert not list((tmp_path / "swept" / "rows").glob("*.parquet"))  # stopped before any run finished: no row
+
+
+def test_a_result_that_comes_just_after_a_slice_is_returned_not_a_timeout():
+    # found in review: a task finishing between a slice's timeout and the check of done() gave a TimeoutError, which
+    # ended a tune whose candidate had succeeded
+    from concurrent.futures import Future
+
+    from chatterbench.comparisons.studies import waits
+
+    class JustAfter(Future):  # the task's result comes right after the first slice has timed out
+        def result(self, timeout=None):
+            try:
+                return super().result(timeout)
+            except TimeoutError:
+                if not self.done():
+                    self.set_result("the row")
+                raise
+
+    assert waits.result(JustAfter()) == "the row"
+    failed = Future()
+    failed.set_exception(TimeoutError("the task's own"))
+    with pytest.raises(TimeoutError, match="the task's own"):
+        waits.result(failed)
+
+
+# Found in review: each Ctrl-C held for an import started its own chain of re-sent signals, and after the import each
+# raised its KeyboardInterrupt 10 ms after the one before, inside the cleanup the first one began (a staged folder's
+# removal, the pool's stop). Here three Ctrl-Cs arrive during one import; the cleanup after the first must finish.
+SEVERAL = r'''
+import os, signal, sys, time
+sys.argv[0] = "chatterbench"          # as the console script
+from chatterbench.comparisons import cli
+cli.quiet_interrupts(False)           # as during a command's work
+
+class Slow:
+    def find_spec(self, name, path, target=None):
+        if name == "a_module_that_takes_a_while":
+            for _ in range(3):
+                os.kill(os.getpid(), signal.SIGINT)
+                start = time.monotonic()
+                while time.monotonic() - start < 0.113:  # not a multiple of the 20 ms re-send: chains apart
+                    pass
+        return None
+
+sys.meta_path.insert(0, Slow())
+try:
+    try:
+        import a_module_that_takes_a_while
+    except ModuleNotFoundError:
+        pass
+    start = time.monotonic()
+    while time.monotonic() - start < 5:
+        pass
+    print("not interrupted")
+except KeyboardInterrupt:
+    try:
+        start = time.monotonic()
+        while time.monotonic() - start < 0.5:  # the cleanup
+            pass
+        print("interrupted once")
+    except KeyboardInterrupt:
+        print("interrupted again, in the cleanup")
+'''
+
+
+def test_several_ctrl_cs_during_an_import_are_one_interrupt():
+    proc = subprocess.run([sys.executable, "-c", SEVERAL], capture_output=True, text=True, timeout=120)
+    assert proc.stdout.strip() == "interrupted once", (proc.stdout, proc.stderr[-2000:])
