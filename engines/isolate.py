@@ -47,6 +47,7 @@ from typing import Any, Callable
 OUTCOMES = ("ok", "error", "crashed", "timeout")
 _PR_SET_PDEATHSIG = 1  # linux/prctl.h
 RUN_LIMIT = 600.0  # [s] the limit on one engine run where the command sets none (the command line's --timeout default)
+POLL_S = 0.25  # [s] the longest the parent blocks in one wait for the child (as comparisons/studies/waits.py)
 _STATE = {"limit": RUN_LIMIT, "inside": False}  # this process's run limit; whether it is a child of run_isolated
 
 
@@ -126,6 +127,19 @@ def _exit_message(wait_status: int) -> str:
     return f"exited with code {os.WEXITSTATUS(wait_status)} without a result"
 
 
+def _ready(recv, timeout: float) -> bool:
+    """Whether the child's pipe ``recv`` has its result (or closed) within ``timeout`` [s] (inf: no limit), waited for
+    ``POLL_S`` at a time: between slices the main thread runs and acts on a Ctrl-C that another thread received
+    (Python 3.11 notices such a signal only then; one wait of the whole limit held it for the run's length)."""
+    end = time.monotonic() + timeout
+    while True:
+        left = end - time.monotonic()
+        if recv.poll(min(POLL_S, max(left, 0.0))):
+            return True
+        if left <= 0.0:
+            return False
+
+
 def run_isolated(fn: Callable[..., Any], *args: Any, timeout: float = math.inf) -> Outcome:
     """Call ``fn(*args)`` in a forked child; wait at most ``timeout`` seconds [s].
 
@@ -145,8 +159,7 @@ def run_isolated(fn: Callable[..., Any], *args: Any, timeout: float = math.inf) 
         _child(fn, args, send, parent)
     send.close()
     try:
-        wait = None if math.isinf(timeout) else float(timeout)
-        if recv.poll(wait):
+        if _ready(recv, float(timeout)):
             try:
                 status, value, message = recv.recv()
             except (EOFError, OSError):  # the pipe closed without a result: the child died

@@ -254,3 +254,33 @@ except KeyboardInterrupt:
 def test_several_ctrl_cs_during_an_import_are_one_interrupt():
     proc = subprocess.run([sys.executable, "-c", SEVERAL], capture_output=True, text=True, timeout=120)
     assert proc.stdout.strip() == "interrupted once", (proc.stdout, proc.stderr[-2000:])
+
+
+# Found in review: an isolated engine run (engines/isolate.py) waited for its child in one poll of the whole run limit,
+# so a Ctrl-C that another thread received waited for the run's end. Here the run lasts 20 s; the interrupt stops it.
+ISOLATED = r'''
+import os, signal, sys, threading, time
+from chatterbench.engines.isolate import run_isolated
+
+def run():  # an engine run of 20 s that leaves a mark when it ends
+    time.sleep(20.0)
+    open(sys.argv[1], "w").write("the run ended")
+
+def kick():
+    time.sleep(1.0)
+    signal.pthread_kill(threading.get_ident(), signal.SIGINT)  # to this thread, not the main one
+
+threading.Thread(target=kick, daemon=True).start()
+try:
+    run_isolated(run)
+    print("not interrupted")
+except KeyboardInterrupt:
+    time.sleep(0.5)
+    print("interrupted;", "the run had ended" if os.path.exists(sys.argv[1]) else "the run was stopped")
+'''
+
+
+def test_an_isolated_run_hears_a_ctrl_c_another_thread_received(tmp_path):
+    proc = subprocess.run([sys.executable, "-c", ISOLATED, str(tmp_path / "ended")], capture_output=True, text=True,
+                          timeout=120)
+    assert proc.stdout.strip() == "interrupted; the run was stopped", (proc.stdout, proc.stderr[-2000:])
