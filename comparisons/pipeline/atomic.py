@@ -131,7 +131,7 @@ def _no_links(path: Path) -> None:
 
 
 @contextlib.contextmanager
-def _interrupts_held() -> Iterator[None]:
+def interrupts_held() -> Iterator[None]:
     """In the main thread, a SIGINT during the block is held and delivered (its handler called) when it ends."""
     if threading.current_thread() is not threading.main_thread():
         yield
@@ -166,7 +166,7 @@ def staged(folder: str | Path, last: Sequence[str] = ()) -> Iterator[Path]:
         yield stage
         files = sorted((p.relative_to(stage) for p in stage.rglob("*") if p.is_file() and not p.is_symlink()),
                        key=lambda rel: (str(rel) in last, str(rel)))
-        with _interrupts_held():  # a Ctrl-C lands after the set is in place, not halfway through it
+        with interrupts_held():  # a Ctrl-C lands after the set is in place, not halfway through it
             for rel in last:
                 _no_links(folder / rel)
                 with contextlib.suppress(FileNotFoundError):

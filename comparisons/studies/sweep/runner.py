@@ -39,7 +39,7 @@ from typing import Any, Callable
 
 import pandas as pd
 
-from chatterbench.comparisons.pipeline.atomic import write_frame, write_text
+from chatterbench.comparisons.pipeline.atomic import interrupts_held, write_frame, write_text
 from chatterbench.comparisons.pipeline.summary import REFINE_LEVEL
 from chatterbench.engines.isolate import die_with_parent
 from chatterbench.reference.errors import InputError, check_choice, check_integer, check_number
@@ -59,9 +59,12 @@ class NoWorkersError(InputError):
     """A Dask cluster had no worker for longer than allowed (``no_workers="stop"``): exit 2, as an unreachable scheduler."""
 
 
-def _worker_start() -> None:
-    """A local pool worker's start: it dies with the sweep and leaves Ctrl-C to it (``_stop_pool`` ends it)."""
+def _worker_start(sweep: int) -> None:
+    """A local pool worker's start: it dies with the sweep (process ``sweep``) and leaves Ctrl-C to it (``_stop_pool``
+    ends it); a sweep gone before the worker could ask for that is not outlived."""
     die_with_parent()
+    if os.getppid() != sweep:
+        os._exit(1)
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the runs it forks inherit this
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
 
@@ -73,13 +76,18 @@ def _local_pool(workers: int | None, started: list) -> ProcessPoolExecutor:
     Ctrl-C, kept the interrupted sweep from exiting: seen under load).
 
     A Ctrl-C that reaches a child in the middle of ``fork`` prints "Exception ignored in ...
-    _releaseLock ... KeyboardInterrupt"; held back (blocked), it reaches the sweep once they exist.
+    _releaseLock ... KeyboardInterrupt"; held back (blocked), it reaches the sweep once they exist. Held at
+    Python's level too (``atomic.interrupts_held``): one that another thread received is raised only then, never
+    between a worker's fork and the pool's record of it (a worker the pool did not know outlived the sweep, holding
+    its output pipes: 1 of 25 Ctrl-Cs under load, seen).
     """
-    pool = ProcessPoolExecutor(max_workers=workers or os.cpu_count() or 1, initializer=_worker_start)
+    pool = ProcessPoolExecutor(max_workers=workers or os.cpu_count() or 1, initializer=_worker_start,
+                               initargs=(os.getpid(),))
     started.append(pool)
     old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
-        pool.submit(int).result()  # a fork-context pool starts every worker at its first submit
+        with interrupts_held():
+            pool.submit(int).result()  # a fork-context pool starts every worker at its first submit
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
     return pool
