@@ -47,7 +47,7 @@ from typing import Any, Callable
 OUTCOMES = ("ok", "error", "crashed", "timeout")
 _PR_SET_PDEATHSIG = 1  # linux/prctl.h
 RUN_LIMIT = 600.0  # [s] the limit on one engine run where the command sets none (the command line's --timeout default)
-POLL_S = 0.25  # [s] the longest the parent blocks in one wait for the child (as comparisons/studies/waits.py)
+POLL_S = 0.25  # [s] the longest a main thread blocks in one wait for a child or a worker (comparisons' waits.py too)
 _STATE = {"limit": RUN_LIMIT, "inside": False}  # this process's run limit; whether it is a child of run_isolated
 
 
@@ -87,11 +87,14 @@ def _libc():
         return None
 
 
-def die_with_parent() -> None:
-    """Ask Linux to SIGKILL this process when its parent exits (no-op elsewhere)."""
+def die_with_parent(parent: int) -> None:
+    """Ask Linux to SIGKILL this process when its parent exits (no-op elsewhere); a parent (pid ``parent``) that
+    exited before the request took effect ends this process here."""
     libc = _libc() if sys.platform.startswith("linux") else None
     if libc is not None:  # without libc a child simply outlives a killed parent
         libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    if os.getppid() != parent:
+        os._exit(1)
 
 
 def _child(fn: Callable[..., Any], args: tuple, send, parent: int) -> None:
@@ -99,11 +102,9 @@ def _child(fn: Callable[..., Any], args: tuple, send, parent: int) -> None:
     code = 0
     _STATE["inside"] = True
     try:
-        die_with_parent()
+        die_with_parent(parent)
         # a crash is reported in the outcome; a faulthandler dump would only scribble over the progress bar
         faulthandler.disable()
-        if os.getppid() != parent:  # the parent died before prctl took effect
-            os._exit(1)
         try:
             value = fn(*args)
             send.send(("ok", value, ""))

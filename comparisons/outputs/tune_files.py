@@ -73,8 +73,8 @@ def write_engine_set(result, out: Path) -> tuple[list[str], str]:
         written.append("recommended.json")
     write_text(out / "guide.md", guide_markdown(result, figures, ev))
     files = {name: figure_files(fig) for name, fig in figures.items()}  # each drawn once, for the page and the files
-    section = guide_section_html(result, figures, ev, png={name: f["png"] for name, f in files.items()})  # rendered
-    # once: the page and `report --tune DIR` embed it
+    # the section rendered once: the page and `report --tune DIR` embed it
+    section = guide_section_html(result, figures, ev, png={name: f["png"] for name, f in files.items()})
     write_text(out / "guide.html", guide_html(result, section=section))
     write_text(out / "guide_section.html", section)
     write_frame(out / "candidates.csv", candidates_frame(result))

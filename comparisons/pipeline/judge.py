@@ -285,10 +285,6 @@ def _empty_table(dt: float, tol: Tolerances, run: RunFacts, deepest: float) -> p
     """The judged table where neither side has an episode: no row, or the failed run's row (``assign_verdicts``),
     with the columns and types pandas gives them."""
     table = pd.DataFrame(columns=[*TABLE_COLUMNS, "stick_scale", "restitution_excess"])
-    for c in BOUND_COLUMNS:
-        table[c] = table[c]
-    for c in ("unmeasured_impacts", "measured_impacts"):
-        table[c] = table[c].fillna(0) if c in table else 0
     table["penetration_max"] = []
     errors(table, dt)
     table = assign_verdicts(table, tol, run, deepest)

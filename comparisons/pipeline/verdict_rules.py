@@ -53,11 +53,6 @@ def run_failure(run: RunFacts) -> str:
     return "penetrated" if not math.isnan(run.t_penetrated) else ""
 
 
-def _beyond(value: float, limit: float) -> bool:
-    """|value| > limit; a NaN value (nothing to compare) is not beyond."""
-    return not math.isnan(value) and abs(value) > limit
-
-
 def timing(error: float, bound: float, limit: float) -> str:
     """One timing criterion: ``""`` (within), ``early``/``late`` or ``unresolved`` (all in seconds).
 

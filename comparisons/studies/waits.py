@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from typing import Any
 
-POLL_S = 0.25  # [s] the longest the main thread blocks in one wait for a worker
+from chatterbench.engines.isolate import POLL_S  # [s] the longest the main thread blocks in one wait for a worker
 
 
 def result(future: Any) -> Any:

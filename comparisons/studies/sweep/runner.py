@@ -62,9 +62,7 @@ class NoWorkersError(InputError):
 def _worker_start(sweep: int) -> None:
     """A local pool worker's start: it dies with the sweep (process ``sweep``) and leaves Ctrl-C to it (``_stop_pool``
     ends it); a sweep gone before the worker could ask for that is not outlived."""
-    die_with_parent()
-    if os.getppid() != sweep:
-        os._exit(1)
+    die_with_parent(sweep)
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the runs it forks inherit this
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
 
