@@ -130,6 +130,15 @@ def test_a_ctrl_c_another_thread_receives_stops_a_sweep_before_any_run_ends(tmp_
     assert not list((tmp_path / "swept" / "rows").glob("*.parquet"))  # stopped before any run finished: no row
 
 
+def _waiting_in(frame, name: str, filename: str) -> bool:
+    """Whether a thread's stack (its innermost ``frame``) runs the function ``name`` of the file ``filename``."""
+    while frame is not None:
+        if frame.f_code.co_name == name and frame.f_code.co_filename == filename:
+            return True
+        frame = frame.f_back
+    return False
+
+
 def test_a_wait_for_a_worker_hears_a_ctrl_c_another_thread_received():
     # tune's wait for a candidate's row (studies/tune.py, _row) is waits.result: the interrupt comes before the result
     import signal
@@ -142,8 +151,11 @@ def test_a_wait_for_a_worker_hears_a_ctrl_c_another_thread_received():
     never = Future()  # a worker's result that does not come ...
     guard = threading.Timer(60.0, never.set_result, ("came after 60 s",))  # ... until this guard gives up on the test
 
-    def kick():
-        time.sleep(0.3)
+    def kick():  # once the main thread waits in waits.result, however late a loaded machine gets it there
+        main = threading.main_thread().ident
+        while not _waiting_in(sys._current_frames().get(main), "result", waits.__file__):
+            time.sleep(0.01)
+        time.sleep(0.3)  # a slice or more into the wait
         signal.pthread_kill(threading.get_ident(), signal.SIGINT)  # to this thread, not the main one
 
     guard.start()
