@@ -50,7 +50,7 @@ def test_an_engine_not_in_the_comparison_is_a_key_error():
         conformance(result, "mujoco", "mujoco_warp")
 
 
-@pytest.mark.skipif(bool(unavailable_reason("mujoco_warp")), reason="needs the warp extra")
+@pytest.mark.skipif(bool(unavailable_reason("mujoco_warp")), reason=unavailable_reason("mujoco_warp") or "-")
 def test_engines_on_one_model_are_the_pairs_their_adapters_declare():
     # MuJoCo Warp's adapter says it runs MuJoCo's model (same_model_as); no other pair among the built-in engines does
     assert same_model_pairs(("pybullet", "mujoco_warp", "mujoco")) == [("mujoco", "mujoco_warp")]
