@@ -64,7 +64,7 @@ PARENT = "CHATTERBENCH_SICONOS_PARENT"  # the child's check that its parent is a
 PROBE_TIMEOUT = 60.0  # [s] for ``python -c "import siconos.kernel"`` (a cold disk cache: a few seconds)
 # One BLAS thread in a child unless the environment says otherwise: its LCPs are of one or two contacts, and numpy's
 # OpenBLAS starting a thread per core cost each child's start more than half its CPU (0.22 -> 0.13 s, measured with
-# run.start_seconds on 2 cores); the same bits (tests/engines/test_unchanged_runs.py)
+# run.start_seconds on 2 cores); the same trajectories (tests/engines/test_unchanged_runs.py)
 CHILD_THREADS = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
 EXIT_GRACE = 2.0  # [s] a failed child has to exit in before it is killed (one that sent garbage may be blocked writing)
 _PROBE = "import numpy, siconos, siconos.kernel; print(siconos.version)"
