@@ -3,7 +3,8 @@
     >>> from chatterbench.comparisons.ci.checks import run_gate
     >>> from chatterbench.comparisons.ci.gate import parse_gate
     >>> gate = parse_gate({"defaults": {"dt": 1e-3}, "check": [
-    ...     {"scene": "bouncing-ball", "engine": "pybullet", "limits": ["verdict == match", "stick_error_rel_max <= 0.05"]}]})
+    ...     {"scene": "bouncing-ball", "engine": "pybullet", "settings": {"restitution_velocity_threshold": 0.02},
+    ...      "limits": ["verdict == match", "stick_error_rel_max <= 0.05"]}]})     # 0.02 m/s: the ball rests
     >>> result = run_gate(gate)
     >>> [(str(o.limit), o.passed) for o in result.results[0].outcomes]      # each limit's outcome
     [('verdict == match', True), ('stick_error_rel_max <= 0.05', True)]

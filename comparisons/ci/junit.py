@@ -5,6 +5,7 @@
     >>> from chatterbench.comparisons.ci.decision import decide
     >>> from chatterbench.comparisons.ci.gate import parse_gate
     >>> gate = parse_gate({"check": [{"scene": "bouncing-ball", "engine": "pybullet", "dt": 1e-3,
+    ...                               "settings": {"restitution_velocity_threshold": 0.02},
     ...                               "limits": ["verdict == none"]}]})
     >>> xml = junit_xml(decide(run_gate(gate)))       # the ball slides: "none" fails, with the numbers
     >>> 'tests="1" failures="1"' in xml, "verdict = match, limit verdict == none" in xml

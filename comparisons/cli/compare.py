@@ -24,6 +24,7 @@ from .progress import Progress
 
 EPISODE_SHOW = ["engine", "wall", "ref_t_stick", "t_stick", "stick_error_zeno", "stick_error_rel", "ref_t_exit", "t_exit",
                 "exit_error", "exit_error_steps", "restitution_error", "resolved_impacts", "ref_resolved_impacts",
+                "onset_rate", "open_fraction",
                 "n_impacts", "verdict"]
 SUMMARY_SHOW = ["engine", "verdict", "n_episodes", "n_match", "stick_error_max", "stick_error_rel_max", "exit_error_max",
                 "exit_error_rel_max", "restitution_error_max", "penetration_max", "cost_per_sim_s", "status"]

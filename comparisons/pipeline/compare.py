@@ -3,10 +3,10 @@
     >>> from chatterbench.reference.scene import load_scene
     >>> from chatterbench.comparisons import compare
     >>> result = compare(load_scene("bouncing-ball"), engines=("mujoco", "pybullet"), dt=1e-4)
-    >>> result.table[["engine", "wall", "verdict"]].values.tolist()
-    [['mujoco', 'lower', 'rebound'], ['pybullet', 'lower', 'match']]
+    >>> result.table[["engine", "wall", "verdict"]].values.tolist()   # PyBullet's default threshold 0: it keeps bouncing
+    [['mujoco', 'lower', 'rebound'], ['pybullet', 'lower', 'buzz']]
     >>> result.summary()[["engine", "verdict", "n_match"]].values.tolist()   # the columns of ``summary.ROW_COLUMNS``
-    [['mujoco', 'rebound', 0], ['pybullet', 'match', 1]]
+    [['mujoco', 'rebound', 0], ['pybullet', 'buzz', 0]]
 
 The table has one row per (engine, reference or engine episode) with the columns of
 ``judge.TABLE_COLUMNS`` plus ``engine``, ``dt`` [s], ``status`` (the engine run's status)

@@ -48,14 +48,18 @@ Verdicts (``vocabulary.py``; each row's in ``verdict_rules.py``), the first that
 6. ``rebound``: timing within tolerance (or unresolved), but a measurable resolved impact's
    |e / R - 1| exceeds ``restitution`` (the allowance is the tolerance, whatever the step), or
    the resolved impact counts differ by more than ``impact_count`` (``reason`` says which);
-7. ``unresolved``: a time's bound exceeds its tolerance, and its error is neither beyond
+7. ``buzz``: it sticks on time, but after the stick its contact is open more than
+   ``persistence`` of the rest (``persistence.py``: the rest window, onsets per second, the
+   open share, the largest gap and the force's swing, all in ``reason``);
+8. ``unresolved``: a time's bound exceeds its tolerance, and its error is neither beyond
    the tolerance with the bound taken off nor within it with the bound added: the samples
    cannot say (a finer step can: ``reason`` gives the bound and the step that would resolve
    it; the step is the sampling's times the tolerance over the bound, as the bounds scale);
-8. ``unmeasured``: all of the above holds, but the visit's paired resolved impacts are all
+   or the contact after the stick is read from positions too coarse to show a one-step flicker;
+9. ``unmeasured``: all of the above holds, but the visit's paired resolved impacts are all
    unmeasured (their uncertainty exceeds ``restitution``: ``impacts.py``), so nothing says
    whether they follow R; unmeasured impacts beside measured ones are counted, not judged;
-9. ``match``.
+10. ``match``.
 
 A failure never agrees: when the run failed (status, divergence, penetration) and no
 episode row says so, a run row (wall "") carries the failure verdict. Engine episodes that
@@ -77,6 +81,7 @@ from chatterbench.engines.trajectory import Trajectory
 
 from .extract import Extraction
 from .impacts import PAIR_COLUMNS, ImpactPairs, pair_impacts, reference_flights
+from .persistence import NO_REST, REST_COLUMNS, contact_rest, rest_window
 from .solution import ReferenceSolution, overlaps, reduced_mass
 from .tolerances import Tolerances
 from .verdict_rules import RunFacts, run_failure, run_failure_words, timing, verdict, verdict_reason  # noqa: F401  (the rules: there)
@@ -89,7 +94,8 @@ TABLE_COLUMNS = [
     "wall", "ref_t_first_impact", "ref_t_plate_entry", "ref_t_stick", "ref_t_exit", "t_first_impact", "t_stick", "t_exit",
     "n_impacts", "ref_n_impacts", "resolved_impacts", "ref_resolved_impacts",
     "chatter_duration", "sliding_duration", "ref_v_first_impact",
-    *ERROR_COLUMNS, *BOUND_COLUMNS, "restitution_error", "unmeasured_impacts", "penetration_max", "verdict", "reason",
+    *ERROR_COLUMNS, *BOUND_COLUMNS, "restitution_error", "unmeasured_impacts", "penetration_max", *REST_COLUMNS,
+    "verdict", "reason",
 ]
 IMPACT_PAIR_COLUMNS = ["episode", "wall", *PAIR_COLUMNS]
 
@@ -230,13 +236,18 @@ def judge(ref: ReferenceSolution, found: Extraction, traj: Trajectory, tol: Tole
                "ref_t_stick": r.t_stick, "ref_t_exit": r.t_exit, "ref_n_impacts": int(r.n_impacts),
                "chatter_duration": r.chatter_duration, "sliding_duration": r.sliding_duration,
                "ref_v_first_impact": r.v_first_impact, "stick_scale": r.stick_scale,
-               "t_first_impact": math.nan, "t_stick": math.nan, "t_exit": math.nan}
+               "t_first_impact": math.nan, "t_stick": math.nan, "t_exit": math.nan, **_NO_REST}
         j = paired.get(i)
         if j is not None:
             e = eng_rows[j]
             row.update(t_first_impact=e.t_first_impact, t_stick=e.t_stick, t_exit=e.t_exit,
                        n_impacts=int(e.n_impacts), **imps.bounds(e))
             visit = imps.visit_columns(r.wall, e.t_first_impact, e.t_exit)
+            if not math.isnan(e.t_stick):
+                window = rest_window(e.t_stick, r.t_stick, tol.stick * r.stick_scale, e.t_exit, r.t_exit,
+                                     tol.exit * r.sliding_duration, t_end)
+                rest = contact_rest(traj, scene, found, r.wall, *window)
+                row.update(rest.columns(), rest_resolved=rest.resolved)
         else:
             row["n_impacts"] = imps.count(r.wall, r.t_first_impact, r.t_exit)
             visit = imps.visit_columns(r.wall, r.t_first_impact, r.t_exit)
@@ -262,7 +273,7 @@ def judge(ref: ReferenceSolution, found: Extraction, traj: Trajectory, tol: Tole
                      "t_stick": e.t_stick, "t_exit": e.t_exit, **imps.bounds(e),
                      "n_impacts": int(e.n_impacts), "resolved_impacts": 0,
                      "ref_resolved_impacts": 0, "restitution_error": math.nan, "restitution_excess": math.nan,
-                     "unmeasured_impacts": 0, "measured_impacts": 0})
+                     "unmeasured_impacts": 0, "measured_impacts": 0, **_NO_REST})
         windows.append((e.t_first_impact if not math.isnan(e.t_first_impact) else e.t_stick, e.t_exit))
     beyond = pen > allowance
     facts = RunFacts(status=traj.status, t_end=t_end, t_diverged=t_div,
@@ -305,9 +316,11 @@ def _joined_pairs(kept: list[tuple[int, str, ImpactPairs]]) -> pd.DataFrame:
                          **{c: np.concatenate([p.columns[c] for _, _, p in kept]) for c in PAIR_COLUMNS}})
 
 
-_COUNT_COLUMNS = ("n_impacts", "ref_n_impacts", "resolved_impacts", "ref_resolved_impacts", "unmeasured_impacts")
+_COUNT_COLUMNS = ("n_impacts", "ref_n_impacts", "resolved_impacts", "ref_resolved_impacts", "unmeasured_impacts",
+                  "contact_onsets")
 _JUDGED_COLUMNS = (tuple(c for c in TABLE_COLUMNS if c not in ("verdict", "reason"))
-                   + ("stick_scale", "restitution_excess", "measured_impacts"))  # what ``verdict_reason`` reads
+                   + ("stick_scale", "restitution_excess", "measured_impacts", "rest_resolved"))  # what ``verdict_reason`` reads
+_NO_REST = {**NO_REST.columns(), "rest_resolved": True}  # an episode without a rest window: nothing to judge there
 
 
 def _judged_table(rows: list[dict], penetration_max: list[float], dt: float, tol: Tolerances, run: RunFacts,
@@ -370,7 +383,7 @@ def run_row(run: RunFacts, failure: str, penetration_max: float) -> dict:
     row says it: wall "", no times, no impacts, the run's deepest penetration [m]."""
     row = {c: math.nan for c in TABLE_COLUMNS}
     row.update(wall="", n_impacts=0, ref_n_impacts=0, resolved_impacts=0, ref_resolved_impacts=0, unmeasured_impacts=0,
-               penetration_max=penetration_max, verdict=failure, reason=f"the run {run_failure_words(run)}")
+               contact_onsets=0, penetration_max=penetration_max, verdict=failure, reason=f"the run {run_failure_words(run)}")
     return row
 
 

@@ -5,8 +5,10 @@
     >>> from chatterbench.comparisons import compare
     >>> result = compare(load_scene("bouncing-ball"), engines=("pybullet",), dt=1e-3)
     >>> row = summarize(result, "pybullet", params={"dt": 1e-3})
-    >>> row["point_id"], row["verdict"], row["n_episodes"]
-    ('bcf533bb0b267c67', 'match', 1)
+    >>> row["point_id"], row["verdict"], row["n_episodes"]     # on time, then bouncing at g dt (threshold 0)
+    ('bcf533bb0b267c67', 'buzz', 1)
+    >>> round(row["open_fraction_max"], 2), round(row["onset_rate_max"])   # open a third of the rest, 333 onsets/s
+    (0.33, 333)
 
 The same row is ``compare``'s summary, a sweep's dataset row, the gate's metrics and the
 report's summary table. Columns (a sweep dataset's schema; charts and reports read these names):
@@ -30,6 +32,9 @@ exit_error_rel_max         max |exit error| / sliding duration [-] (the exit tol
 stick_error_rel_max        max |sticking start error| / chatter duration [-] (the stick tolerance's)
 restitution_error_max      max |effective R / R - 1| over the resolved impacts [-]
 penetration_max            deepest penetration of a wall [m]
+open_fraction_max          max share of an episode's rest after its stick that the contact is open [-] (persistence's
+                           measure: ``persistence.py``; NaN with no rest window)
+onset_rate_max             max contact onsets per second in an episode's rest after its stick [1/s]
 cost_per_sim_s             wall-clock seconds of engine stepping per simulated second
 reference_cost_per_sim_s   wall-clock seconds of the reference (Feigin's model) per simulated second
 wall_time_s                wall-clock seconds of engine stepping
@@ -52,6 +57,7 @@ from .vocabulary import combine
 METRIC_COLUMNS = [
     "exit_error_max", "stick_error_max", "stick_error_plate_max", "first_impact_error_max",
     "exit_error_rel_max", "stick_error_rel_max", "restitution_error_max", "penetration_max",
+    "open_fraction_max", "onset_rate_max",
 ]
 ROW_COLUMNS = [
     "point_id", "scene", "engine", "dt", "mass_ratio", "status", "verdict", "n_episodes", "n_match",
@@ -67,7 +73,7 @@ _SOURCES = {
     "exit_error_max": "exit_error", "stick_error_max": "stick_error_zeno", "stick_error_plate_max": "stick_error_plate",
     "first_impact_error_max": "first_impact_error", "exit_error_rel_max": "exit_error_rel",
     "stick_error_rel_max": "stick_error_rel", "restitution_error_max": "restitution_error",
-    "penetration_max": "penetration_max",
+    "penetration_max": "penetration_max", "open_fraction_max": "open_fraction", "onset_rate_max": "onset_rate",
 }
 
 

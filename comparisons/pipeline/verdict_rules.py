@@ -1,4 +1,4 @@
-"""The verdict of one judged episode row and why, from the rules ``judge.py``'s docstring lists (1 to 9).
+"""The verdict of one judged episode row and why, from the rules ``judge.py``'s docstring lists (1 to 10).
 
     >>> from chatterbench.comparisons.pipeline.verdict_rules import timing
     >>> timing(error=0.004, bound=0.001, limit=0.002), timing(0.003, 0.004, 0.002), timing(0.001, 0.0, 0.002)
@@ -95,23 +95,64 @@ def _timing_reason(name: str, error: float, bound: float, limit: float, fraction
             f"the tolerance {pct}{finer}")
 
 
+def _metres(value: float) -> str:
+    return f"{value * 1e6:.3g} um" if abs(value) < 1e-3 else f"{value * 1e3:.3g} mm" if abs(value) < 1.0 else f"{value:.4g} m"
+
+
+def _buzz_reason(r, tol: Tolerances) -> str:
+    """Why a stuck episode is ``buzz``: its contact's onsets per second, open share, largest gap and force swing."""
+    swing = getattr(r, "force_swing", math.nan)
+    force = "" if math.isnan(swing) else f", the contact force swinging by {swing:.0%} of the load it carries"
+    return (f"the contact keeps opening after the stick: {int(r.contact_onsets)} contact onsets in "
+            f"{_seconds(r.rest_window)} ({r.onset_rate:.3g} per second), open {r.open_fraction:.1%} of that time (the "
+            f"persistence tolerance: {tol.persistence:.3g}), gaps up to {_metres(r.gap_max)}{force}")
+
+
 def verdict(r, tol: Tolerances, run: RunFacts) -> str:
     """The verdict of one judged row (a ``TABLE_COLUMNS`` namedtuple with ``restitution_excess``): module docstring."""
     return verdict_reason(r, tol, run)[0]
 
 
 def verdict_reason(r, tol: Tolerances, run: RunFacts) -> tuple[str, str]:
-    """The verdict of one judged row and why, in one line ("" for ``match`` and ``none``): module docstring."""
-    has_ref = not math.isnan(r.ref_t_stick)
-    has_eng = not math.isnan(r.t_stick)
-    stop = r.ref_t_exit if has_ref else r.t_exit
-    stop = math.inf if math.isnan(stop) else stop
+    """The verdict of one judged row and why, in one line ("" for ``match`` and ``none``): module docstring.
+
+    The rules in order, the first that finds a failure decides: the run's own failure, the pairing of the episodes,
+    timing, restitution, persistence (``buzz``: a stuck contact that does not stay closed); then what the sampling
+    cannot resolve; then ``match``."""
+    unresolved: list[str] = []
+    for rule in (_run_rule, _pairing_rule, _timing_rule, _restitution_rule, _persistence_rule):
+        found = rule(r, tol, run, unresolved)
+        if found is not None:
+            return found
+    if unresolved:
+        return "unresolved", "; ".join(unresolved)
+    if getattr(r, "unmeasured_impacts", 0) > 0 and getattr(r, "measured_impacts", 0) == 0:
+        return "unmeasured", (f"none of the {r.unmeasured_impacts} resolved impacts is measurable to the restitution "
+                              f"tolerance {tol.restitution:.0%} at this step")
+    return "match", ""
+
+
+def _stop(r) -> float:
+    """Where an episode ends for the run's failures [s]: its exit (the reference's when it has one), else never."""
+    stop = r.ref_t_exit if not math.isnan(r.ref_t_stick) else r.t_exit
+    return math.inf if math.isnan(stop) else stop
+
+
+def _run_rule(r, tol: Tolerances, run: RunFacts, unresolved: list[str]) -> tuple[str, str] | None:
+    """The run diverged, failed or penetrated before the episode ended."""
+    stop = _stop(r)
     if not math.isnan(run.t_diverged) and run.t_diverged <= stop:
         return "diverged", f"the run diverged at {run.t_diverged:.6g} s"
     if run.status in FAILURES and stop > run.t_end:
         return run.status, f"the run ended ({run.status}) at {run.t_end:.6g} s, before this episode did"
     if not math.isnan(r.penetration_max) and r.penetration_max > run.penetration_allowance:
         return "penetrated", f"penetration {r.penetration_max:.3g} m > the allowance {run.penetration_allowance:.3g} m"
+    return None
+
+
+def _pairing_rule(r, tol: Tolerances, run: RunFacts, unresolved: list[str]) -> tuple[str, str] | None:
+    """A reference episode the engine never sticks in (endless, unresolved or missed), or the engine's alone."""
+    has_ref, has_eng = not math.isnan(r.ref_t_stick), not math.isnan(r.t_stick)
     if has_ref and not has_eng:
         inside = run.inside_impacts(r.wall, r.ref_t_stick, r.ref_t_exit)
         if inside >= tol.endless_impacts:
@@ -122,7 +163,11 @@ def verdict_reason(r, tol: Tolerances, run: RunFacts) -> tuple[str, str]:
         return "missed", f"no stick where the reference slides {_seconds(r.sliding_duration)}"
     if has_eng and not has_ref:
         return "spurious", "sticks where the reference does not"
-    unresolved = []
+    return None
+
+
+def _timing_rule(r, tol: Tolerances, run: RunFacts, unresolved: list[str]) -> tuple[str, str] | None:
+    """Sticking, exit and first impact against their tolerances (``_TIMING``); what the step cannot tell, noted."""
     for name, err, bound, key, scale, words in _TIMING:
         if key == "exit" and math.isnan(r.ref_t_exit) != math.isnan(r.t_exit):
             found = "late" if math.isnan(r.t_exit) else "early"  # one of them is still stuck at the end of the run
@@ -135,15 +180,28 @@ def verdict_reason(r, tol: Tolerances, run: RunFacts) -> tuple[str, str]:
             return found, _timing_reason(name, value, b, limit, getattr(tol, key), words, found, run.dt)
         if found:
             unresolved.append(_timing_reason(name, value, b, limit, getattr(tol, key), words, found, run.dt))
+    return None
+
+
+def _restitution_rule(r, tol: Tolerances, run: RunFacts, unresolved: list[str]) -> tuple[str, str] | None:
+    """A resolved impact's e beyond the tolerance, or too many or too few resolved impacts."""
     if not math.isnan(r.restitution_excess) and r.restitution_excess > tol.restitution:
         return "rebound", (f"restitution: a resolved impact's e / R - 1 = {r.restitution_error:+.1%}, beyond the "
                            f"tolerance {tol.restitution:.0%}")
     if abs(r.resolved_impacts - r.ref_resolved_impacts) > tol.impact_count:
         return "rebound", (f"impact count: {r.resolved_impacts} resolved impacts against the reference's "
                            f"{r.ref_resolved_impacts}, more than {tol.impact_count} apart")
-    if unresolved:
-        return "unresolved", "; ".join(unresolved)
-    if getattr(r, "unmeasured_impacts", 0) > 0 and getattr(r, "measured_impacts", 0) == 0:
-        return "unmeasured", (f"none of the {r.unmeasured_impacts} resolved impacts is measurable to the restitution "
-                              f"tolerance {tol.restitution:.0%} at this step")
-    return "match", ""
+    return None
+
+
+def _persistence_rule(r, tol: Tolerances, run: RunFacts, unresolved: list[str]) -> tuple[str, str] | None:
+    """After a stick on time, the contact open more of the rest than ``tol.persistence`` allows (``buzz``); where
+    the samples cannot show a one-step flicker, noted as unresolved."""
+    open_share = getattr(r, "open_fraction", math.nan)
+    if open_share > tol.persistence:
+        return "buzz", _buzz_reason(r, tol)
+    if not math.isnan(open_share) and not getattr(r, "rest_resolved", True):
+        unresolved.append(f"persistence: the contact is read from the positions, whose velocities tell motion from "
+                          f"rest only above {r.contact_resolution:.3g} m/s, more than a one-step bounce's speed: a "
+                          "flicker could pass for rest there")
+    return None

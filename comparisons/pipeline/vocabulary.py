@@ -50,6 +50,9 @@ _ALL = (
     Verdict("endless", "physics", "chatters through the reference's sliding and never sticks", "#4a148c", "end"),
     Verdict("missed", "physics", "never sticks where the reference slides", "#b39ddb", "mis"),
     Verdict("spurious", "physics", "sticks where the reference does not", "#7e57c2", "spu"),
+    Verdict("buzz", "physics", "sticks, but the contact keeps opening after the stick: open longer than the "
+            "persistence tolerance allows (the reason gives onsets per second, the open share, the largest gap and "
+            "the force's swing)", "#ad1457", "bz"),
     Verdict("late", "timing", "sticks, exits or first impacts too late", "#ff9800", "L"),
     Verdict("early", "timing", "sticks, exits or first impacts too early", "#ffd54f", "E"),
     Verdict("rebound", "impacts", "timing within tolerance, but a resolved impact does not follow R, or the resolved "
@@ -93,6 +96,13 @@ GLOSSARY: tuple[tuple[str, str], ...] = (
                 "the exit (the code's ``stuck``: ``reference/stuck.py``)"),
     ("exit", "the end of sliding: the free relative acceleration (3.1) turns away from the wall and the bodies part "
              "(event ``exit``, at ``t_exit``)"),
+    ("persistence", "a stuck contact that stays closed: the share of an episode's rest window (from the sticking "
+                    "tolerance past the stick to the exit tolerance before the exit) its contact is open, bounded by the "
+                    "``persistence`` tolerance (else ``buzz``), with its contact onsets per second, largest gap and the "
+                    "force's swing against the load (``persistence.py``)"),
+    ("band-robust", "a setting that passes at every checked dt of its band, [0.8, 1.25] x dt (16 or more, both ends "
+                    "included), at every checked impact phase (4 or more places of the first impact within a step) and "
+                    "at its knob neighbours (``tune``)"),
     ("colour", "the spelling of this code's names and texts (``COLOURS``, ``engine_colour``); ``color`` only "
                "where matplotlib spells it (its keyword, and the values handed to it)"),
 )

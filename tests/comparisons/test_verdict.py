@@ -203,7 +203,7 @@ def test_combine_takes_the_most_severe():
 
 
 def test_one_vocabulary_names_every_verdict_with_meaning_colour_and_abbreviation():
-    assert set(NAMES) == set(VERDICTS) and len(NAMES) == len(set(NAMES)) == 15
+    assert set(NAMES) == set(VERDICTS) and len(NAMES) == len(set(NAMES)) == 16
     table = markdown_table()
     for name in NAMES:
         v = VERDICTS[name]
@@ -215,8 +215,38 @@ def test_one_vocabulary_names_every_verdict_with_meaning_colour_and_abbreviation
 
 def test_table_columns_are_the_contract():
     for c in ("verdict", "t_stick", "ref_t_stick", "t_exit", "ref_t_exit", "stick_error_zeno", "exit_error",
-              "restitution_error", "resolved_impacts", "ref_resolved_impacts", "penetration_max"):
+              "restitution_error", "resolved_impacts", "ref_resolved_impacts", "penetration_max",
+              "rest_window", "contact_onsets", "onset_rate", "open_fraction", "gap_max", "force_swing",
+              "contact_resolution"):
         assert c in TABLE_COLUMNS
+
+
+# the rest after the stick (persistence.py): a contact open 2% of a 0.5 s rest, 40 onsets (80 per second),
+# gaps up to 1.2 um, the force swinging by 3x the load it carries
+BUZZING = {"rest_window": 0.5, "contact_onsets": 40, "onset_rate": 80.0, "open_fraction": 0.02, "gap_max": 1.2e-6,
+           "force_swing": 3.0, "contact_resolution": 0.0, "rest_resolved": True}
+
+
+@pytest.mark.parametrize("change, want", [
+    ({}, "buzz"),                                           # open 2% of the rest: over the 1% tolerance
+    ({"open_fraction": 0.011}, "buzz"),
+    ({"open_fraction": 0.009}, "match"),                    # within it: a rare late settling bounce
+    ({"open_fraction": 0.0, "contact_onsets": 0, "onset_rate": 0.0}, "match"),   # a contact that holds
+    ({"open_fraction": math.nan, "rest_window": 0.0}, "match"),                  # no rest window: nothing to judge
+])
+def test_buzz_is_a_stuck_contact_open_beyond_the_persistence_tolerance(change, want):
+    assert judged({**BUZZING, **change}) == [want]
+
+
+def test_buzz_says_how_the_contact_opens_and_follows_the_persistence_tolerance():
+    ((verdict, why),) = judged_why({**BUZZING})
+    assert verdict == "buzz"
+    assert "40 contact onsets" in why and "80 per second" in why and "2.0%" in why and "1.2 um" in why, why
+    assert "300%" in why, why  # the force's swing against the load
+    assert judged({**BUZZING}, tol=Tolerances(persistence=0.05)) == ["match"]
+    # contact read from the positions too coarse to show a one-step flicker: not a confident match
+    assert judged({**BUZZING, "open_fraction": 0.0, "rest_resolved": False, "contact_resolution": 0.01}) == ["unresolved"]
+    assert combine(["match", "late", "buzz"]) == combine(["buzz", "late"]) == "buzz"  # a run: the more severe of the two
 
 
 @pytest.mark.parametrize("items, match", [

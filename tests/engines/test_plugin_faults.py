@@ -55,7 +55,10 @@ def test_a_broken_or_faulty_plugin_is_one_line_or_one_row(case, tmp_path_factory
         summary = done.stdout.split("summary:")[1].splitlines()
         header = summary[1].split()
         rows = {r.split()[0]: r.split() for r in summary[2:] if r.strip()}
-        assert rows["pybullet"][header.index("verdict")] == "match"
+        # its run complete, and its verdict at its default settings, as alone: it sticks on time, then keeps bouncing
+        # at g dt (restitution threshold 0: buzz; gates/default.toml)
+        assert rows["pybullet"][header.index("status")] == "ok"
+        assert rows["pybullet"][header.index("verdict")] == "buzz"
         assert rows["line"][header.index("status")] == "crashed"
 
 

@@ -10,7 +10,8 @@ from chatterbench.comparisons.ci.gate import GateError, Limit, limits_from_keywo
 
 # The ball's Zeno point is at 1.355 s; a 1.6 s run keeps its one sliding episode. With
 # restitutionVelocityThreshold = 0.5 m/s PyBullet stops the ball at its 5th impact, 1.299 s,
-# 56 ms early; with the default threshold 0 it sticks within 1.4 ms.
+# 56 ms early; with 0.002 m/s (just above its resting bounce, g dt = 1e-3 m/s: gates/default.toml)
+# it sticks 2.1 ms late and rests: match (with the default 0 it sticks as late but keeps bouncing: buzz).
 FAILING_GATE = """
 description = "PyBullet's velocity threshold must not stick the ball early"
 
@@ -19,9 +20,10 @@ dt = 1e-4
 scene_overrides = { duration = 1.6 }
 
 [[check]]
-name = "ball/pybullet default"
+name = "ball/pybullet threshold 0.002"
 scene = "bouncing-ball"
 engine = "pybullet"
+settings = { restitution_velocity_threshold = 0.002 }
 limits = ["verdict == match", "stick_error_max <= 1e-2"]
 
 [[check]]
@@ -45,8 +47,8 @@ def test_failing_gate_exits_1_and_junit_names_the_failing_check(tmp_path, capsys
     suite = ET.parse(junit).getroot().find("testsuite")
     assert suite.get("tests") == "2" and suite.get("failures") == "1"
     cases = {c.get("name"): c for c in suite.iter("testcase")}
-    assert set(cases) == {"ball/pybullet default", "ball/pybullet threshold 0.5"}
-    assert cases["ball/pybullet default"].find("failure") is None
+    assert set(cases) == {"ball/pybullet threshold 0.002", "ball/pybullet threshold 0.5"}
+    assert cases["ball/pybullet threshold 0.002"].find("failure") is None
     failure = cases["ball/pybullet threshold 0.5"].find("failure")
     message = failure.get("message")
     # both failing limits, with the measured numbers: verdict early, sticking 56 ms off

@@ -20,6 +20,7 @@ description = "lines"
 [defaults]
 dt = 1e-4
 scene_overrides = { duration = 1.6 }
+settings = { restitution_velocity_threshold = 0.002 }   # the ball rests (its default 0 keeps bouncing: buzz)
 
 [[check]]
 name = "passes"
@@ -61,7 +62,7 @@ def test_the_annotation_names_the_gate_file_and_the_failing_limits_line(tmp_path
     where = re.match(r"::error file=([^,]+),line=(\d+),title=chatter gate fails::", errors[0])
     assert where, errors[0]
     assert where[1] == "gates/mine.toml"  # as given, relative to where the job runs (the repository's root)
-    assert int(where[2]) == _line_of(GATE, '"stick_error_max <= 1e-6"') == 21
+    assert int(where[2]) == _line_of(GATE, '"stick_error_max <= 1e-6"') == 22
 
 
 def test_a_check_missing_from_the_baseline_points_at_its_header(tmp_path, monkeypatch, github):

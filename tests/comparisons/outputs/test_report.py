@@ -51,10 +51,13 @@ def test_report_writes_html_and_markdown_with_the_summary(report_dir):
     md = (report_dir / "report.md").read_text()
     assert "## Summary" in md and "## bouncing-ball" in md
     # pybullet's hard contact sticks within 2.3 ms of the Zeno point (tolerance: 5% of the 0.90 s
-    # chatter, 45 ms); MuJoCo's soft contact sticks 32 ms after it (in time) but its slow bounces
+    # chatter, 45 ms), but at its default restitution threshold 0 it keeps bouncing at g dt after the
+    # stick, its contact open a third of the rest: buzz (the persistence tolerance is 1%, and the report
+    # says so); MuJoCo's soft contact sticks 32 ms after it (in time) but its slow bounces
     # lose 14% more than R says where they cross the floor (its contact lasts longer than their
     # flights): rebound
-    assert re.search(r"\| bouncing-ball \| pybullet \| match \| 1 \| 1 \|", md)
+    assert re.search(r"\| bouncing-ball \| pybullet \| buzz \| 0 \| 1 \|", md)
+    assert "contact open under 1% of the rest after the stick" in md
     assert re.search(r"\| bouncing-ball \| mujoco \| rebound \| 0 \| 1 \|", md)
     assert "reference chatter modes: feigin, exhaustive" in md
 

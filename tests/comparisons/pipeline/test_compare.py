@@ -44,8 +44,14 @@ def test_feigin_pair_both_engines_slide_on_both_walls_every_half_period(feigin_b
         off = np.mod(exits["t_exit"] - phase + T / 2, T) - T / 2
         assert np.abs(off).max() <= steps * 1e-4
         assert np.abs(exits["exit_error_steps"]).max() <= steps
-    # PyBullet applies R at every impact: its resolved impacts follow R, every episode matches
-    assert (table.loc[table["engine"] == "pybullet", "verdict"] == "match").all()
+    # PyBullet applies R at every impact: its resolved impacts follow R, and it sticks and exits on time; but at its
+    # default threshold 0 its resting contact is that one impulse every third step: open one step in three (a third
+    # of the rest, 1 / (3 dt) = 3,333 contact onsets per second), the force alternating between 0 and three times
+    # the load (a swing of 2): every episode is buzz (persistence tolerance: open 1% of the rest)
+    pb = table[table["engine"] == "pybullet"]
+    assert (pb["verdict"] == "buzz").all() and (pb["restitution_error"].abs() < 0.05).all()
+    assert (pb["open_fraction"] - 1 / 3).abs().max() < 0.005 and (pb["onset_rate"] * 3e-4 - 1).abs().max() < 0.005
+    assert (pb["force_swing"] >= 1.99).all()
     # MuJoCo's soft contact lasts ~10 ms (w0 = 300 rad/s): longer than the flights of the last
     # resolved bounces, so the pressing force eats into their rebound and they come back 10-13%
     # below R, beyond the 5% tolerance: timing right, impacts wrong

@@ -154,10 +154,16 @@ def test_the_summary_combines_by_severity(damper_mujoco):
 #             to f_min / (1 - R), R = 0.6): 140 ms at dt = 1e-3, 42 ms at 3e-4, so the impact damper's
 #             21 ms sliding that PyBullet misses is unresolved, not missed (issue 34: never a confident
 #             verdict the extraction cannot support)
+#   rest      a wider band (or floor) ends MuJoCo's bouncing earlier at dt = 3e-4 (w0 dt = 0.3): its sticking
+#             start comes in time, and the last bounces fall into the rest after it, where the persistence
+#             check sees the contact open (buzz instead of late; the bounces are the same). Both fail.
 #   end       MuJoCo at dt = 1e-3 (w0 = 30 rad/s) sticks 0.86 s late: in the run's last visit it
 #             is still bouncing when the data end (missed); a wider band ends its bouncing in
 #             time (late). Both fail.
 ALLOWED_FLIPS = {
+    ("bouncing-ball", "mujoco", 3e-4, "band x10"): "rest",
+    ("feigin-pair", "mujoco", 3e-4, "band x10"): "rest",
+    ("feigin-pair", "mujoco", 3e-4, "floor_steps x10"): "rest",
     ("feigin-pair", "mujoco", 1e-3, "band x10"): "end",
     ("impact-damper", "mujoco", 1e-4, "band x10"): "soft",
     ("spring-pair", "mujoco", 1e-4, "band x10"): "soft",
@@ -279,7 +285,8 @@ def test_a_judged_table_has_one_type_per_column_with_episodes_with_a_run_row_and
     from chatterbench.comparisons.pipeline.extract import extract
     from chatterbench.comparisons.pipeline.judge import TABLE_COLUMNS, judge
 
-    counts = {"n_impacts", "ref_n_impacts", "resolved_impacts", "ref_resolved_impacts", "unmeasured_impacts"}
+    counts = {"n_impacts", "ref_n_impacts", "resolved_impacts", "ref_resolved_impacts", "unmeasured_impacts",
+              "contact_onsets"}
     words = {"wall", "verdict", "reason"}
     ref = solution("impact-damper")
     traj = reference_trajectory(ref.scene, 1e-3, ref.exhaustive)
