@@ -170,3 +170,29 @@ def needs_engine(*names: str) -> None:
         reason = unavailable_reason(name)
         if reason:
             pytest.skip(reason)
+
+
+def band_failures(scene, entry: dict, engine: str) -> tuple[int, list]:
+    """A tuned point (a ``recommended.json`` frontier entry or answer: ``dt``, ``settings``, and ``tolerances``
+    or ``tol``) checked over its band from outside tune (issue 41): a fresh ``compare`` at every dt of
+    [0.8, 1.25] x dt (``tune_search.band_dts``, both ends included) at each impact phase (``phases.PHASES``: the
+    scene started phase x dt later on its exact motion), at the point's own tolerances. Returns (the runs, the
+    failing (dt, phase, verdicts))."""
+    from chatterbench.comparisons.pipeline.compare import compare
+    from chatterbench.comparisons.pipeline.tolerances import Tolerances
+    from chatterbench.comparisons.studies.phases import PHASES, phase_scene
+    from chatterbench.comparisons.studies.tune_search import agrees, band_dts
+
+    tol = Tolerances(**entry["tolerances"]) if "tolerances" in entry else entry["tol"]
+    ref = solve(scene)
+    dts = band_dts(float(f"{entry['dt'] * 0.8:.6g}"), float(f"{entry['dt'] * 1.25:.6g}"))
+    assert len(dts) >= 16 and entry["dt"] in dts, dts
+    sets = [f"{k}={v}" for k, v in entry["settings"].items()]
+    failing = []
+    for dt in dts:
+        for phase in PHASES:
+            verdicts = compare(phase_scene(ref, dt, phase), engines=(engine,), dt=dt, overrides=sets,
+                               tol=tol).table["verdict"].tolist()
+            if not (verdicts and all(agrees(v) for v in verdicts)):
+                failing.append((dt, phase, verdicts))
+    return len(dts) * len(PHASES), failing

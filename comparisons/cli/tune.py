@@ -19,7 +19,7 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 from chatterbench.comparisons.pipeline.budget import check_engine_run, check_reference
-from chatterbench.comparisons.studies.limits import MAX_RUNS
+from chatterbench.comparisons.studies.limits import MAX_RUNS, ROBUST_FRACTION
 from chatterbench.reference.scene import load_scene, split_assignment
 
 from .commands import COMMANDS
@@ -75,7 +75,8 @@ def cmd_tune(args: argparse.Namespace) -> int:
             bar.stage("the search")
             bar.set_postfix(budget=f"{args.max_runs} runs")
             result = tune(scene, engine, tol, space=spaces[engine], executor=CountingExecutor(pool, bar),
-                          repeats=args.repeats, max_runs=args.max_runs, max_cost=args.max_cost, solution=solution)
+                          repeats=args.repeats, max_runs=args.max_runs, max_cost=args.max_cost, solution=solution,
+                          robust_fraction=args.robust_fraction)
             if other := same_model_of(engine):  # its answers rerun in the engine whose model it steps (MuJoCo Warp's)
                 bar.stage(f"its answers rerun in {other}")
             result.extra["same_model"] = same_model_check(result, other)  # "": none to check against
@@ -97,6 +98,17 @@ def recommended_files(engines: list[str]) -> tuple[str, ...]:
     """The ``recommended.json`` files of a tune of ``engines``, relative to DIR: moved in after the rest of the set
     (``atomic.staged``), so that their presence says the guide beside them is the same tune's."""
     return ("recommended.json",) if len(engines) == 1 else tuple(f"{e}/recommended.json" for e in engines)
+
+
+def fraction_type(text: str) -> float:
+    """``--robust-fraction``: a number in (0, 1]."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not 0.0 < value <= 1.0:
+        raise argparse.ArgumentTypeError(f"{text!r}: must be a number in (0, 1] (the share of the band that must pass)")
+    return value
 
 
 def fixed(engine: str, space: dict[str, tuple], items: list[str]) -> dict[str, tuple]:
@@ -147,11 +159,21 @@ def answer_lines(result) -> list[str]:
     if c is None:
         return ["no candidate ran: every one was refused"]
     cost = f"{c['steps_per_sim_s']:.4g} steps and {c['cost_per_sim_s']:.3g} s per simulated s"
+    rule = (result.extra["searched"].get("band") or {}).get("rule", "dt x 0.8 and x 1.25 and the knobs' neighbours")
     if result.best is not None:
-        lines = [f"recommended (robust: passes at dt x0.8, x1.25 and the knobs' neighbours): {c['settings']} ({cost}); "
+        lines = [f"recommended (band-robust: passes at {rule}): {c['settings']} ({cost}); "
                  + (f"margin {result.margin:.3g} (worst error / tolerance of the judge's checks; restitution under the scene's "
                     f"forces {c['scene_restitution_ratio']:.3g})" if math.isfinite(result.margin)
                     else "no error to measure (no episode)")]
+    elif result.written is not None:
+        from chatterbench.comparisons.studies.tune_ladder import level_text
+
+        r = result.best_reachable
+        lines = [f"nothing is robust at the asked tolerances; written (band-robust at {level_text(result.chosen_tolerance)}, "
+                 f"the tightest robust frontier point): {c['settings']} ({cost}); margin {result.margin:.3g} there"]
+        if r is not None:
+            lines.append(f"best reachable at the asked tolerances (fragile, not written): {r['settings']} "
+                         f"({r['steps_per_sim_s']:.4g} steps per simulated s; {neighbourhood_fails(r) or r['failed']})")
     else:
         lines = [f"no robust setting in the searched space; best reachable: {c['settings']} ({cost}; "
                  f"{c['n_match']}/{c['n_episodes']} match; "
@@ -181,6 +203,9 @@ def register(sub, formatter) -> None:
     p.add_argument("--max-cost", type=positive_float, default=math.inf, metavar="STEPS_PER_S",
                    help="a cap on the cost: no candidate of more engine steps per simulated second (1 / dt) is run or "
                         "answered (its dt x 0.8 neighbour still checks it); default: none")
+    p.add_argument("--robust-fraction", type=fraction_type, default=ROBUST_FRACTION, metavar="F",
+                   help="the share of a candidate's band (every dt of [0.8, 1.25] x dt at 4 impact phases) and knob "
+                        "neighbours that must pass for it to be robust, in (0, 1]; 1: every one")
     p.add_argument("--repeats", type=integer_type(1, 100), default=3,
                    help="timed runs of the candidates the choice is between; the least wall time counts")
     add_set(p)

@@ -3,7 +3,8 @@
     >>> from chatterbench.reference.scene import load_scene
     >>> from chatterbench.comparisons.outputs.tradeoff import tradeoff_figure
     >>> from chatterbench.comparisons.studies.tune import tune
-    >>> result = tune(load_scene("bouncing-ball"), "pybullet", 0.05, space={"dt": (1e-3, 3e-4)}, workers=1, refine_steps=0,
+    >>> space = {"dt": (1e-3, 3e-4), "pybullet.restitution_velocity_threshold": (0.1,)}
+    >>> result = tune(load_scene("bouncing-ball"), "pybullet", 0.05, space=space, workers=1, refine_steps=0,
     ...               ladder=None, check_robust=False)  # the asked tolerances alone (no frontier ladder, no neighbours)
     >>> fig = tradeoff_figure(result)
     >>> len(fig.axes), fig.axes[0].get_xlabel().startswith("dt")

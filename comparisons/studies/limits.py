@@ -11,6 +11,7 @@ them from here under the same names (``studies.tune.MAX_RUNS`` is this one).
 
 # tune (studies/tune.py)
 MAX_RUNS = 600  # the search's budget: runs of up to UNIT_STEPS engine steps (a neighbourhood once begun is completed)
+ROBUST_FRACTION = 1.0  # the share of a candidate's band and knob neighbours that must pass where it is robust
 
 # a sweep on Dask (studies/sweep/runner.py)
 NO_WORKER_WAIT = 60.0  # [s] a Dask cluster without a worker this long is said on stderr

@@ -1,16 +1,18 @@
 """Engine tuning: for a scene and tolerances, the cheapest robust settings that pass, how far the search looked, and every candidate.
 
     >>> from chatterbench.reference.scene import load_scene
-    >>> from chatterbench.comparisons.studies.tune import tune, Tolerances
-    >>> space = {"dt": (1e-3, 3e-4), "mujoco.w0_dt": (0.1,)}
-    >>> result = tune(load_scene("feigin-pair", ["duration=12.6"]), "mujoco", Tolerances(restitution=0.2), space=space,
-    ...               workers=1, refine_steps=0)
-    >>> result.best is None, result.fragile["settings"]      # a pass, but an isolated one: no robust answer here
-    (True, 'dt=0.0003, mujoco.w0_dt=0.1')
-    >>> result.fragile["neighbourhood"]                       # its neighbours fail
-    'dt x0.8: rebound; dt x1.25: late'
-    >>> [(p["tolerances"]["stick"], p["tolerances"]["restitution"], p["dt"]) for p in result.frontier]  # what is robust
-    [(0.2, 0.2, 0.001)]
+    >>> from chatterbench.comparisons.studies.tune import tune
+    >>> space = {"dt": (5e-3, 4e-3, 3.1e-3), "pybullet.restitution_velocity_threshold": (0.1,)}
+    >>> three = tune(load_scene("bouncing-ball"), "pybullet", 0.05, space=space, workers=1, refine_steps=0,
+    ...              phases=(), transfer=False)     # robust at dt x 0.8 and x 1.25 alone: the old three-point rule
+    >>> three.best["settings"]
+    'dt=0.0031, pybullet.restitution_velocity_threshold=0.1'
+    >>> band = tune(load_scene("bouncing-ball"), "pybullet", 0.05, space=space, workers=1, refine_steps=0,
+    ...             transfer=False)                 # the default: every dt of [0.8, 1.25] x dt, 4 impact phases
+    >>> band.best is None, band.table.set_index("settings").loc[three.best["settings"], "neighbourhood"]
+    (True, 'dt x1.06: late; dt x1.15 at phase 0.25: late; dt x1.25 at phase 0.25: late')
+    >>> [(p["tolerances"]["stick"], p["tolerances"]["restitution"], p["dt"]) for p in band.frontier]  # what is robust
+    [(0.1, 0.05, 0.00410763)]
 
 ``outputs/guide.py`` turns the result into the tuning guide; ``tune_answer.recommended`` into ``recommended.json``.
 
@@ -82,20 +84,21 @@ from ..pipeline.solution import ReferenceSolution, solve
 from ..pipeline.summary import METRIC_COLUMNS, metrics
 from ..pipeline.tolerances import Tolerances
 from .tune_checks import RATIO_COLUMNS, STRIKE_COLUMNS, check_ratios, describe_failures, judged_margin, strike_summary
-from .tune_frontier import answers, frontier_entries, json_value, tightest
-from .tune_ladder import Ladder, judge_levels
-from .tune_search import DT_RATIO, SEARCH_COLUMNS, Grid, agrees, need, round_dt, search
+from .tune_frontier import answers, frontier_entries, json_value, tightest, tightest_point
+from .phases import PHASES, phase_solution
+from .tune_ladder import Ladder, judge_levels, margin_at
+from .transfer import attach_transfer
+from .tune_grid import FINEST, FLIGHT_STEPS, band_rule, dt_range  # noqa: F401  (tune's names: here too)
+from .tune_search import DT_RATIO, ROBUST_FRACTION, SEARCH_COLUMNS, Grid, agrees, need, round_dt, search
 from . import waits
 from .tune_runs import (batch_runs, batches_on_device, candidate_settings, run_and_strike, settings_label, steps_per_sim_s,
                         time_runs)
 
-TUNE_COLUMNS = ["stage", "dt", "settings", "verdict", "n_episodes", "n_match", "failed", *SEARCH_COLUMNS, "passes",
-                "robust_at", "margins", "unjudged", *RATIO_COLUMNS,
+TUNE_COLUMNS = ["stage", "dt", "phase", "settings", "verdict", "n_episodes", "n_match", "failed", *SEARCH_COLUMNS, "passes",
+                "robust_at", "margins", "limits", "rests", "unjudged", *RATIO_COLUMNS,
                 *STRIKE_COLUMNS,
                 *METRIC_COLUMNS, "steps_per_sim_s", "cost_per_sim_s", "cost_repeats", "n_non_default", "status", "message"]
 TIE_BAND = 0.1  # [-] steps per simulated second within 10% of each other are a tie
-FINEST = 1e-3  # [-] the finest dt searched, as a fraction of the coarsest (the tightest timing tolerance in s)
-FLIGHT_STEPS = 4  # the coarsest dt takes at least this many steps across the gap at the fastest strike
 UNIT_STEPS = 100_000  # a run of more steps counts as steps / UNIT_STEPS runs of the budget (its work)
 DEPTH = 2  # refinement levels: the finest dt lattice is DT_RATIO apart, the coarse grid DT_RATIO ** 4
 # Wall time decides nothing: on this shared 2-core machine the least of 3 interleaved timings of PyBullet at
@@ -120,19 +123,36 @@ class TuneResult:
     extra: dict[str, Any] = field(default_factory=dict)  # space, grid, searched, defaults, tie band, repeats, wall time
     fragile: dict[str, Any] | None = None  # the cheapest pass whose neighbourhood fails, if cheaper than ``best``
     frontier: list[dict[str, Any]] = field(default_factory=list)  # tune_frontier.frontier_entries, cheapest first
+    written: int | None = None  # nothing robust at the asked tolerances: the ladder point whose answer is written
+
+    @property
+    def written_row(self) -> dict[str, Any] | None:
+        """The answer of the ladder point ``written`` (None: none)."""
+        return None if self.written is None else self.extra["answers"][self.written]
 
     @property
     def chosen(self) -> dict[str, Any] | None:
-        """The recommendation, or when nothing robust passes the best reachable candidate."""
-        return self.best if self.best is not None else self.best_reachable
+        """What is written: the recommendation; when nothing robust passes the asked tolerances, the tightest robust
+        frontier point's answer (``written``: robust at its own tolerances); when nothing is robust anywhere, the
+        best reachable candidate."""
+        if self.best is not None:
+            return self.best
+        return self.written_row if self.written is not None else self.best_reachable
+
+    @property
+    def chosen_tolerance(self) -> Tolerances:
+        """The tolerances the chosen candidate is judged at: the asked ones, or the written frontier point's."""
+        return self.tolerance if self.written is None else self.extra["points"][self.written]
 
     @property
     def margin(self) -> float:
-        """The chosen candidate's worst error over its tolerance among the judge's checks [-] (<= 1: passes, the
-        smaller the more room; inf: an episode with no error to measure; NaN: none ran). Restitution under the
-        scene's forces, which the judge does not check, is ``scene_restitution_ratio`` beside it."""
+        """The chosen candidate's worst measured error over its tolerance among the judge's checks [-] (<= 1: passes,
+        the smaller the more room; inf: an episode with no error to measure; NaN: none ran), at its tolerances
+        (``chosen_tolerance``). Restitution under the scene's forces is ``scene_restitution_ratio`` beside it."""
         c = self.chosen
-        return math.nan if c is None else judged_margin(c)
+        if c is None:
+            return math.nan
+        return margin_at(c, self.written) if self.written is not None else judged_margin(c)
 
     def cheaper(self, fragile: bool = False) -> pd.DataFrame:
         """The failing candidates no more expensive than the chosen one (steps within the tie band), cheapest first;
@@ -165,7 +185,9 @@ def _evaluate(ref: ReferenceSolution, engine: str, params: dict, points: tuple[T
     1 / dt); in a worker process. ``ran``: its (trajectory, strikes) already made (``batch_runs``)."""
     tol = points[asked]
     settings = candidate_settings(engine, params)
-    trajectory, strikes = ran if ran is not None else run_and_strike(ref, engine, settings, tol)
+    band = "phase" in params  # a band run (``tune_search.Grid.neighbourhood``): the scene started phase x dt later
+    ref = phase_solution(ref, params["dt"], params["phase"]) if band else ref
+    trajectory, strikes = ran if ran is not None else run_and_strike(ref, engine, settings, tol, not band)
     run, table, impacts = judge_run(ref, engine, settings, tol, trajectory=trajectory)
     ratios = check_ratios(table, impacts, tol, tol.penetration * ref.length_scale, strikes)
     steps = steps_per_sim_s(engine, settings, run)
@@ -182,7 +204,7 @@ def _refused(params: dict, exc: Exception) -> dict[str, Any]:
     """The row of a candidate whose settings the scene cannot run (e.g. past the stability limit)."""
     return {**params, "settings": settings_label(params), "verdict": "refused", "n_episodes": 0, "n_match": 0,
             "failed": f"refused: {exc}", **{c: math.nan for c in [*RATIO_COLUMNS, *METRIC_COLUMNS]}, "passes": (), "margins": (),
-            "unjudged": (),
+            "limits": (), "rests": (), "unjudged": (),
             "worst_ratio": math.inf, "cost_per_sim_s": math.nan, "cost_repeats": 0, "status": "refused", "message": str(exc)}
 
 
@@ -270,23 +292,6 @@ def reachable(table: pd.DataFrame, max_cost: float = math.inf) -> dict[str, Any]
     return ran.sort_values(["n_match", "worst_ratio", "steps_per_sim_s"], ascending=[False, True, True]).iloc[0].to_dict()
 
 
-def dt_range(solution: ReferenceSolution, tol: Tolerances) -> tuple[float, float]:
-    """The coarsest dt worth trying and the finest needed [s], from the scene's own scales (module docstring).
-
-    The tightest timing tolerance in seconds: each episode's sticking and first-impact tolerance
-    (fractions of its chatter duration, or of its sliding for a visit that starts in contact) and
-    exit tolerance (of its sliding duration); the flight: the length scale at the fastest strike.
-    """
-    eps = solution.episodes
-    limits = [tol.stick * eps["stick_scale"], tol.first_impact * eps["stick_scale"], tol.exit * eps["sliding_duration"]]
-    timing = pd.concat(limits).astype(float)
-    timing = timing[(timing > 0) & timing.map(math.isfinite)]
-    flight = solution.length_scale / solution.v_max if solution.v_max > 0 else math.nan
-    scales = ([float(timing.min())] if len(timing) else []) + ([flight / FLIGHT_STEPS] if math.isfinite(flight) else [])
-    coarse = min(scales, default=solution.scene.time_scale / 100)
-    return coarse * FINEST, coarse
-
-
 def search_space(engine: str, scene: Scene, tol: Tolerances, solution: ReferenceSolution | None = None,
                  depth: int = DEPTH) -> dict[str, tuple]:
     """The space ``tune`` searches: coarse dt from ``dt_range`` (DT_RATIO ** 2**depth apart, coarse to fine; never
@@ -333,6 +338,9 @@ def tune(
     max_cost: float = math.inf,
     solution: ReferenceSolution | None = None,
     batched: bool | None = None,
+    phases: tuple[float, ...] = PHASES,
+    robust_fraction: float = ROBUST_FRACTION,
+    transfer: bool = True,
 ) -> TuneResult:
     """The cheapest robust settings of ``engine`` whose every episode passes within ``tolerance``, and the robust
     frontier over a ladder of tolerances (module docstring).
@@ -366,6 +374,14 @@ def tune(
         Each search pass's candidates run here as one batch of the engine, only their judging in the workers;
         None: where the engine runs thousands at once (``batches_on_device``: MuJoCo Warp on cuda). The rows
         are the same either way (a batch's run is the run alone).
+    phases : tuple of float
+        The impact phases of the band (fractions of a step, ``studies.phases``): a robust candidate passes at every
+        dt of its band at each (``tune_search``); empty: the three-point rule (dt x 0.8 and x 1.25, the knobs).
+    robust_fraction : float
+        The share of a candidate's neighbourhood (band and knobs) that must pass for it to be robust, in (0, 1].
+    transfer : bool
+        Recheck the answer and every frontier point on the scene's family (``studies.transfer``: other energies
+        and masses, 10 s): ``extra["transfer"]``, each frontier entry's ``transfer``.
     """
     check_engine(engine)
     tol = tolerance if isinstance(tolerance, Tolerances) else Tolerances(stick=tolerance, exit=tolerance, first_impact=tolerance)
@@ -374,6 +390,11 @@ def tune(
             raise TuneError(f"tune {name} = {value!r}: must be an integer >= {lo}")
     if not max_cost > 0:
         raise TuneError(f"tune max_cost = {max_cost!r}: must be > 0 steps per simulated second (inf: no cap)")
+    if not (isinstance(robust_fraction, (int, float)) and 0 < robust_fraction <= 1):
+        raise TuneError(f"tune robust_fraction = {robust_fraction!r}: must be in (0, 1]")
+    phases = tuple(float(p) for p in phases)
+    if any(not 0 <= p < 1 for p in phases):
+        raise TuneError(f"tune phases = {phases!r}: each must be in [0, 1) (a fraction of a step)")
     started = time.perf_counter()
     ref = solution if solution is not None else solve(scene)
     space = engine_space(engine, scene, space) if space is not None else search_space(engine, scene, tol, ref, refine_steps)
@@ -389,29 +410,43 @@ def tune(
         batched = batches_on_device(engine) if batched is None else batched
         done = search(_evaluator(executor, ref, engine, points, asked, batched), grid, max_runs, tie_band, check_robust,
                       weight=lambda p: run_weight(scene, p["dt"]), levels=[(p.stick, p.restitution) for p in points],
-                      asked=asked, max_cost=max_cost)
+                      asked=asked, max_cost=max_cost, phases=phases, fraction=robust_fraction)
+        result = _result(scene, engine, tol, ref, done, space, grid, points, asked, ladder, batched, started, tie_band,
+                         repeats, max_cost, max_runs, check_robust, phases, robust_fraction)
+        if transfer and check_robust:
+            attach_transfer(result, executor)
+        return result
     finally:
         if own:
             executor.shutdown()
+
+
+def _result(scene: Scene, engine: str, tol: Tolerances, ref: ReferenceSolution, done, space: dict, grid: Grid,
+            points: tuple, asked: int, ladder, batched: bool, started: float, tie_band: float, repeats: int,
+            max_cost: float, max_runs: int, check_robust: bool, phases: tuple, robust_fraction: float) -> TuneResult:
+    """The ``TuneResult`` of a finished search ``done`` (``tune``'s arguments)."""
     table = _frame(done.rows, space)
     best = choose(table, tie_band, max_cost, check_robust)
     if best is not None and repeats > 1:  # time the candidates the choice is between again, and choose again
         _retime(table, scene, engine, space, repeats, tie_band, max_cost)
         best = choose(table, tie_band, max_cost, check_robust)
     wall = time.perf_counter() - started
-    work = float(sum(run_weight(scene, dt) for dt in table["dt"]))
+    band = table["phase"].notna() if "phase" in table else pd.Series(False, index=table.index)
+    work = float(sum(run_weight(scene, dt) for dt in table.loc[~band, "dt"]))  # the band's runs are checks, not search
     found = answers(table, points, max_cost) if check_robust else {}
     keys = [k for k in space if k != "dt"]
     within = [dt for dt in grid.dt if 1.0 / dt <= max_cost] or list(grid.dt)
-    searched = {**grid.describe(), "dt": [min(within), max(within)], "runs": len(table), "max_runs": max_runs, "budget_used": round(work, 1),
+    searched = {**grid.describe(), "dt": [min(within), max(within)], "runs": len(table), "band_runs": int(band.sum()),
+                "max_runs": max_runs, "budget_used": round(work, 1),
                 "budget_spent": work >= max_runs - 1, "exhaustive": done.exhaustive, "lattice": done.lattice,
                 "lattice_run": done.lattice_run, "skipped_costlier": done.costlier, "max_cost": json_value(max_cost),
                 "capped": done.capped, "unchecked_passes": done.unchecked,
                 "levels": sorted({int(v) for v in table["level"].dropna()}), "robustness_checked": check_robust,
-                "batched": batched}
+                "batched": batched, "band": band_rule(phases, robust_fraction) if check_robust else None}
+    frontier = frontier_entries(found, points, keys)
     return TuneResult(scene=scene, engine=engine, tolerance=tol, table=table, best=best,
                       best_reachable=None if best is not None else reachable(table, max_cost), fragile=fragile(table, best),
-                      frontier=frontier_entries(found, points, keys),
+                      frontier=frontier, written=None if best is not None else tightest_point(found, points, tol),
                       extra={"space": space, "grid": grid, "searched": searched, "points": points, "asked": asked,
                              "answers": found, "tightest": tightest(found, points), "ladder": ladder,
                              "defaults": {k: v[0] for k, v in space.items() if k != "dt"},

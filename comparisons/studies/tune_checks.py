@@ -9,14 +9,15 @@
     >>> run, table, impacts = judge_run(ref, "mujoco", make_settings("mujoco", 1e-3, ["mujoco.w0_dt=0.1"]), tol)
     >>> ratios = check_ratios(table, impacts, tol, tol.penetration * ref.length_scale)
     >>> round(ratios["stick_ratio"], 1), describe_failures(table, ratios, tol)    # 12% late against 1%
-    (12.2, 'sticking error +0.122 of the chatter > 0.01; restitution error 0.146 > 0.05')
+    (12.2, 'sticking error +0.122 of the chatter > 0.01; restitution error 0.146 > 0.05; contact open after the stick 0.0334 of the rest > 0.01')
 
 A ratio is the check's measure over its tolerance (``Tolerances``), taken over the run's
 episodes at their worst, so a ratio above 1 is a failed check and ``worst_ratio`` (the largest)
 is the run's distance from passing in one number: the same rules as ``pipeline.verdict_rules.verdict``
 (stick and first impact against the chatter duration, exit against the sliding duration,
 restitution of the impacts the step can measure to the tolerance, the resolved-impact count, the penetration
-against the scene's length scale), and one the judge cannot make from a whole run:
+against the scene's length scale, the contact's open share of the rest after each stick against ``persistence``),
+and one the judge cannot make from a whole run:
 **restitution under the scene's forces** (``scene_restitution``), the worst e / R - 1 of the
 settings struck from the reference's state before each impact the judge resolves where its
 sampling uncertainty is within the restitution tolerance (where it holds a time-stepper to R),
@@ -51,6 +52,7 @@ CHECKS = {
     "restitution": ("restitution", "restitution error", "", "restitution"),
     "impact_count": ("impact_count", "resolved impacts differ by", "", "resolved impact count"),
     "penetration": ("penetration", "penetration", " of the length scale", "penetration"),
+    "persistence": ("persistence", "contact open after the stick", " of the rest", "persistence"),
     "scene_restitution": ("restitution", "restitution under the scene's forces", "", "restitution under the scene's forces"),
 }
 RATIO_COLUMNS = [f"{name}_ratio" for name in CHECKS] + ["worst_ratio"]
@@ -60,13 +62,15 @@ RATIO_COLUMNS = [f"{name}_ratio" for name in CHECKS] + ["worst_ratio"]
 # the tolerance at some place in a step, their bands in words); NaN / "" without strikes
 STRIKE_COLUMNS = ["r_holds_from", "r_held_from", "r_struck", "r_misses"]
 MEASURED = ("agree", "timing", "impacts")  # verdict groups whose episodes have every error measured
+MEASURED_TOO = ("buzz",)  # and the verdicts of other groups that have theirs: a buzz's open share (persistence)
 
 
 def _no_error(verdict: str) -> bool:
     """Whether an episode of this verdict has an error left unmeasured (no tolerance of the checks makes it pass): a
     verdict outside the measured groups, or an undetermined one (``unresolved``: a time the samples cannot pin to
     its tolerance; ``unmeasured``: no resolved impact the step can measure), in a measured group but not measured."""
-    return verdict in VERDICTS and (VERDICTS[verdict].group not in MEASURED or verdict in UNDETERMINED)
+    return verdict in VERDICTS and verdict not in MEASURED_TOO and (VERDICTS[verdict].group not in MEASURED
+                                                                     or verdict in UNDETERMINED)
 
 
 def _ratio(value: float, limit: float) -> float:
@@ -97,6 +101,8 @@ def check_values(table: pd.DataFrame, impacts: pd.DataFrame, allowance: float,
         "exit": worst_signed(eps["exit_error_rel"]), "restitution": float(excess.max()) if len(excess) else math.nan,
         "impact_count": float(counts.max()) if len(counts) else math.nan,
         "penetration": float(table["penetration_max"].max()) / allowance if allowance > 0 and len(table) else math.nan,
+        "persistence": float(eps["open_fraction"].max()) if "open_fraction" in eps and eps["open_fraction"].notna().any()
+        else math.nan,
         "scene_restitution": misses.value if misses else math.nan,
         "scene_restitution_speed": misses.speed if misses else math.nan,
     }
@@ -142,14 +148,25 @@ def check_ratios(table: pd.DataFrame, impacts: pd.DataFrame, tol: Tolerances, al
     return {**out, **{f"{name}_value": v for name, v in values.items()}}
 
 
+# checks a margin is measured on: the judge's, but the resolved-impact count (an integer: "one impact short" is a
+# ratio of 1.0 whatever the run, no measure of room) and restitution under the scene's forces (the judge has none)
+MARGIN_CHECKS = tuple(name for name in CHECKS if name not in ("impact_count", "scene_restitution"))
+
+
 def judged_margin(ratios: dict[str, Any]) -> float:
-    """The worst error over its tolerance among the judge's checks (``check_ratios``'s dict or a tune row) [-]:
-    <= 1 passes, the smaller the more room; inf for an episode with no error to measure. Restitution under the
-    scene's forces, which the judge does not check, is left out."""
+    """The worst measured error over its tolerance among the judge's checks (``check_ratios``'s dict or a tune row)
+    [-], ``MARGIN_CHECKS``: <= 1 passes, the smaller the more room; inf for an episode with no error to measure."""
+    return margin_and_check(ratios)[0]
+
+
+def margin_and_check(ratios: dict[str, Any]) -> tuple[float, str]:
+    """``judged_margin`` and the check that sets it (``CHECKS``' short name: "sticking", "restitution", ...; "" for
+    none measured, "unmeasured" for an episode with no error to measure)."""
     if not math.isfinite(ratios["worst_ratio"]):
-        return math.inf
-    judged = [ratios.get(f"{name}_ratio", math.nan) for name in CHECKS if name != "scene_restitution"]
-    return max((float(r) for r in judged if not math.isnan(r)), default=0.0)
+        return math.inf, "unmeasured"
+    judged = [(float(ratios.get(f"{name}_ratio", math.nan)), CHECKS[name][3]) for name in MARGIN_CHECKS]
+    judged = [(r, name) for r, name in judged if not math.isnan(r)]
+    return max(judged) if judged else (0.0, "")
 
 
 def describe_failures(table: pd.DataFrame, ratios: dict[str, Any], tol: Tolerances) -> str:
@@ -167,8 +184,8 @@ def describe_failures(table: pd.DataFrame, ratios: dict[str, Any], tol: Toleranc
             parts.append(f"{label} {value:.0f} > {limit}")
         elif name == "penetration":
             parts.append(f"{label} {value * tol.penetration:.3g}{scale} > {tol.penetration:g}")
-        elif name == "restitution":
-            parts.append(f"{label} {value:.3g} > {limit:g}")
+        elif name in ("restitution", "persistence"):
+            parts.append(f"{label} {value:.3g}{scale} > {limit:g}")
         elif name == "scene_restitution":
             parts.append(f"{label} {value:+.3g} at {ratios['scene_restitution_speed_value']:.3g} m/s > {limit:g}")
         else:

@@ -3,8 +3,9 @@
     >>> from chatterbench.reference.scene import load_scene
     >>> from chatterbench.comparisons.studies.tune_evidence import evidence
     >>> from chatterbench.comparisons.studies.tune import tune
-    >>> result = tune(load_scene("bouncing-ball"), "pybullet", 0.05, space={"dt": (1e-3,)}, workers=1, refine_steps=0,
-    ...               ladder=None)                        # the asked tolerances alone (no frontier ladder)
+    >>> space = {"dt": (1e-3,), "pybullet.restitution_velocity_threshold": (0.1,)}
+    >>> result = tune(load_scene("bouncing-ball"), "pybullet", 0.05, space=space, workers=1, refine_steps=0,
+    ...               ladder=None, phases=(), transfer=False)   # the asked tolerances alone (no frontier ladder)
     >>> ev = evidence(result, speeds=[0.5, 4.0])
     >>> ev.comparison.table["verdict"].tolist(), ev.curve["restitution_effective"].round(3).unique().tolist()
     (['match'], [0.5])

@@ -3,11 +3,12 @@
     >>> from chatterbench.reference.scene import load_scene
     >>> from chatterbench.comparisons.studies.tune import tune
     >>> from chatterbench.comparisons.studies.tune_ladder import Ladder
-    >>> result = tune(load_scene("bouncing-ball"), "pybullet", 0.05, space={"dt": (0.0118, 0.00388)}, workers=1,
-    ...               refine_steps=0, ladder=Ladder(timing=(0.1,), restitution=(0.1,)))
+    >>> space = {"dt": (0.0118, 0.00485, 0.00388), "pybullet.restitution_velocity_threshold": (0.1,)}
+    >>> result = tune(load_scene("bouncing-ball"), "pybullet", 0.02, space=space, workers=1, refine_steps=0,
+    ...               ladder=Ladder(timing=(0.1,), restitution=(0.1,)), phases=(), transfer=False)
     >>> [(p["tolerances"]["stick"], p["tolerances"]["restitution"], p["dt"]) for p in result.frontier]
-    [(0.1, 0.1, 0.0118), (0.1, 0.05, 0.00388)]
-    >>> result.best is None                   # nothing robust at the asked 5%: its neighbours fail
+    [(0.1, 0.05, 0.00388)]
+    >>> result.best is None                   # nothing robust at the asked 2%
     True
 
 Each ladder point (``tune_ladder``: a timing level x a restitution level) has an *answer*:
@@ -35,9 +36,10 @@ from typing import Any
 import pandas as pd
 
 from ..pipeline.tolerances import Tolerances
-from .tune_ladder import level_text, margin_at
+from .tune_ladder import at_point, level_text, margin_at
 
-FRONTIER_KEYS = ("tolerances", "dt", "settings", "cost_steps_per_s", "margin")  # recommended.json's frontier entries
+# recommended.json's frontier entries
+FRONTIER_KEYS = ("tolerances", "dt", "settings", "cost_steps_per_s", "margin", "margin_check", "checked", "persistence")
 
 
 def answers(table: pd.DataFrame, points: tuple[Tolerances, ...], max_cost: float = math.inf) -> dict[int, dict[str, Any]]:
@@ -75,14 +77,46 @@ def frontier_entries(found: dict[int, dict[str, Any]], points: tuple[Tolerances,
         row = found[i]
         out.append({"tolerances": points[i].as_dict(), "dt": float(row["dt"]),
                     "settings": {k: json_value(row[k]) for k in keys}, "cost_steps_per_s": float(row["steps_per_sim_s"]),
-                    "margin": json_value(margin_at(row, i))})
+                    "margin": json_value(margin_at(row, i)), "margin_check": at_point(row, "limits", i, ""),
+                    "checked": checked(row, i), "persistence": persistence(row, i, points[i])})
     return out
+
+
+def checked(row: dict[str, Any], point: int) -> dict[str, Any] | None:
+    """What the robustness of ``row`` at ladder point ``point`` rests on (``tune_search``'s ``band``): the band's dts
+    (``dts``: their range, ``n_dts``: how many, ends and its own included), the impact ``phases`` (fractions of a
+    step), its knob neighbours, the runs, and the share of them that passed there; None where nothing was checked."""
+    band = row.get("band")
+    if not isinstance(band, dict):
+        return None
+    return {"dts": [min(band["dts"]), max(band["dts"])], "n_dts": len(band["dts"]), "phases": band["phases"],
+            "knob_neighbours": band["knobs"], "runs": band["runs"], "passed": json_value(band["passed"].get(point))}
+
+
+def persistence(row: dict[str, Any], point: int, tol: Tolerances) -> dict[str, Any]:
+    """The contact of ``row``'s run after each stick at ladder point ``point``: its largest open share of the rest
+    (``open_fraction``, against the ``tolerance``) and contact onsets per second there (``onsets_per_s``)."""
+    share, rate = at_point(row, "rests", point, (math.nan, math.nan))
+    return {"open_fraction": json_value(share), "onsets_per_s": json_value(rate), "tolerance": tol.persistence}
 
 
 def tightest(found: dict[int, dict[str, Any]], points: tuple[Tolerances, ...]) -> dict[str, float | None]:
     """The tightest sticking and restitution tolerance reached robustly (at any level of the other axis); None: none."""
     return {"stick": min((points[i].stick for i in found), default=None),
             "restitution": min((points[i].restitution for i in found), default=None)}
+
+
+def tightest_point(found: dict[int, dict[str, Any]], points: tuple[Tolerances, ...], asked: Tolerances) -> int | None:
+    """The frontier point nearest the ``asked`` tolerances (``pareto`` of ``found``): the least of its timing and
+    restitution tolerances' largest ratio to the asked ones, then of the other, then the cheaper; None when nothing is robust. What tune
+    writes when nothing is robust at the asked tolerances: a robust setting, never a fragile one."""
+    front = pareto(found, points)
+    if not front:
+        return None
+    def distance(i: int) -> tuple[float, ...]:
+        ratios = sorted((points[i].stick / asked.stick, points[i].restitution / asked.restitution), reverse=True)
+        return (*ratios, found[i]["steps_per_sim_s"])
+    return min(front, key=distance)
 
 
 def json_value(v: Any) -> Any:

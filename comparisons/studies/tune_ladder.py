@@ -45,7 +45,7 @@ from ..pipeline.judge import judge
 from ..pipeline.solution import ReferenceSolution
 from ..pipeline.tolerances import Tolerances
 from ..pipeline.vocabulary import VERDICTS
-from .tune_checks import check_ratios, judged_margin
+from .tune_checks import check_ratios, margin_and_check
 
 TIMING_LEVELS = (0.01, 0.02, 0.05, 0.1, 0.2)  # [-] sticking tolerances (fractions of the chatter)
 RESTITUTION_LEVELS = (0.02, 0.05, 0.1, 0.2, 0.3)  # [-] |e / R - 1|
@@ -120,14 +120,15 @@ def judge_levels(ref: ReferenceSolution, engine: str, settings: Any, trajectory,
     give one f_min (``judge_run``; the extraction reads the sticking tolerance only through f_min,
     ``extract.flight_floor``: at a coarse dt the sampling floor decides it for every level), and judged at
     each point (``judge.judge``, as ``judge_run`` does). Returns ``passes``, the indices of the points where
-    every episode agrees (``match`` or ``none``), and ``margins``, the judged checks' worst error over tolerance at each of them
-    (``tune_checks.judged_margin``), and ``unjudged``, the points left out: not in ``only`` (the
+    every episode agrees (``match`` or ``none``), and at each of them ``margins``, the judged checks' worst measured
+    error over tolerance (``tune_checks.judged_margin``), ``limits``, the check that sets it, and ``rests``, the
+    contact's largest open share after a stick and its onsets per second (``persistence``); and ``unjudged``, the points left out: not in ``only`` (the
     points where the run can still matter: ``tune_search.need``; None: all). ``shortcut`` False judges
     every point (the shortcut's check).
     """
     known = dict(known or {})
     wanted = set(range(len(points)) if only is None else only)
-    passes, margins, failed_timing = [], [], set()
+    passes, margins, limits, rests, failed_timing = [], [], [], [], set()
     dt = trajectory.sampling_step()
 
     def floor(tol: Tolerances) -> float:  # what the extraction reads of a timing level: levels of one f_min share it
@@ -148,14 +149,35 @@ def judge_levels(ref: ReferenceSolution, engine: str, settings: Any, trajectory,
             found[f_min] = run.found
         if _agrees(table):
             passes.append(i)
-            margins.append(judged_margin(check_ratios(table, impacts, tol, tol.penetration * ref.length_scale)))
+            margin, check = margin_and_check(check_ratios(table, impacts, tol, tol.penetration * ref.length_scale))
+            margins.append(margin)
+            limits.append(check)
+            rests.append(_rest(table))
         elif _fails_before_restitution(table):
             failed_timing.add(tol.stick)
-    return {"passes": tuple(passes), "margins": tuple(margins),
+    return {"passes": tuple(passes), "margins": tuple(margins), "limits": tuple(limits), "rests": tuple(rests),
             "unjudged": tuple(i for i in range(len(points)) if i not in wanted)}
+
+
+def _rest(table) -> tuple[float, float]:
+    """A passing run's persistence: its episodes' largest open share of the rest after the stick [1] and contact
+    onsets per second there [1/s] (NaN, NaN where no episode has a rest window)."""
+    eps = table[table["wall"] != ""] if len(table) else table
+    share = eps["open_fraction"].dropna() if "open_fraction" in eps else []
+    rate = eps["onset_rate"].dropna() if "onset_rate" in eps else []
+    return (float(share.max()) if len(share) else math.nan, float(rate.max()) if len(rate) else math.nan)
+
+
+def at_point(row: dict[str, Any], key: str, point: int, default: Any = math.nan) -> Any:
+    """A row's per-pass value ``key`` (``margins``, ``limits``, ``rests``) at ladder point ``point``; ``default``
+    where it does not pass there or the row has none."""
+    passes = list(row.get("passes") or ())
+    values = row.get(key)
+    if point not in passes or not isinstance(values, tuple) or len(values) != len(passes):
+        return default
+    return values[passes.index(point)]
 
 
 def margin_at(row: dict[str, Any], point: int) -> float:
     """A row's margin at ladder point ``point`` (NaN where it does not pass there)."""
-    passes = list(row.get("passes") or ())
-    return float(row["margins"][passes.index(point)]) if point in passes else math.nan
+    return float(at_point(row, "margins", point))

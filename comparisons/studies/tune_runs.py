@@ -25,6 +25,7 @@ from chatterbench.reference.scene import Scene
 
 from ..pipeline.solution import ReferenceSolution
 from ..pipeline.tolerances import Tolerances
+from .phases import phase_solution
 from .tune_checks import scene_strikes
 
 
@@ -56,32 +57,36 @@ def batch_runs(ref: ReferenceSolution, engine: str, batch: list[dict], tol: Tole
     """Each candidate's (trajectory, strikes under the scene's forces), the runs as one batch of the engine
     (``run_engine_batch``: MuJoCo Warp's worlds of one model), or the ``InputError`` that refuses its settings."""
     settings: list[Any] = []
-    for params in batch:
+    refs = [phase_solution(ref, p["dt"], p["phase"]) if "phase" in p else ref for p in batch]  # a band run's moved start
+    for params, own in zip(batch, refs):
         try:
             s = candidate_settings(engine, params)
-            adapter(engine).validate(ref.scene, s)
+            adapter(engine).validate(own.scene, s)
             settings.append(s)
         except InputError as exc:
             settings.append(exc)
-    jobs = [(ref.scene, s) for s in settings if not isinstance(s, InputError)]
+    jobs = [(own.scene, s) for own, s in zip(refs, settings) if not isinstance(s, InputError)]
     try:
         trajectories = iter(run_engine_batch(engine, jobs) if jobs else [])
     except InputError:  # one the adapter refuses only when it runs: each alone, the refused one refused
-        return [s if isinstance(s, InputError) else _alone(ref, engine, s, tol) for s in settings]
+        return [s if isinstance(s, InputError) else _alone(own, engine, s, tol, "phase" not in p)
+                for p, own, s in zip(batch, refs, settings)]
     out: list[tuple | InputError] = []
-    for s in settings:
+    for params, own, s in zip(batch, refs, settings):
         if isinstance(s, InputError):
             out.append(s)
             continue
         traj = next(trajectories)
-        out.append((traj, strikes_of(ref, engine, s, tol, traj)))
+        out.append((traj, strikes_of(own, engine, s, tol, traj) if "phase" not in params else None))
     return out
 
 
-def run_and_strike(ref: ReferenceSolution, engine: str, settings: Any, tol: Tolerances) -> tuple:
-    """One candidate run alone and its strikes (``strikes_of``); InputError for settings the scene cannot run with."""
+def run_and_strike(ref: ReferenceSolution, engine: str, settings: Any, tol: Tolerances, strike: bool = True) -> tuple:
+    """One candidate run alone and its strikes (``strikes_of``; None where ``strike`` is False: a band run checks a
+    candidate's timing, the candidate's own strikes its restitution); InputError for settings the scene cannot run
+    with."""
     traj = run_engine(engine, ref.scene, settings)
-    return traj, strikes_of(ref, engine, settings, tol, traj)
+    return traj, strikes_of(ref, engine, settings, tol, traj) if strike else None
 
 
 def strikes_of(ref: ReferenceSolution, engine: str, settings: Any, tol: Tolerances, traj) -> Any:
@@ -90,10 +95,10 @@ def strikes_of(ref: ReferenceSolution, engine: str, settings: Any, tol: Toleranc
     return scene_strikes(engine, settings, ref, tol, traj.settings) if traj.status == "ok" else None
 
 
-def _alone(ref: ReferenceSolution, engine: str, settings: Any, tol: Tolerances) -> tuple | InputError:
+def _alone(ref: ReferenceSolution, engine: str, settings: Any, tol: Tolerances, strike: bool = True) -> tuple | InputError:
     """``batch_runs`` of one candidate, run by itself."""
     try:
-        return run_and_strike(ref, engine, settings, tol)
+        return run_and_strike(ref, engine, settings, tol, strike)
     except InputError as exc:
         return exc
 

@@ -63,22 +63,21 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, Callable
 
-from .axes import axis_scale
+from .limits import ROBUST_FRACTION  # [-] the share of a candidate's neighbourhood that must pass where it is robust
 from ..pipeline.vocabulary import VERDICTS
-from .sweep.refine import lattice, split_points
+from .sweep.refine import split_points
+from .tune_grid import BAND, BAND_RATIO, DT_RATIO, Grid, band_dts, round_dt  # noqa: F401  (tune's names: here too)
 
-SIG_DIGITS = 3  # a dt is rounded to this many significant digits (it is printed and pasted)
-KNOB_DIGITS = 4  # and a knob value between two searched ones to this many
-DT_RATIO = 1.25  # [-] adjacent dt of the finest lattice: the neighbourhood's dt x 0.8 and x 1.25
 AROUND = 3  # the best candidates whose lattice neighbours each refinement level adds
 COARSE_SHARE = 0.6  # [-] of the budget the coarse grid may take before refining (finer rows cost more)
 CHECK_SHARE = 0.4  # [-] of the budget the refinement leaves for the neighbourhoods of the passes it found
 NEED_SLACK = 1.01  # [-] a run's cost may differ from 1 / dt by its step count's rounding; this covers it
 PER_STAGE = 4  # passes whose neighbourhood is run after each stage (after the last: until the budget is spent)
-SEARCH_COLUMNS = ["level", "robust", "neighbourhood", "neighbourhood_worst_ratio"]
+MOST_NAMED = 4  # failing neighbours named in a candidate's ``neighbourhood`` (the rest counted)
+SEARCH_COLUMNS = ["level", "robust", "neighbourhood", "neighbourhood_worst_ratio", "band"]
 
 
 def agrees(verdict: str) -> bool:
@@ -86,103 +85,8 @@ def agrees(verdict: str) -> bool:
     return verdict in VERDICTS and VERDICTS[verdict].group == "agree"
 
 
-def round_dt(dt: float) -> float:
-    return float(f"{dt:.{SIG_DIGITS}g}")
-
-
 def _key(params: dict[str, Any]) -> tuple:
     return tuple(sorted(params.items()))
-
-
-def _rounded(fine: tuple, coarse: tuple) -> tuple:
-    """A knob's fine lattice with the values between the coarse ones at ``KNOB_DIGITS`` significant digits (pasted)."""
-    return tuple(v if v in coarse else float(f"{v:.{KNOB_DIGITS}g}") for v in fine)
-
-
-def _real(values) -> bool:
-    return all(isinstance(v, float) for v in values)
-
-
-@dataclass(frozen=True)
-class Grid:
-    """The searched lattice (module docstring): fine dt (coarse to fine), the main knob's fine values, the slices."""
-
-    dt: tuple[float, ...]  # [s] every value of the finest lattice, descending; coarse ones at multiples of 2**depth
-    knob: str | None  # the main knob's key ("engine.field"), None when no setting is real-valued
-    knob_values: tuple  # its finest lattice, ascending (one None when there is no main knob)
-    slices: tuple[dict[str, Any], ...]  # each combination of the other settings' values
-    others: dict[str, tuple]  # the other settings' searched values, as given
-    depth: int  # refinement levels
-    defaults: dict[str, Any] = field(default_factory=dict)  # each setting's default: its first value as given
-
-    @classmethod
-    def make(cls, space: dict[str, tuple], depth: int) -> "Grid":
-        """From a search space: ``"dt"`` -> coarse timesteps [s], ``"engine.field"`` -> values (the default first)."""
-        coarse_dt = sorted({float(v) for v in space["dt"]})
-        steps = 2 ** depth  # dt is split geometrically whatever its span (cost is 1 / dt): the lattice's log rule
-        fine_dt = [a * (b / a) ** (k / steps) for a, b in zip(coarse_dt, coarse_dt[1:]) for k in range(steps)] + coarse_dt[-1:]
-        dt = tuple(sorted({round_dt(v) for v in fine_dt}, reverse=True))
-        knobs = {k: tuple(v) for k, v in space.items() if k != "dt"}
-        knob = next((k for k, v in knobs.items() if _real(v) and len(set(v)) > 1), None)
-        values = (None,) if knob is None else (tuple(sorted(set(knobs[knob]))) if len(set(knobs[knob])) < 2
-                                                 else _rounded(lattice(tuple(sorted(set(knobs[knob]))), depth), knobs[knob]))
-        others = {k: v for k, v in knobs.items() if k != knob}
-        slices = tuple(dict(zip(others, combo)) for combo in itertools.product(*others.values()))
-        return cls(dt=dt, knob=knob, knob_values=tuple(values), slices=slices, others=others,
-                   depth=depth if len(coarse_dt) > 1 or knob is not None else 0, defaults={k: v[0] for k, v in knobs.items()})
-
-    def params(self, s: int, i: int, j: int) -> dict[str, Any]:
-        p = {"dt": self.dt[i], **self.slices[s]}
-        if self.knob is not None:
-            p[self.knob] = self.knob_values[j]
-        return p
-
-    def coarse(self, axis: tuple) -> list[int]:
-        return list(range(0, len(axis), 2 ** self.depth)) if len(axis) > 1 else [0]
-
-    def place(self, p: dict[str, Any]) -> tuple[int, int, int] | None:
-        """(slice, dt index, knob index) of a candidate on the lattice, None off it."""
-        try:
-            i = self.dt.index(p["dt"])
-            j = 0 if self.knob is None else self.knob_values.index(p[self.knob])
-            s = self.slices.index({k: p[k] for k in self.others})
-        except ValueError:
-            return None
-        return s, i, j
-
-    def neighbours(self, p: dict[str, Any]) -> list[dict[str, Any]]:
-        """The neighbourhood of a candidate (module docstring), itself excluded."""
-        out = []
-        dt = p["dt"]
-        for factor in (1.0 / DT_RATIO, DT_RATIO):  # exactly x 0.8 and x 1.25, as a user checks it: not the lattice's
-            # adjacent values (3 significant digits, x 1.2535 say), for the landscape is fragmented enough that
-            # the two can differ (bouncing-ball, PyBullet: 0.00758 passes where 0.007575 = 0.00606 x 1.25 is late)
-            out.append({**p, "dt": float(f"{dt * factor:.6g}")})
-        if self.knob is not None:
-            v, vals = p[self.knob], self.knob_values
-            out += [{**p, self.knob: w} for w in ([max((u for u in vals if u < v), default=None),
-                                                    min((u for u in vals if u > v), default=None)]) if w is not None]
-        for k, vals in self.others.items():
-            if not _real(vals) or len(set(vals)) < 2:
-                continue
-            ordered = sorted(set(vals))
-            log = axis_scale(ordered) == "log"
-            for w in (max((u for u in ordered if u < p[k]), default=None), min((u for u in ordered if u > p[k]), default=None)):
-                if w is not None:
-                    mid = math.sqrt(w * p[k]) if log else 0.5 * (w + p[k])
-                    out.append({**p, k: float(f"{mid:.6g}")})
-        return out
-
-    def describe(self) -> dict[str, Any]:
-        """The searched space in numbers: ranges, the coarse grid's shape and the refinement (``recommended.json``)."""
-        out: dict[str, Any] = {"dt": [min(self.dt), max(self.dt)], "dt_coarse": len(self.coarse(self.dt)),
-                               "dt_finest_ratio": DT_RATIO if len(self.dt) > 1 else None}
-        if self.knob is not None:
-            out[self.knob] = [min(self.knob_values), max(self.knob_values)]
-            out[f"{self.knob}_coarse"] = len(self.coarse(self.knob_values))
-        out.update({k: list(v) for k, v in self.others.items()})
-        out["refine_depth"] = self.depth
-        return out
 
 
 def cost(row: dict[str, Any]) -> float:
@@ -194,7 +98,6 @@ def cost(row: dict[str, Any]) -> float:
 def _reach_key(row: dict[str, Any]) -> tuple:
     worst = row.get("worst_ratio", math.inf)
     return (-row.get("n_match", 0), math.inf if worst is None or math.isnan(worst) else worst, cost(row))
-
 
 
 def need(c: float, bounds: list[float], asked: int) -> list[int]:
@@ -233,9 +136,10 @@ class _Search:
     def __init__(self, run_batch: Callable[[list[dict], str, list[float]], list[dict]], grid: Grid, budget: float,
                  band: float,
                  weight: Callable[[dict], float], levels: list[tuple[float, float]] | None = None, asked: int = 0,
-                 max_cost: float = math.inf) -> None:
+                 max_cost: float = math.inf, phases: tuple[float, ...] = (), fraction: float = ROBUST_FRACTION) -> None:
         self.run_batch, self.grid, self.left, self.band = run_batch, grid, budget, band
         self.weight, self.levels, self.asked, self.max_cost = weight, levels or [(0.0, 0.0)], asked, max_cost
+        self.phases, self.fraction = phases, fraction
         self.rows: list[dict] = []
         self.seen: dict[tuple, dict] = {}
         self.inferred: dict[int, dict] = {s: {} for s in range(len(grid.slices))}
@@ -243,7 +147,7 @@ class _Search:
     def run(self, batch: list[dict], stage: str, level: int | None, force: bool = False, keep: float = 0.0) -> None:
         new = list({_key(p): p for p in batch if _key(p) not in self.seen}.values())
         if not force:
-            cum = list(itertools.accumulate(self.weight(p) for p in new))
+            cum = list(itertools.accumulate(self.cost_of(p) for p in new))
             new = [p for p, c in zip(new, cum) if c <= self.left - keep or c == cum[0] and self.left > keep]
         if not new:
             return
@@ -251,10 +155,16 @@ class _Search:
             where = self.grid.place(params)
             row = {**row, "stage": stage, "level": (level if level is not None else self.level(where))
                    if where is not None else math.nan,
-                   "robust": None, "robust_at": None, "neighbourhood": "", "neighbourhood_worst_ratio": math.nan}
+                   "robust": None, "robust_at": None, "neighbourhood": "", "neighbourhood_worst_ratio": math.nan,
+                   "band": None}
             self.seen[_key(params)] = row
             self.rows.append(row)
-        self.left -= sum(self.weight(p) for p in new)
+        self.left -= sum(self.cost_of(p) for p in new)
+
+    def cost_of(self, p: dict) -> float:
+        """What a run costs of the budget: its weight, but nothing for a band run (one with a ``phase``), a final
+        check of a candidate that passed its band's ends and knobs: the budget bounds the search, not the checks."""
+        return 0.0 if "phase" in p else self.weight(p)
 
     def level(self, where: tuple[int, int, int]) -> int:
         """The refinement level that first reaches a lattice place (0: the coarse grid)."""
@@ -264,7 +174,9 @@ class _Search:
 
     def params(self, row: dict) -> dict:
         keys = ["dt", *([self.grid.knob] if self.grid.knob else []), *self.grid.others]
-        return {k: row[k] for k in keys}
+        out = {k: row[k] for k in keys}
+        phase = row.get("phase")
+        return out if phase is None or isinstance(phase, float) and math.isnan(phase) else {**out, "phase": phase}
 
     def passes(self, row: dict) -> tuple[int, ...]:
         return passes(row, self.asked)
@@ -325,41 +237,104 @@ class _Search:
         return sorted(todo, key=lambda r: (not any(math.isinf(bounds[p]) for p in self.passes(r)), self.rank(r)))
 
     def surviving(self, row: dict, near: list[dict]) -> set[int]:
-        """The points ``row`` passes at where every neighbour run so far passes too."""
-        out = set(self.passes(row))
-        for n in near:
-            if _key(n) in self.seen:
-                out &= set(self.passes(self.seen[_key(n)]))
-        return out
+        """The points ``row`` passes at where the neighbours of ``near`` run so far fail no more often than the robust
+        fraction allows of all of them (every one passes, at the default fraction 1)."""
+        allowed = math.floor((1.0 - self.fraction) * len(near) + 1e-9)
+        ran = [self.passes(self.seen[_key(n)]) for n in near if _key(n) in self.seen]
+        return {p for p in self.passes(row) if sum(1 for q in ran if p not in q) <= allowed}
 
     def neighbourhoods(self, most: int | None = PER_STAGE) -> None:
         """Run the neighbourhoods of up to ``most`` passes that could still be an answer (``unchecked``), two at a
-        time: dt x 0.8 and x 1.25 first, the knobs' neighbours only where a ladder point still passes (module
-        docstring)."""
+        time (``check``)."""
         checked = 0
         while self.left > 0 and (most is None or checked < most):
             batch = self.unchecked()[:2]
             if not batch:
                 return
-            near = {id(r): self.grid.neighbours(self.params(r)) for r in batch}
-            for part in (slice(0, 2), slice(2, None)):
-                alive = [r for r in batch if self.surviving(r, near[id(r)][:part.start])]
-                self.run([n for r in alive for n in near[id(r)][part]], "neighbourhood", self.grid.depth, force=True)
-            for r in batch:
-                self.settle(r, near[id(r)])
+            self.check(batch)
             checked += len(batch)
 
+    def check(self, batch: list[dict]) -> None:
+        """Run the neighbourhoods of ``batch``'s candidates group by group (``Grid.neighbourhood``: the band's ends,
+        the knobs, the band's inner dts, the other phases), each group only for the candidates with a ladder point
+        still robust, and settle them."""
+        groups = {id(r): self.grid.neighbourhood(self.params(r), self.phases) for r in batch}
+        near = {id(r): [n for g in groups[id(r)] for n in g] for r in batch}
+        for k in range(max(len(g) for g in groups.values())):
+            alive = [r for r in batch if self.surviving(r, near[id(r)])]
+            self.run([n for r in alive for n in groups[id(r)][k]], "neighbourhood", self.grid.depth, force=True)
+        for r in batch:
+            self.settle(r, near[id(r)])
+
     def settle(self, r: dict, near: list[dict]) -> None:
-        """A candidate's robust points, and at the asked one its verdict: robust, or the neighbours that fail."""
+        """A candidate's robust points, what its band checked and passed at each (``band``), and at the asked point its
+        verdict: robust, or the neighbours that fail."""
         r["robust_at"] = tuple(sorted(self.surviving(r, near)))
+        ran = [self.seen[_key(n)] for n in near if _key(n) in self.seen]
+        r["band"] = self.band_record(r, near, ran)
         if self.asked not in self.passes(r):
             return
-        ran = [self.seen[_key(n)] for n in near if _key(n) in self.seen]
-        failing = [n for n in ran if not agrees(n["verdict"])]
-        r["robust"] = not failing
-        r["neighbourhood"] = "; ".join(f"{_moved(self.params(r), n)}: {n['verdict']}" for n in failing)
+        failing = [n for n in ran if self.asked not in self.passes(n)]
+        r["robust"] = self.asked in r["robust_at"]
+        words = [f"{_moved(self.params(r), n)}: {n['verdict']}" for n in failing]
+        r["neighbourhood"] = "; ".join(words[:MOST_NAMED]) + (
+            f"; and {len(words) - MOST_NAMED} more of {len(near)}" if len(words) > MOST_NAMED else "")
         ratios = [r.get("worst_ratio", math.nan), *(n.get("worst_ratio", math.nan) for n in ran)]
         r["neighbourhood_worst_ratio"] = max((x for x in ratios if x is not None and not math.isnan(x)), default=math.nan)
+
+    def band_record(self, r: dict, near: list[dict], ran: list[dict]) -> dict[str, Any]:
+        """What a candidate's neighbourhood checked and the share that passed at each ladder point it passes at:
+        ``dts`` (the band's, ascending, its own among them), ``phases``, ``knobs`` (knob neighbours), ``runs``
+        (the neighbourhood's runs, itself included), ``ran`` (of them run: a failure stops the rest) and
+        ``passed`` (point -> the share of all its runs passing there, itself included: 1.0 is every one)."""
+        p = self.params(r)
+        dts = sorted({p["dt"], *(n["dt"] for n in near)})  # a knob's neighbours keep the candidate's dt
+        knobs = sum(1 for n in near if n["dt"] == p["dt"] and "phase" not in n)
+        total = len(near) + 1
+        passed = {q: (1 + sum(1 for n in ran if q in self.passes(n))) / total for q in self.passes(r)}
+        return {"dts": dts, "phases": sorted({0.0, *self.phases}), "knobs": knobs, "runs": total, "ran": len(ran) + 1,
+                "passed": passed}
+
+    def answer_rows(self) -> dict[int, dict]:
+        """Per ladder point, its answer so far: the best-ranked row robust there (``answers``)."""
+        out: dict[int, dict] = {}
+        for r in self.rows:
+            for p in r["robust_at"] or ():
+                if p not in out or self.rank(r) < self.rank(out[p]):
+                    out[p] = r
+        return out
+
+    def bisect(self) -> None:
+        """Below the lattice: between each answer's dt and the next coarser lattice dt (``DT_RATIO`` apart), the
+        coarsest dt that is still robust at the answer's points, by bisection over the band's dts in between
+        (``BAND_RATIO`` apart; module docstring). A trial is a candidate like any other: run, judged at the points
+        where it can matter, its neighbourhood checked where it passes; a robust one becomes the answer of the
+        points where it is robust and cheapest."""
+        done: set[tuple] = set()
+        while True:
+            todo = [(r, {p for p, a in self.answer_rows().items() if a is r}) for r in
+                    {id(a): a for a in self.answer_rows().values()}.values() if self.on_lattice(r)]
+            todo = [(r, points) for r, points in todo if _key(self.params(r)) not in done]
+            if not todo:
+                return
+            r, points = min(todo, key=lambda item: self.rank(item[0]))
+            done.add(_key(self.params(r)))
+            i = self.grid.dt.index(r["dt"])
+            if i == 0:
+                continue
+            trials = [d for d in band_dts(r["dt"], self.grid.dt[i - 1]) if r["dt"] < d < self.grid.dt[i - 1]]
+            lo, hi = -1, len(trials)
+            while hi - lo > 1:
+                mid = (lo + hi) // 2
+                params = {**self.params(r), "dt": trials[mid]}
+                if 1.0 / params["dt"] > self.max_cost:
+                    hi = mid
+                    continue
+                self.run([params], "bisect", None, force=True)
+                trial = self.seen[_key(params)]
+                if trial["robust_at"] is None and points & set(self.passes(trial)):
+                    self.check([trial])
+                lo, hi = (mid, hi) if points & set(trial["robust_at"] or ()) else (lo, mid)
 
     def labels(self, s: int) -> dict[tuple[int, int], tuple]:
         """Slice ``s``'s runs on the lattice -> their label: the verdict and the ladder points passed."""
@@ -446,14 +421,18 @@ class _Search:
 
 
 def _moved(p: dict, n: dict) -> str:
-    """How a neighbour differs from its candidate: ``dt x0.8``, ``w0_dt=0.23``."""
-    k = next(k for k in p if p[k] != n[k])
-    return f"dt x{n['dt'] / p['dt']:.3g}" if k == "dt" else f"{k.split('.', 1)[-1]}={n[k]:g}"
+    """How a neighbour differs from its candidate: ``dt x0.8``, ``w0_dt=0.23``, ``dt x1.09 at phase 0.25``."""
+    at = f" at phase {n['phase']:g}" if n.get("phase") else ""
+    if n["dt"] != p["dt"]:
+        return f"dt x{n['dt'] / p['dt']:.3g}{at}"
+    k = next((k for k in p if k != "dt" and p[k] != n[k]), None)
+    return (f"{k.split('.', 1)[-1]}={n[k]:g}" if k else "dt x1") + at
 
 
 def search(run_batch: Callable[[list[dict], str, list[float]], list[dict]], grid: Grid, budget: float, band: float = 0.1,
            check_robust: bool = True, weight: Callable[[dict], float] = lambda params: 1.0,
-           levels: list[tuple[float, float]] | None = None, asked: int = 0, max_cost: float = math.inf) -> Searched:
+           levels: list[tuple[float, float]] | None = None, asked: int = 0, max_cost: float = math.inf,
+           phases: tuple[float, ...] = (), fraction: float = ROBUST_FRACTION) -> Searched:
     """Every candidate row the search ran (module docstring); ``run_batch(params, stage, bounds)`` judges a batch in
     order, ``bounds`` per ladder point the cost above which a run cannot matter there (``need``).
 
@@ -463,15 +442,19 @@ def search(run_batch: Callable[[list[dict], str, list[float]], list[dict]], grid
     ``n_match``, ``worst_ratio`` where known).
     ``check_robust`` False: no neighbourhood is run (every pass keeps ``robust`` None). ``weight(params)``:
     what a run costs of ``budget``; ``max_cost``: no candidate of more steps per simulated second is run
-    (module docstring).
+    (module docstring). ``phases`` (fractions of a step, ``studies.phases``): the band's impact phases; empty, the
+    three-point neighbourhood (dt x 0.8 and x 1.25, the knobs) and no bisection. ``fraction``: the share of a
+    neighbourhood that must pass at a point for the candidate to be robust there.
     """
-    st = _Search(run_batch, grid, budget, band, weight, levels, asked, max_cost)
+    st = _Search(run_batch, grid, budget, band, weight, levels, asked, max_cost, phases, fraction)
     whole = st.lattice()
     if sum(weight(p) for p in whole) <= budget * (1.0 - CHECK_SHARE):  # it fits: run all of it, coarse dt first
         for i in sorted({p["dt"] for p in whole}, reverse=True):
             st.run([p for p in whole if p["dt"] == i], "exhaustive", None)
         if check_robust:
             st.neighbourhoods(most=None)
+            if phases:
+                st.bisect()
         return st.outcome(exhaustive=True)
     st.coarse(budget * (1.0 - COARSE_SHARE), check_robust)
     for level in range(1, grid.depth + 1):
@@ -494,4 +477,6 @@ def search(run_batch: Callable[[list[dict], str, list[float]], list[dict]], grid
                 st.neighbourhoods(most=None)
         if len(st.rows) == ran:
             break
+    if check_robust and phases:
+        st.bisect()
     return st.outcome(exhaustive=False)

@@ -71,7 +71,10 @@ def test_compare_report_tune_and_sweep_print_the_same_column_names():
     own = {"stage", "settings", "failed", *RATIO_COLUMNS, "steps_per_sim_s", "cost_repeats", "n_non_default",
            *SEARCH_COLUMNS, *STRIKE_COLUMNS,  # the search's (level, robust, failing neighbours); R under the scene's forces
            # the ladder points a run passes at, is robust at, its margins there, and those it was not judged at
-           "passes", "robust_at", "margins", "unjudged"}
+           "passes", "robust_at", "margins", "unjudged",
+           # at each point passed: the check that set its margin and its rest after the stick (open share, onsets/s)
+           "limits", "rests",
+           "phase"}  # a band run's start, phase x dt later (studies/phases.py): the run's own, as dt is
     assert set(TUNE_COLUMNS) - own <= summary
     assert set(tune_cli.SHOW) - own <= summary
     # the episode table names its errors as the judge does

@@ -11,7 +11,7 @@ import textwrap
 
 import pytest
 
-from helpers import cli
+from helpers import band_failures, cli
 
 from chatterbench.comparisons.pipeline.compare import compare, judge_run
 from chatterbench.comparisons.pipeline.solution import solve
@@ -24,12 +24,13 @@ from chatterbench.comparisons.studies.tune_search import agrees
 from chatterbench.engines.registry import make_settings
 from chatterbench.reference import load_scene
 
-# MuJoCo's own answer for the ball at 5% is "none" (issue 26); fixing the integrator and the impedance at their
-# defaults and capping the cost at 2,500 steps per simulated second keeps the search to 286 lattice settings, of which
-# a budget of 80 runs (82 with the neighbourhood begun) finds 3 robust frontier points (measured: stick 20% restitution
-# 20% at 206 steps/s, stick 5% restitution 30% at 629, stick 10% restitution 20% at 1919; 150 runs found 4)
+# MuJoCo's own answer for the ball at 5% is "none" (issue 26); fixing the integrator at its default and the impedance
+# at 0.9 (at its 0.99 the contact flickers after the stick: buzz, issue 41) and capping the cost at 2,500 steps per
+# simulated second keeps the search to 286 lattice settings, of which a budget of 80 runs finds 2 band-robust frontier
+# points (measured: stick 20% restitution 30% at 195 steps/s, dt 0.00513453, w0_dt 0.3; stick 10% restitution 30% at
+# 1,918, dt 0.000521403, w0_dt 0.1316; 608 runs, 500 of them band checks, 90 s with the transfer checks)
 BALL_MUJOCO = ["tune", "bouncing-ball", "--engines", "mujoco", "--tolerance", "0.05", "--set", "mujoco.integrator=euler",
-               "--set", "mujoco.impedance=0.99", "--max-cost", "2500", "--max-runs", "80", "--repeats", "1",
+               "--set", "mujoco.impedance=0.9", "--max-cost", "2500", "--max-runs", "80", "--repeats", "1",
                "--workers", "2"]
 
 
@@ -41,14 +42,14 @@ def ball_mujoco(tmp_path_factory):
     return done, out, json.loads((out / "recommended.json").read_text())
 
 
-def _all_agree(scene, entry: dict, dt: float) -> list[str]:
+def _verdicts(scene, entry: dict, dt: float, engine: str = "mujoco") -> list[str]:
     tol = tolerances_from_items(tolerance_items(Tolerances(**entry["tolerances"])))  # as `compare --tolerance` takes them
-    c = compare(scene, engines=("mujoco",), dt=dt, overrides=[f"{k}={v}" for k, v in entry["settings"].items()], tol=tol)
+    c = compare(scene, engines=(engine,), dt=dt, overrides=[f"{k}={v}" for k, v in entry["settings"].items()], tol=tol)
     return c.table["verdict"].tolist()
 
 
-@pytest.mark.slow  # the fixture's tune (80 runs) and 3 compares per frontier point
-def test_no_robust_setting_at_5_percent_and_a_frontier_each_point_rechecked_by_compare(ball_mujoco):
+@pytest.mark.slow  # the fixture's tune (90 s) and 16+ dts x 4 phases of compares per frontier point
+def test_no_robust_setting_at_5_percent_and_every_frontier_point_passes_over_its_band(ball_mujoco):
     done, out, rec = ball_mujoco
     assert done.code == 1  # nothing robust at the asked tolerances
     # the answer leads with that, then with what is reachable: in the terminal, in the JSON and in the guide
@@ -58,8 +59,9 @@ def test_no_robust_setting_at_5_percent_and_a_frontier_each_point_rechecked_by_c
     assert "**No robust setting passes these tolerances in the searched space.** No robust setting at 5%" in guide
     assert "## Robust frontier" in guide and "![frontier](frontier.png)" in guide
     frontier = rec["frontier"]
-    assert len(frontier) >= 3, rec["answer"]
-    assert all(set(e) == {"tolerances", "dt", "settings", "cost_steps_per_s", "margin"} for e in frontier)
+    assert len(frontier) >= 2, rec["answer"]
+    assert all(set(e) >= {"tolerances", "dt", "settings", "cost_steps_per_s", "margin", "margin_check", "checked",
+                          "persistence", "transfer", "snippet", "files"} for e in frontier)
     # cheapest first, and no point beaten by another as tight on both axes and as cheap
     costs = [e["cost_steps_per_s"] for e in frontier]
     assert costs == sorted(costs) and max(costs) <= 2500
@@ -70,15 +72,22 @@ def test_no_robust_setting_at_5_percent_and_a_frontier_each_point_rechecked_by_c
                                   and b["cost_steps_per_s"] <= a["cost_steps_per_s"]), (a, b)
     assert rec["tightest"] == {"stick": min(e["tolerances"]["stick"] for e in frontier),
                                "restitution": min(e["tolerances"]["restitution"] for e in frontier)}
-    scene = load_scene("bouncing-ball")
-    for entry in frontier:  # robust: `compare` says match at dt, x 0.8 and x 1.25, at the point's own tolerances
-        assert entry["margin"] is not None and 0 <= entry["margin"] <= 1
-        for dt in (entry["dt"], entry["dt"] * 0.8, entry["dt"] * 1.25):
-            verdicts = _all_agree(scene, entry, dt)
-            assert verdicts and all(agrees(v) for v in verdicts), (entry, dt, verdicts)
+    for entry in frontier:  # band-robust: every dt of [0.8, 1.25] x dt at 4 phases passes, checked from outside
+        assert entry["margin"] is not None and 0 <= entry["margin"] <= 1 and entry["margin_check"]
+        band = entry["checked"]
+        assert band["n_dts"] >= 16 and len(band["phases"]) == 4 and band["passed"] == 1.0, band
+        assert entry["persistence"]["open_fraction"] == 0.0  # the contact stays closed after the stick
+        runs, failing = band_failures(load_scene("bouncing-ball"), entry, "mujoco")
+        assert runs >= 64 and not failing, (entry["dt"], entry["settings"], failing[:4])
+    # the top level is the tightest robust point, never the fragile best reachable (issue 41, Why 3)
+    # (nearest the asked: the least of its tolerances' largest ratio to the asked ones, then of the other, then cost)
+    written = min(frontier, key=lambda e: (*sorted((e["tolerances"]["stick"] / 0.05, e["tolerances"]["restitution"] / 0.05),
+                                                   reverse=True), e["cost_steps_per_s"]))
+    assert rec["robust"] is False and (rec["dt"], rec["settings"]) == (written["dt"], written["settings"])
+    assert rec["best_reachable"] is not None and rec["best_reachable"]["dt"] != rec["dt"]
     # the other way: at the asked 5% the same settings fail (that is why the answer leads with "no robust setting")
     asked = {**frontier[0], "tolerances": rec["tolerances"]}
-    assert not all(agrees(v) for v in _all_agree(scene, asked, frontier[0]["dt"]))
+    assert not all(agrees(v) for v in _verdicts(load_scene("bouncing-ball"), asked, frontier[0]["dt"]))
 
 
 CLIENT = textwrap.dedent("""
@@ -110,7 +119,7 @@ def test_a_client_from_scratch_checks_each_frontier_point_with_a_fresh_compare(b
                           timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]
     lines = done.stdout.splitlines()
-    assert len(lines) == len(rec["frontier"]) >= 3
+    assert len(lines) == len(rec["frontier"]) >= 2
     for line in lines:  # every episode of every point matches at the point's own tolerances
         verdicts = line.split()[2:]
         assert verdicts and set(verdicts) <= {"match", "none"}, line
@@ -170,17 +179,20 @@ def _dt_neighbours(p: dict) -> list[dict]:
 
 @pytest.mark.slow  # 9 lattice settings and their neighbours, judged at 9 points, twice (tune and the loop): 20-40 s
 def test_brute_force_equals_tunes_frontier_mujoco():
+    # the three-point neighbourhood (phases=(): dt x 0.8 and x 1.25, the knobs), which the loop below brute-forces;
+    # impedance 0.9 (MuJoCo's 0.99 flickers after the stick: buzz at every setting, nothing to compare)
     scene = load_scene("bouncing-ball")
-    space = {"dt": (0.00485, 0.00198), "mujoco.w0_dt": (0.3, 0.4408)}
+    space = {"dt": (0.00485, 0.00198), "mujoco.w0_dt": (0.3, 0.4408), "mujoco.impedance": (0.9,)}
     ladder = Ladder(timing=(0.1, 0.2), restitution=(0.2, 0.3))
-    result = tune(scene, "mujoco", 0.05, space=space, workers=2, refine_steps=1, ladder=ladder)
+    result = tune(scene, "mujoco", 0.05, space=space, workers=2, refine_steps=1, ladder=ladder, phases=(),
+                  transfer=False)
     assert result.extra["searched"]["exhaustive"]
     assert "exhaustive: every one of the 9 lattice settings ran (the lattice fitted the budget)" in searched_text(result)
     # the lattice as documented: dt geometric between the coarse values (3 significant digits), w0_dt halved
     dts, knobs = (0.00485, 0.0031, 0.00198), (0.3, 0.3704, 0.4408)
     grid = result.extra["grid"]
     assert grid.dt == dts and grid.knob_values == knobs
-    lattice = [{"dt": d, "mujoco.w0_dt": w} for d in dts for w in knobs]
+    lattice = [{"dt": d, "mujoco.w0_dt": w, "mujoco.impedance": 0.9} for d in dts for w in knobs]
 
     def neighbours(p):
         j = knobs.index(p["mujoco.w0_dt"])
@@ -199,14 +211,19 @@ def test_brute_force_equals_tunes_frontier_mujoco():
 @pytest.mark.slow  # 6 lattice settings (two solver iteration counts) and their dt neighbours at 9 points: 15-30 s
 def test_brute_force_equals_tunes_frontier_pybullet_with_per_criterion_tolerances():
     scene = load_scene("bouncing-ball")
-    space = {"dt": (0.0118, 0.00388), "pybullet.num_solver_iterations": (50, 10)}
+    # the three-point neighbourhood (phases=()), as the loop brute-forces it; a bounce threshold (PyBullet's 0 bounces
+    # at g dt after the stick: buzz at every setting)
+    space = {"dt": (0.0118, 0.00388), "pybullet.num_solver_iterations": (50, 10),
+             "pybullet.restitution_velocity_threshold": (0.1,)}
     asked = tolerances_from_items(["stick=0.05", "exit=0.1", "restitution=0.05"])  # exit looser than stick
     ladder = Ladder(timing=(0.02, 0.1), restitution=(0.1,))
-    result = tune(scene, "pybullet", asked, space=space, workers=2, refine_steps=1, ladder=ladder)
+    result = tune(scene, "pybullet", asked, space=space, workers=2, refine_steps=1, ladder=ladder, phases=(),
+                  transfer=False)
     assert result.extra["searched"]["exhaustive"]
     dts = (0.0118, 0.00677, 0.00388)
     assert result.extra["grid"].dt == dts
-    lattice = [{"dt": d, "pybullet.num_solver_iterations": n} for d in dts for n in (50, 10)]
+    lattice = [{"dt": d, "pybullet.num_solver_iterations": n, "pybullet.restitution_velocity_threshold": 0.1}
+               for d in dts for n in (50, 10)]
     points = list(ladder.points(asked))
     # the timing level scales exit with stick, in the asked proportion (0.1 / 0.05)
     assert {(p.stick, p.exit, p.first_impact) for p in points} == {(0.02, 0.04, 0.02), (0.05, 0.1, 0.05), (0.1, 0.2, 0.1)}
@@ -217,8 +234,9 @@ def test_brute_force_equals_tunes_frontier_pybullet_with_per_criterion_tolerance
 # -- the ladder's judging, and the budget ----------------------------------------------------------------------
 
 @pytest.mark.parametrize("engine, scene, dt, settings", [
-    ("mujoco", "bouncing-ball", 1e-3, {"mujoco.w0_dt": 0.3}),  # late at tight timing, rebound at tight restitution
-    ("pybullet", "feigin-pair", 2e-3, {}),
+    # late at tight timing, rebound at tight restitution (impedance 0.9: at 0.99 it flickers, buzz, at every point)
+    ("mujoco", "bouncing-ball", 1e-3, {"mujoco.w0_dt": 0.3, "mujoco.impedance": 0.9}),
+    ("pybullet", "feigin-pair", 2e-3, {"pybullet.restitution_velocity_threshold": 0.01}),
 ])
 def test_each_ladder_point_is_judged_as_judge_run_judges_it(engine, scene, dt, settings):
     # the shortcut (a timing failure holds at every restitution level) and the extraction reused across restitution

@@ -7,12 +7,14 @@ or x 1.25 fails: the check that fails is restitution at the slowest impacts the 
 measures an impact when its sampling uncertainty is within the restitution tolerance, so a looser tolerance
 admits slower impacts, where MuJoCo's spring-damper loses more of R to the scene's own forces during the
 contact: the worst error follows the tolerance up instead of falling under it. At the restitution
-tolerance 0.2 (0.25 on feigin-pair) tune finds a robust answer on each (``ANSWERS``), checked here through
-``compare`` at its dt, x 0.8 and x 1.25.
+tolerance 0.2 (0.25 on feigin-pair) tune then found an answer on each (``ISSUE_26_ANSWERS``), robust at dt x 0.8
+and x 1.25; issue 41 found that their contact flickers after every stick at MuJoCo's impedance d = 0.99 and
+0.9999 (``buzz``), and that d = 0.9 holds it closed.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import pytest
@@ -35,33 +37,41 @@ def _tol(restitution: float) -> Tolerances:
     return Tolerances(stick=T, exit=T, first_impact=T, restitution=restitution)
 
 
-# tune's answer for MuJoCo where a robust one exists: the smallest restitution tolerance of 0.15 / 0.2 / 0.25 at
-# which tune (default budget) found one, measured with `chatterbench tune SCENE --engines mujoco --tolerance T
-# --tolerance restitution=R --workers 1`: scene -> (T, R, dt [s], settings); integrator euler (the default)
-ANSWERS = {
+# tune's answers for MuJoCo before issue 41 (robust at dt x 0.8 and x 1.25 then, measured with `chatterbench tune
+# SCENE --engines mujoco --tolerance T --tolerance restitution=R --workers 1`): scene -> (T, R, dt [s], settings)
+ISSUE_26_ANSWERS = {
     "bouncing-ball": (0.05, 0.2, 0.000333, {"mujoco.w0_dt": 0.228, "mujoco.impedance": 0.99}),
     "spring-pair": (0.1, 0.2, 0.000431, {"mujoco.w0_dt": 0.1732, "mujoco.impedance": 0.9999}),
     "feigin-pair": (0.05, 0.25, 0.00015, {"mujoco.w0_dt": 0.1, "mujoco.impedance": 0.99}),
 }
 
 
-def _verdicts(scene, t: float, r: float, dt: float, settings: dict) -> list[str]:
-    """The episodes' verdicts of ``compare`` with ``settings`` as ``--set K=V`` items, at ``dt`` [s]."""
+def _table(scene, t: float, r: float, dt: float, settings: dict):
+    """``compare``'s table with ``settings`` as ``--set K=V`` items, at ``dt`` [s]."""
     tol = Tolerances(stick=t, exit=t, first_impact=t, restitution=r)
-    return compare(scene, engines=("mujoco",), dt=dt, overrides=[f"{k}={v}" for k, v in settings.items()],
-                   tol=tol).table["verdict"].tolist()
+    return compare(scene, engines=("mujoco",), dt=dt, overrides=[f"{k}={v}" for k, v in settings.items()], tol=tol).table
 
 
-@pytest.mark.parametrize("name", ANSWERS)
-def test_mujoco_answer_reproduces_match_at_its_dt_and_x0_8_and_x1_25(name):
-    # four compares (feigin-pair: 270,000 steps each, 2.2 s in all on this machine)
-    t, r, dt, settings = ANSWERS[name]
+def _verdicts(scene, t: float, r: float, dt: float, settings: dict) -> list[str]:
+    return _table(scene, t, r, dt, settings)["verdict"].tolist()
+
+
+@pytest.mark.parametrize("name", ISSUE_26_ANSWERS)
+def test_the_old_answers_flicker_after_the_stick_and_a_softer_impedance_holds_the_contact(name):
+    # issue 41: these passed the old judge, which counted flights shorter than its floor as rest. Measured: after
+    # every stick the contact opens for a step at 120-200 onsets per second (open 2.6-6.7% of the rest), the force
+    # swinging by its whole load: `buzz` on every episode that sticks (feigin-pair: 11 of 13; two rest)
+    t, r, dt, settings = ISSUE_26_ANSWERS[name]
     scene = load_scene(name)
-    for at in (dt, float(f"{dt * 0.8:.6g}"), float(f"{dt * 1.25:.6g}")):  # as tune's neighbourhood takes them
-        verdicts = _verdicts(scene, t, r, at, settings)
-        assert verdicts and all(agrees(v) for v in verdicts), (at, verdicts)
-    # the other way: at the default restitution tolerance (0.05) the same setting misses R
-    assert "rebound" in _verdicts(scene, t, 0.05, dt, settings)
+    table = _table(scene, t, r, dt, settings)
+    buzz = table[table["verdict"] == "buzz"]
+    assert len(buzz) >= len(table) - 2 and len(buzz) > 0, table["verdict"].tolist()
+    assert (buzz["onset_rate"] > 100).all() and (buzz["open_fraction"] > 0.02).all() and (buzz["force_swing"] > 0.9).all()
+    assert all("contact onsets" in why and "per second" in why for why in buzz["reason"])
+    # the other way: the same dt and w0_dt at impedance 0.9 (d = 0.9) keep the contact closed: no onset, no opening
+    soft = _table(scene, t, r, dt, {**settings, "mujoco.impedance": 0.9})
+    assert "buzz" not in soft["verdict"].tolist()
+    assert (soft["open_fraction"].dropna() == 0).all() and (soft["contact_onsets"] == 0).all()
 
 
 def test_mujoco_restitution_error_follows_the_tolerance_up_on_feigin_pair():
@@ -107,7 +117,9 @@ def test_an_unmeasured_run_has_no_error_to_measure_and_says_so():
     # (``unmeasured``: bouncing-ball, MuJoCo at dt 8e-3, w0 dt 0.4408) had a worst ratio of 0.47 (under 1, as
     # if it passed) and no failure named, so tune's best reachable at a small budget was such a run, with an
     # empty reason in recommended.json
-    ref, tol = solve(load_scene("bouncing-ball")), _tol(0.05)
+    # (its contact also flickers after the stick at impedance 0.99, open 12% of the rest: ``buzz``, which decides
+    # first; the persistence check is left out here, tolerance 1, so that the restitution check is what is tested)
+    ref, tol = solve(load_scene("bouncing-ball")), dataclasses.replace(_tol(0.05), persistence=1.0)
     allowance = tol.penetration * ref.length_scale
     settings = make_settings("mujoco", 8e-3, {"mujoco.w0_dt": 0.4408})
     _, table, impacts = judge_run(ref, "mujoco", settings, tol)
@@ -128,7 +140,9 @@ def test_an_unresolved_run_is_not_ranked_as_a_near_pass():
     # before: ``unresolved`` (the samples place the sticking start only to more than its tolerance) counted as a
     # measured timing verdict, so its worst ratio was the measured errors' (here 2.19; an unresolved run of small
     # measured errors ranked under 1, as if it passed) and tune's best reachable could be one
-    ref, tol = solve(load_scene("bouncing-ball")), _tol(0.05)
+    # (PyBullet's default threshold 0 bounces at g dt after the stick, ``buzz``, which decides first: the
+    # persistence check is left out here, tolerance 1, so that the timing check is what is tested)
+    ref, tol = solve(load_scene("bouncing-ball")), dataclasses.replace(_tol(0.05), persistence=1.0)
     allowance = tol.penetration * ref.length_scale
     _, table, impacts = judge_run(ref, "pybullet", make_settings("pybullet", 0.02, {}), tol)
     assert table["verdict"].tolist() == ["unresolved"]

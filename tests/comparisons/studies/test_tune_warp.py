@@ -88,9 +88,9 @@ def test_tune_answers_for_mujoco_warp_and_reruns_each_answer_in_mujoco_c(tmp_pat
         assert found == said, (point, found, said)
 
 
-def _check_at(w0_dt: float):
-    result = tune(BALL, "mujoco_warp", LOOSE, space={"dt": (1e-3,), "mujoco_warp.w0_dt": (w0_dt,)}, workers=1,
-                  refine_steps=0, ladder=None, check_robust=False)
+def _check_at(w0_dt: float, impedance: float = 0.99):
+    space = {"dt": (1e-3,), "mujoco_warp.w0_dt": (w0_dt,), "mujoco_warp.impedance": (impedance,)}
+    result = tune(BALL, "mujoco_warp", LOOSE, space=space, workers=1, refine_steps=0, ladder=None, check_robust=False)
     check = same_model_check(result)
     return check, check.table.iloc[0]
 
@@ -99,12 +99,12 @@ def _check_at(w0_dt: float):
 def test_an_answer_where_float32_parts_from_float64_is_said_not_alike_and_one_where_it_holds_is_alike():
     # measured (as in tests/engines/test_mujoco_warp.py): at dt 1e-3 with a stiff contact (w0 dt 1) MuJoCo C never
     # sticks before the end (missed) and MuJoCo Warp does, its restitution off by more than 20% (rebound); at w0 dt 0.1
-    # both match, sticking a few steps apart
+    # and impedance 0.95 both match, sticking a few steps apart (at 0.99 both flicker after the stick: buzz)
     check, stiff = _check_at(1.0)
     assert (stiff["verdict"], stiff["other_verdict"]) == ("rebound", "missed")
     assert not stiff["same"] and stiff["disagree"] == 1 and not check.holds
     assert "mujoco_warp rebound, mujoco missed, 1 of 1 episodes disagree" in check.sentence()
-    _, soft = _check_at(0.1)
+    _, soft = _check_at(0.1, 0.95)
     assert (soft["verdict"], soft["other_verdict"]) == ("match", "match") and soft["same"] and soft["disagree"] == 0
     assert 0.0 < soft["stick_difference_max"] < LOOSE.stick * 1.3  # measured, never assumed zero (float32 is not float64)
 
@@ -120,7 +120,8 @@ def test_a_batched_search_is_row_for_row_the_search_of_runs_alone():
     # the must-show for a study: a search pass's candidates as the worlds of one batch (as on cuda) give the
     # rows of the same candidates run one by one in the workers (MuJoCo Warp: a world is bit for bit the run alone);
     # two integrators: two compiled structures, a block each
-    space = {"dt": (1e-3,), "mujoco_warp.w0_dt": (0.1, 0.3), "mujoco_warp.integrator": ("euler", "implicitfast")}
+    space = {"dt": (1e-3,), "mujoco_warp.w0_dt": (0.1, 0.3), "mujoco_warp.integrator": ("euler", "implicitfast"),
+             "mujoco_warp.impedance": (0.95,)}  # at 0.99 the contact flickers after the stick: buzz everywhere
     runs = {b: tune(BALL, "mujoco_warp", LOOSE, space=space, workers=1, refine_steps=0, ladder=None, check_robust=False,
                     batched=b) for b in (False, True)}
     assert runs[True].extra["searched"]["batched"] and not runs[False].extra["searched"]["batched"]
