@@ -67,18 +67,21 @@ def making_command() -> str | None:
     return None
 
 
-def export_files(engine: str, scene: Scene, settings: Any, flight_band: float | None = None) -> dict[str, str]:
+def export_files(engine: str, scene: Scene, settings: Any, flight_band: float | None = None,
+                 rest: tuple = ()) -> dict[str, str]:
     """File name -> text, what ``tune --out DIR`` writes into ``DIR/<engine>/`` (module docstring); the files keep
     ``making_command``. ``flight_band`` [s]: the judge's band x sticking tolerance x (1 - R) of the comparison the
-    files are to agree with (``impact_lines.judged_by``; None: the sampling floor alone)."""
+    files are to agree with (``impact_lines.judged_by``; None: the sampling floor alone); ``rest``: the windows
+    (t0 [s], t1 [s], wall) over which the scripts report whether the contact stays closed after a stick."""
     check_exportable(engine)
-    return adapter_files(adapter(engine), scene, settings, flight_band)
+    return adapter_files(adapter(engine), scene, settings, flight_band, rest)
 
 
-def adapter_files(engine: EngineAdapter, scene: Scene, settings: Any, flight_band: float | None = None) -> dict[str, str]:
+def adapter_files(engine: EngineAdapter, scene: Scene, settings: Any, flight_band: float | None = None,
+                  rest: tuple = ()) -> dict[str, str]:
     """``engine.export``'s files, in the order it declares them (``exports``); an ``ExportError`` naming what is
     missing when it does not write each of them as text (a third party's adapter that returns nothing)."""
-    with judged_by(flight_band):
+    with judged_by(flight_band, rest):
         files = engine.export(scene, settings, command=making_command())
     names = list(engine.exports)
     missing = [name for name in names if not isinstance(files, dict) or not isinstance(files.get(name), str)]
@@ -89,10 +92,10 @@ def adapter_files(engine: EngineAdapter, scene: Scene, settings: Any, flight_ban
     return {name: files[name] for name in names}
 
 
-def model_file(engine: str, scene: Scene, settings: Any, flight_band: float | None = None) -> str:
+def model_file(engine: str, scene: Scene, settings: Any, flight_band: float | None = None, rest: tuple = ()) -> str:
     """The engine's model file for ``scene`` at ``settings`` (the first of its ``exports``): MuJoCo's MJCF (holding
     ``making_command``), PyBullet's script."""
-    return export_files(engine, scene, settings, flight_band)[export_files_names(engine)[0]]
+    return export_files(engine, scene, settings, flight_band, rest)[export_files_names(engine)[0]]
 
 
 def measurement(engine: str) -> str:

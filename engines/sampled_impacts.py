@@ -237,3 +237,21 @@ def judged_impacts(t, y, vy, acc, forces, walls, restitution, flight_band):
             out.append((imp["t"], wall, nrm * imp["v_minus"], nrm * imp["v_plus"]))
     out.sort(key=lambda row: row[0])
     return out
+
+
+def contact_rest(t, d, force, t0, t1):
+    """What a wall's contact does over the rest window [t0, t1] [s] after a stick: (onsets, open share, largest gap).
+
+    ``d``: per sample, the distance from the wall's surface [m] (> 0: off the wall); ``force``: the wall's normal
+    force per sample [N] (a contact where > 0). ``onsets``: samples in the window whose contact starts there (open
+    the sample before); the open share [1]: the window's time the contact is open (a sample holds its step); the
+    largest gap [m]: max(d, 0). (0, nan, nan) where the window holds fewer than two samples. The judge's persistence
+    check (``comparisons/pipeline/persistence.py``) reads the same from a run's contact flags.
+    """
+    ks = [k for k in range(len(t)) if t0 <= t[k] <= t1]
+    if len(ks) < 2:
+        return 0, math.nan, math.nan
+    closed = [force[k] > 0.0 for k in ks]
+    onsets = sum(1 for i in range(1, len(ks)) if closed[i] and not closed[i - 1])
+    open_time = sum(t[ks[i + 1]] - t[ks[i]] for i in range(len(ks) - 1) if not closed[i])
+    return onsets, open_time / (t[ks[-1]] - t[ks[0]]), max(0.0, max(d[k] for k in ks))

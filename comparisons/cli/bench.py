@@ -203,10 +203,12 @@ def _run_bench(args: argparse.Namespace, bar: Progress):
                              started=lambda scene, engine, tol: bar.stage(f"tune {scene} --engines {engine} --tolerance {tol:g}"),
                              finished=lambda row: bar.write(f"{row['scene']} / {row['engine']}: {row['runs']} runs, "
                                                             f"{row['wall_s']:.1f} s; {row['answer_line']}"))
-        print_table(figures.drop(columns="answer_line"), title="tune per case (runs, and wall time from the reference "
-                                                               "to the answer and its robust frontier):")
-        for row in figures.itertuples():  # what each engine reaches, robustly, and at what cost
+        print_table(figures.drop(columns=["answer_line", "points", "transfers"]),
+                    title="tune per case (runs, and wall time from the reference to the answer and its robust frontier):")
+        for row in figures.itertuples():  # what each engine reaches, robustly, at what cost, and what transfers
             print(f"{row.scene} / {row.engine}: {row.answer_line}")
+            print(f"  frontier points (the share of each one's band runs that passed): {row.points or 'none'}")
+            print(f"  the written answer on the scene's family: {row.transfers}")
     elif args.what == "platemap":
         figures = bench_platemap(strikes=args.strikes, repeats=args.repeats)
         print_table(pd.DataFrame([figures]), title="plate map, feigin-pair lower wall, reference exhaustive mode (best of repeats):")

@@ -50,6 +50,7 @@ def run_engine_events(scene: Scene, engine: str, settings: Any, export_model: st
     episodes, one-line summary)."""
     from chatterbench.comparisons.outputs.engine_files import flight_band  # with the work, not with --help
     from chatterbench.comparisons.pipeline.extract import extract_events
+    from chatterbench.comparisons.pipeline.persistence import reference_rest_windows
     from chatterbench.comparisons.pipeline.solution import solve
     from chatterbench.reference.log import episodes, log_frame
 
@@ -58,7 +59,8 @@ def run_engine_events(scene: Scene, engine: str, settings: Any, export_model: st
     solution = solve(scene)
     if export_model:  # its impacts are the ones counted below
         with writing("--export-model", export_model):
-            write_text(Path(export_model), model_file(engine, scene, settings, flight_band(solution, Tolerances())))
+            write_text(Path(export_model), model_file(engine, scene, settings, flight_band(solution, Tolerances()),
+                                                          reference_rest_windows(solution, Tolerances())))
     resolution = solution.stick_tolerance(Tolerances().stick)
     traj = run_engine(engine, scene, settings)
     log = extract_events(traj, scene, resolution) if len(traj.t) > 1 else log_frame([])

@@ -6,7 +6,8 @@
     >>> from chatterbench.reference.scene import load_scene
     >>> from chatterbench.comparisons.outputs.engine_files import write_engine_files
     >>> from chatterbench.comparisons.studies.tune import tune
-    >>> result = tune(load_scene("bouncing-ball"), "pybullet", 0.05, space={"dt": (1e-3,)}, workers=1, refine_steps=0,
+    >>> space = {"dt": (1e-3,), "pybullet.restitution_velocity_threshold": (0.1,)}
+    >>> result = tune(load_scene("bouncing-ball"), "pybullet", 0.05, space=space, workers=1, refine_steps=0,
     ...               ladder=None, check_robust=False)  # the asked tolerances alone (no frontier ladder, no neighbours)
     >>> write_engine_files(result, tmp)
     ['pybullet/scene.py']
@@ -28,6 +29,7 @@ import math
 
 from chatterbench.comparisons.pipeline.atomic import write_text
 from chatterbench.comparisons.pipeline.extract import ExtractionOptions
+from chatterbench.comparisons.pipeline.persistence import reference_rest_windows
 from chatterbench.comparisons.pipeline.solution import ReferenceSolution, solve
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
 from chatterbench.engines.export import export_files, export_files_names
@@ -39,6 +41,31 @@ def flight_band(solution: ReferenceSolution, tol: Tolerances) -> float:
     (``engines.export.export_files``) so that they count the impacts the judge counts."""
     stick = solution.stick_tolerance(tol.stick)
     return ExtractionOptions().band * stick * (1.0 - solution.scene.restitution) if math.isfinite(stick) else 0.0
+
+
+def write_frontier_files(result, out: Path) -> list[str]:
+    """Each frontier point's files under ``out``: its model and runnable script (``export_files``, judged at the
+    point's own tolerances) and its snippet, in ``tune_answer.point_folder``; the names ``recommended.json`` lists
+    (``tune_answer.point_record``), relative to ``out``."""
+    from chatterbench.comparisons.studies.tune_answer import point_record
+    from chatterbench.engines.registry import make_settings
+
+    if not export_files_names(result.engine):
+        return []
+    solution = result.extra.get("solution") or solve(result.scene)
+    written = []
+    for entry in result.frontier:
+        record = point_record(result, entry)
+        tol = Tolerances(**entry["tolerances"])
+        settings = make_settings(result.engine, float(entry["dt"]), dict(entry["settings"]))
+        texts = list(export_files(result.engine, result.scene, settings, flight_band(solution, tol),
+                                  reference_rest_windows(solution, tol)).values())
+        if record["snippet"]:
+            texts.append(record["snippet"] if record["snippet"].endswith("\n") else record["snippet"] + "\n")
+        for name, text in zip(record["files"], texts):
+            write_text(Path(out) / name, text)
+            written.append(name)
+    return written
 
 
 def write_engine_files(result, out: Path) -> list[str]:
@@ -53,7 +80,8 @@ def write_engine_files(result, out: Path) -> list[str]:
         return []
     solution = result.extra.get("solution") or solve(result.scene)
     written = []
-    for name, text in export_files(result.engine, result.scene, settings, flight_band(solution, result.tolerance)).items():
+    for name, text in export_files(result.engine, result.scene, settings, flight_band(solution, result.tolerance),
+                                   reference_rest_windows(solution, result.tolerance)).items():
         write_text(Path(out) / result.engine / name, text)
         written.append(f"{result.engine}/{name}")
     return written

@@ -14,10 +14,11 @@ Input: ``recommended.json``'s ``frontier`` per engine (``studies.tune_frontier``
 the ladder, since timing and restitution fail for different reasons: x the tolerance reached
 on that axis (the sticking tolerance; exit and first impact move with it), log; y the steps
 per simulated second of the cheapest robust setting reaching it, log. One line per engine,
-its colour from ``style.engine_colour``: the staircase of its frontier's points seen on that
+its colour from ``style.engine_colour`` and its own marker shape (``MARKERS``; a later engine's smaller, so
+that two engines' points at one place both show): the staircase of its frontier's points seen on that
 axis (filled: the cheapest point reaching each tolerance on it), the other points hollow
 (dearer there, but tighter on the other axis), each labelled with the tolerance it reaches
-on the other axis; an engine with no robust point is named in the legend. Dashed: the asked
+on the other axis and its cost (the point at the asked tolerances: "(asked)", bold); an engine with no robust point is named in the legend. Dashed: the asked
 tolerance on each axis.
 """
 
@@ -39,6 +40,7 @@ from .style import engine_colour
 
 MAX_JSON_BYTES = 4 * 2**20  # [bytes] of a recommended.json: tune writes a few KiB
 
+MARKERS = ("o", "s", "D", "^", "v", "P", "X")  # one shape per engine, so that a point under another engine's shows
 AXES = (("stick", "timing (sticking tolerance; exit and first impact move with it)", "restitution", "r"),
         ("restitution", "restitution tolerance |e / R - 1|", "stick", "stick"))
 
@@ -65,21 +67,26 @@ def frontier_figure(frontiers: Mapping[str, Sequence[dict[str, Any]]], scene: st
     axes = fig.subplots(1, 2)
     for ax, (axis, label, other, short) in zip(axes, AXES):
         for k, (engine, entries) in enumerate(frontiers.items()):
-            colour = engine_colour(engine)
+            colour, marker = engine_colour(engine), MARKERS[k % len(MARKERS)]
+            size = 9.0 - 2.0 * (k % 3)  # a later engine's marker smaller, so a point under it still shows
             steps = staircase(entries, axis)
             if not steps:
                 ax.plot([], [], color=colour, label=f"{engine}: nothing robust in the searched space")
                 continue
             x = [e["tolerances"][axis] for e in steps]
             y = [e["cost_steps_per_s"] for e in steps]
-            ax.step(x, y, where="post", color=colour, lw=1.8, label=f"{engine}: the cheapest reaching each tolerance")
-            ax.plot(x, y, "o", color=colour, ms=6)
+            ax.step(x, y, where="post", color=colour, lw=1.8, label=f"{engine}: the cheapest reaching each tolerance",
+                    zorder=2 + k)
+            ax.plot(x, y, marker, color=colour, ms=size, mec="white", mew=0.6, ls="none", zorder=3 + k)
             others = [e for e in entries if e not in steps]  # dearer here, but tighter on the other axis
-            ax.plot([e["tolerances"][axis] for e in others], [e["cost_steps_per_s"] for e in others], "o", mfc="none",
-                    color=colour, ms=6)
+            ax.plot([e["tolerances"][axis] for e in others], [e["cost_steps_per_s"] for e in others], marker, mfc="none",
+                    color=colour, ms=size, mew=1.4, ls="none", zorder=3 + k)
             for e in entries:
-                ax.annotate(f"{short} {_pct(e['tolerances'][other])}", (e["tolerances"][axis], e["cost_steps_per_s"]),
-                            textcoords="offset points", xytext=(5, 4 - 10 * k), fontsize=7, color=colour)
+                at_asked = asked is not None and all(e["tolerances"].get(a) == asked.get(a) for a in ("stick", "restitution"))
+                text = f"{short} {_pct(e['tolerances'][other])}, {e['cost_steps_per_s']:,.0f}/s" + (" (asked)" if at_asked else "")
+                ax.annotate(text, (e["tolerances"][axis], e["cost_steps_per_s"]), textcoords="offset points",
+                            xytext=(6, 5 - 11 * k), fontsize=7, color=colour,
+                            fontweight="bold" if at_asked else "normal")
         if any(frontiers.values()):
             ax.plot([], [], "o", mfc="none", color="0.3", label="other frontier points (tighter on the other axis)")
         else:
@@ -99,8 +106,8 @@ def frontier_figure(frontiers: Mapping[str, Sequence[dict[str, Any]]], scene: st
         ax.grid(True, which="major", alpha=0.25)
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncol=min(len(labels), 3), fontsize=7, frameon=False)
-    fig.suptitle(f"{scene}: the cheapest robust setting against the tolerance it reaches (robust: passes at dt, "
-                 "dt x 0.8, dt x 1.25 and the knobs' neighbours)", fontsize=9)
+    fig.suptitle(f"{scene}: the cheapest band-robust setting against the tolerance it reaches (band-robust: passes "
+                 "at every dt of [0.8, 1.25] x dt, every impact phase and the knobs' neighbours)", fontsize=9)
     return fig
 
 

@@ -3,7 +3,9 @@
     >>> from chatterbench.reference.scene import load_scene
     >>> from chatterbench.comparisons.outputs.guide import guide_markdown, guide_html
     >>> from chatterbench.comparisons.studies.tune import tune
-    >>> result = tune(load_scene("bouncing-ball"), "pybullet", 0.05, space={"dt": (1e-3,)}, workers=1, refine_steps=0)
+    >>> space = {"dt": (1e-3,), "pybullet.restitution_velocity_threshold": (0.1,)}
+    >>> result = tune(load_scene("bouncing-ball"), "pybullet", 0.05, space=space, workers=1, refine_steps=0, phases=(),
+    ...               transfer=False)
     >>> text = guide_markdown(result)             # Markdown: answer, snippet, cheaper failures, every candidate
     >>> text.splitlines()[0], "Recommended" in text
     ('# Tuning pybullet for bouncing-ball', True)
@@ -35,8 +37,9 @@ from matplotlib.figure import Figure
 
 from chatterbench.comparisons.pipeline.vocabulary import COLOURS, text_colour
 from chatterbench.comparisons.studies.tune import passing, short_label
+from chatterbench.comparisons.studies.tune_ladder import level_text
 from chatterbench.comparisons.studies.tune_answer import (FRAME_COLUMNS, fragile_beside, frontier_frame, frontier_line,
-                                                           searched_text)
+                                                           searched_text, transfer_lines)
 from chatterbench.comparisons.studies.tune_checks import CHECKS, strike_summary
 from chatterbench.engines.export import export_files_names, measurement
 from chatterbench.engines.registry import adapter
@@ -114,6 +117,22 @@ def guide_figures(result, ev=None) -> dict[str, Figure]:
     return figs
 
 
+LISTED_CANDIDATES = 40  # the candidates the guide's table lists (the cheapest searched ones); candidates.csv has all
+
+
+def listed_candidates(result) -> tuple[pd.DataFrame, str]:
+    """The rows of the guide's table of candidates and what it leaves out, in words: the searched candidates (not the
+    band's checks) cheapest first, at most ``LISTED_CANDIDATES``, so that a page with several guides stays small."""
+    table = result.table
+    band = table["phase"].notna() if "phase" in table else pd.Series(False, index=table.index)
+    searched = table[~band].sort_values("steps_per_sim_s", kind="stable")
+    listed = searched.head(LISTED_CANDIDATES)
+    note = (f"The {len(listed)} cheapest of the {len(searched)} searched candidates"
+            + (f" and none of the band's {int(band.sum())} checks" if band.any() else "")
+            + "; `candidates.csv` beside this guide has every run.")
+    return listed, note
+
+
 def _candidates(frame: pd.DataFrame, defaults: dict) -> pd.DataFrame:
     """The guide's candidate table: the settings as dt and what differs from the defaults (the CSV has them all)."""
     out = frame.assign(matches=[f"{m}/{n}" for m, n in zip(frame["n_match"], frame["n_episodes"])],
@@ -131,17 +150,30 @@ def _answer(result, ev=None) -> list[str]:
         return ["No candidate ran: every one was refused (see the table)."]
     cost = (f"{_fmt(c['steps_per_sim_s'])} steps per simulated second, {_fmt(c['cost_per_sim_s'])} s of wall clock "
             f"per simulated second (the least of {int(c['cost_repeats'])} timed run{'s' if c['cost_repeats'] != 1 else ''})")
+    band = result.extra["searched"].get("band") or {}
+    rule = band.get("rule", "dt x 0.8 and x 1.25 and the knobs' neighbours")
     if result.best is not None:
-        head = [f"**Recommended (robust):** `{c['settings']}`: {_episodes_pass(c['n_episodes'])} ({c['verdict']}), "
-                "at dt x 0.8 and x 1.25 as well, and at the neighbouring values of each continuous knob (the map's knob: "
-                "its adjacent searched values; every other real-valued knob: half-way to its adjacent searched values); "
-                f"margin {_fmt(result.margin)} (its worst error over its tolerance among the judge's checks); cost {cost}."]
+        head = [f"**Recommended (band-robust):** `{c['settings']}`: {_episodes_pass(c['n_episodes'])} ({c['verdict']}), "
+                f"and so does every run of its band: {rule} (the map's knob: its adjacent searched values; every other "
+                "real-valued knob: half-way to its adjacent searched values); "
+                f"margin {_fmt(result.margin)} (its worst measured error over its tolerance among the judge's checks); "
+                f"cost {cost}."]
         if result.frontier:
             head.append(f"{_sentence(result)}.")
         n_fragile = len(result.cheaper(fragile=True))
         if n_fragile:
             head.append(f"{n_fragile} cheaper or as cheap candidates pass but are fragile (a neighbour fails): see the "
                         "table of every candidate, column \"neighbours that fail\".")
+    elif result.written is not None:
+        r = result.best_reachable
+        head = [f"**No robust setting passes these tolerances in the searched space.** {_sentence(result)}.",
+                f"**Written (band-robust at {level_text(result.chosen_tolerance)}, the tightest robust frontier point):** "
+                f"`{c['settings']}`, robust there: {rule}; margin {_fmt(result.margin)} at those tolerances; cost "
+                f"{cost}. The model, script and snippet below are this setting's."]
+        if r is not None:
+            why = (f"its neighbours fail: {r['neighbourhood']}" if r.get("neighbourhood") else f"it fails: {r['failed']}")
+            head.append(f"Best reachable at the asked tolerances (fragile, never written): `{r['settings']}`, "
+                        f"{r['n_match']} of {r['n_episodes']} episodes match; {why}.")
     else:
         why = (f"its neighbours fail: {c['neighbourhood']}" if c.get("neighbourhood") else f"it fails: {c['failed']}")
         head = [f"**No robust setting passes these tolerances in the searched space.** {_sentence(result)}.",
@@ -190,15 +222,27 @@ def _frontier_markdown(result, figures: list[str]) -> list[str]:
         lines += [_plain_md_table(frame[FRAME_COLUMNS]), ""]
     for name in (n for n in figures if n in IN_FRONTIER):
         lines += [f"![{name}]({FIGURE_FILES[name]}.png)", "", f"*{CAPTIONS[name]}*", ""]
+    transfers = transfer_lines(result)
+    if transfers:
+        lines += ["## What transfers", "", TRANSFER_NOTE, ""] + [f"- {line}" for line in transfers] + [""]
     return lines
+
+
+TRANSFER_NOTE = ("Each setting rerun, at its own tolerances, on the scene's family: the initial energy x 0.25, x 0.5 "
+                 "and x 2 (drop height, forcing amplitude or initial speed) and the masses x 0.2 and x 5, each for at "
+                 "least 10 s where the scene has no forcing period; it holds where every episode agrees (persistence "
+                 "included).")
 
 
 def _frontier_note(result) -> str:
     """What the frontier is, and the tightest levels reached (one paragraph)."""
     reach = result.extra.get("tightest", {})
     pct = lambda v: "none" if v is None else f"{100 * v:.3g}%"  # noqa: E731
-    return ("Each row is the cheapest setting robust at its tolerances (it and every neighbour "
-            "pass there: dt x 0.8, x 1.25 and the knobs' neighbours), judged at those tolerances, so `compare` with "
+    rule = (result.extra["searched"].get("band") or {}).get("rule", "dt x 0.8 and x 1.25 and the knobs' neighbours")
+    return ("Each row is the cheapest band-robust setting at its tolerances (it and every run of its band "
+            f"pass there: {rule}; `band passed` counts them), judged at those tolerances, with its contact after each "
+            "stick (`open after stick`: the share of the rest it is open, `onsets/s`: contact onsets per second), so "
+            "`compare` with "
             "them and the row's settings says `match`; a level another row reaches as tightly and as cheaply is left "
             f"out. Tightest reached robustly: stick {pct(reach.get('stick'))}, restitution {pct(reach.get('restitution'))} "
             "(each at any level of the other; exit and first impact move with stick in the asked proportions).")
@@ -293,7 +337,9 @@ def guide_markdown(result, figures: dict | None = None, ev=None) -> str:
     lines += [_md_table(_candidates(cheaper, result.extra.get("defaults", {}))) if len(cheaper) else "None: nothing cheaper was tried and failed.", ""]
     for name in (n for n in figures if n not in BESIDE_SNIPPET + IN_FRONTIER):
         lines += md_figure(name)
-    lines += [f"## Every candidate tried ({len(result.table)})", "", _md_table(_candidates(result.table, result.extra.get("defaults", {}))), ""]
+    listed, note = listed_candidates(result)
+    lines += [f"## Every candidate tried ({len(result.table)})", "", note, "",
+              _md_table(_candidates(listed, result.extra.get("defaults", {}))), ""]
     return "\n".join(lines)
 
 
@@ -317,10 +363,18 @@ def _or_none(v: float):
     return "none" if pd.isna(v) else v
 
 
+def _cell(column: str, v) -> str:
+    """A frontier cell: settings as code, a cost as a whole number with thousands separators (3,003, not 3e+03)."""
+    if column == "settings":
+        return f"`{v}`"
+    if column == "steps_per_sim_s" and isinstance(v, float) and math.isfinite(v):
+        return f"{v:,.0f}"
+    return _fmt(v)
+
+
 def _plain_md_table(frame: pd.DataFrame) -> str:
     """A table of plain cells (the frontier's) in Markdown: its own column names, settings as code."""
-    rows = ["| " + " | ".join(f"`{v}`" if c == "settings" else _fmt(v) for c, v in row.items()) + " |"
-            for _, row in frame.iterrows()]
+    rows = ["| " + " | ".join(_cell(c, v) for c, v in row.items()) + " |" for _, row in frame.iterrows()]
     return "\n".join(["| " + " | ".join(frame.columns) + " |", "| " + " | ".join("---" for _ in frame.columns) + " |", *rows])
 
 
@@ -393,6 +447,10 @@ def guide_section_html(result, figures: dict[str, Figure] | None = None, ev=None
                 f"<figcaption>{esc(CAPTIONS[name])}</figcaption></figure>")
 
     parts += [html_figure(n) for n in figures if n in IN_FRONTIER]
+    transfers = transfer_lines(result)
+    if transfers:
+        parts += ["<h3>What transfers</h3>", f"<p>{esc(TRANSFER_NOTE)}</p>",
+                  "<ul>" + "".join(f"<li>{esc(line)}</li>" for line in transfers) + "</ul>"]
     if (check := result.extra.get("same_model")) is not None:
         parts += [f"<h3>{esc(_same_model_heading(check))}</h3>", f"<p>{esc(check.sentence())}.</p>",
                   _plain_html_table(_same_model_frame(check))]
@@ -411,7 +469,9 @@ def guide_section_html(result, figures: dict[str, Figure] | None = None, ev=None
     parts.append(f"<h3>Cheaper or as cheap candidates that fail ({len(cheaper)})</h3>")
     parts.append(_html_table(_candidates(cheaper, result.extra.get("defaults", {}))) if len(cheaper) else "<p>None: nothing cheaper was tried and failed.</p>")
     parts += [html_figure(n) for n in figures if n not in BESIDE_SNIPPET + IN_FRONTIER]
-    parts += [f"<h3>Every candidate tried ({len(result.table)})</h3>", _html_table(_candidates(result.table, result.extra.get("defaults", {})))]
+    listed, note = listed_candidates(result)
+    parts += [f"<h3>Every candidate tried ({len(result.table)})</h3>", f"<p>{_inline(note)}</p>",
+              _html_table(_candidates(listed, result.extra.get("defaults", {})))]
     return "\n".join(parts)
 
 

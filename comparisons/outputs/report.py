@@ -2,8 +2,8 @@
 
     >>> from chatterbench.comparisons.outputs.report import build_report
     >>> report = build_report(["bouncing-ball"], engines=("pybullet",), dt=1e-3, progress=None)
-    >>> report.summary[["scene", "engine", "verdict"]].values.tolist()
-    [['bouncing-ball', 'pybullet', 'match']]
+    >>> report.summary[["scene", "engine", "verdict"]].values.tolist()    # on time, then its contact keeps opening
+    [['bouncing-ball', 'pybullet', 'buzz']]
 
 ``report_page.py`` writes it (``write_report``).
 
@@ -306,8 +306,8 @@ def frontier_figures(report: Report) -> list[Figure]:
         if not by_engine:
             continue
         asked = next(f.asked for f in report.frontiers if f.scene == scene)
-        out.append(Figure(f"frontier-{scene}", f"{scene}: the cheapest robust setting of each engine tuned (`chatterbench "
-                          "tune --out DIR`, given to the report with --tune DIR) against the tolerance it reaches, timing "
+        out.append(Figure(f"frontier-{scene}", f"{scene}: the cheapest band-robust setting of each engine tuned "
+                          "(chatterbench tune --out DIR, given to the report with --tune DIR) against the tolerance it reaches, timing "
                           "(left) and restitution (right); each point labelled with the other axis's tolerance; dashed: "
                           "the tolerance asked of the first tune", _render(frontier_figure(by_engine, scene, asked))))
     return out

@@ -147,14 +147,27 @@ def _md_table(frame: pd.DataFrame, columns: Sequence[str]) -> str:
     return "\n".join(lines)
 
 
+def md_escape(text: str) -> str:
+    """``text`` as literal Markdown: every character Markdown or HTML reads as markup backslash-escaped, line breaks
+    as spaces (a name from a user's file shows as written, never as a link, code or tag)."""
+    return "".join("\\" + c if c in "\\`*_{}[]<>()#+!|~" else " " if c in "\r\n" else c for c in str(text))
+
+
+def _point_text(entry: dict) -> str:
+    """A frontier point as the user types it: its tolerances, cost, dt and every setting (``threshold=0.1``,
+    ``w0_dt=0.228``), each value escaped for Markdown (the file is a user's)."""
+    tol = entry["tolerances"]
+    knobs = [f"{str(k).split('.', 1)[-1]}={v}" for k, v in (entry.get("settings") or {}).items()]
+    return md_escape(f"stick {100 * tol['stick']:.3g}%, restitution {100 * tol['restitution']:.3g}% at "
+                     f"{entry['cost_steps_per_s']:,.0f} steps/s with " + ", ".join([f"dt={entry['dt']:g}", *knobs]))
+
+
 def _frontier_lines(report: Report, scene: str) -> list[str]:
     """A scene's tuned frontiers as text (the chart is in index.html): per engine, its points, cheapest first."""
     out = []
     for f in (f for f in report.frontiers if f.scene == scene):
-        points = "; ".join(f"stick {100 * e['tolerances']['stick']:.3g}%, restitution "
-                           f"{100 * e['tolerances']['restitution']:.3g}% at {e['cost_steps_per_s']:,.0f} steps/s (dt "
-                           f"{e['dt']:g})" for e in f.frontier) or "nothing robust in the searched space"
-        out.append(f"Robust frontier of {f.engine} (`{f.source}`): {points}\n")
+        points = "; ".join(_point_text(e) for e in f.frontier) or "nothing robust in the searched space"
+        out.append(f"Robust frontier of {md_escape(f.engine)} (from {md_escape(f.source)}): {points}\n")
     return out
 
 

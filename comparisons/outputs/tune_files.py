@@ -5,8 +5,9 @@
     >>> from chatterbench.reference.scene import load_scene
     >>> from chatterbench.comparisons.outputs.tune_files import write_tune_files
     >>> from chatterbench.comparisons.studies.tune import tune
-    >>> result = tune(load_scene("bouncing-ball"), "pybullet", 0.05, space={"dt": (1e-3,)}, workers=1, refine_steps=0,
-    ...               ladder=None)
+    >>> space = {"dt": (1e-3,), "pybullet.restitution_velocity_threshold": (0.1,)}
+    >>> result = tune(load_scene("bouncing-ball"), "pybullet", 0.05, space=space, workers=1, refine_steps=0,
+    ...               ladder=None, phases=(), transfer=False)
     >>> written = write_tune_files([result], Path(tempfile.mkdtemp()))
     >>> written[:3], "frontier.png/.svg" in written
     (['recommended.json', 'guide.md', 'guide.html'], True)
@@ -15,8 +16,11 @@ One engine: ``DIR/recommended.json`` (``studies.tune_answer.recommended``, its `
 included), ``guide.md``, ``guide.html`` and ``guide_section.html`` (``guide.py``; the last for
 ``chatterbench report --tune DIR``), ``candidates.csv`` (every run, ``TUNE_COLUMNS`` with the
 ladder points each passes at, is robust at and was not judged at as ``stick%/restitution%``
-pairs, e.g. ``5/20 10/30``), the figures (``guide.FIGURE_FILES``, PNG and SVG) and the engine's files at the
-chosen settings (``engine_files``). Several engines: each engine's set under ``DIR/ENGINE`` as
+pairs, e.g. ``5/20 10/30``), the figures (``guide.FIGURE_FILES``, PNG and SVG), the engine's files at the
+chosen settings (``engine_files``: the written answer; where nothing is robust at the asked tolerances, the
+tightest robust frontier point's, never a fragile setting's) and each frontier point's own model, runnable script
+and snippet under ``frontier/stick5-restitution20/`` (``engine_files.write_frontier_files``, listed in
+``recommended.json``'s frontier entries as ``files``). Several engines: each engine's set under ``DIR/ENGINE`` as
 one engine writes it, and under ``DIR`` the frontier of all of them in one chart
 (``frontier.png/.svg``, one line per engine) with a guide that leads with each engine's
 answer and embeds each engine's guide (``guide.md``, ``guide.html``, ``guide_section.html``).
@@ -36,7 +40,7 @@ from chatterbench.comparisons.pipeline.atomic import write_frame, write_text
 from chatterbench.comparisons.studies.tune_answer import frontier_line, recommended
 from chatterbench.comparisons.studies.tune_evidence import evidence
 
-from .engine_files import write_engine_files
+from .engine_files import write_engine_files, write_frontier_files
 from .figures import figure_files, write_figure
 from .frontier_chart import frontier_figure
 from .guide import CAPTIONS, FIGURE_FILES, guide_figures, guide_html, guide_markdown, guide_section_html, html_page
@@ -82,7 +86,8 @@ def write_engine_set(result, out: Path) -> tuple[list[str], str]:
     for name, fig in figures.items():
         write_figure(fig, out, FIGURE_FILES[name], files[name])
         written.append(f"{FIGURE_FILES[name]}.png/.svg")
-    return written + write_engine_files(result, out), section  # engine files at recommended.json's settings
+    written += write_engine_files(result, out)  # engine files at recommended.json's settings
+    return written + write_frontier_files(result, out), section
 
 
 def write_tune_files(results: Sequence, out: Path) -> list[str]:

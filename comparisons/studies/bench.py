@@ -258,6 +258,17 @@ TUNE_CASES = tuple((scene, engine, 0.1 if scene == "spring-pair" else 0.05)
                    for engine in ("mujoco", "pybullet"))
 
 
+def frontier_points(frontier: list[dict]) -> str:
+    """Each frontier point in a few words: ``5/5% 391/s dt 0.00255657 band 100% of 69``."""
+    out = []
+    for e in frontier:
+        band = e.get("checked") or {}
+        passed = "" if band.get("passed") is None else f" band {band['passed']:.0%} of {band['runs']}"
+        out.append(f"{100 * e['tolerances']['stick']:g}/{100 * e['tolerances']['restitution']:g}% "
+                   f"{e['cost_steps_per_s']:,.0f}/s dt {e['dt']:g}{passed}")
+    return "; ".join(out)
+
+
 def bench_tune(cases=TUNE_CASES, workers: int = 2, max_runs: int | None = None,
                started: Callable[[str, str, float], None] | None = None,
                finished: Callable[[dict], None] | None = None):
@@ -266,13 +277,17 @@ def bench_tune(cases=TUNE_CASES, workers: int = 2, max_runs: int | None = None,
     Returns a DataFrame, one row per case: scene, engine, tolerance, answer (the chosen settings),
     robust, margin (worst error / tolerance of the judge's checks), steps_per_sim_s, runs, wall_s, fragile (the cheapest
     isolated pass, if cheaper), exhaustive (the whole lattice ran), frontier (its points), tightest_stick and
-    tightest_restitution (the tightest tolerances reached robustly; NaN: none), and answer_line (the answer's first
+    tightest_restitution (the tightest tolerances reached robustly; NaN: none), band_runs (the band checks among the
+    runs), band_passed_min (the least share of a frontier point's band that passed: 1.0 when every point is
+    band-robust), points (each frontier point: tolerances, cost, dt and the share of its band runs that passed),
+    transfers (the written answer on the scene's family, ``transfer.transfer_sentence``), and answer_line (the answer's first
     sentence: robust at T or not, then the frontier, ``tune_answer.frontier_line``). ``started(scene, engine,
     tolerance)`` is called as each case begins (the CLI's progress line), ``finished(row)`` as it ends (the CLI prints
     the case's row then: a long benchmark stopped halfway keeps what it measured).
     """
     import pandas as pd
 
+    from .transfer import transfer_sentence
     from .tune import MAX_RUNS, tune
     from .tune_answer import frontier_line
 
@@ -293,6 +308,11 @@ def bench_tune(cases=TUNE_CASES, workers: int = 2, max_runs: int | None = None,
                      "exhaustive": result.extra["searched"]["exhaustive"], "frontier": len(result.frontier),
                      "tightest_stick": math.nan if reach["stick"] is None else reach["stick"],
                      "tightest_restitution": math.nan if reach["restitution"] is None else reach["restitution"],
+                     "band_runs": result.extra["searched"].get("band_runs", 0),
+                     "band_passed_min": min(((e.get("checked") or {}).get("passed") or math.nan for e in result.frontier),
+                                            default=math.nan),
+                     "points": frontier_points(result.frontier),
+                     "transfers": transfer_sentence(result.extra.get("transfer", [])),
                      "answer_line": frontier_line(result)})
         if finished is not None:
             finished(rows[-1])

@@ -183,6 +183,7 @@ def _printed(stdout: str) -> list[tuple[float, float, float, float]]:
     """(t, v_in, v_out, e) of each ``impact`` line a script printed, after its ``# impact:`` header."""
     header, *lines = stdout.splitlines()
     assert header.startswith("# impact: ")
+    lines = [line for line in lines if line.startswith("impact ")]  # the rest lines after them: test_persistence.py
     return [tuple(float(w.split("=")[1]) for w in line.split()[1:]) for line in lines]
 
 

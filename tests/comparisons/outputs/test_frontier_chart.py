@@ -44,9 +44,14 @@ def test_one_line_per_engine_on_each_axis_and_an_engine_with_nothing_robust_is_n
         assert ax.get_xscale() == ax.get_yscale() == "log"
     labels = [t.get_text() for t in fig.legends[0].get_texts()]
     assert "mujoco: nothing robust in the searched space" in labels
-    # every frontier point is drawn and labelled with the other axis's tolerance (the joint trade-off stays visible)
-    assert sorted(t.get_text() for t in timing.texts) == sorted(f"r {100 * e['tolerances']['restitution']:.3g}%"
-                                                                for e in FRONTIER)
+    # every frontier point is drawn and labelled with the other axis's tolerance and its cost (the joint trade-off
+    # stays visible); the point at the asked tolerances says so (issue 41: it was a hollow dot without a label)
+    asked = {"stick": 0.05, "restitution": 0.05}
+    assert sorted(t.get_text() for t in timing.texts) == sorted(
+        f"r {100 * e['tolerances']['restitution']:.3g}%, {e['cost_steps_per_s']:,.0f}/s"
+        + (" (asked)" if all(e["tolerances"][a] == asked[a] for a in asked) else "") for e in FRONTIER)
+    assert sum(t.get_text().endswith("(asked)") for t in timing.texts) == sum(
+        all(e["tolerances"][a] == asked[a] for a in asked) for e in FRONTIER) >= 1
 
 
 def test_frontiers_are_read_from_the_tune_folders_one_or_several_engines(tmp_path):
@@ -98,3 +103,17 @@ def test_a_recommended_json_that_is_not_a_regular_file_or_too_large_is_refused(t
         f.truncate(64 * 2**20)  # a sparse 64 MiB file: refused without reading it whole
     with pytest.raises(InputError, match="recommended.json: larger than 4 MiB"):
         read_frontiers([big])
+
+
+def test_two_engines_at_one_point_both_show():
+    # issue 41: MuJoCo's 20% / 206 point was hidden under PyBullet's marker (same colour-less dot, same size); each
+    # engine now has its own marker shape, a later one smaller, so a point under another engine's still shows
+    same = [point(0.2, 0.05, 206.0)]
+    fig = frontier_figure({"pybullet": same, "mujoco": same}, "bouncing-ball", {"stick": 0.05, "restitution": 0.05})
+    drawn = [line for line in fig.axes[0].lines if line.get_marker() not in ("None", None, "") and len(line.get_xdata())]
+    markers = {(line.get_marker(), line.get_markersize()) for line in drawn if list(line.get_ydata()) == [206.0]}
+    assert len(markers) == 2 and len({m for m, _ in markers}) == 2 and len({s for _, s in markers}) == 2
+    # the other way: one engine alone draws one marker there
+    fig = frontier_figure({"pybullet": same}, "bouncing-ball", {"stick": 0.05, "restitution": 0.05})
+    drawn = [line for line in fig.axes[0].lines if line.get_marker() not in ("None", None, "") and len(line.get_xdata())]
+    assert len({line.get_marker() for line in drawn if list(line.get_ydata()) == [206.0]}) == 1

@@ -21,13 +21,17 @@ from chatterbench.comparisons.studies.tune_evidence import chosen_settings, evid
 from chatterbench.engines.registry import run_engine
 from chatterbench.reference import load_scene
 
-# one candidate per engine, each passing every check of TOL (restitution included): measured
-SPACES = {"mujoco": {"dt": (3e-4,), "mujoco.w0_dt": (0.1,)}, "pybullet": {"dt": (1e-3,)}}
+# one candidate per engine, each passing every check of TOL (restitution and persistence included): measured.
+# MuJoCo at impedance 0.95 (its 0.99 flickers after the stick: buzz); PyBullet with a bounce threshold that ends
+# its g dt bounces after the stick (threshold 0: buzz) and still resolves feigin-pair's slow impacts (0.01 m/s)
+SPACES = {"mujoco": {"dt": (3e-4,), "mujoco.w0_dt": (0.1,), "mujoco.impedance": (0.95,)},
+          "pybullet": {"dt": (1e-3,), "pybullet.restitution_velocity_threshold": (0.02,)}}
+SPACE_OF = {("feigin-pair", "pybullet"): {"dt": (1e-3,), "pybullet.restitution_velocity_threshold": (0.01,)}}
 SCENES = {"bouncing-ball": load_scene("bouncing-ball"),
           "feigin-pair": load_scene("feigin-pair", [f"duration={2 * math.pi}"])}  # one period: two visits with chatter
 # MuJoCo's compliant contact under the scene's forces loses up to 11% of R at the slowest resolved impacts
 # (measured: -0.112 at 0.0162 m/s on feigin-pair, -0.091 at 0.277 m/s on the ball, dt = 3e-4, w0 dt = 0.1)
-TOL = Tolerances(stick=0.1, exit=0.1, first_impact=0.1, restitution=0.15)
+TOL = Tolerances(stick=0.1, exit=0.1, first_impact=0.1, restitution=0.2)
 LINE = re.compile(r"^impact t=(\S+) v_in=(\S+) v_out=(\S+) e=(\S+)$")
 
 
@@ -39,7 +43,7 @@ def tuned(tmp_path_factory):
 
     def get(scene_name: str, engine: str):
         if (scene_name, engine) not in done:
-            result = tune(SCENES[scene_name], engine, TOL, space=SPACES[engine], workers=1, refine_steps=0,
+            result = tune(SCENES[scene_name], engine, TOL, space=SPACE_OF.get((scene_name, engine), SPACES[engine]), workers=1, refine_steps=0,
                           check_robust=False, ladder=None)  # the asked tolerances alone: the files are at its answer
             out = tmp_path_factory.mktemp(f"{scene_name}-{engine}")
             done[scene_name, engine] = result, out, write_engine_files(result, out)
@@ -54,9 +58,23 @@ def run_python(path: Path, cwd: Path | None = None) -> str:
     return done.stdout
 
 
+REST = re.compile(r"^rest wall=(\w+) t0=(\S+) t1=(\S+) onsets=(\d+) onsets_per_s=(\S+) open=(\S+) gap_max=(\S+)$")
+
+
+def printed_rests(stdout: str) -> list[tuple[str, float, float, int, float, float, float]]:
+    """The script's rest lines (after the impacts): wall, t0, t1, onsets, onsets per second, open share, largest gap."""
+    lines = stdout.splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith("# rest: "))
+    rows = [REST.match(line) for line in lines[start + 1:]]
+    assert all(rows), lines[start + 1:][:3]
+    return [(m.group(1), *(float(v) for v in m.groups()[1:3]), int(m.group(4)), *(float(v) for v in m.groups()[4:]))
+            for m in rows]
+
+
 def printed_impacts(stdout: str) -> list[tuple[float, float, float, float]]:
     header, *lines = stdout.splitlines()
     assert header.startswith("# impact: ")  # which contacts count (engines/impact_lines.py)
+    lines = lines[:next(i for i, line in enumerate(lines) if line.startswith("# rest: "))]
     rows = [LINE.match(line) for line in lines]
     assert all(rows), [line for line, m in zip(stdout.splitlines(), rows) if not m][:3]
     return [tuple(float(v) for v in m.groups()) for m in rows]
@@ -69,7 +87,12 @@ def test_tune_files_print_the_runs_impacts_with_the_guides_restitution(tuned, sc
     engine, scene = result.engine, result.scene
     expected = {"mujoco": ["mujoco/model.xml", "mujoco/run.py"], "pybullet": ["pybullet/scene.py"]}[engine]
     assert written == expected  # at the chosen settings
-    printed = printed_impacts(run_python(out / expected[-1]))
+    stdout = run_python(out / expected[-1])
+    printed = printed_impacts(stdout)
+    # after each of the reference's sticks the contact stays closed, as the judge found it (these settings pass)
+    rests = printed_rests(stdout)
+    assert len(rests) == len(result.extra["solution"].episodes)
+    assert all(onsets == 0 and share == 0.0 for _, _, _, onsets, _, share, _ in rests), rests
     # the run's impacts, as the judge counts them at the tune's tolerances (the issue: `run ... --export-model
     # scene.py` counted 9 impacts of the ball, the script printed 11)
     settings = chosen_settings(result)
