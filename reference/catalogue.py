@@ -22,7 +22,7 @@ CATALOGUE: dict[str, dict] = {
         "mass2": 1.0,
         "restitution": 0.5,
         "gap": {"lower": 0.0},
-        "forces": [{"kind": "constant", "on": "body2", "value": -1.0 * G}],
+        "gravity": -G,  # an acceleration: the ball falls at g whatever its mass
         "initial": {"t": 0.0, "x1": 0.0, "v1": 0.0, "y": 1.0, "vy": 0.0},
         "duration": 2.0,
     },

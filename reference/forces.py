@@ -9,7 +9,8 @@
 
 Every catalogue force is affine in the state: per target (``body1``, ``body2``, the
 ``coupling``) the springs sum to a stiffness K with a mean rest r (sum k_i r_i / K), the
-dampers to a damping C, the constant and harmonic terms to a function of time alone:
+dampers to a damping C, the constant and harmonic terms and the weight m g of the scene's
+``gravity`` (body 2's, and body 1's when its mass is finite; ``weight``) to a function of time alone:
 
     body1:    F1  = -K1 (x1 - r1) - C1 x1' + T1(t)
     body2:    F2  = -K2 (x2 - r2) - C2 x2' + T2(t)
@@ -38,7 +39,7 @@ class Terms:
     stiffness: float = 0.0  # K, sum of the spring constants [N/m]
     rest: float = 0.0  # r, the springs' mean rest (sum k r / K; 0 without springs) [m]
     damping: float = 0.0  # C, sum of the damper coefficients [N s/m]
-    constant: float = 0.0  # sum of the constant forces [N]
+    constant: float = 0.0  # sum of the constant forces and the weight m g (``weight``) [N]
     harmonics: tuple[tuple[float, float, float], ...] = ()  # (amplitude [N], omega [rad/s], phase [rad])
 
     def time_part(self, t):
@@ -54,6 +55,16 @@ class Terms:
         return self.stiffness * self.rest
 
 
+def weight(scene: Scene, on: str) -> float:
+    """m g [N] on ``on`` from the scene's ``gravity``: body 2's, body 1's when its mass is finite (an infinite body 1
+    is kinematic: nothing moves it), none on the coupling (the weights pull both bodies, not their separation)."""
+    if on == "body2":
+        return scene.mass2 * scene.gravity
+    if on == "body1" and not scene.body1_infinite:
+        return scene.mass1 * scene.gravity
+    return 0.0
+
+
 def _terms(scene: Scene, on: str) -> Terms:
     forces = [f for f in scene.forces if f.on == on]
     k = sum(f.stiffness for f in forces if f.kind == "spring")
@@ -61,7 +72,7 @@ def _terms(scene: Scene, on: str) -> Terms:
     return Terms(
         stiffness=k, rest=kr / k if k > 0 else 0.0,
         damping=sum(f.damping for f in forces if f.kind == "damper"),
-        constant=sum(f.value for f in forces if f.kind == "constant"),
+        constant=sum(f.value for f in forces if f.kind == "constant") + weight(scene, on),
         harmonics=tuple((f.amplitude, f.omega, f.phase) for f in forces if f.kind == "harmonic"),
     )
 

@@ -16,7 +16,9 @@ is what lets the reference integrate free flight in closed form.
 
 Sign conventions (all SI):
 
-- ``constant``: F = value [N] on the body (``coupling``: F12 = value).
+- ``gravity``: g [m/s^2] along x, < 0 toward -x: F = m g on body 2, and on body 1 when ``mass1``
+  is finite (an infinite body 1 is kinematic); it follows the mass, a constant force does not.
+- ``constant``: F = value [N] on the body (``coupling``: F12 = value), whatever the mass.
 - ``harmonic``: F = amplitude * sin(omega * t + phase) [N, rad/s, rad].
 - ``spring``: on body b, F = -stiffness * (x_b - rest); on ``coupling``,
   F12 = stiffness * (y - rest) [N/m, m] (a spring between the bodies whose natural
@@ -202,10 +204,12 @@ class Scene:
     restitution: float  # Newton's R, 0 <= R < 1
     gap: Gap
     forces: tuple[Force, ...] = ()
+    gravity: float = 0.0  # g [m/s^2] along x on every body that moves (F = m g), < 0 toward -x
     prescribed: Prescribed | None = None  # only with mass1 = inf
     initial: Initial = field(default_factory=Initial)
     duration: float = 1.0  # [s], > 0
     description: str = ""
+    notes: tuple[str, ...] = field(default=(), compare=False)  # how a file was read (weight.py), not compared
 
     def __post_init__(self) -> None:
         if isinstance(self.mass1, bool) or not isinstance(self.mass1, (int, float)):
@@ -219,6 +223,11 @@ class Scene:
             raise SceneError(f"restitution = {r!r}: must be in [0, 1)")
         object.__setattr__(self, "restitution", r)
         object.__setattr__(self, "duration", _positive("duration", self.duration))
+        g = check_number("gravity", self.gravity, unit=" [m/s^2] (along x, < 0 toward -x)", error=SceneError)
+        if not math.isfinite(g * (m := max(self.mass2, self.mass1 if math.isfinite(self.mass1) else 0.0))):
+            raise SceneError(f"gravity = {g!r}: the weight of the {m:g} kg body overflows; keep |gravity| below {1e308 / m:.3g} m/s^2")
+        object.__setattr__(self, "gravity", g)
+        object.__setattr__(self, "notes", tuple(map(str, self.notes)))
         t_end = self.initial.t + self.duration  # times are floats: the run's span must resolve at its start
         if not self.duration >= TIME_RESOLUTION * math.ulp(max(abs(self.initial.t), abs(t_end))):
             raise SceneError(f"initial.t = {self.initial.t!r}: too far from 0 for a run of duration {self.duration:g} s "
@@ -288,6 +297,7 @@ class Scene:
     def to_dict(self) -> dict[str, Any]:
         """Plain-data form (the TOML layout); ``mass1 = inf`` becomes the string ``"inf"``."""
         d = dataclasses.asdict(self)
+        del d["notes"]
         if not math.isfinite(self.mass1):
             d["mass1"] = "inf"
         if self.gap.upper is None:
@@ -300,7 +310,7 @@ class Scene:
 
 # -- building scenes from plain data (TOML, catalogue, --set) ---------------------
 
-_TOP_KEYS = ("name", "mass1", "mass2", "restitution", "gap", "forces", "prescribed", "initial", "duration", "description")
+_TOP_KEYS = ("name", "mass1", "mass2", "restitution", "gap", "forces", "gravity", "prescribed", "initial", "duration", "description")
 _SECTION_KEYS = {
     "gap": tuple(f.name for f in dataclasses.fields(Gap)),
     "initial": tuple(f.name for f in dataclasses.fields(Initial)),
@@ -381,6 +391,7 @@ def scene_from_dict(data: Mapping[str, Any]) -> Scene:
         restitution=data["restitution"],
         gap=_section("gap", Gap, data["gap"]),
         forces=tuple(_force(i, f) for i, f in enumerate(forces)),
+        gravity=data.get("gravity", 0.0),
         prescribed=None if prescribed is None else _section("prescribed", Prescribed, prescribed),
         initial=_section("initial", Initial, data.get("initial", {})),
         duration=data.get("duration", 1.0),
@@ -458,13 +469,18 @@ def apply_overrides(data: Mapping[str, Any], overrides: Sequence[str] | Mapping[
 def load_scene(source: str | Path | Mapping[str, Any], overrides: Sequence[str] | Mapping[str, Any] = ()) -> Scene:
     """Load a scene by catalogue name, from a TOML file, or from plain data, then apply overrides.
 
+    A TOML file's constant force that is a body's weight m g (g = +-9.81, +-9.80665 m/s^2) is read as
+    ``gravity`` before the overrides, and ``notes`` says so (``weight.weights_as_gravity``).
+
     Raises
     ------
     SceneError
         Unknown scene name, unreadable or malformed TOML, or any invalid field.
     """
     from .catalogue import CATALOGUE
+    from .weight import weights_as_gravity
 
+    notes: tuple[str, ...] = ()  # how a file's weights were read
     if isinstance(source, Mapping):
         data = dict(source)
     elif str(source) in CATALOGUE:
@@ -478,5 +494,7 @@ def load_scene(source: str | Path | Mapping[str, Any], overrides: Sequence[str] 
             )
         data = read_toml(path, f"scene file {str(path)!r}", SceneError)
         data.setdefault("name", path.stem)
+        data, notes = weights_as_gravity(data, scene_from_dict)
     data = apply_overrides(data, overrides)
-    return scene_from_dict(data)
+    scene = scene_from_dict(data)
+    return dataclasses.replace(scene, notes=notes) if notes else scene

@@ -28,6 +28,7 @@ FIELDS = {
     "mass2": ("kg", "body 2, finite"),
     "restitution": ("1", "Newton's R at every impact, 0 <= R < 1"),
     "duration": ("s", "simulated time from initial.t"),
+    "gravity": ("m/s^2", "acceleration along x of every body that moves (force m g); < 0 toward -x, 0: none"),
     "lower": ("m", "the wall y = x2 - x1 >= lower"),
     "upper": ("m", "the wall y <= upper; leave out for a one-sided gap"),
     "t": ("s", "start time (the forcing phase is omega * t + phase)"),
@@ -71,7 +72,8 @@ def scene_toml(scene: Scene, description: str = "") -> str:
     if d.get("description"):
         out.append(f"description = {_value(d['description'])}")
     out += [_line("mass1", d["mass1"]), _line("mass2", d["mass2"]), _line("restitution", d["restitution"]),
-            _line("duration", d["duration"]), "", "[gap]", _line("lower", d["gap"]["lower"])]
+            _line("duration", d["duration"]), _line("gravity", d["gravity"]), "", "[gap]",
+            _line("lower", d["gap"]["lower"])]
     if "upper" in d["gap"]:
         out.append(_line("upper", d["gap"]["upper"]))
     out += ["", "[initial]"] + [_line(k, d["initial"][k]) for k in ("t", "x1", "v1", "y", "vy")]

@@ -115,6 +115,10 @@ CASES: list[tuple[str, str, list[str], str | None, tuple[str, ...]]] = [
     ("mass1=0", "zero mass of body 1", ["run", "feigin-pair", "--set", "mass1=0"], None, ("mass1",)),
     ("mass1-word", "mass1 a word other than inf", ["run", "feigin-pair", "--set", "mass1=heavy"], None, ("mass1", "inf")),
     ("mass2=inf", "infinite body 2", ["run", "feigin-pair", "--set", "mass2=inf"], None, ("mass2", "finite")),
+    # gravity: an acceleration [m/s^2], any finite number
+    ("gravity=nan", "gravity not a number", ["run", "bouncing-ball", "--set", "gravity=nan"], None,
+     ("gravity", "finite", "m/s^2")),
+    ("gravity-word", "gravity a word", ["run", "bouncing-ball", "--set", "gravity=down"], None, ("gravity", "number")),
     # timesteps
     ("--dt 0", "zero engine timestep", ["run", "feigin-pair", "--engine", "mujoco", "--dt", "0"], None, ("--dt",)),
     ("--dt -1", "negative engine timestep", ["run", "feigin-pair", "--engine", "mujoco", "--dt", "-1"], None, ("--dt",)),

@@ -27,11 +27,10 @@ from chatterbench.comparisons.pipeline.budget import check_comparison
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
 from chatterbench.comparisons.studies.limits import ABOVE, DEFAULT_POINTS, DECADES_BELOW, MAX_POINTS
 from chatterbench.engines.registry import ENGINE_NAMES, run_engine
-from chatterbench.reference.scene import load_scene
 
 from .commands import COMMANDS
-from .common import (UsageError, integer_type, add_budget, add_dt, add_out, add_set, budget_of, engine_list, positive_float, print_table,
-                     settings_of, split_overrides)
+from .common import (UsageError, integer_type, add_budget, add_dt, add_out, add_set, budget_of, engine_list, load_noted, positive_float,
+                     print_table, settings_of, split_overrides)
 from .paths import check_dir, writing
 from .progress import Progress
 
@@ -98,7 +97,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     scene_over, engine_over = split_overrides(args.set)
     if args.restitution is not None and any(s.split("=", 1)[0].strip() == "restitution" for s in scene_over):
         raise UsageError("--restitution and --set restitution=...: give R once (--restitution)")
-    scene = load_scene(args.scene, scene_over + ([f"restitution={args.restitution!r}"] if args.restitution else []))
+    scene = load_noted(args.scene, scene_over + ([f"restitution={args.restitution!r}"] if args.restitution else []))
     if scene.restitution <= 0.0:
         raise UsageError(f"restitution = {scene.restitution:g} (the scene's): e / R needs R in (0, 1); give --restitution")
     settings = settings_of(engines, args.dt, engine_over)  # every refusal before any run

@@ -30,7 +30,7 @@ from chatterbench.comparisons.pipeline.tolerances import Tolerances, tolerances_
 from chatterbench.engines.isolate import set_run_limit
 from chatterbench.engines.registry import DEFAULT_ENGINES, ENGINE_NAMES, check_engine, make_settings
 from chatterbench.reference.errors import InputError, did_you_mean
-from chatterbench.reference.scene import split_assignment
+from chatterbench.reference.scene import Scene, load_scene, split_assignment
 from chatterbench.reference.tables import printable
 
 if TYPE_CHECKING:  # pandas and the sweep's modules load with the work, not with --help (issue 33)
@@ -160,6 +160,42 @@ def one_line(message: str) -> str:
     """A message on one line, safe for a terminal: control characters (a newline, an escape sequence typed into a
     key) shown escaped (``\\n``, ``\\x1b``); a word longer than ``SHOWN`` characters shortened with an ellipsis."""
     return _LONG_WORD.sub(lambda m: f"{m[0][:60]}...{m[0][-20:]} ({len(m[0])} characters)", printable(message))
+
+
+def scene_notes(scene: Scene, file=None) -> None:
+    """Print how the scene's file was read (``Scene.notes``: a weight given as a force read as ``gravity``), one
+    stderr line each, ``chatterbench: note: SCENE: ...``; the name escaped for a terminal (``one_line``)."""
+    for note in scene.notes:
+        print(f"chatterbench: note: {one_line(repr(scene.name))}: {one_line(note)}", file=file or sys.stderr)
+
+
+def load_noted(source: Any, overrides: Sequence[str] = ()) -> Scene:
+    """``load_scene(source, overrides)`` with its notes printed (``scene_notes``): how every subcommand loads a scene."""
+    scene = load_scene(source, overrides)
+    scene_notes(scene)
+    return scene
+
+
+def file_notes(sources: Sequence[Any], overrides: Sequence[str] = ()) -> None:
+    """The notes (``scene_notes``) of each scene file among ``sources``, once each, for a command whose library call
+    loads them (``report``, ``sweep``, ``gate``); one that does not load is left to that call's refusal."""
+    from chatterbench.reference.catalogue import CATALOGUE
+
+    seen: set[str] = set()
+    for source in sources:
+        if isinstance(source, Scene):
+            scene = source
+        elif str(source) in CATALOGUE or str(source) in seen:
+            continue
+        else:
+            seen.add(str(source))
+            try:
+                scene = load_scene(source, overrides)
+            except InputError:
+                continue
+        if scene.notes and scene.name not in seen:
+            seen.add(scene.name)
+            scene_notes(scene)
 
 
 def print_table(frame: pd.DataFrame, title: str | None = None, file=None) -> None:

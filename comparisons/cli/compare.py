@@ -14,11 +14,10 @@ import argparse
 import sys
 from pathlib import Path
 
-from chatterbench.reference.scene import load_scene
 
 from .commands import COMMANDS
-from .common import add_judging, add_out, add_scene, budget_of, engine_list, parse_tolerances, print_table, \
-    settings_of, split_overrides
+from .common import add_judging, add_out, add_scene, budget_of, engine_list, load_noted, parse_tolerances, \
+    print_table, settings_of, split_overrides
 from .paths import check_dir, writing
 from .progress import Progress
 
@@ -35,7 +34,7 @@ CONFORMANCE_SHOW = ["wall", "ref_t_first_impact", "verdict", "other_verdict", "s
 def cmd_compare(args: argparse.Namespace) -> int:
     check_dir("--out", args.out)
     scene_over, engine_over = split_overrides(args.set)
-    scene = load_scene(args.scene, scene_over)
+    scene = load_noted(args.scene, scene_over)
     tol = parse_tolerances(args.tolerance)
     engines = engine_list(args.engines)
     settings = settings_of(engines, args.dt, engine_over)  # a plugin that does not load is refused here

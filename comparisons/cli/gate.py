@@ -31,7 +31,8 @@ from chatterbench.comparisons.pipeline.atomic import write_text
 from chatterbench.reference.errors import check_number
 
 from .commands import COMMANDS
-from .common import UsageError, add_budget, add_timeout, add_tolerance, budget_of, one_line, parse_tolerances, print_table
+from .common import (UsageError, add_budget, add_timeout, add_tolerance, budget_of, file_notes, one_line, parse_tolerances,
+                     print_table)
 from .paths import check_distinct, check_file, same_file, writing
 from .progress import Progress, waited_s
 
@@ -53,6 +54,7 @@ def cmd_gate(args: argparse.Namespace) -> int:
     base = load_baseline(args.baseline) if args.baseline else None  # a bad baseline costs no run
     gate = load_gate(args.gates, base_tolerances=parse_tolerances(args.tolerance))
     print(f"{gate.path}: {len(gate.checks)} checks" + (f" ({gate.description})" if gate.description else ""), file=sys.stderr)
+    file_notes([check.scene for check in gate.checks])
     if base is not None and base.get("gate") and not same_file(base["gate"], gate.path):
         print(f"chatterbench: note: --baseline {one_line(args.baseline)} was saved from gate file "
               f"{one_line(repr(base['gate']))}, not {one_line(repr(gate.path))}: its checks are compared by name, and one "

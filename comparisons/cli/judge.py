@@ -23,7 +23,7 @@ from pathlib import Path
 from chatterbench.reference.tables import printable
 
 from .commands import COMMANDS
-from .common import UsageError, add_out, add_scene, add_tolerance, parse_tolerances, print_table
+from .common import UsageError, add_out, add_scene, add_tolerance, load_noted, parse_tolerances, print_table
 from .compare import EPISODE_SHOW, SUMMARY_SHOW
 from .paths import check_dir, writing
 
@@ -45,10 +45,8 @@ def engine_label(text: str) -> str:
 def cmd_judge(args: argparse.Namespace) -> int:
     from chatterbench.comparisons.pipeline.trajectory_file import judge_trajectory  # with the work, not with --help
     from chatterbench.comparisons.pipeline.vocabulary import combine
-    from chatterbench.reference.scene import load_scene
-
     check_dir("--out", args.out)
-    scene = load_scene(args.scene)
+    scene = load_noted(args.scene)
     tol = parse_tolerances(args.tolerance)
     engine = engine_label(getattr(args, "engine", None) or _stem(Path(args.trajectory)))
     result = judge_trajectory(scene, args.trajectory, engine=engine, tol=tol,

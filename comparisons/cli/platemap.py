@@ -14,11 +14,11 @@ import numpy as np
 
 from chatterbench.comparisons.pipeline.atomic import write_frame
 from chatterbench.comparisons.pipeline.budget import BudgetError, check_engine_run, check_plate_map
-from chatterbench.reference.scene import SceneError, load_scene
+from chatterbench.reference.scene import SceneError
 
 from .commands import COMMANDS
 from .common import UsageError, add_budget, add_dt, add_engines, add_out, add_scene, add_set, budget_of, engine_list, \
-    engines_hint, positive_float, positive_int, print_table, settings_of, split_overrides
+    engines_hint, load_noted, positive_float, positive_int, print_table, settings_of, split_overrides
 from .paths import check_dir, writing
 from .progress import Progress
 
@@ -51,7 +51,7 @@ def cmd_platemap(args: argparse.Namespace) -> int:
 
     check_dir("--out", args.out)
     scene_over, engine_over = split_overrides(args.set)
-    scene = load_scene(args.scene, scene_over)
+    scene = load_noted(args.scene, scene_over)
     engines = engine_list(args.engines) if args.engines else ()
     if not engines and (args.dt is not None or engine_over):
         key = "" if args.dt is not None else engine_over[0]

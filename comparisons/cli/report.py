@@ -22,8 +22,8 @@ from chatterbench.reference.catalogue import CATALOGUE
 from chatterbench.reference.tables import read_text
 
 from .commands import COMMANDS
-from .common import (ENGINE_TIMEOUT, UsageError, add_judging, add_out, budget_of, engine_list, one_line, parse_tolerances,
-                     print_table, settings_of, split_overrides)
+from .common import (ENGINE_TIMEOUT, UsageError, add_judging, add_out, budget_of, engine_list, file_notes, one_line,
+                     parse_tolerances, print_table, settings_of, split_overrides)
 from .paths import check_dir, writing
 from .progress import Progress
 
@@ -80,6 +80,7 @@ def cmd_report(args: argparse.Namespace) -> int:
     frontiers = read_frontiers(args.tune or ())  # each tune's recommended.json: the frontier chart per scene
     sweeps = [SweepSection(str(d), load_rows(d)) for d in args.sweep or ()]  # bad input before any run
     scenes, engines = args.scenes or tuple(CATALOGUE), engine_list(args.engines)
+    file_notes(scenes, scene_over)
     with Progress(len(scenes) * (1 + len(engines)) + 1, "report", unit="step") as bar:  # + 1: the figures and pages
         report = build_report(
             scenes=scenes, engines=engines, dt=args.dt, settings=settings_of(engines, args.dt, engine_over),

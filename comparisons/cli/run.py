@@ -30,11 +30,11 @@ from chatterbench.engines.export import check_exportable, export_files_names, ex
 from chatterbench.engines.registry import ENGINE_NAMES, adapter, run_engine
 from chatterbench.engines.settings import SettingsError
 from chatterbench.reference.errors import check_choice
-from chatterbench.reference.scene import Scene, SceneError, load_scene
+from chatterbench.reference.scene import Scene, SceneError
 
 from .commands import COMMANDS
-from .common import (UsageError, add_budget, add_dt, add_out, add_set, budget_of, engines_hint, one_line, print_table,
-                     settings_of, split_overrides)
+from .common import (UsageError, add_budget, add_dt, add_out, add_set, budget_of, engines_hint, load_noted, one_line,
+                     print_table, settings_of, split_overrides)
 from .paths import check_dir, check_distinct, check_file, writing
 
 if TYPE_CHECKING:
@@ -122,7 +122,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     check_distinct({"--events": args.events, "--export-model": args.export_model, **out_files},
                    {"SCENE": args.scene if Path(args.scene).is_file() else None})
     scene_over, engine_over = split_overrides(args.set)
-    scene = load_scene(args.scene, scene_over)
+    scene = load_noted(args.scene, scene_over)
     engine = args.engines
     if engine not in SIMULATORS:
         check_choice("--engines", engine, SIMULATORS, error=UsageError)

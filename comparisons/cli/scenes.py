@@ -13,7 +13,7 @@ from chatterbench.reference.catalogue import CATALOGUE, describe
 from chatterbench.reference.errors import check_choice
 from chatterbench.reference.scene import load_scene
 from .commands import COMMANDS
-from .common import UsageError, print_table
+from .common import UsageError, load_noted, print_table
 
 
 def cmd_scenes(args: argparse.Namespace) -> int:
@@ -23,7 +23,7 @@ def cmd_scenes(args: argparse.Namespace) -> int:
 
     if args.toml is not None:
         name = check_choice("--toml", args.toml, tuple(CATALOGUE), error=UsageError)
-        sys.stdout.write(scene_toml(load_scene(name), describe(name)))
+        sys.stdout.write(scene_toml(load_noted(name), describe(name)))
         return 0
     rows = []
     for name in CATALOGUE:

@@ -23,7 +23,8 @@ from chatterbench.comparisons.pipeline.tolerances import tolerance_values
 from chatterbench.comparisons.studies.limits import NO_WORKER_WAIT, NO_WORKERS
 
 from .commands import COMMANDS
-from .common import UsageError, add_budget, add_out, add_tolerance, budget_of, local_workers, positive_int, print_table, timeout_seconds
+from .common import (UsageError, add_budget, add_out, add_tolerance, budget_of, file_notes, local_workers, positive_int,
+                     print_table, timeout_seconds)
 from .paths import check_dir, writing
 from .progress import Progress, waited_s
 
@@ -47,6 +48,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     check_dir("--out", out)
     budget = budget_of(args)
     sweep = load_sweep(args.spec, budget)
+    file_notes([sweep.scene])
     if args.timeout is not None:
         sweep = dataclasses.replace(sweep, timeout=args.timeout)
     if args.tolerance:

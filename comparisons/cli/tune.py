@@ -20,12 +20,12 @@ from pathlib import Path
 
 from chatterbench.comparisons.pipeline.budget import check_engine_run, check_reference
 from chatterbench.comparisons.studies.limits import MAX_RUNS, ROBUST_FRACTION
-from chatterbench.reference.scene import load_scene, split_assignment
+from chatterbench.reference.scene import split_assignment
 
 from .commands import COMMANDS
 from .common import (UsageError, add_budget, add_out, add_scene, add_set, add_tolerance, budget_of, local_workers,
                      engine_list, integer_type, parse_tolerances, positive_float, positive_int, print_table,
-                     split_overrides)
+                     load_noted, split_overrides)
 from .paths import check_dir, check_links, writing
 from .progress import CountingExecutor, Progress, waited_s
 
@@ -53,7 +53,7 @@ def cmd_tune(args: argparse.Namespace) -> int:
     if strangers:
         raise UsageError(f"--set {strangers[0]}: its engine is not among --engines {args.engines}")
     check_links("--out", args.out, (*WRITTEN, *engines))  # a link planted in DIR: refused before the search
-    scene = load_scene(args.scene, scene_over)
+    scene = load_noted(args.scene, scene_over)
     tol = parse_tolerances(args.tolerance)
     budget = budget_of(args)  # the reference, then the finest candidate of each engine, before any run
     check_reference(scene, budget)

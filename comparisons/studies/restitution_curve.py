@@ -177,7 +177,8 @@ def impact_scene(scene: Scene, restitution: float, speed: float, dt: float, grav
     """One strike of ``scene``'s bodies on its lower wall at relative speed ``speed`` [m/s] (module docstring).
 
     Body 1 is held still (its prescribed motion and every force dropped); ``gravity`` [m/s^2]
-    is a constant force -m2 g on body 2, so y'' = -g between impacts. The strike comes after
+    pulls body 2 alone, so y'' = -g between impacts: the scene's ``gravity`` -g where body 1 is
+    infinite (it stays where it is), else a constant force -m2 g on body 2. The strike comes after
     t_a = (``APPROACH_STEPS`` + ``phase``) dt (``approach_time``: ``phase`` of a step after a sample;
     fewer steps when a slow strike under gravity needs it, t_a <= v / g), from y0 = v t_a - g
     t_a^2 / 2 above the wall with y' = -v + g t_a; the run lasts t_a + ``after_steps`` dt.
@@ -188,7 +189,9 @@ def impact_scene(scene: Scene, restitution: float, speed: float, dt: float, grav
     data = scene.to_dict()
     data.pop("prescribed", None)
     data.update(name=f"{scene.name}-impact", restitution=restitution, gap={"lower": scene.gap.lower},
-                forces=[{"kind": "constant", "on": "body2", "value": -scene.mass2 * gravity}] if gravity > 0 else [],
+                gravity=-gravity if gravity > 0 and scene.body1_infinite else 0.0,
+                forces=[{"kind": "constant", "on": "body2", "value": -scene.mass2 * gravity}]
+                if gravity > 0 and not scene.body1_infinite else [],
                 initial={"t": 0.0, "x1": scene.initial.x1 if scene.body1_infinite else 0.0, "v1": 0.0,
                          "y": scene.gap.lower + speed * t_a - 0.5 * gravity * t_a**2, "vy": -speed + gravity * t_a},
                 duration=t_a + after_steps * dt,

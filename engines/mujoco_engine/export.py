@@ -11,10 +11,10 @@
 
 ``model_xml`` is the run's model (``model.build_spec``: the same bodies, joints, contact law
 and springs) as a user loads it (``exported_spec``): its default state is the scene's start
-(joint ``ref`` and body positions make qpos0 the initial position), the scene's constant force
-is MuJoCo's gravity where it is gravity (``gravity``: the same acceleration on every body that
-moves) and a motor's bias otherwise (force = ctrl + the constant: ctrl carries only what
-changes with time), and keyframe ``initial`` holds the initial time, position, velocity, the
+(joint ``ref`` and body positions make qpos0 the initial position), the scene's ``gravity`` is
+MuJoCo's ``<option gravity>`` along x (the same acceleration on every body that moves), a
+constant force a motor's bias (force = ctrl + the constant: ctrl carries only what changes
+with time), and keyframe ``initial`` holds the initial time, position, velocity, the
 controls at the initial time and the mocap position. Written by ``MjSpec.to_xml`` with every
 number put back at full precision (``to_xml`` keeps 6 digits; a contact law that chatters
 amplifies the 7th into another bounce); names the XML cannot hold escaped (``printable``); the
@@ -102,33 +102,25 @@ def time_dependent(scene: Scene) -> bool:
 
 
 def gravity(scene: Scene) -> float:
-    """The acceleration [m/s^2] along the slide axis x that the scene's constant forces are, when they are gravity,
-    else 0: a constant force on body 2 of m2 g, on a finite body 1 of m1 g (to 1e-12 relative; on an infinite
-    body 1 it moves nothing), none on the coupling."""
-    f = ForceModel.from_scene(scene)
-    if f.coupling.constant != 0.0 or f.body2.constant == 0.0:
-        return 0.0
-    g = f.body2.constant / scene.mass2
-    if scene.body1_infinite or math.isclose(f.body1.constant, scene.mass1 * g, rel_tol=1e-12, abs_tol=0.0):
-        return g
-    return 0.0
+    """MuJoCo's gravity [m/s^2] along the slide axis x for ``scene``: its ``gravity`` (the same acceleration on every
+    body that moves; an infinite body 1 is fixed or a mocap, which gravity does not move)."""
+    return scene.gravity
 
 
 def exported_scene(scene: Scene) -> Scene:
-    """``scene`` as the exported model has it: a name XML can hold (``printable``) and, where the constant forces are
-    ``gravity``, without them (the model's ``<option gravity>`` is that force)."""
+    """``scene`` as the exported model has it: a name XML can hold (``printable``) and no ``gravity`` (the model's
+    ``<option gravity>`` is that acceleration; the motors carry every other force)."""
     data = scene.to_dict()
     data["name"] = printable(scene.name)
-    if gravity(scene):
-        data["forces"] = [f for f in data["forces"] if not (f["kind"] == "constant" and f["on"] in ("body1", "body2"))]
+    data["gravity"] = 0.0
     return scene_from_dict(data)
 
 
 def exported_spec(scene: Scene, s: MujocoSettings) -> mujoco.MjSpec:
     """The run's model (``model.build_spec``) as a user loads and steps it without a reset (module docstring).
 
-    The same bodies, joints, contact law and springs, with MuJoCo gravity where the scene's
-    constant forces are ``gravity``, every other constant force a motor's bias (force = ctrl +
+    The same bodies, joints, contact law and springs, with MuJoCo gravity the scene's
+    ``gravity``, every constant force a motor's bias (force = ctrl +
     the constant: ctrl carries only the time-dependent part), body and joint ``ref`` positions
     so that qpos0 is the scene's initial position, and keyframe 0 ``initial`` with the initial
     time, position, velocity, the controls at the initial time and the mocap position.
@@ -226,7 +218,7 @@ def _header(scene: Scene, s: MujocoSettings) -> str:
         f" contact stiffness w0 dt = {num(s.w0_dt)}, integrator {s.integrator}, gap as a "
         f"{'joint limit on y' if s.gap_model == 'limit' else 'geom pair (walls on body1, ball on body2)'}.",
         " y = x2 - x1 is joint y (body2 inside body1), along x; "
-        + (f"gravity {num(g)} m/s^2 along x (the scene's constant force);" if g else "no gravity;"),
+        + (f"gravity {num(g)} m/s^2 along x (the scene's gravity);" if g else "no gravity;"),
         " every other force is a joint or tendon spring or a motor (actuators force_*; a constant force is the",
         " motor's bias). The model's default state is the scene's initial position (joint ref = qpos0):",
         " MjData(model) starts there. Keyframe 0 adds the initial time, velocity and controls:",

@@ -9,7 +9,8 @@
 The layout and the contact law are in the package docstring; ``export.py`` writes the model as a complete MJCF file. Forces come from the scene's
 one force model (``reference.forces.ForceModel``): each target's springs and dampers become
 joint (body 1, coupling) or tendon (body 2: x2 = x1 + y) stiffness, damping and rest, its
-constant and harmonic terms motor controls; a prescribed body 1 moves by
+constant and harmonic terms and the weights of the scene's gravity motor controls (MuJoCo's own
+gravity stays 0 here; the exported file uses it, ``export.py``); a prescribed body 1 moves by
 ``Prescribed.position`` and enters y through the inertial force -m2 ``Prescribed.acceleration``.
 """
 
@@ -210,6 +211,8 @@ def _impedance_factor(model: mujoco.MjModel, scene: Scene, s: MujocoSettings) ->
 def _actuated(scene: Scene) -> dict[str, bool]:
     """Which joints need a motor for time-dependent forces (insertion order = ctrl order)."""
     timed = {f.on for f in scene.forces if f.kind in ("constant", "harmonic")}
+    if scene.gravity != 0.0:  # the weights m g: time terms of both bodies (ForceModel), motor controls here
+        timed |= {"body1", "body2"}
     if scene.body1_infinite:
         # a prescribed body 1 always needs the inertial force -m2 x1''(t) on y
         return {"y": bool(timed) or scene.prescribed is not None}

@@ -82,7 +82,8 @@ def option_line(settings: MujocoSettings) -> str:
 
 PLACEHOLDERS = {
     "GAP_JOINT": "the name of your slide joint whose position is the gap y (the moving body's joint, relative to the "
-                 "body that carries the walls or to the world); keep your joint's axis",
+                 "body that carries the walls or to the world); keep your joint's axis (with the geom pair the "
+                 "moving body may be on a free joint instead: the check below measures along the contact normal)",
     "WALL_GEOM": "the name of your wall's geom (one <pair> per wall)",
     "BALL_GEOM": "the name of the moving body's geom that strikes it",
 }
@@ -128,10 +129,19 @@ def mjcf_snippet(scene: Scene, settings: MujocoSettings | None = None) -> str:
 
 def measurement() -> str:
     """Python that measures one impact's e = -v_out / v_in in the user's own model (``model``, ``data`` loaded,
-    the body flying towards the wall): the guide's check that the pasted settings give R."""
+    the body flying towards the wall): the guide's check that the pasted settings give R.
+
+    GAP_JOINT is the moving body's slide joint (its velocity along its own axis) or free joint
+    (its linear velocity, world frame, along the contact's normal at the first contact step): a
+    free joint's first dof is its x velocity, 0 for a ball dropped along z, so e = 0 / 0 read there.
+    Needs only ``mujoco`` (and the numpy it brings); the printed comment says which velocity is used.
+    """
     return "\n".join([
-        'dof = model.joint("GAP_JOINT").dofadr[0]',
-        "while not data.nefc: v_in = data.qvel[dof]; mujoco.mj_step(model, data)  # fly to the wall",
+        'joint = model.joint("GAP_JOINT")  # the moving body\'s joint: a slide joint or a free joint',
+        "dof, n = joint.dofadr[0], (3 if joint.type == mujoco.mjtJoint.mjJNT_FREE else 1)  # free: its 3 linear dofs",
+        "while not data.nefc: v = data.qvel[dof:dof + n].copy(); mujoco.mj_step(model, data)  # fly to the wall",
+        "normal = data.contact.frame[0, :3] if n == 3 else [1.0]  # free: along the contact normal; slide: its axis",
+        "v_in = v @ normal",
         "while data.nefc: mujoco.mj_step(model, data)  # through the contact",
-        'print("e =", -data.qvel[dof] / v_in)  # compare with R at this v_in',
+        'print("e =", -(data.qvel[dof:dof + n] @ normal) / v_in)  # compare with R at this v_in',
     ]) + "\n"

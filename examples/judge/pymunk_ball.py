@@ -11,7 +11,8 @@ the ball, x2 its lowest point's height, so y = x2 - x1 is the gap to the floor.
 pymunk's contact restitution is the product of the two shapes' elasticities (the floor's
 is 1, the ball's R), applied at every impact; its contact force is the arbiter's impulse
 over the step. Options: ``--scene`` (bouncing-ball, or a TOML of a ball on a fixed floor:
-mass1 = "inf", a constant force on body 2, lower wall only), ``--dt`` [s].
+mass1 = "inf", lower wall only, under ``gravity`` [m/s^2] or one constant force on body 2 [N]),
+``--dt`` [s].
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ import pandas as pd
 import pymunk
 
 BUILT_IN = {"name": "bouncing-ball", "mass2": 1.0, "restitution": 0.5, "duration": 2.0, "gap": {"lower": 0.0},
-            "initial": {"y": 1.0, "vy": 0.0}, "forces": [{"kind": "constant", "on": "body2", "value": -9.81}]}
+            "initial": {"y": 1.0, "vy": 0.0}, "gravity": -9.81}
 RADIUS = 0.05  # [m] the ball's; only its lowest point is judged
 
 
@@ -36,17 +37,23 @@ def scene_data(source: str) -> dict:
         return BUILT_IN
     data = tomllib.loads(Path(source).read_text())
     forces = data.get("forces", [])
-    if str(data.get("mass1")) != "inf" or "upper" in data.get("gap", {}) or len(forces) != 1 \
-            or forces[0].get("kind") != "constant" or forces[0].get("on") != "body2":
-        sys.exit(f"{source}: this example simulates a ball on a fixed floor under one constant force only")
+    one_force = len(forces) == 1 and forces[0].get("kind") == "constant" and forces[0].get("on") == "body2"
+    if str(data.get("mass1")) != "inf" or "upper" in data.get("gap", {}) or not (one_force or not forces):
+        sys.exit(f"{source}: this example simulates a ball on a fixed floor under gravity or one constant force only")
     return data
+
+
+def acceleration(data: dict) -> float:
+    """The ball's acceleration along the slide axis [m/s^2]: the scene's gravity plus its constant force / m2."""
+    forces = data.get("forces", [])
+    return float(data.get("gravity", 0.0)) + (float(forces[0]["value"]) / float(data["mass2"]) if forces else 0.0)
 
 
 def simulate(data: dict, dt: float) -> pd.DataFrame:
     """Step pymunk for the scene's duration; one row per step (the trajectory table)."""
     m, floor_y = float(data["mass2"]), float(data["gap"]["lower"])
     space = pymunk.Space()
-    space.gravity = (0.0, float(data["forces"][0]["value"]) / m)  # a constant force on body 2: F / m2
+    space.gravity = (0.0, acceleration(data))  # the scene's x is pymunk's y
     space.iterations = 50
     floor = pymunk.Segment(space.static_body, (-10.0, floor_y), (10.0, floor_y), 0.0)
     floor.elasticity = 1.0

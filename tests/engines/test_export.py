@@ -78,6 +78,33 @@ def test_exported_mjcf_starts_where_the_scene_starts_and_reproduces_the_run(tmp_
         np.testing.assert_allclose(y, traj.x2 - traj.x1, rtol=0, atol=1e-11)
 
 
+@pytest.mark.parametrize("source,over,gravity,nu", [
+    ("bouncing-ball", ["mass2=0.2"], "-9.81", "0"),  # the scene's gravity, whatever the mass (issue 41)
+    ("old.toml", ["mass2=0.2"], "-9.81", "0"),  # a file's weight -1.962 N on the 0.2 kg ball, read as gravity
+    ("pushed.toml", [], "0.0", "1"),  # -5 N on a 1 kg ball is no weight: a motor's bias, MuJoCo's gravity 0
+])
+def test_exported_mjcf_carries_the_scenes_gravity(tmp_path, source, over, gravity, nu):
+    body = _ball_body().replace("gravity = -9.81\n", "").replace("duration = 0.5", "duration = 1.0")  # to 0.63 s
+    force = {"old.toml": -1.962, "pushed.toml": -5.0}.get(source)
+    if force is not None:
+        (tmp_path / source).write_text(body.replace("mass2 = 1.0", f"mass2 = {0.2 if force == -1.962 else 1.0}")
+                                       + f"[[forces]]\nkind = 'constant'\non = 'body2'\nvalue = {force}\n")
+        source = str(tmp_path / source)
+    done = cli_here(["run", source, "--engines", "mujoco", "--dt", "3e-4", "--set", "mujoco.w0_dt=0.1",
+                     *[w for o in over for w in ("--set", o)], "--export-model", str(tmp_path / "m.xml")])
+    assert done.code == 0, done.err
+    scene = load_scene(source, over)
+    traj = MujocoEngine().run(scene, MujocoSettings(dt=3e-4, w0_dt=0.1), compact_above=math.inf)
+    y, printed = _stepped(tmp_path / "m.xml", len(traj.t) - 1, tmp_path / "y.npy")
+    assert printed.split() == [gravity, "0.0", "0.0", nu, "False"]
+    # the file run as MuJoCo's viewer runs it is the run: the ball under MuJoCo's gravity (or the motor's bias)
+    # falls as the adapter's motors make it fall, bit for bit (measured: also at mass2 = 0.2)
+    assert np.array_equal(y, traj.x2 - traj.x1)
+    fall = float(gravity) if gravity != "0.0" else -5.0
+    first = traj.t[np.argmax(traj.contact["lower"])]  # first contact: the step the ball reaches the floor
+    assert abs(first - math.sqrt(2.0 / -fall)) <= 3e-4  # within a step of the free fall's time
+
+
 def test_the_keyframe_adds_the_initial_velocity(tmp_path):
     # a ball thrown up at 1 m/s: the model's default state is the initial position only; keyframe 0 adds the speed
     scene = load_scene("bouncing-ball", ["initial.vy=1.0"])
@@ -174,9 +201,8 @@ def test_tune_writes_its_engine_files_for_a_scene_named_with_control_characters(
 
 def _ball_body() -> str:
     ball = CATALOGUE["bouncing-ball"]
-    return ("mass1 = 'inf'\nmass2 = 1.0\nrestitution = 0.5\nduration = 0.5\n[gap]\nlower = 0.0\n"
-            f"[[forces]]\nkind = 'constant'\non = 'body2'\nvalue = {ball['forces'][0]['value']}\n"
-            "[initial]\nt = 0.0\nx1 = 0.0\nv1 = 0.0\ny = 1.0\nvy = 0.0\n")
+    return (f"mass1 = 'inf'\nmass2 = 1.0\nrestitution = 0.5\nduration = 0.5\ngravity = {ball['gravity']!r}\n"
+            "[gap]\nlower = 0.0\n[initial]\nt = 0.0\nx1 = 0.0\nv1 = 0.0\ny = 1.0\nvy = 0.0\n")
 
 
 def _printed(stdout: str) -> list[tuple[float, float, float, float]]:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import pytest
@@ -63,7 +64,7 @@ def test_lower_equal_upper_is_refused():
 
 # every numeric field of the feigin-pair, as a --set key
 NUMERIC_KEYS = [
-    "restitution", "mass2", "duration",
+    "restitution", "mass2", "duration", "gravity",
     "gap.lower", "gap.upper",
     "initial.t", "initial.x1", "initial.v1", "initial.y", "initial.vy",
     "forces.0.amplitude", "forces.0.omega", "forces.0.phase",
@@ -246,9 +247,12 @@ def test_constructed_scene_equals_loaded():
         mass2=1.0,
         restitution=0.5,
         gap=Gap(lower=0.0),
-        forces=(Force(kind="constant", on="body2", value=-9.81),),
+        gravity=-9.81,  # an acceleration since issue 41: the ball falls at g whatever its mass
         initial=Initial(y=1.0),
         duration=2.0,
         description=CATALOGUE["bouncing-ball"]["description"],
     )
     assert scene == load_scene("bouncing-ball")
+    # a scene built in code keeps its constant force a force (only a file's weight is read as gravity, weight.py)
+    weighed = dataclasses.replace(scene, gravity=0.0, forces=(Force(kind="constant", on="body2", value=-9.81),))
+    assert weighed != scene and weighed.forces and weighed.gravity == 0.0

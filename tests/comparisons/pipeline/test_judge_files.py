@@ -41,10 +41,9 @@ def _judge(name, table: pd.DataFrame, **kw):
 
 def _lift_ahead(delta: float):
     """The lift ball whose forcing runs ``delta`` [s] ahead: a physically consistent engine that leaves early."""
-    scene = solution(LIFT).scene
-    harmonic = scene.forces[1]
-    return dataclasses.replace(scene, forces=(scene.forces[0], dataclasses.replace(
-        harmonic, phase=harmonic.phase + harmonic.omega * delta)))
+    scene = solution(LIFT).scene  # its file's -9.81 N on the 1 kg ball is read as gravity: the harmonic is left
+    (harmonic,) = scene.forces
+    return dataclasses.replace(scene, forces=(dataclasses.replace(harmonic, phase=harmonic.phase + harmonic.omega * delta),))
 
 
 # -- item 1: sticking from where the samples rest --------------------------------------------------
