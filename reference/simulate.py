@@ -341,9 +341,10 @@ class _Simulator:
         if entered:  # exhaustive mode: Feigin's model would slide from here; the impacts go on
             self._event(t, "plate_entry", wall, v_minus, vy_plus, s)
             plate_seen = True
-        if acc >= 0.0:
+        pull = (1.0 - R) * -acc  # [m/s^2] a subnormal |y''| (a harmonic force at t = 5e-324) underflows to 0 here
+        if acc >= 0.0 or pull <= 0.0:  # nothing presses the body onto the wall: no accumulation
             return t, s, None, plate_seen
-        dt_star = 2.0 * n * vy_plus / ((1.0 - R) * -acc)  # sum of all later flights
+        dt_star = 2.0 * n * vy_plus / pull  # sum of all later flights
         if dt_star > self.acc_time:
             # follow the sequence in compiled code while nothing needs the event loop
             code, t, s, acc = self._chase(t, s, wall, check_plate=not (plate_seen and self.exhaustive))

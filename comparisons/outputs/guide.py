@@ -133,6 +133,12 @@ def listed_candidates(result) -> tuple[pd.DataFrame, str]:
     return listed, note
 
 
+def _closest_note(n: int) -> str:
+    """What the table of cheaper failures leaves out (``LISTED_CANDIDATES`` of ``n``, the closest to the answer)."""
+    return (f"The {LISTED_CANDIDATES} closest to the answer's cost of the {n} (dearest first); `candidates.csv` beside "
+            "this guide has every run.")
+
+
 def _candidates(frame: pd.DataFrame, defaults: dict) -> pd.DataFrame:
     """The guide's candidate table: the settings as dt and what differs from the defaults (the CSV has them all)."""
     out = frame.assign(matches=[f"{m}/{n}" for m, n in zip(frame["n_match"], frame["n_episodes"])],
@@ -334,7 +340,10 @@ def guide_markdown(result, figures: dict | None = None, ev=None) -> str:
         lines += md_figure(name)
     cheaper = result.cheaper()
     lines += [f"## Cheaper or as cheap candidates that fail ({len(cheaper)})", ""]
-    lines += [_md_table(_candidates(cheaper, result.extra.get("defaults", {}))) if len(cheaper) else "None: nothing cheaper was tried and failed.", ""]
+    if len(cheaper) > LISTED_CANDIDATES:
+        lines += [_closest_note(len(cheaper)), ""]
+    lines += [_md_table(_candidates(cheaper.iloc[::-1].head(LISTED_CANDIDATES), result.extra.get("defaults", {}))) if len(cheaper)
+              else "None: nothing cheaper was tried and failed.", ""]
     for name in (n for n in figures if n not in BESIDE_SNIPPET + IN_FRONTIER):
         lines += md_figure(name)
     listed, note = listed_candidates(result)
@@ -467,7 +476,10 @@ def guide_section_html(result, figures: dict[str, Figure] | None = None, ev=None
             parts += ["<h3>Check it in your own model</h3>", f"<p>{_inline(_check_text(result.engine))}</p>", code_block(check)]
     cheaper = result.cheaper()
     parts.append(f"<h3>Cheaper or as cheap candidates that fail ({len(cheaper)})</h3>")
-    parts.append(_html_table(_candidates(cheaper, result.extra.get("defaults", {}))) if len(cheaper) else "<p>None: nothing cheaper was tried and failed.</p>")
+    if len(cheaper) > LISTED_CANDIDATES:
+        parts.append(f"<p>{_inline(_closest_note(len(cheaper)))}</p>")
+    parts.append(_html_table(_candidates(cheaper.iloc[::-1].head(LISTED_CANDIDATES), result.extra.get("defaults", {})))
+                 if len(cheaper) else "<p>None: nothing cheaper was tried and failed.</p>")
     parts += [html_figure(n) for n in figures if n not in BESIDE_SNIPPET + IN_FRONTIER]
     listed, note = listed_candidates(result)
     parts += [f"<h3>Every candidate tried ({len(result.table)})</h3>", f"<p>{_inline(note)}</p>",

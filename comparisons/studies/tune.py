@@ -164,7 +164,8 @@ class TuneResult:
         key = cost_key(t[t["verdict"] != "refused"])
         limit = c[key] * (1.0 + self.extra.get("tie_band", TIE_BAND))
         which = (passing(t["verdict"]) & (t["robust"] == False)) if fragile else ~passing(t["verdict"])  # noqa: E712
-        return t[(t[key] <= limit) & which & (t["settings"] != c["settings"])]
+        searched = t["phase"].isna() if "phase" in t else True  # a band's run checks a candidate: it is none itself
+        return t[(t[key] <= limit) & which & searched & (t["settings"] != c["settings"])].sort_values(key, kind="stable")
 
 
 def passing(verdicts: pd.Series) -> pd.Series:
