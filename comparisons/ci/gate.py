@@ -51,6 +51,8 @@ exit_error_rel_max          number  exit error / sliding duration (the exit tole
 stick_error_rel_max         number  sticking error / chatter duration (the stick tolerance's measure)
 restitution_error_max       number  |effective R / R - 1| of the worst resolved impact
 penetration_max [m]         number  deepest penetration of a wall
+open_fraction_max           number  the largest share of a rest after a stick the contact is open
+onset_rate_max [1/s]        number  the most contact onsets per second after a stick (persistence)
 cost_per_sim_s              number  wall-clock s per simulated s (machine-dependent)
 n_match, n_episodes         number  integers
 stick_error_worst [s]       number  the report's columns: the worst error with its sign

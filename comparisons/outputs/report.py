@@ -59,7 +59,7 @@ SUMMARY_COLUMNS = ["scene", "engine", "verdict", "n_match", "n_episodes", "stick
                    "status"]
 EPISODE_COLUMNS = ["engine", "wall", "ref_t_stick", "t_stick", "stick_error_zeno", "stick_error_rel", "ref_t_exit", "t_exit",
                    "exit_error", "exit_error_rel", "exit_error_steps", "restitution_error", "resolved_impacts",
-                   "ref_resolved_impacts", "n_impacts", "verdict"]
+                   "ref_resolved_impacts", "n_impacts", "onset_rate", "open_fraction", "verdict"]
 # headers shown for the columns above; errors are printed in ms, times in s
 HEADERS = {
     "scene": "scene", "engine": "engine", "verdict": "verdict", "n_match": "matched", "n_episodes": "episodes",
@@ -75,10 +75,11 @@ HEADERS = {
     "ref_t_stick": "ref. sticks [s]", "t_stick": "sticks [s]", "stick_error_zeno": "sticking error [ms]",
     "ref_t_exit": "ref. exits [s]", "t_exit": "exits [s]", "exit_error": "exit error [ms]",
     "n_impacts": "impacts", "ref_n_impacts": "ref. impacts",
+    "onset_rate": "contact onsets after the stick [1/s]", "open_fraction": "open after the stick",
 }
 MS_COLUMNS = {"exit_error_max", "stick_error_max", "stick_error_zeno", "exit_error", "penetration_max", "exit_error_worst",
               "stick_error_worst"}
-FRACTION_COLUMNS = {"stick_error_rel_max", "exit_error_rel_max", "restitution_error_max", "stick_error_rel", "exit_error_rel",
+FRACTION_COLUMNS = {"onset_rate", "open_fraction", "stick_error_rel_max", "exit_error_rel_max", "restitution_error_max", "stick_error_rel", "exit_error_rel",
                     "restitution_error", "exit_error_steps", "stick_error_rel_worst", "exit_error_rel_worst",
                     "restitution_error_worst"}
 TIME_COLUMNS = {"ref_t_stick", "t_stick", "ref_t_exit", "t_exit"}
