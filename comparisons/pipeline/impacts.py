@@ -89,13 +89,13 @@ def restitution_error(e: np.ndarray, restitution: float) -> np.ndarray:
     return e / restitution - 1.0 if restitution > 0 else np.asarray(e, dtype=float)
 
 
-def pair_impacts(ref_impacts: pd.DataFrame, ref_flights: np.ndarray, eng_impacts: pd.DataFrame | Mapping, dt: float,
+def pair_impacts(ref_impacts: pd.DataFrame | Mapping, ref_flights: np.ndarray, eng_impacts: pd.DataFrame | Mapping, dt: float,
                  resolved_steps: float, restitution: float, tolerance: float) -> ImpactPairs:
     """Pair the resolved impacts of one visit (module docstring).
 
     Parameters
     ----------
-    ref_impacts : DataFrame
+    ref_impacts : DataFrame, or mapping column -> array
         The reference's impacts of the visit (log rows: ``t``, ``v_minus``, ``v_plus``), by time.
     ref_flights : ndarray, shape (len(ref_impacts),)
         Flight after each of them [s] (``reference_flights``).
@@ -115,7 +115,7 @@ def pair_impacts(ref_impacts: pd.DataFrame, ref_flights: np.ndarray, eng_impacts
     n = min(n_ref, n_eng)
     rows = []
     if n:  # the first n resolved of each, as arrays (a visit's pandas rows cost more than the pairing)
-        r = {c: ref_impacts[c].to_numpy(float)[ref_kept][:n] for c in ("t", "v_minus", "v_plus")}
+        r = {c: np.asarray(ref_impacts[c], dtype=float)[ref_kept][:n] for c in ("t", "v_minus", "v_plus")}
         e = {c: np.asarray(eng_impacts[c], dtype=float)[eng_kept][:n] for c in ("t", "v_minus", "v_plus", "v_error")}
         with np.errstate(divide="ignore", invalid="ignore"):
             e_ref = -r["v_plus"] / r["v_minus"]
@@ -126,12 +126,24 @@ def pair_impacts(ref_impacts: pd.DataFrame, ref_flights: np.ndarray, eng_impacts
             # e / R - 1 moves by de / R (by de itself for R = 0, where the error is e)
             unc = (1.0 + np.abs(e_eng)) * e["v_error"] / ((restitution if restitution > 0 else 1.0) * v_in)
         unc = np.where(np.isfinite(unc), unc, np.inf)
-        measurable = unc <= tolerance
         rows = {"k": np.arange(n), "ref_t": r["t"], "t": e["t"],
                 "ref_v_minus": np.abs(r["v_minus"]), "v_minus": v_in,
                 "ref_restitution": e_ref, "restitution": e_eng, "restitution_error": err,
-                "restitution_uncertainty": unc, "measurable": measurable,
-                "excess": np.where(measurable, np.abs(err), np.nan)}
+                "restitution_uncertainty": unc}
+    return measured_at(ImpactPairs(columns=rows if n else {}, resolved=n_eng, ref_resolved=n_ref, worst_error=math.nan,
+                                   worst_excess=math.nan), tolerance)
+
+
+def measured_at(pairs: ImpactPairs, tolerance: float) -> ImpactPairs:
+    """``pairs`` measured against the restitution tolerance ``tolerance`` [-] (module docstring): which pairs are
+    measurable (``measurable``, ``excess``), the worst, and the counts; the pairing itself does not depend on it, so
+    a judge at many tolerances pairs once (``pipeline.prepared``). ``pair_impacts`` ends here."""
+    n = len(pairs)
+    rows = dict(pairs.columns)
+    if n:
+        err, unc = rows["restitution_error"], rows["restitution_uncertainty"]
+        measurable = unc <= tolerance
+        rows.update(measurable=measurable, excess=np.where(measurable, np.abs(err), np.nan))
     excess = rows["excess"] if n else np.empty(0)  # what follows from the arrays, not from the table's columns
     ok = np.isfinite(excess)
     if ok.any():
@@ -140,5 +152,5 @@ def pair_impacts(ref_impacts: pd.DataFrame, ref_flights: np.ndarray, eng_impacts
     else:
         worst, worst_excess = math.nan, math.nan
     measured = int(rows["measurable"].sum()) if n else 0
-    return ImpactPairs(columns=rows if n else {}, resolved=n_eng, ref_resolved=n_ref, worst_error=worst, worst_excess=worst_excess,
-                       unmeasured=n - measured, measured=measured)
+    return ImpactPairs(columns=rows if n else {}, resolved=pairs.resolved, ref_resolved=pairs.ref_resolved,
+                       worst_error=worst, worst_excess=worst_excess, unmeasured=n - measured, measured=measured)

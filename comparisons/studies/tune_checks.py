@@ -35,10 +35,10 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from ..pipeline.solution import ReferenceSolution
-from ..pipeline.summary import worst_signed
 from ..pipeline.tolerances import Tolerances
 from ..pipeline.vocabulary import UNDETERMINED, VERDICTS
 from .restitution_curve import pinned_settings
@@ -92,17 +92,49 @@ def check_values(table: pd.DataFrame, impacts: pd.DataFrame, allowance: float,
     worst signed e / R - 1 among the strikes the judge holds to R (sampling uncertainty at most
     ``restitution_tol``) is ``scene_restitution``, at ``scene_restitution_speed`` [m/s].
     """
+    columns = {c: table[c].to_numpy() for c in CHECK_COLUMNS if c in table}
+    excess = impacts["excess"].to_numpy() if "excess" in impacts else np.empty(0)
+    return values_of(columns, excess, allowance, strikes, restitution_tol)
+
+
+# the judged table's columns the checks read (``values_of``)
+CHECK_COLUMNS = ("wall", "stick_error_rel", "first_impact_error_rel", "exit_error_rel", "resolved_impacts",
+                 "ref_resolved_impacts", "penetration_max", "open_fraction")
+
+
+def _finite(values) -> np.ndarray:
+    values = np.asarray(values, dtype=float)
+    return values[~np.isnan(values)]
+
+
+def _max(values) -> float:
+    """The largest of ``values`` that is not NaN (NaN: none), as pandas' ``max`` gives."""
+    values = _finite(values)
+    return float(values.max()) if len(values) else math.nan
+
+
+def _worst_signed(values) -> float:
+    """``summary.worst_signed`` of an array: the entry of largest magnitude, with its sign (the first of equal ones)."""
+    values = _finite(values)
+    return float(values[np.abs(values).argmax()]) if len(values) else math.nan
+
+
+def values_of(columns: dict[str, np.ndarray], excess: np.ndarray, allowance: float,
+              strikes: pd.DataFrame | None = None, restitution_tol: float = math.nan) -> dict[str, float]:
+    """``check_values`` from the judged table's ``CHECK_COLUMNS`` as arrays (shape (n_rows,), in the table's order;
+    ``wall``, ``open_fraction`` may be absent) and the paired impacts' ``excess`` (shape (n_pairs,)): what a ladder
+    judge (``pipeline.prepared``) gives without a table."""
     misses = miss_summary(strikes, restitution_tol) if strikes is not None else None
-    eps = table[table["wall"] != ""] if "wall" in table else table
-    excess = impacts["excess"].astype(float).dropna() if "excess" in impacts else pd.Series(dtype=float)
-    counts = (eps["resolved_impacts"] - eps["ref_resolved_impacts"]).abs() if len(eps) else pd.Series(dtype=float)
+    n_rows = len(columns["penetration_max"])
+    keep = columns["wall"] != "" if "wall" in columns else np.ones(n_rows, dtype=bool)
+    eps = {c: np.asarray(v)[keep] for c, v in columns.items()}
+    counts = np.abs(np.asarray(eps["resolved_impacts"], dtype=float) - np.asarray(eps["ref_resolved_impacts"], dtype=float))
     return {
-        "stick": worst_signed(eps["stick_error_rel"]), "first_impact": worst_signed(eps["first_impact_error_rel"]),
-        "exit": worst_signed(eps["exit_error_rel"]), "restitution": float(excess.max()) if len(excess) else math.nan,
-        "impact_count": float(counts.max()) if len(counts) else math.nan,
-        "penetration": float(table["penetration_max"].max()) / allowance if allowance > 0 and len(table) else math.nan,
-        "persistence": float(eps["open_fraction"].max()) if "open_fraction" in eps and eps["open_fraction"].notna().any()
-        else math.nan,
+        "stick": _worst_signed(eps["stick_error_rel"]), "first_impact": _worst_signed(eps["first_impact_error_rel"]),
+        "exit": _worst_signed(eps["exit_error_rel"]), "restitution": _max(excess),
+        "impact_count": _max(counts),
+        "penetration": _max(columns["penetration_max"]) / allowance if allowance > 0 and n_rows else math.nan,
+        "persistence": _max(eps["open_fraction"]) if "open_fraction" in eps else math.nan,
         "scene_restitution": misses.value if misses else math.nan,
         "scene_restitution_speed": misses.speed if misses else math.nan,
     }
@@ -137,14 +169,18 @@ def strike_summary(strikes: pd.DataFrame | None, tol: Tolerances) -> dict[str, A
 def check_ratios(table: pd.DataFrame, impacts: pd.DataFrame, tol: Tolerances, allowance: float,
                  strikes: pd.DataFrame | None = None) -> dict[str, float]:
     """``<check>_ratio``: each check's worst measure over its tolerance (> 1: failed), and ``worst_ratio``."""
-    values = check_values(table, impacts, allowance, strikes, tol.restitution)
+    return ratios_of(check_values(table, impacts, allowance, strikes, tol.restitution), tol, table["verdict"])
+
+
+def ratios_of(values: dict[str, float], tol: Tolerances, verdicts) -> dict[str, float]:
+    """``check_ratios`` from the checks' measures (``check_values``, ``values_of``) and the table's verdicts."""
     out = {}
     for name, (field, _, _, _) in CHECKS.items():
         limit = 1.0 if name == "penetration" else float(getattr(tol, field))  # penetration is already a fraction of the allowance
         out[f"{name}_ratio"] = _ratio(values[name], limit)
-    unmeasured = any(_no_error(v) for v in table["verdict"])
+    unmeasured = any(_no_error(v) for v in verdicts)
     finite = [r for r in out.values() if not math.isnan(r)]
-    out["worst_ratio"] = math.inf if unmeasured or not len(table) else (max(finite) if finite else 0.0)
+    out["worst_ratio"] = math.inf if unmeasured or not len(verdicts) else (max(finite) if finite else 0.0)
     return {**out, **{f"{name}_value": v for name, v in values.items()}}
 
 

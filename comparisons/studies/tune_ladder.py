@@ -39,13 +39,16 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from ..pipeline.compare import judge_run
-from ..pipeline.extract import flight_floor
+from ..pipeline.extract import extract, flight_floor
 from ..pipeline.judge import judge
+from ..pipeline.prepared import PreparedRun
 from ..pipeline.solution import ReferenceSolution
 from ..pipeline.tolerances import Tolerances
 from ..pipeline.vocabulary import VERDICTS
-from .tune_checks import check_ratios, margin_and_check
+from .tune_checks import CHECK_COLUMNS, check_ratios, margin_and_check, ratios_of, values_of
 
 TIMING_LEVELS = (0.01, 0.02, 0.05, 0.1, 0.2)  # [-] sticking tolerances (fractions of the chatter)
 RESTITUTION_LEVELS = (0.02, 0.05, 0.1, 0.2, 0.3)  # [-] |e / R - 1|
@@ -103,12 +106,12 @@ def tolerance_items(tol: Tolerances) -> list[str]:
     return [f"{k}={getattr(tol, k)!r}" for k in ("stick", "exit", "first_impact", "restitution")]
 
 
-def _fails_before_restitution(table) -> bool:
-    return any(VERDICTS[v].group in BEFORE_RESTITUTION for v in table["verdict"] if v in VERDICTS)
+def _fails_before_restitution(verdicts) -> bool:
+    return any(VERDICTS[v].group in BEFORE_RESTITUTION for v in verdicts if v in VERDICTS)
 
 
-def _agrees(table) -> bool:
-    return len(table) > 0 and all(v in VERDICTS and VERDICTS[v].group == "agree" for v in table["verdict"])
+def _agrees(verdicts) -> bool:
+    return len(verdicts) > 0 and all(v in VERDICTS and VERDICTS[v].group == "agree" for v in verdicts)
 
 
 def judge_levels(ref: ReferenceSolution, engine: str, settings: Any, trajectory, points: tuple[Tolerances, ...],
@@ -116,15 +119,56 @@ def judge_levels(ref: ReferenceSolution, engine: str, settings: Any, trajectory,
     """Judge one run at every ladder point (module docstring).
 
     ``known``: point index -> ``judge_run``'s (run, table, impacts) there, already judged (the asked
-    point's). The run is extracted once per timing level, or once for the levels whose sticking tolerances
-    give one f_min (``judge_run``; the extraction reads the sticking tolerance only through f_min,
-    ``extract.flight_floor``: at a coarse dt the sampling floor decides it for every level), and judged at
-    each point (``judge.judge``, as ``judge_run`` does). Returns ``passes``, the indices of the points where
-    every episode agrees (``match`` or ``none``), and at each of them ``margins``, the judged checks' worst measured
-    error over tolerance (``tune_checks.judged_margin``), ``limits``, the check that sets it, and ``rests``, the
-    contact's largest open share after a stick and its onsets per second (``persistence``); and ``unjudged``, the points left out: not in ``only`` (the
-    points where the run can still matter: ``tune_search.need``; None: all). ``shortcut`` False judges
-    every point (the shortcut's check).
+    point's): its extraction is reused. The run is extracted once per timing level, or once for the levels whose
+    sticking tolerances give one f_min (the extraction reads the sticking tolerance only through f_min,
+    ``extract.flight_floor``: at a coarse dt the sampling floor decides it for every level), prepared once per
+    extraction (``pipeline.prepared.PreparedRun``: the episodes paired, the visits' impacts, the penetration) and
+    judged at each point from that (what the point's tolerances move: the rest window, the impacts' pairing, the
+    verdicts), with no table built. Returns ``passes``, the indices of the points where every episode agrees
+    (``match`` or ``none``), and at each of them ``margins``, the judged checks' worst measured error over tolerance
+    (``tune_checks.judged_margin``), ``limits``, the check that sets it, and ``rests``, the contact's largest open
+    share after a stick and its onsets per second (``persistence``); and ``unjudged``, the points left out: not in
+    ``only`` (the points where the run can still matter: ``tune_search.need``; None: all). ``shortcut`` False judges
+    every point (the shortcut's check). The same, value for value, as ``reference_levels`` (``judge_run`` at each
+    point: ``tests/comparisons/studies/test_tune_ladder_judge.py``).
+    """
+    wanted = set(range(len(points)) if only is None else only)
+    passes, margins, limits, rests, failed_timing = [], [], [], [], set()
+    dt = trajectory.sampling_step()
+
+    def floor(tol: Tolerances) -> float:  # what the extraction reads of a timing level: levels of one f_min share it
+        return flight_floor(dt, ref.scene.restitution, ref.stick_tolerance(tol.stick))
+
+    contacts = {}  # the contact over each rest window, shared by the extractions (``PreparedRun``)
+    prepared = {floor(points[i]): PreparedRun(ref, run.found, trajectory, contacts) for i, (run, _, _) in (known or {}).items()}
+    for i, tol in enumerate(points):
+        if i not in wanted or shortcut and tol.stick in failed_timing:
+            continue
+        f_min = floor(tol)
+        if f_min not in prepared:  # one extraction per f_min, as ``judge_run`` makes it
+            found = extract(trajectory, ref.scene, ref.stick_tolerance(tol.stick))
+            prepared[f_min] = PreparedRun(ref, found, trajectory, contacts)
+        level = prepared[f_min].verdicts(tol)
+        if _agrees(level.verdicts):
+            passes.append(i)
+            columns = {c: level.column(c) for c in CHECK_COLUMNS}
+            ratios = ratios_of(values_of(columns, level.excess, tol.penetration * ref.length_scale), tol, level.verdicts)
+            margin, check = margin_and_check(ratios)
+            margins.append(margin)
+            limits.append(check)
+            rests.append(_rest_of(columns["wall"], level.column("open_fraction"), level.column("onset_rate")))
+        elif _fails_before_restitution(level.verdicts):
+            failed_timing.add(tol.stick)
+    return {"passes": tuple(passes), "margins": tuple(margins), "limits": tuple(limits), "rests": tuple(rests),
+            "unjudged": tuple(i for i in range(len(points)) if i not in wanted)}
+
+
+def reference_levels(ref: ReferenceSolution, engine: str, settings: Any, trajectory, points: tuple[Tolerances, ...],
+                     known: dict[int, tuple] | None = None, shortcut: bool = True, only=None) -> dict[str, Any]:
+    """``judge_levels`` one point at a time, as it was first written: ``judge_run`` where a point's f_min has no
+    extraction yet, else ``judge.judge`` on it, each point's tables built and checked (``tune_checks.check_ratios``);
+    ``known``'s tables taken as they are. The check of ``judge_levels`` (same arguments, same values) and the
+    baseline of its benchmark (``bench.bench_ladder``).
     """
     known = dict(known or {})
     wanted = set(range(len(points)) if only is None else only)
@@ -147,13 +191,13 @@ def judge_levels(ref: ReferenceSolution, engine: str, settings: Any, trajectory,
         else:
             run, table, impacts = judge_run(ref, engine, settings, tol, trajectory=trajectory)
             found[f_min] = run.found
-        if _agrees(table):
+        if _agrees(table["verdict"]):
             passes.append(i)
             margin, check = margin_and_check(check_ratios(table, impacts, tol, tol.penetration * ref.length_scale))
             margins.append(margin)
             limits.append(check)
             rests.append(_rest(table))
-        elif _fails_before_restitution(table):
+        elif _fails_before_restitution(table["verdict"]):
             failed_timing.add(tol.stick)
     return {"passes": tuple(passes), "margins": tuple(margins), "limits": tuple(limits), "rests": tuple(rests),
             "unjudged": tuple(i for i in range(len(points)) if i not in wanted)}
@@ -165,6 +209,14 @@ def _rest(table) -> tuple[float, float]:
     eps = table[table["wall"] != ""] if len(table) else table
     share = eps["open_fraction"].dropna() if "open_fraction" in eps else []
     rate = eps["onset_rate"].dropna() if "onset_rate" in eps else []
+    return (float(share.max()) if len(share) else math.nan, float(rate.max()) if len(rate) else math.nan)
+
+
+def _rest_of(wall: np.ndarray, open_fraction: np.ndarray, onset_rate: np.ndarray) -> tuple[float, float]:
+    """``_rest`` of a judged table's columns as arrays (shape (n_rows,)): the episodes' (wall not "")."""
+    eps = wall != ""
+    share, rate = (np.asarray(c, dtype=float)[eps] for c in (open_fraction, onset_rate))
+    share, rate = share[~np.isnan(share)], rate[~np.isnan(rate)]
     return (float(share.max()) if len(share) else math.nan, float(rate.max()) if len(rate) else math.nan)
 
 
