@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Iterator
 
 import numpy as np
 
@@ -43,12 +43,18 @@ from chatterbench.engines.trajectory import Trajectory
 
 from .extract import Extraction
 from .impacts import ImpactPairs, measured_at, pair_impacts, reference_flights
-from .judge import (_ERROR_INPUTS, _JUDGED_COLUMNS, _NO_REST, Judgement, RunFacts, TABLE_COLUMNS, _empty_table, _Found,
-                    _joined_pairs, _judged_table, _pairs, _row_type, _verdicts, _window_max, error_values, penetration,
-                    rows_of, sliding_min, time_diverged)
+from .judge import (_ERROR_INPUTS, _JUDGED_COLUMNS, _NO_REST, TABLE_COLUMNS, Judgement, RunFacts, _empty_table, _Found,
+                    _joined_pairs, _judged_table, _pairs, _row_type, _window_max, error_values, penetration, rows_of,
+                    run_row, sliding_min, time_diverged)
 from .persistence import ContactRest, contact_rest, rest_window
 from .solution import ReferenceSolution
 from .tolerances import Tolerances
+from .verdict_rules import run_failure, verdict_reason
+from .vocabulary import FAILURES, combine, rank
+
+# verdicts the rules give before they read the contact after the stick (``judge``'s rules 1 to 6: the run's failure,
+# a penetration, the pairing of the episodes, timing, restitution): a row judged so without it is judged so with it
+DECIDED_BEFORE_REST = frozenset((*FAILURES, "penetrated", "endless", "missed", "spurious", "early", "late", "rebound"))
 
 __all__ = ["PreparedRun", "LevelVerdicts", "Tolerances"]
 
@@ -209,54 +215,80 @@ class PreparedRun:
         self._parts[key] = part
         return part
 
-    def _rows(self, tol: Tolerances) -> tuple[list[dict], list[tuple[int, str, ImpactPairs]], _RunPart]:
-        """``judge``'s rows at ``tol`` (reference episodes, then the unpaired engine ones), each visit's pairs (its
-        row, wall, ``ImpactPairs``), and the run's part."""
-        rows, visit_pairs = [], []
+    def _visit_rows(self, tol: Tolerances) -> Iterator[tuple[dict, tuple | None, ImpactPairs]]:
+        """Each reference episode's row at ``tol`` without its contact after the stick, the rest window that contact
+        is read over (None: no stick of the engine, no window), and the visit's pairs."""
         for k, v in enumerate(self.visits):
             row = dict(v.row)
             e, r = v.eng, v.ref
+            window = None
             if e is not None and not math.isnan(e.t_stick):
                 window = rest_window(e.t_stick, r.t_stick, tol.stick * r.stick_scale, e.t_exit, r.t_exit,
                                      tol.exit * r.sliding_duration, self.t_end)
-                rest = self._rest(r.wall, window)
-                row.update(rest.columns(), rest_resolved=rest.resolved)
             pairs = self._pairing(k, tol)
             row.update(resolved_impacts=pairs.resolved, ref_resolved_impacts=pairs.ref_resolved,
                        restitution_error=pairs.worst_error, restitution_excess=pairs.worst_excess,
                        unmeasured_impacts=pairs.unmeasured, measured_impacts=pairs.measured)
-            visit_pairs.append((k, r.wall, pairs))
-            rows.append(row)
-        part = self._part(tol)
-        return rows + part.engine_rows, visit_pairs, part
+            yield row, window, pairs
+
+    def _with_rest(self, row: dict, window: tuple | None) -> dict:
+        if window is not None:
+            rest = self._rest(row["wall"], window)
+            row.update(rest.columns(), rest_resolved=rest.resolved)
+        return row
 
     # -- the judgements ---------------------------------------------------------------------------------------------
 
-    def verdicts(self, tol: Tolerances) -> LevelVerdicts:
-        """The verdicts at ``tol`` (module docstring: those of ``judge``'s table, without building it)."""
-        rows, visit_pairs, part = self._rows(tol)
+    def verdicts(self, tol: Tolerances, complete: bool = True) -> LevelVerdicts:
+        """The verdicts at ``tol`` (module docstring: those of ``judge``'s table, without building it).
+
+        ``complete`` False: a row whose verdict the rules decide before they read the contact after the stick
+        (``DECIDED_BEFORE_REST``, judge's rules 1 to 6) is judged without it, and its rest columns in ``rows`` are
+        those of no window (``persistence.NO_REST``); the verdicts are the same. What a ladder needs: at a point
+        where a row fails that way nothing but the verdicts is read, and where every row agrees every row is whole.
+        """
+        part = self._part(tol)
         kind = _row_type(_JUDGED_COLUMNS)
-        judged = []
-        for row, pen, err in zip(rows, part.penetration_max, part.errors):
+
+        def judged(row: dict, pen: float, err: dict) -> tuple:
             values = {**row, **err, "penetration_max": pen}
             for c in ("unmeasured_impacts", "measured_impacts"):
                 v = values.get(c, math.nan)
                 values[c] = 0 if v != v else v  # NaN -> 0, as ``judge._judged_table``
-            judged.append(kind._make(values.get(c, math.nan) for c in _JUDGED_COLUMNS))
-        verdicts, _, extra = _verdicts(judged, tol, part.facts, self.deepest)
-        ordered = [judged[k] for k in part.order]
+            r = kind._make(values.get(c, math.nan) for c in _JUDGED_COLUMNS)
+            return r, verdict_reason(r, tol, part.facts)[0]
+
+        rows, verdicts, excess = [], [], []
+        for (row, window, pairs), pen, err in zip(self._visit_rows(tol), part.penetration_max, part.errors):
+            r, verdict = judged(row, pen, err) if window is not None and not complete else (None, "")
+            if r is None or verdict not in DECIDED_BEFORE_REST:
+                r, verdict = judged(self._with_rest(row, window), pen, err)
+            rows.append(r)
+            verdicts.append(verdict)
+            if len(pairs):
+                excess.append(pairs.columns["excess"])
+        for row, pen, err in zip(part.engine_rows, part.penetration_max[len(self.visits):], part.errors[len(self.visits):]):
+            r, verdict = judged(row, pen, err)
+            rows.append(r)
+            verdicts.append(verdict)
+        ordered = [rows[k] for k in part.order]
         ordered_verdicts = [verdicts[k] for k in part.order]
-        if extra is not None:  # the run's row: no sticking start, so last (``_judged_table``'s stable order)
-            ordered.append(extra)
-            ordered_verdicts.append(extra["verdict"])
-        kept = [p.columns["excess"] for _, _, p in visit_pairs if len(p)]
-        excess = np.concatenate(kept).astype(float) if kept else np.empty(0)
-        return LevelVerdicts(verdicts=tuple(ordered_verdicts), rows=tuple(ordered), excess=excess)
+        failure = run_failure(part.facts)  # the failed run's row where no row says so (``judge._verdicts``)
+        if failure and rank(failure) < rank(combine(verdicts)):  # no sticking start: last (``_judged_table``'s order)
+            ordered.append(run_row(part.facts, failure, self.deepest))
+            ordered_verdicts.append(failure)
+        return LevelVerdicts(verdicts=tuple(ordered_verdicts), rows=tuple(ordered),
+                             excess=np.concatenate(excess).astype(float) if excess else np.empty(0))
 
     def judgement(self, tol: Tolerances) -> Judgement:
         """``judge(ref, found, traj, tol)``, from the prepared parts (its tables made by ``judge``'s functions)."""
-        rows, visit_pairs, part = self._rows(tol)
+        part = self._part(tol)
         facts = part.facts
+        rows, visit_pairs = [], []
+        for k, (row, window, pairs) in enumerate(self._visit_rows(tol)):
+            rows.append(self._with_rest(row, window))
+            visit_pairs.append((k, row["wall"], pairs))
+        rows += part.engine_rows
         if rows:
             table, order = _judged_table(rows, part.penetration_max, self.dt, tol, facts, self.deepest)
         else:
