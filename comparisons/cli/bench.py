@@ -6,6 +6,7 @@
     $ chatterbench bench sweep --points 40 --workers 2
     $ chatterbench bench sweep --only refine --refine examples/sweeps/feigin-pair-refine.toml
     $ chatterbench bench tune --workers 2
+    $ chatterbench bench ladder
     $ chatterbench bench help
 
 Each prints its figures, what one repeat is, and ``PASS``/``FAIL`` per goal (``GOALS``);
@@ -43,6 +44,9 @@ GOALS = {
     "platemap": [("us_per_strike", "<=", 300.0, "microseconds per strike of one repeat (100,000 strikes in under 30 s)")],
     "engines": [("ratio", ">=", 0.8, "adapter steps/s against the raw engine loop, each engine")],
     "tune": [("wall_s", "<=", 300.0, "seconds one tune of one scene and engine takes, each case (a few minutes)")],
+    "ladder": [("same", ">=", 1.0, "the ladder's judge gives what judging each point on its own gives, every case"),
+               ("speedup", ">=", 5.0, "runs judged at the whole ladder per CPU second, against one point at a time "
+                                      "(issue 42)")],
     "help": [("best_s", "<=", 1.0, "seconds of `chatterbench --help` and of each subcommand's --help, each in a fresh "
                                    "process")],
 }
@@ -54,6 +58,8 @@ REPEAT = {  # what one repeat is, and which counts
              "of --refine and its full fine grid, once each with --workers (no repeats)",
     "tune": "one tune per case (the four built-in scenes x mujoco and pybullet), with --workers and at most --max-runs "
             "runs, timed from the reference to the answer and its frontier (no repeats)",
+    "ladder": "one repeat = one run judged at every point of tune's ladder (its engine run not timed), one point at a "
+              "time and prepared once; the best of --repeats counts (CPU time)",
     "help": "one repeat = one fresh process printing the help (Python's start and the imports included); the best of "
             "--repeats counts",
 }
@@ -114,7 +120,7 @@ def _print_warp(worlds: tuple[int, ...], bar: Progress | None = None) -> None:
 OPTIONS = {"points": (("sweep",), 200), "workers": (("sweep", "tune"), 2), "max_runs": (("tune",), None), "refine": (("sweep",), None),
            "only": (("sweep",), None), "worlds": (("sweep",), (1, 16, 256)), "strikes": (("platemap",), 100_000),
            "periods": (("reference",), 100), "steps": (("engines",), 200_000),
-           "repeats": (("reference", "engines", "platemap", "help"), 5)}
+           "repeats": (("reference", "engines", "platemap", "help", "ladder"), 5)}
 
 
 def check_options(args: argparse.Namespace) -> None:
@@ -209,6 +215,16 @@ def _run_bench(args: argparse.Namespace, bar: Progress):
             print(f"{row.scene} / {row.engine}: {row.answer_line}")
             print(f"  frontier points (the share of each one's band runs that passed): {row.points or 'none'}")
             print(f"  the written answer on the scene's family: {row.transfers}")
+    elif args.what == "ladder":
+        from chatterbench.comparisons.studies.bench import bench_ladder
+
+        figures, cases = bench_ladder(repeats=args.repeats)
+        print_table(cases.round({"ms_before": 2, "ms_after": 2, "ms_extract": 2, "speedup": 2}), title="CPU ms of one run judged at every ladder point: one point at a time (before) "
+                                          "and prepared once (after); ms_extract: the extractions both need:")
+        shown = {k: v for k, v in figures.items() if not k.startswith("hash")}
+        print_table(pd.DataFrame([shown]).T.reset_index().rename(columns={"index": "figure", 0: "value"}),
+                    title=f"over all cases (outputs hashed: before {figures['hash_before']}, after {figures['hash_after']}):")
+        figures = shown
     elif args.what == "platemap":
         figures = bench_platemap(strikes=args.strikes, repeats=args.repeats)
         print_table(pd.DataFrame([figures]), title="plate map, feigin-pair lower wall, reference exhaustive mode (best of repeats):")
@@ -221,7 +237,7 @@ def _run_bench(args: argparse.Namespace, bar: Progress):
 def register(sub, formatter) -> None:
     """Add ``bench`` to the ``chatterbench`` subparsers."""
     p = sub.add_parser("bench", help=COMMANDS["bench"], formatter_class=formatter)
-    p.add_argument("what", choices=("reference", "engines", "platemap", "sweep", "tune", "help"), help="what to time")
+    p.add_argument("what", choices=("reference", "engines", "platemap", "sweep", "tune", "ladder", "help"), help="what to time")
     p.add_argument("--max-runs", type=positive_int, default=None,
                    help="`bench tune`: runs each tune makes at most; None: tune's default")
     p.add_argument("--points", type=integer_type(2, 10_000), default=None, help="comparison points for `bench sweep`, "
@@ -244,5 +260,5 @@ def register(sub, formatter) -> None:
     p.add_argument("--steps", type=integer_type(1, 10**8), default=None,
                    help="engine steps for `bench engines`, in [1, 1e8]; None: 200000")
     p.add_argument("--repeats", type=integer_type(1, 100), default=None,
-                   help="repeats of `bench reference`, `engines`, `platemap`, `help`, in [1, 100]; the best counts; None: 5")
+                   help="repeats of `bench reference`, `engines`, `platemap`, `ladder`, `help`, in [1, 100]; the best counts; None: 5")
     p.set_defaults(func=cmd_bench)

@@ -33,6 +33,7 @@ runs, passing and failing.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 from typing import Any, Iterator
@@ -255,7 +256,7 @@ class PreparedRun:
             for c in ("unmeasured_impacts", "measured_impacts"):
                 v = values.get(c, math.nan)
                 values[c] = 0 if v != v else v  # NaN -> 0, as ``judge._judged_table``
-            r = kind._make(values.get(c, math.nan) for c in _JUDGED_COLUMNS)
+            r = kind._make(map(values.get, _JUDGED_COLUMNS, itertools.repeat(math.nan)))  # row.get(c, NaN), as judge
             return r, verdict_reason(r, tol, part.facts)[0]
 
         rows, verdicts, excess = [], [], []

@@ -317,3 +317,99 @@ def bench_tune(cases=TUNE_CASES, workers: int = 2, max_runs: int | None = None,
         if finished is not None:
             finished(rows[-1])
     return pd.DataFrame(rows)
+
+
+# runs judged at every point of tune's ladder (``bench_ladder``): (scene, engine, dt [s], settings), passing ones and
+# failing ones (late, rebound, buzz, penetrated), at a coarse dt (one extraction serves every timing level) and fine
+LADDER_CASES = (
+    ("bouncing-ball", "pybullet", 0.00255657, {"pybullet.restitution_velocity_threshold": 0.1}),  # passes everywhere
+    ("bouncing-ball", "mujoco", 1e-3, {"mujoco.w0_dt": 0.3, "mujoco.impedance": 0.9}),  # late, rebound; passes loose
+    ("bouncing-ball", "pybullet", 1e-4, {}),  # buzz everywhere (an extraction per timing level)
+    ("feigin-pair", "pybullet", 2e-3, {"pybullet.restitution_velocity_threshold": 0.01}),  # late at 1%, then passes
+    ("feigin-pair", "mujoco", 1e-3, {"mujoco.w0_dt": 0.1}),
+    ("impact-damper", "mujoco", 1e-3, {}),
+    ("impact-damper", "pybullet", 1e-3, {}),
+)
+
+
+def _extractions(ref, run, points, asked, repeats: int) -> float:
+    """CPU seconds [s] of the extractions a ladder needs beside the asked point's (one per other f_min): the same
+    work before and after (``bench_ladder``), the best of ``repeats``."""
+    from ..pipeline.extract import extract, flight_floor
+
+    dt = run.trajectory.sampling_step()
+    floors = {flight_floor(dt, ref.scene.restitution, ref.stick_tolerance(p.stick)): p.stick for p in points}
+    floors.pop(flight_floor(dt, ref.scene.restitution, ref.stick_tolerance(asked.stick)), None)
+    best = math.inf
+    for _ in range(repeats):
+        start = time.process_time()
+        for stick in floors.values():
+            extract(run.trajectory, ref.scene, ref.stick_tolerance(stick))
+        best = min(best, time.process_time() - start)
+    return best
+
+
+def bench_ladder(cases=LADDER_CASES, repeats: int = 3):
+    """CPU seconds of judging one run at every point of ``tune``'s ladder (``Ladder()`` around stick = exit = first
+    impact = 5%, restitution 5%), one point at a time as before (``tune_ladder.reference_levels``) against the
+    prepared run (``tune_ladder.judge_levels``), the asked point already judged as ``tune`` has it; each the best of
+    ``repeats`` after a warm-up, ``time.process_time`` (the engine's run is not timed).
+
+    Returns (figures, table): ``figures`` with ``points`` (ladder points of a run), ``runs_per_cpu_s_before`` and
+    ``_after`` (runs judged at the whole ladder per CPU second, over all cases), ``points_per_cpu_s_before`` and
+    ``_after``, ``speedup`` (their ratio), ``extract_share_after`` (the share of the extractions at the other
+    f_mins in the time after: the same work before and after, one per f_min), ``judge_speedup`` (the speed-up with
+    them left out of both), ``same`` (1.0 when both give the same values at every case) and ``hash_before``,
+    ``hash_after`` (of the outputs, equal when they agree); ``table`` one row per case: scene, engine, dt,
+    settings, ms_before, ms_after, ms_extract (those extractions), speedup, passes (points passed), same.
+    """
+    import hashlib
+
+    import pandas as pd
+
+    from chatterbench.engines.registry import make_settings
+
+    from ..pipeline.compare import judge_run
+    from ..pipeline.solution import solve
+    from ..pipeline.tolerances import Tolerances
+    from .tune_ladder import Ladder, judge_levels, reference_levels
+
+    asked = Tolerances(stick=0.05, exit=0.05, first_impact=0.05)
+    points = Ladder().points(asked)
+    at = points.index(asked)
+    solutions, rows, outputs = {}, [], {"before": [], "after": []}
+    for scene_name, engine, dt, overrides in cases:
+        if scene_name not in solutions:
+            solutions[scene_name] = solve(load_scene(scene_name))
+        ref = solutions[scene_name]
+        settings = make_settings(engine, dt, overrides)
+        run, table, impacts = judge_run(ref, engine, settings, asked)
+        known = {at: (run, table, impacts)}
+        times, passes = {}, {}
+        for name, fn in (("before", reference_levels), ("after", judge_levels)):
+            call = lambda fn=fn: fn(ref, engine, settings, run.trajectory, points, known=known)  # noqa: E731
+            out = call()  # warm-up
+            best = math.inf
+            for _ in range(repeats):
+                start = time.process_time()
+                call()
+                best = min(best, time.process_time() - start)
+            times[name], passes[name] = best, len(out["passes"])
+            outputs[name].append(repr(out))
+        times["extract"] = _extractions(ref, run, points, asked, repeats)
+        rows.append({"scene": scene_name, "engine": engine, "dt": dt,
+                     "settings": " ".join(f"{k}={v:g}" for k, v in overrides.items()),
+                     "ms_before": 1e3 * times["before"], "ms_after": 1e3 * times["after"],
+                     "ms_extract": 1e3 * times["extract"],
+                     "speedup": times["before"] / times["after"], "passes": passes["after"],
+                     "same": outputs["before"][-1] == outputs["after"][-1]})
+    table = pd.DataFrame(rows)
+    before, after = table["ms_before"].sum() / 1e3, table["ms_after"].sum() / 1e3
+    extracting = table["ms_extract"].sum() / 1e3
+    digest = {k: hashlib.sha256("\n".join(v).encode()).hexdigest()[:16] for k, v in outputs.items()}
+    figures = {"points": len(points), "runs_per_cpu_s_before": len(table) / before, "runs_per_cpu_s_after": len(table) / after,
+               "points_per_cpu_s_before": len(table) * len(points) / before,
+               "points_per_cpu_s_after": len(table) * len(points) / after, "speedup": before / after,
+               "extract_share_after": extracting / after, "judge_speedup": (before - extracting) / (after - extracting),
+               "same": float(table["same"].all()), "hash_before": digest["before"], "hash_after": digest["after"]}
+    return figures, table

@@ -17,9 +17,11 @@ asked values added to each axis. Values are rounded to ``DIGITS`` significant di
 that ``compare --tolerance stick=... --tolerance exit=...`` with the printed numbers judges
 with exactly these.
 
-Each run is judged at every point by the judge itself (``judge_levels``: ``pipeline.compare.
-judge_run`` on the run's trajectory, with the point's tolerances), never from errors measured
-at another tolerance, because the judge's measurements depend on the tolerances: the
+Each run is judged at every point by the judge itself (``judge_levels``: what ``pipeline.compare.
+judge_run`` on the run's trajectory gives with the point's tolerances; the run prepared once per
+extraction, ``pipeline.prepared``, and each point judged from it; ``reference_levels`` judges one
+point at a time), never from errors measured at another tolerance, because the judge's
+measurements depend on the tolerances: the
 extraction ignores bounces too short to matter against the sticking tolerance (a looser one
 moves the detected sticking start), and an impact counts for restitution only where the
 step measures it to the restitution tolerance (a looser one admits slower impacts with
