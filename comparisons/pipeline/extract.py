@@ -117,7 +117,7 @@ from chatterbench.reference.scene import Scene
 
 from chatterbench.reference.errors import check_number
 
-from .sticking import Stick, at_rest, stick_frame, stick_rows, sticking_start, stuck_stretches
+from .sticking import Stick, at_rest, last_landing, stick_frame, stick_rows, sticking_start, stuck_stretches
 from .surface import surface_speed, surface_velocity
 from .tolerances import ToleranceError
 
@@ -275,6 +275,10 @@ def _wall_impacts(traj: Trajectory, y: np.ndarray, vy: np.ndarray, scene: Scene,
                     u[k] + a[k] * (t_in - t[k]))
     at_start = starts == 0
     t_in, v_in = np.where(at_start, t[0], t_in), np.where(at_start, u[0], v_in)
+    # the landing speed of the flight the last free sample is in, from that sample's own state (energy under the
+    # pressing y'': sqrt(u^2 + 2 |a| d)); two samples' positions would span any bounce too short to see between them
+    with np.errstate(invalid="ignore"):
+        land = np.where((a[k] < 0.0) & ~at_start & ~contact[k], np.sqrt(u[k] ** 2 - 2.0 * a[k] * np.maximum(d[k], 0.0)), np.nan)
     released = stops < n_s
     e = np.minimum(stops, n_s - 1)  # the first free sample after, carried to where it crosses the surface
     j_out = _free_neighbour(t, u, a, contact, e, 1, options)
@@ -291,7 +295,7 @@ def _wall_impacts(traj: Trajectory, y: np.ndarray, vy: np.ndarray, scene: Scene,
     onset = {"t": t_in, "v_minus": v_in, "v_plus": v_out, "t_release": t_release, "first": starts,
              "begin": np.where(released, stops, n_s), "contact": np.ones(len(starts), bool),
              "v_error": np.where(at_start, np.nan, err), "t_bound": np.where(at_start, 0.0, t_in_bound),
-             "release_bound": release_bound}
+             "release_bound": release_bound, "land_speed": land}
 
     # (ii) impacts between two free samples: a velocity jump the free motion cannot make
     ks = np.concatenate([np.empty(0, dtype=np.int64),
@@ -315,6 +319,7 @@ def _wall_impacts(traj: Trajectory, y: np.ndarray, vy: np.ndarray, scene: Scene,
                 np.abs(a[ks]), np.abs(a[ks + 1])) / np.maximum(np.abs(between["v_minus"]), np.abs(between["v_plus"]))
     between["t_bound"] = np.where(np.isnan(s_fwd) & np.isnan(s_bwd), h, 0.0)
     between["release_bound"] = between["t_bound"]
+    between["land_speed"] = np.full(len(ks), np.nan)  # a landing the samples see: its own v_minus
 
     imp = {key: np.concatenate((onset[key], between[key])) for key in onset}
     order = np.argsort(imp["first"], kind="stable")
@@ -450,6 +455,7 @@ def extract(traj: Trajectory, scene: Scene, stick_tolerance: float = math.nan,
             stick = at_rest(sticking_start(imp, i, j, R, dt), imp, i, j, t, held, released)
             if released and end - stick.t < f_min:
                 continue  # the bodies part before they could have come to rest: bounces, not a stick
+            stick = last_landing(stick, imp, i, j, t, held, released)
             stretches.append((i, j, released, Stick(min(stick.t, end), stick.bound, stick.source), end))
         sticks += stick_rows(wall, stretches, imp)
         stuck = np.zeros(len(slow), bool)

@@ -6,7 +6,7 @@
     >>> scene = load_scene("bouncing-ball")
     >>> found = extract(reference_trajectory(scene, dt=1e-3), scene, stick_tolerance=0.045)
     >>> found.sticks[["t_stick", "stick_bound", "stick_from"]].round(4).values.tolist()   # Zeno point 1.3546 s
-    [[1.3546, 0.0035, 'feigin']]
+    [[1.3546, 0.0004, 'landing']]
 
 Rules 3 and 4 of ``extract.py`` (which bounces matter, the engine's own ladder), with the
 *bound* of each time: how far the samples let the true time lie from the one given [s],
@@ -25,6 +25,18 @@ the criterion ``unresolved`` unless the error is beyond the tolerance even so).
   contact that lasts until the exit or the end of the data (the body rests on the wall), so
   the sticking start is no later than that contact's first sample, whatever the ladder says;
   where the ladder said later, it is that contact's onset, bound the step it lies in.
+  ``landing`` (issue 45): where a ladder (``ladder``, ``feigin``) ends in that rest and the
+  last free sample before it is in flight, the samples show more than the ladder: that
+  sample's own state (d [m], u [m/s], the pressing y'' a [m/s^2]) lands the body at t_in (the
+  free parabola's root) with speed w = sqrt(u^2 + 2 |a| d), after a flight f = 2 w / |a|;
+  the next sample is at rest (t_rest). The sticking start is t_in + f rho / (1 - rho), the
+  ladder's tail after that landing (rho: its ratio), at most t_rest; its bound is what the
+  samples leave open, max(t - t_in, t_rest - t) < t_rest - t_in <= one step: the unseen
+  bounces may end at the landing or go on to the rest, nothing in the samples says which.
+  (The extrapolated part, f_K rho / (1 - rho) or f R / (1 - R), stays the bound where no
+  sample at rest closes the ladder; on the shaker at 1 ms it was 4 ms, 150x the error.)
+  Taken only where t_in lies within the ladder's own tail (its time +- its bound): a landing
+  later than that is a bounce after the rest (a buzz), not the ladder's last.
 - **Exit**: the release of the stretch's last contact; bound the step it lies in (half a
   step at its middle), or where the force decays smoothly, how far a quadratic through the
   last three force samples puts the zero from the linear one (``extract._release_times``).
@@ -49,7 +61,8 @@ class Stick:
 
     t: float
     bound: float
-    source: str  # ladder | feigin | contact | rest
+    source: str  # ladder | feigin | contact | rest | landing
+    ratio: float = math.nan  # the ladder's ratio the time was extrapolated with (ladder: rho; feigin: R), NaN: none
 
 
 def stuck_stretches(imp: dict, band: np.ndarray, held: np.ndarray, f_min: float) -> list[tuple[int, int, bool]]:
@@ -108,11 +121,11 @@ def sticking_start(imp: dict, i: int, j: int, restitution: float, dt: float) -> 
         f_k = min(float(flight[k]), 2.0 * v_k / -a_k) if a_k < 0 and v_k > 0 else float(flight[k])
         rho = (f_k / flight[i]) ** (1.0 / (k - i))
         rest = f_k * rho / (1.0 - rho)  # the extrapolated part, past what the samples see
-        return Stick(max(t_on, float(imp["t_release"][k]) + f_k + rest), rest, "ladder")
+        return Stick(max(t_on, float(imp["t_release"][k]) + f_k + rest), rest, "ladder", rho)
     v_plus, a = imp["v_plus"][i], imp["a_release"][i]
     if j > i and a < 0.0 and np.isfinite(v_plus) and v_plus > 0 and restitution < 1:
         flight = 2.0 * float(v_plus) / float(-a)  # the onset's own flight: its rebound speed under the scene's y''
-        return Stick(t_on + flight / (1.0 - restitution), flight * restitution / (1.0 - restitution), "feigin")
+        return Stick(t_on + flight / (1.0 - restitution), flight * restitution / (1.0 - restitution), "feigin", restitution)
     return Stick(t_on, float(imp["t_bound"][i]), "contact")
 
 
@@ -128,6 +141,30 @@ def at_rest(stick: Stick, imp: dict, i: int, j: int, t: np.ndarray, held: np.nda
     # contact's onset, known to the step it lies in (0 where the free parabola reaches the wall)
     t_in = float(imp["t"][j])
     return Stick(t_in, max(float(imp["t_bound"][j]), cap - t_in), "rest")
+
+
+def _tail(flight: float, ratio: float) -> float:
+    """The chatter after a flight of ``flight`` [s] of a geometric ladder of ``ratio``: flight rho / (1 - rho) [s]."""
+    return flight * ratio / (1.0 - ratio) if ratio < 1.0 else math.inf
+
+
+def last_landing(stick: Stick, imp: dict, i: int, j: int, t: np.ndarray, held: np.ndarray, released: bool) -> Stick:
+    """``stick`` (``at_rest``'s) placed from the last landing the samples show (module docstring, ``landing``), or
+    as it is where they show none: a single contact, a time without a ladder ratio (``contact``, ``rest``), a
+    stretch that does not end at rest, a last free sample whose parabola misses the wall."""
+    w, a = float(imp["land_speed"][j]), float(imp["a_onset"][j])
+    if j == i or not math.isfinite(stick.ratio) or not (imp["contact"][j] and (released or held[j])) \
+            or float(imp["t_bound"][j]) > 0 or not (w > 0 and a < 0):
+        return stick
+    cap = float(t[int(imp["first"][j])])  # the first sample of the rest
+    t_in = float(imp["t"][j])  # where the flight of the last free sample lands
+    if abs(t_in - stick.t) > stick.bound:
+        return stick  # a landing outside the ladder's own tail (a bounce after the rest, a buzz): not its last
+    flight = 2.0 * w / -a  # that flight's length [s], from the sample's own state
+    t_est = min(t_in + _tail(flight, stick.ratio), cap)
+    # the samples show the body landing at t_in and at rest at cap: the true start is in between, whatever the
+    # unseen bounces did (they may stop at the landing or go on until the rest)
+    return Stick(t_est, max(t_est - t_in, cap - t_est), "landing", stick.ratio)
 
 
 def stick_rows(wall: str, stretches: list, imp: dict) -> list[dict]:

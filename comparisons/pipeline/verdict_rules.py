@@ -82,6 +82,18 @@ def _seconds(value: float) -> str:
     return f"{value * 1e3:.3g} ms" if abs(value) < 1.0 else f"{value:.4g} s"
 
 
+def advised_step(dt: float, bound: float, limit: float) -> float:
+    """The sampling step [s] that places a time to its tolerance ``limit`` [s], where this sampling's step ``dt``
+    places it to ``bound`` [s]. A bound of a step or more scales with the step (an extrapolated ladder, a step an
+    exit lies in): dt limit / bound. One under a step is a window between two samples (a sticking start between
+    the last landing and the first sample at rest, ``sticking.last_landing``; half a step for an exit), never wider
+    than the step: a step of ``limit`` resolves it. Rounded down to two digits, so that the step a reason names is
+    never coarser than the one that resolves it."""
+    step = dt * limit / max(bound, dt)
+    scale = 10.0 ** (math.floor(math.log10(step)) - 1)
+    return math.floor(step / scale * (1.0 + 1e-12)) * scale
+
+
 def _timing_reason(name: str, error: float, bound: float, limit: float, fraction: float, scale: str,
                    found: str, dt: float) -> str:
     """Why one timing criterion got ``found`` (early, late, unresolved), in words a user can act on."""
@@ -90,7 +102,7 @@ def _timing_reason(name: str, error: float, bound: float, limit: float, fraction
     if found != "unresolved":
         known = f" (known to +-{_seconds(bound)})" if bound > 0 else ""
         return f"{name} {sign}{_seconds(abs(error))}{known}, beyond the tolerance {pct}"
-    finer = f"; samples every {dt * limit / bound:.2g} s or closer would resolve it" if dt > 0 else ""
+    finer = f"; samples every {advised_step(dt, bound, limit):.2g} s or closer would resolve it" if dt > 0 else ""
     return (f"{name} {sign}{_seconds(abs(error))}, but this sampling places it only to +-{_seconds(bound)}, more than "
             f"the tolerance {pct}{finer}")
 

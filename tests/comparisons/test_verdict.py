@@ -113,8 +113,9 @@ def test_a_time_the_sampling_cannot_place_to_its_tolerance_is_unresolved(change,
 
 def test_unresolved_says_by_how_much_and_which_step_resolves_it():
     ((verdict, why),) = judged_why({"t_stick": 2.03, "stick_bound": 0.08})
-    # a step of 1e-4 s x the 50 ms tolerance / the 80 ms bound: 6.25e-5 s
-    assert verdict == "unresolved" and "+-80 ms" in why and "50 ms" in why and "6.3e-05 s" in why, why
+    # a step of 1e-4 s x the 50 ms tolerance / the 80 ms bound: 6.25e-5 s, rounded down (issue 45: never a step
+    # coarser than the one that resolves it; 6.3e-05 s was)
+    assert verdict == "unresolved" and "+-80 ms" in why and "50 ms" in why and "6.2e-05 s" in why, why
 
 
 def test_confident_timing_and_rebound_outrank_unresolved():

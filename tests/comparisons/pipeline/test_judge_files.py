@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import re
 
 import numpy as np
 import pandas as pd
@@ -20,6 +21,7 @@ from chatterbench.comparisons.cli.main import main
 from chatterbench.comparisons.pipeline.solution import solve
 from chatterbench.comparisons.pipeline.trajectory_file import TrajectoryError
 from chatterbench.reference.scene import load_scene
+from chatterbench.reference.simulate import simulate
 
 from helpers import solution
 from synthetic import SCENES
@@ -124,21 +126,24 @@ def test_an_engine_whose_forcing_runs_ahead_or_behind_exits_when_its_own_referen
 
 # -- item 3: unresolved where the samples cannot place a time to its tolerance --------------------
 
-def test_the_exact_ball_is_unresolved_at_5e_3_and_matches_at_1e_3():
-    # before: "match" at 5e-3 by chance, "late" (+6.3% of the chatter) at 3e-3, both inside the extraction's bound
+def test_the_exact_ball_at_5e_3_is_placed_within_a_step_and_matches_at_both_steps():
+    # issue 45: the sticking start is bounded by the window the samples leave (the last free sample's landing to the
+    # first rest sample, under a step), not by the whole extrapolated tail; before: "unresolved" at 5e-3 with a bound
+    # over the 4.9 ms tolerance though the error was 5 us
     coarse = _judge(LIFT, _table(LIFT, 5e-3)).table.iloc[0]
-    assert coarse["verdict"] == "unresolved"
     tolerance = 0.05 * coarse["chatter_duration"]  # 4.9 ms
-    assert coarse["stick_bound"] > tolerance and abs(coarse["stick_error_zeno"]) < coarse["stick_bound"]
-    assert "places it only to +-" in coarse["reason"] and "samples every" in coarse["reason"]
+    assert abs(coarse["stick_error_zeno"]) <= coarse["stick_bound"] < min(5e-3, tolerance)
+    assert coarse["verdict"] == "match" and coarse["reason"] == ""
     fine = _judge(LIFT, _table(LIFT, 1e-3)).table.iloc[0]
-    assert fine["verdict"] == "match" and fine["stick_bound"] < tolerance and fine["reason"] == ""
+    assert fine["verdict"] == "match" and fine["stick_bound"] < 1e-3 and fine["reason"] == ""
 
 
-def test_a_sliding_shorter_than_the_samples_show_is_unresolved_not_missed():
-    # the impact damper's first sliding lasts 21 ms, 4 steps of 5 ms; before: "missed"
+def test_a_sliding_shorter_than_the_samples_show_is_not_missed():
+    # the impact damper's first sliding lasts 21 ms, 4 steps of 5 ms; before: "missed", then "unresolved"; with the
+    # forces its times are placed to within a step, each error inside its bound
     table = _judge("impact-damper", _table("impact-damper", 5e-3)).table
-    assert "missed" not in set(table["verdict"]) and set(table["verdict"]) == {"unresolved"}
+    assert set(table["verdict"]) == {"match"}
+    assert (table["stick_error_zeno"].abs() <= table["stick_bound"]).all() and (table["stick_bound"] < 5e-3).all()
     assert (_judge("impact-damper", _table("impact-damper", 1e-3)).table["verdict"] == "match").all()
 
 
@@ -199,11 +204,11 @@ def test_a_float32_file_is_judged_as_its_float64_twin(tmp_path):
 
 # -- item 6: resting offsets ------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("name, dt, want", [("bouncing-ball", 1 / 60, "unresolved"), (LIFT, 1e-3, "match")])
+@pytest.mark.parametrize("name, dt, want", [("bouncing-ball", 1 / 60, "match"), (LIFT, 1e-3, "match")])
 def test_a_contact_skin_is_measured_and_judged_alike_with_or_without_forces(name, dt, want):
     # a rigid engine that keeps the ball 9 mm off the floor (Box2D's polygon radius): the exact answer of the scene
     # with its floor 9 mm up. Before: "missed" from the gap alone, "late" or "unmeasured" with the force column.
-    # (At 60 Hz the samples place the ball's sticking start to +-56 ms, over its 45 ms tolerance: unresolved.)
+    # (At 60 Hz the samples place the ball's sticking start within a step, 16.7 ms, under its 45 ms tolerance.)
     scene = solution(name).scene
     skin = dataclasses.replace(scene, gap=dataclasses.replace(scene.gap, lower=0.009),
                                initial=dataclasses.replace(scene.initial, y=scene.initial.y + 0.009))
@@ -236,17 +241,17 @@ def test_a_steady_penetration_ends_contact_where_the_body_leaves_it(forces):
 # -- what the command prints ------------------------------------------------------------------------------
 
 def test_the_command_says_why_and_what_it_measured(tmp_path, capsys):
-    scene = solution(LIFT).scene
-    skin = dataclasses.replace(scene, gap=dataclasses.replace(scene.gap, lower=0.009),
+    scene = solution(SHAKER).scene
+    skin = dataclasses.replace(scene, gap=dataclasses.replace(scene.gap, lower=scene.gap.lower + 0.009),
                                initial=dataclasses.replace(scene.initial, y=scene.initial.y + 0.009))
     path = tmp_path / "coarse.csv"
     trajectory_table(reference_trajectory(skin, 5e-3))[COLUMNS].to_csv(path, index=False)
-    assert main(["judge", str(LIFT), str(path)]) == 1  # unresolved is not an agreement
+    assert main(["judge", str(SHAKER), str(path)]) == 1  # unresolved is not an agreement
     out = capsys.readouterr().out
-    assert "coarse: 161 samples from '" in out and "positions float64 (inferred)" in out
+    assert "coarse: " in out and "positions float64 (inferred)" in out
     assert "note: body 2 rests 9 mm above the lower wall" in out
-    (line,) = [ln for ln in out.splitlines() if ln.startswith("episode 0 (lower): unresolved: sticking start")]
-    assert "but this sampling places it only to +-" in line and "samples every 0.00" in line
+    lines = [ln for ln in out.splitlines() if ": unresolved: sticking start" in ln]
+    assert lines and all("but this sampling places it only to +-" in ln and "samples every 0.00" in ln for ln in lines)
 
 
 def test_help_states_each_default_once(capsys):
@@ -256,3 +261,78 @@ def test_help_states_each_default_once(capsys):
     text = " ".join(capsys.readouterr().out.split())
     assert "(default: the file's name up to its first dot) --" in text  # the next option follows: no second default
     assert "is float32) --tolerance" in text
+
+
+# -- issue 45: a sticking bound as tight as what the samples and the ladder show ------------------
+
+SHAKER = SCENES / "shaker.toml"
+
+
+def _planted_hold(hold: float) -> pd.DataFrame:
+    """The shaker with every ladder ``hold`` times as long (e / (1 - e) = hold R / (1 - R): e = 0.614 for +6%, a
+    restitution 2.3% over R, inside its tolerance), sampled every 1 ms: it sticks 5.7-5.8% of the chatter late
+    (+6% where y'' were steady; the plate's changing y'' takes a little off), first impacts and exits on time."""
+    scene = solution(SHAKER).scene
+    ratio = hold * scene.restitution / (1.0 - scene.restitution)
+    run = simulate(dataclasses.replace(scene, restitution=ratio / (1.0 + ratio)), "exhaustive")
+    return trajectory_table(reference_trajectory(scene, 1e-3, run))
+
+
+def _advice(reason: str) -> float:
+    """The step [s] a reason's "samples every X s or closer would resolve it" names."""
+    return float(re.search(r"samples every ([0-9.e+-]+) s or closer", reason).group(1))
+
+
+@pytest.mark.parametrize("name", [SHAKER, "impact-damper"])
+def test_exact_1_khz_files_match_with_a_bound_that_holds_their_error(name):
+    # before: 4 of the shaker's 5 episodes "unresolved", "places it only to +-4.01 ms" (the whole extrapolated
+    # ladder, 1.5 x the onset's 2.7 ms flight) against a measured error of 0.03 ms
+    for columns in (None, COLUMNS):  # with the force columns and without
+        table = _table(name, 1e-3)
+        row = _judge(name, table if columns is None else table[columns]).table
+        stuck = row.dropna(subset=["ref_t_stick"])
+        # the error within its bound: the bound is what the samples show, never less (exact samples: ~1 us of error)
+        assert (stuck["stick_error_zeno"].abs() <= stuck["stick_bound"] + 1e-9).all()
+        # and a fraction of the step: the tail after the last landing the samples show (< 1 ms at 1 kHz)
+        assert (stuck["stick_bound"] < 1e-3).all()
+        want = ["match"] * len(row)
+        if name == "impact-damper" and columns is not None:
+            # without force columns the first exit is placed to half a step (0.5 ms), over its 2% tolerance
+            # (0.427 ms): that is the exit's, not the stick's (issue 45 leaves it as it was)
+            want[0] = "unresolved"
+            assert row["reason"].iloc[0].startswith("exit ")
+        assert row["verdict"].tolist() == want, row[["verdict", "reason"]]
+
+
+def test_a_planted_six_percent_hold_is_late():
+    # before: "unresolved" (bound +-4.5 ms against a 2.7 ms tolerance); the error is 5.7% of the chatter
+    row = _judge(SHAKER, _planted_hold(1.06)).table
+    assert row["verdict"].tolist() == ["match"] + ["late"] * 4, row[["verdict", "reason"]]
+    late = row.iloc[1:]
+    assert ((late["stick_error_rel"] > 0.055) & (late["stick_error_rel"] < 0.06)).all()
+    assert (late["reason"].str.startswith("sticking start +")).all()
+    # and the same file held only 2% longer is within the tolerance: the bound does not make it late either
+    assert set(_judge(SHAKER, _planted_hold(1.02)).table["verdict"]) == {"match"}
+
+
+@pytest.mark.parametrize("name, dt, columns", [(SHAKER, 5e-3, None), (SHAKER, 3e-3, COLUMNS),
+                                               ("impact-damper", 5e-3, COLUMNS)])
+def test_a_coarse_file_stays_unresolved_where_it_cannot_say_and_the_advice_resolves_it(name, dt, columns):
+    # 3-5 ms: the tail after the last landing the samples show (up to a step), a ladder whose rest lies a whole
+    # step away, or an exit known to half a step (no force columns) can exceed the tolerance; those rows stay
+    # unresolved, and the step their reason names resolves them (before: 1.33x finer for a bound 4x too large)
+    table = _table(name, dt) if columns is None else _table(name, dt)[columns]
+    table = _judge(name, table).table
+    stuck = table.dropna(subset=["ref_t_stick"])
+    assert (stuck["stick_error_zeno"].abs() <= stuck["stick_bound"] + 1e-9).all()
+    open_ = table[table["verdict"] == "unresolved"]
+    assert len(open_), table[["verdict", "reason"]]
+    for row in open_.itertuples():
+        step = _advice(row.reason)
+        assert step < dt
+        finer = _table(name, step) if columns is None else _table(name, step)[columns]
+        finer = _judge(name, finer).table
+        again = finer[(finer["wall"] == row.wall) & (finer["ref_t_stick"] == row.ref_t_stick)].iloc[0]
+        # followed, the advice resolves what it was about: that criterion is no longer in the reason
+        criterion = row.reason.split(" ")[0]  # "sticking" or "exit"
+        assert again["verdict"] != "unresolved" or criterion not in again["reason"], (step, again["reason"])
