@@ -20,6 +20,7 @@ COMMANDS = {
     "gate": "run accuracy checks from a gate file; exit 1 if any fails (for CI)",
     "platemap": "map which strikes on a wall end in sliding: reference, Feigin's plate, engines",
     "tune": "find the cheapest engine settings whose episodes all match within the tolerances",
+    "atlas": "every engine's band-robust frontier on every scene: one table and chart, resumable",
     "calibrate": "each engine's effective restitution against impact speed (where R drifts)",
     "sweep": "run a grid of scene fields and engine settings; one row per engine and point",
     "chart": "draw the work-precision chart or a stability map from a finished sweep dataset",

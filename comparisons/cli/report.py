@@ -41,6 +41,8 @@ def _command_line(args: argparse.Namespace) -> str:
         words += ["--sweep", item]
     for item in args.tune or []:  # before: left out of the provenance
         words += ["--tune", item]
+    if args.atlas is not None:
+        words += ["--atlas", args.atlas]
     if args.timeout != ENGINE_TIMEOUT:
         words += ["--timeout", f"{args.timeout:g}"]
     return " ".join(shlex.quote(w) for w in words)
@@ -67,6 +69,20 @@ def guide_section(folder: str) -> str:
     return section.html
 
 
+def atlas_of(option: str | None):
+    """The atlas section: ``--atlas DIR``'s (``none``: no section), else the dataset kept with chatterbench; read
+    before any run, so a bad folder costs nothing."""
+    from chatterbench.comparisons.outputs.atlas_section import check_atlas, packaged_atlas
+    from chatterbench.reference.errors import InputError
+
+    if option is not None and option.strip().lower() == "none":
+        return None
+    try:
+        return packaged_atlas() if option is None else check_atlas(option)
+    except InputError as exc:
+        raise UsageError(str(exc)) from None
+
+
 def cmd_report(args: argparse.Namespace) -> int:
     check_dir("--out", args.out)
     from chatterbench.comparisons.outputs.report import SUMMARY_COLUMNS, SweepSection, build_report  # draws: loads matplotlib (0.7 s), so only when asked
@@ -79,6 +95,7 @@ def cmd_report(args: argparse.Namespace) -> int:
     tuning = tuple(guide_section(d) for d in args.tune or ())  # read before any run, so a bad path costs nothing
     frontiers = read_frontiers(args.tune or ())  # each tune's recommended.json: the frontier chart per scene
     sweeps = [SweepSection(str(d), load_rows(d)) for d in args.sweep or ()]  # bad input before any run
+    atlas = atlas_of(args.atlas)
     scenes, engines = args.scenes or tuple(CATALOGUE), engine_list(args.engines)
     file_notes(scenes, scene_over)
     with Progress(len(scenes) * (1 + len(engines)) + 1, "report", unit="step") as bar:  # + 1: the figures and pages
@@ -89,6 +106,8 @@ def cmd_report(args: argparse.Namespace) -> int:
         )
         if tuning:
             report = dataclasses.replace(report, tuning=tuning, frontiers=frontiers)
+        if atlas is not None:
+            report = dataclasses.replace(report, atlas=atlas)
         bar.stage("figures and pages")
         with writing("--out", args.out, together=True) as stage:  # both pages, or neither (Ctrl-C, a full disk)
             paths = [Path(args.out) / p.relative_to(stage) for p in write_report(report, stage)]
@@ -110,4 +129,7 @@ def register(sub, formatter) -> None:
     p.add_argument("--tune", action="append", metavar="DIR", default=None,
                    help="include the tuning guide that `chatterbench tune ... --out DIR` wrote, and its robust frontier "
                         "in a chart per scene, one line per engine (repeatable)")
+    p.add_argument("--atlas", metavar="DIR", default=None,
+                   help="show the atlas that `chatterbench atlas --out DIR` wrote (default: the atlas kept with "
+                        "chatterbench, with its provenance; `none`: no atlas section)")
     p.set_defaults(func=cmd_report)

@@ -111,6 +111,7 @@ class Report:
     tuning: tuple[str, ...] = ()  # HTML sections written by `chatterbench tune --out DIR` (guide_section.html)
     cross_checks: tuple[CrossCheck, ...] = ()  # per scene, Siconos against Feigin's model (``pipeline.cross_check``)
     frontiers: tuple[TunedFrontier, ...] = ()  # the robust frontiers of `--tune DIR` (``frontier_chart.read_frontiers``)
+    atlas: Any = None  # the atlas section (``atlas_section.AtlasSection``): the packaged dataset's, or `--atlas DIR`'s
 
 
 def _stderr(line: str) -> None:

@@ -23,6 +23,7 @@ from chatterbench.comparisons.pipeline.atomic import write_text
 from chatterbench.comparisons.pipeline.conformance import describe, same_model_pairs
 from chatterbench.comparisons.pipeline.vocabulary import COLOURS, MEANINGS, NAMES, text_colour
 
+from .figures import figure_bytes
 from .style import PAGE_CSS
 
 from .report import (EPISODE_COLUMNS, HEADERS, SUMMARY_COLUMNS, Figure, Report, cell, engine_rows, frontier_figures,
@@ -124,6 +125,10 @@ def report_html(report: Report) -> str:
         parts.extend(f'<p class="note">{html.escape(n)}</p>' for n in notes)
     parts.extend(_img(f) for f in frontiers.values())  # tuned scenes the report did not run
     parts.extend(report.tuning)  # tuning guides, as `chatterbench tune` wrote them, made inert (cli/report.py)
+    if report.atlas is not None:  # every engine's band-robust frontier on every scene (``atlas_section``)
+        from .atlas_section import atlas_html
+
+        parts.append(atlas_html(report.atlas, lambda fig, id_, caption: _img(Figure(id_, caption, figure_bytes(fig, "png")))))
     parts.append('<h2 id="provenance">What produced this report</h2><table class="prov"><tbody>')
     for key, value in provenance_items(report):
         shown = f"<code>{html.escape(value)}</code>" if key == "command" else html.escape(value)
@@ -194,6 +199,10 @@ def report_markdown(report: Report) -> str:
     ran = {c.scene.name for c in report.comparisons}
     for scene in sorted({f.scene for f in report.frontiers} - ran):  # tuned scenes the report did not run
         out += [f"## {scene} (tuned)", "", *_frontier_lines(report, scene)]
+    if report.atlas is not None:
+        from .atlas_section import atlas_md
+
+        out += [atlas_md(report.atlas)]
     out += ["## What produced this report", ""]
     for key, value in provenance_items(report):
         out.append(f"- {key}: `{value}`" if key == "command" else f"- {key}: {value}")

@@ -1,0 +1,143 @@
+"""``chatterbench atlas``: the band-robust frontier of every engine on every scene, resumable, as tables and charts.
+
+    $ chatterbench atlas --out atlas                                  # every built-in scene, every installed engine
+    $ chatterbench atlas bouncing-ball feigin-pair --engines mujoco,pybullet --tolerance 0.05 --out atlas
+    $ chatterbench atlas --engines mujoco,pybullet --dask tcp://scheduler:8786 --out atlas
+
+Each case (scene x engine) is one ``tune`` (``studies.atlas``); its files are written as it
+finishes, so a killed atlas rerun with the same --out keeps every finished case and runs the
+rest. Exit codes: 0 every case ran (whatever it reached), 1 a case failed (its message is in the
+table), 2 bad input.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import shlex
+import sys
+from pathlib import Path
+
+from chatterbench.comparisons.studies.limits import MAX_RUNS, ROBUST_FRACTION
+from chatterbench.reference.scene import split_assignment
+
+from .commands import COMMANDS
+from .common import (UsageError, add_budget, add_out, add_set, add_tolerance, budget_of, engine_list, integer_type,
+                     load_noted, local_workers, parse_tolerances, positive_float, positive_int, print_table)
+from .paths import check_dir, writing
+from .progress import CountingExecutor, Progress, waited_s
+
+SHOW = ["scene", "engine", "status", "robust_at_asked", "tightest_stick", "tightest_restitution", "settings",
+        "cost_steps_per_s", "open_fraction", "frontier_points", "runs", "wall_s"]
+
+
+def cmd_atlas(args: argparse.Namespace) -> int:
+    from chatterbench.comparisons.outputs.atlas_files import atlas_frame, write_atlas_files
+    from chatterbench.comparisons.studies.atlas import AtlasError, AtlasSpec, case_name, default_scenes, open_atlas
+    from chatterbench.engines.registry import available_engines
+
+    if not args.out:
+        raise UsageError("atlas: --out DIR is needed (each case is written there as it finishes; rerun to resume)")
+    out = Path(args.out)
+    check_dir("--out", out)
+    scenes = tuple(args.scenes) or default_scenes()
+    for source in scenes:
+        load_noted(source, [])
+    engines = engine_list(args.engines) if args.engines else available_engines()
+    fixed = {}
+    for item in args.set or []:
+        key, value = split_assignment(item)
+        if "." not in key or key.split(".", 1)[0] not in engines:
+            raise UsageError(f"--set {item}: atlas --set fixes an engine's knob (ENGINE.KNOB=VALUE) of one of "
+                             f"--engines {','.join(engines)}; scene fields belong in a scene file")
+        fixed[key] = value
+    spec = AtlasSpec(scenes=scenes, engines=engines, tolerance=parse_tolerances(args.tolerance),
+                     max_runs=args.max_runs, robust_fraction=args.robust_fraction, fixed=fixed, max_cost=args.max_cost)
+    try:
+        for source in scenes:
+            case_name(source)
+    except AtlasError as exc:
+        raise UsageError(str(exc)) from None
+    if args.dask is not None and not args.dask.strip():
+        raise UsageError("--dask '': no scheduler address; give one (tcp://host:8786), or leave --dask out to run locally")
+    budget = budget_of(args)
+    command = "chatterbench " + " ".join(shlex.quote(a) for a in sys.argv[1:])
+    client = None
+    if args.dask:
+        try:
+            from distributed import Client
+
+            client = Client(args.dask, timeout=10)
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise UsageError(f"--dask {args.dask}: cannot reach the Dask scheduler ({exc})") from None
+    try:
+        with writing("--out", out):
+            try:
+                open_atlas(out, spec, command)
+            except AtlasError as exc:
+                raise UsageError(str(exc)) from None
+            cases = _run(out, spec, command, client, args.workers, budget)
+            provenance = open_atlas(out, spec, command) | {"wall_s": sum(c.get("wall_s") or 0 for c in cases.values())}
+            written = write_atlas_files(out, list(cases.values()), provenance)
+    finally:
+        if client is not None:
+            client.close()
+    atlas = atlas_frame(cases.values())
+    print_table(atlas[SHOW], title=f"the atlas under {out} ({len(atlas)} cases; every frontier point: "
+                                   f"{out}/frontier.csv):")
+    print(f"wrote under {out}: " + ", ".join(written))
+    print(f"atlas took {waited_s():.1f} s since the command started")
+    return 0 if (atlas["status"] == "ok").all() else 1
+
+
+def _run(out: Path, spec, command: str, client, workers: int | None, budget):
+    """Every case not done, each through a pool of its own (or the Dask cluster), with a progress line per case."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    from chatterbench.comparisons.studies.atlas import run_atlas
+
+    state = {}
+
+    def started(scene: str, engine: str, k: int, n: int) -> None:
+        state["case"] = f"case {k} of {n}: tune {scene} --engines {engine}"
+
+    def finished(case: dict) -> None:
+        print(f"{case['scene']} / {case['engine']}: {case['status']}, {case['runs']} runs, {case['wall_s']:.1f} s"
+              + (f"; {case['message']}" if case.get("message") else ""), flush=True)
+
+    if client is not None:
+        with Progress(None, "atlas", unit="candidate") as bar:
+            return run_atlas(out, spec, command, executor=CountingExecutor(client.get_executor(), bar),
+                             started=lambda *a: (started(*a), bar.stage(state["case"])), finished=finished)
+    with Progress(None, "atlas", unit="candidate") as bar, \
+            ProcessPoolExecutor(max_workers=local_workers(workers, budget.max_memory)) as pool:
+        return run_atlas(out, spec, command, executor=CountingExecutor(pool, bar),
+                         started=lambda *a: (started(*a), bar.stage(state["case"])), finished=finished)
+
+
+def register(sub, formatter) -> None:
+    """Add ``atlas`` to the ``chatterbench`` subparsers."""
+    p = sub.add_parser("atlas", help=COMMANDS["atlas"], formatter_class=formatter)
+    p.add_argument("scenes", nargs="*", metavar="SCENE",
+                   help="built-in scene names or scene TOML files (default: every built-in scene)")
+    p.add_argument("--engines", "--engine", default=None, metavar="E[,E...]",
+                   help="the engines, comma-separated (default: every engine installed here)")
+    add_tolerance(p)
+    p.set_defaults(tolerance=None)
+    p.add_argument("--workers", type=positive_int, default=None,
+                   help="parallel candidate runs of a case; None: all cores (with --dask: the cluster's)")
+    p.add_argument("--dask", metavar="ADDRESS", default=None,
+                   help="run each case's candidates on a Dask cluster (tcp://host:8786) instead of local processes")
+    p.add_argument("--max-runs", type=integer_type(1, 100_000), default=MAX_RUNS,
+                   help="each case's budget, as tune's --max-runs")
+    p.add_argument("--max-cost", type=positive_float, default=math.inf, metavar="STEPS_PER_S",
+                   help="no candidate of more engine steps per simulated second, as tune's --max-cost")
+    from .tune import fraction_type
+
+    p.add_argument("--robust-fraction", type=fraction_type, default=ROBUST_FRACTION, metavar="F",
+                   help="the share of a band that must pass, in (0, 1], as tune's")
+    add_set(p)
+    add_out(p, what="the atlas's folder: atlas.json (spec, provenance), cases/SCENE/ENGINE/ (each case, written as it "
+                    "finishes), atlas.csv/.parquet, frontier.csv/.parquet, atlas.md, figures/; rerun to resume")
+    add_budget(p)
+    p.set_defaults(func=cmd_atlas)

@@ -1,0 +1,322 @@
+"""The atlas: the band-robust frontier of every engine on every scene, one ``tune`` per case, resumable after a kill.
+
+    >>> from chatterbench.comparisons.studies.atlas import AtlasSpec
+    >>> spec = AtlasSpec(scenes=("bouncing-ball",), engines=("mujoco", "pybullet"), tolerance=0.05)
+    >>> [f"{scene}/{engine}" for scene, engine in spec.cases()]
+    ['bouncing-ball/mujoco', 'bouncing-ball/pybullet']
+
+A *case* is one (scene, engine): ``studies.tune.tune`` at the atlas's tolerances (a bare number
+sets the sticking, exit and first-impact tolerances at once, as ``tune --tolerance T``), its
+ladder of timing x restitution levels, the band-robust rule (every dt of [0.8, 1.25] x dt at 4
+impact phases and the knob neighbours), the contact's persistence after each stick, no transfer
+recheck (``tune`` itself does that, for the one answer a user writes). A case's outcome is
+``recommended.json`` as ``tune --out`` writes it (``tune_answer.recommended``) with the case's
+wall time [s], its runs and the engine's version; a case that cannot run (the engine refuses
+the scene, or crashes outside a run) is kept as a ``failed`` case with the message, and the
+atlas goes on.
+
+The folder (``DIR``)::
+
+    atlas.json                          the spec and its provenance (versions, date, machine, command)
+    cases/SCENE/ENGINE/case.json        the case's outcome (above), written last: its presence says the case is done
+    cases/SCENE/ENGINE/candidates.parquet  every run of the case's search (``tune``'s table)
+
+A killed atlas resumes: the cases with a ``case.json`` are kept, the others run (a case's files
+are written together, ``atomic.staged``: a kill leaves a case whole or absent). A folder written
+with another spec is refused (the scenes and engines may grow: the cases already done stay).
+The tables built from the cases are ``atlas_tables`` (``outputs.atlas_files`` writes them).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import platform
+import re
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Iterator, Mapping
+
+from chatterbench.reference.catalogue import CATALOGUE
+from chatterbench.reference.errors import InputError
+
+from ..pipeline.atomic import staged, write_frame
+from ..pipeline.tolerances import Tolerances
+from .limits import MAX_RUNS, ROBUST_FRACTION
+
+SPEC_FILE = "atlas.json"
+CASE_FILE = "case.json"
+CANDIDATES_FILE = "candidates.parquet"
+NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,99}")  # a scene name that can name a case's folder
+MAX_CASE_BYTES = 4 * 2**20  # [bytes] of a case.json: a case writes tens of KiB
+
+
+class AtlasError(InputError):
+    """An atlas that cannot run as asked: names the option or the file."""
+
+
+@dataclass(frozen=True)
+class AtlasSpec:
+    """What an atlas runs: its cases (``scenes`` x ``engines``) and the tune of each.
+
+    ``tolerance``: a number [-] (the sticking, exit and first-impact tolerances, fractions of each episode's chatter or
+    sliding duration) or ``Tolerances``; ``max_runs``: each case's budget (``tune``'s, runs of up to 100,000 steps);
+    ``robust_fraction``: the share of a band that must pass, in (0, 1]; ``fixed``: ``engine.knob`` -> value, knobs held
+    at one value (``tune --set``); ``max_cost``: steps per simulated second no candidate exceeds.
+    """
+
+    scenes: tuple[str, ...]
+    engines: tuple[str, ...]
+    tolerance: float | Tolerances = 0.05
+    max_runs: int = MAX_RUNS
+    robust_fraction: float = ROBUST_FRACTION
+    fixed: Mapping[str, Any] = field(default_factory=dict)
+    max_cost: float = math.inf
+
+    def cases(self) -> list[tuple[str, str]]:
+        """Every (scene, engine), scene by scene in the order given (a scene: a built-in name or a scene file)."""
+        return [(s, e) for s in self.scenes for e in self.engines]
+
+    def tolerances(self) -> Tolerances:
+        t = self.tolerance
+        return t if isinstance(t, Tolerances) else Tolerances(stick=t, exit=t, first_impact=t)
+
+    def search_key(self) -> dict[str, Any]:
+        """What a case's answer depends on (a resumed atlas must have the same): the tolerances, budget, rule and caps."""
+        return {"tolerances": self.tolerances().as_dict(), "max_runs": self.max_runs,
+                "robust_fraction": self.robust_fraction, "fixed": {k: self.fixed[k] for k in sorted(self.fixed)},
+                "max_cost": None if math.isinf(self.max_cost) else self.max_cost}
+
+
+def default_scenes() -> tuple[str, ...]:
+    """The built-in scenes (``chatterbench scenes``)."""
+    return tuple(CATALOGUE)
+
+
+def case_dir(out: Path, scene: str, engine: str) -> Path:
+    return out / "cases" / scene / engine
+
+
+def done_cases(out: Path) -> dict[tuple[str, str], dict[str, Any]]:
+    """The finished cases under ``out``: (scene, engine) -> case.json, read following no link out of ``out``."""
+    found = {}
+    root = out / "cases"
+    if not root.is_dir() or root.is_symlink():
+        return found
+    for scene_dir in sorted(p for p in root.iterdir() if p.is_dir() and not p.is_symlink()):
+        for engine_dir in sorted(p for p in scene_dir.iterdir() if p.is_dir() and not p.is_symlink()):
+            path = engine_dir / CASE_FILE
+            if path.is_file() and not path.is_symlink():
+                found[(scene_dir.name, engine_dir.name)] = read_case(path)
+    return found
+
+
+def read_case(path: Path) -> dict[str, Any]:
+    """A case.json, bounded (``MAX_CASE_BYTES``); refused by name when it is not one."""
+    if path.stat().st_size > MAX_CASE_BYTES:
+        raise AtlasError(f"{path}: {path.stat().st_size:,} bytes, more than a case writes ({MAX_CASE_BYTES:,}); "
+                         "not an atlas case")
+    try:
+        case = json.loads(path.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise AtlasError(f"{path}: not an atlas case ({exc})") from None
+    if not isinstance(case, dict) or not {"scene", "engine", "status"} <= set(case):
+        raise AtlasError(f"{path}: not an atlas case (needs scene, engine and status)")
+    return case
+
+
+def provenance(spec: AtlasSpec, command: str) -> dict[str, Any]:
+    """The atlas's spec and where it was made: each engine's version, numpy's and Python's, the machine, the date."""
+    import numpy as np
+
+    from chatterbench.engines.registry import engine_version
+
+    return {"scenes": list(spec.scenes), "engines": list(spec.engines), "search": spec.search_key(),
+            "versions": {e: engine_version(e) for e in spec.engines} | {"numpy": np.__version__,
+                                                                         "python": platform.python_version()},
+            "machine": f"{platform.machine()}, {_cpu_name()}, {_cores()} cores", "command": command, "code": code_version(),
+            "started": time.strftime("%Y-%m-%d %H:%M:%S %Z")}
+
+
+def code_version() -> str:
+    """The code that ran: the git commit of the checkout chatterbench runs from (``+changes`` when it has
+    uncommitted ones), else the installed package's version."""
+    import subprocess
+    from importlib.metadata import version
+
+    here = Path(__file__).resolve().parent
+    try:
+        head = subprocess.run(["git", "-C", str(here), "rev-parse", "--short=12", "HEAD"], capture_output=True,
+                              text=True, timeout=10)
+        dirty = subprocess.run(["git", "-C", str(here), "status", "--porcelain", "--untracked-files=no"],
+                               capture_output=True, text=True, timeout=10)
+        if head.returncode == 0:
+            return f"git {head.stdout.strip()}" + ("+changes" if dirty.stdout.strip() else "")
+    except (OSError, subprocess.SubprocessError):
+        pass
+    return f"chatterbench {version('chatterbench')}"
+
+
+def _cpu_name() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text(encoding="utf-8").splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown CPU"
+
+
+def _cores() -> int:
+    import os
+
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+
+
+def open_atlas(out: Path, spec: AtlasSpec, command: str) -> dict[str, Any]:
+    """``out``'s provenance: a new atlas's written, a resumed one's read and checked against ``spec`` (the same
+    search; the scenes and engines may differ: the union is the atlas)."""
+    path = out / SPEC_FILE
+    if path.is_symlink():
+        raise AtlasError(f"--out {out}: {SPEC_FILE} is a link; an atlas folder holds its own files")
+    if path.is_file():
+        try:
+            old = json.loads(path.read_text(encoding="utf-8"))
+        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise AtlasError(f"--out {out}: {SPEC_FILE} is not an atlas's ({exc}); name an empty folder") from None
+        if not isinstance(old, dict) or old.get("search") != json.loads(json.dumps(spec.search_key())):
+            raise AtlasError(f"--out {out}: an atlas with another search is there ({json.dumps((old or {}).get('search'))}); "
+                             f"this one is {json.dumps(spec.search_key())}: name another folder")
+        merged = {**old, "scenes": _union(old.get("scenes", []), spec.scenes),
+                  "engines": _union(old.get("engines", []), spec.engines),
+                  "versions": {**old.get("versions", {}), **provenance(spec, command)["versions"]}}
+        merged.setdefault("resumed", []).append(time.strftime("%Y-%m-%d %H:%M:%S %Z"))
+        _write_json(out, SPEC_FILE, merged)
+        return merged
+    if (out / "cases").exists():
+        raise AtlasError(f"--out {out}: holds cases/ but no {SPEC_FILE}; name an empty folder or an atlas's")
+    made = provenance(spec, command)
+    _write_json(out, SPEC_FILE, made)
+    return made
+
+
+def _union(old, new) -> list[str]:
+    return list(dict.fromkeys([*old, *new]))
+
+
+def _write_json(out: Path, name: str, value: Any) -> None:
+    with staged(out) as stage:
+        (stage / name).write_text(json.dumps(value, indent=1, allow_nan=False), encoding="utf-8")
+
+
+def case_name(source: str) -> str:
+    """The name a scene's cases go under (``cases/NAME/ENGINE``): the scene's own ``name``, refused unless it is a
+    plain folder name (letters, digits, ``.``, ``_``, ``-``; no path)."""
+    from chatterbench.reference.scene import load_scene
+
+    name = load_scene(source).name
+    if not NAME.fullmatch(name) or name in (".", ".."):
+        raise AtlasError(f"scene {source}: its name {name!r} cannot name an atlas case; use letters, digits, '.', '_' "
+                         "and '-' only (the `name` field of the scene file)")
+    return name
+
+
+def run_case(spec: AtlasSpec, scene_name: str, engine: str, executor=None, workers: int | None = None,
+             repeats: int = 1) -> tuple[dict[str, Any], Any]:
+    """One case: ``tune`` (module docstring) -> (case.json's content, the candidates table or None). A refusal
+    or a crash outside a run is the case's ``failed`` outcome, never the atlas's end."""
+    from chatterbench.engines.registry import engine_version, make_settings
+    from chatterbench.reference.scene import load_scene
+
+    from .tune import tune
+    from .tune_answer import recommended
+    from .tune_search import ROBUST_FRACTION as _  # noqa: F401  (tune's modules, loaded before the clock starts)
+
+    start = time.perf_counter()
+    scene = load_scene(scene_name)
+    base = {"scene": scene.name, "engine": engine, "engine_version": engine_version(engine)}
+    try:
+        space = None
+        own = {k: v for k, v in spec.fixed.items() if k.split(".", 1)[0] == engine}
+        if own:
+            from .tune import search_space
+
+            space = search_space(engine, scene, spec.tolerances())
+            for key, value in own.items():
+                if key not in space:
+                    raise AtlasError(f"--set {key}={value}: {engine} searches {', '.join(k for k in space if k != 'dt')}")
+                space[key] = (getattr(make_settings(engine, None, {key: value}), key.split(".", 1)[1]),)
+        result = tune(scene, engine, spec.tolerances(), space=space, executor=executor, workers=workers,
+                      repeats=repeats, max_runs=spec.max_runs, max_cost=spec.max_cost,
+                      robust_fraction=spec.robust_fraction, transfer=False)
+    except Exception as exc:  # noqa: BLE001  (a case's failure is recorded; the atlas goes on)
+        return {**base, "status": "failed", "message": f"{type(exc).__name__}: {exc}",
+                "wall_s": round(time.perf_counter() - start, 2), "runs": 0}, None
+    answer = recommended(result)
+    status = "ok" if answer is not None else "failed"
+    return {**base, "status": status, "message": "" if answer else "no candidate ran: every one was refused",
+            "wall_s": round(time.perf_counter() - start, 2), "runs": int(len(result.table)),
+            "recommended": answer}, result.table
+
+
+def run_atlas(out: Path, spec: AtlasSpec, command: str = "", executor=None, workers: int | None = None,
+              started: Callable[[str, str, int, int], None] | None = None,
+              finished: Callable[[dict[str, Any]], None] | None = None) -> dict[tuple[str, str], dict[str, Any]]:
+    """Run every case of ``spec`` not yet done under ``out`` (module docstring), each written as it finishes;
+    returns every finished case under ``out``. ``started(scene, engine, k, n)`` as case k of the n to run begins,
+    ``finished(case)`` as it ends."""
+    out.mkdir(parents=True, exist_ok=True)
+    open_atlas(out, spec, command)
+    done = done_cases(out)
+    names = {source: case_name(source) for source in spec.scenes}
+    todo = [(source, engine) for source, engine in spec.cases() if (names[source], engine) not in done]
+    for k, (source, engine) in enumerate(todo, 1):
+        if started is not None:
+            started(names[source], engine, k, len(todo))
+        case, table = run_case(spec, source, engine, executor=executor, workers=workers)
+        write_case(out, case, table)
+        done[(names[source], engine)] = case
+        if finished is not None:
+            finished(case)
+    return done
+
+
+def write_case(out: Path, case: dict[str, Any], table) -> None:
+    """A case's files, together (``atomic.staged``): the candidates first, case.json last."""
+    folder = case_dir(out, case["scene"], case["engine"])
+    folder.mkdir(parents=True, exist_ok=True)
+    with staged(folder, last=(CASE_FILE,)) as stage:
+        if table is not None:
+            write_frame(stage / CANDIDATES_FILE, _flat(table))
+        (stage / CASE_FILE).write_text(json.dumps(_json_safe(case), indent=1, allow_nan=False), encoding="utf-8")
+
+
+def _flat(table):
+    """``tune``'s table with its tuple and dict cells as JSON text (Parquet columns of one type)."""
+    table = table.copy()
+    for c in table.columns:
+        if table[c].dtype == object and any(isinstance(v, (tuple, list, dict)) for v in table[c]):
+            table[c] = [json.dumps(_json_safe(v)) for v in table[c]]
+        elif table[c].dtype == object:
+            table[c] = [None if v is None or (isinstance(v, float) and math.isnan(v)) else str(v) for v in table[c]]
+    return table
+
+
+def _json_safe(v: Any) -> Any:
+    """``v`` with NaN and infinities as None, tuples as lists, numpy scalars as Python's (JSON without NaN)."""
+    if isinstance(v, dict):
+        return {str(k): _json_safe(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_json_safe(x) for x in v]
+    if hasattr(v, "item") and not isinstance(v, (str, bytes)):
+        v = v.item()
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    return v
+
+
+def iter_frontier(case: dict[str, Any]) -> Iterator[dict[str, Any]]:
+    """A finished case's frontier points, cheapest first (none for a failed case)."""
+    rec = case.get("recommended") or {}
+    yield from rec.get("frontier") or []
