@@ -47,6 +47,8 @@ GOALS = {
     "ladder": [("same", ">=", 1.0, "the ladder's judge gives what judging each point on its own gives, every case"),
                ("speedup", ">=", 5.0, "runs judged at the whole ladder per CPU second, against one point at a time "
                                       "(issue 42)")],
+    "atlas": [("same", ">=", 1.0, "the batched atlas gives the serial one's answers and frontiers, every case"),
+              ("speedup", ">=", 2.0, "judged runs per wall second, batched against serial")],
     "help": [("best_s", "<=", 1.0, "seconds of `chatterbench --help` and of each subcommand's --help, each in a fresh "
                                    "process")],
 }
@@ -60,6 +62,9 @@ REPEAT = {  # what one repeat is, and which counts
             "runs, timed from the reference to the answer and its frontier (no repeats)",
     "ladder": "one repeat = one run judged at every point of tune's ladder (its engine run not timed), one point at a "
               "time and prepared once; the best of --repeats counts (CPU time)",
+    "atlas": "one small atlas case (scene x engine, knobs held, dt capped at 300 steps/s) run serially (1 worker, the "
+             "ladder judged one point at a time) and batched (--workers, the ladder judged from one prepared run); no "
+             "repeats",
     "help": "one repeat = one fresh process printing the help (Python's start and the imports included); the best of "
             "--repeats counts",
 }
@@ -117,7 +122,7 @@ def _print_warp(worlds: tuple[int, ...], bar: Progress | None = None) -> None:
 
 
 # each option: the benchmarks it applies to and its default; given to another benchmark it is refused, not ignored
-OPTIONS = {"points": (("sweep",), 200), "workers": (("sweep", "tune"), 2), "max_runs": (("tune",), None), "refine": (("sweep",), None),
+OPTIONS = {"points": (("sweep",), 200), "workers": (("sweep", "tune", "atlas"), 2), "max_runs": (("tune",), None), "refine": (("sweep",), None),
            "only": (("sweep",), None), "worlds": (("sweep",), (1, 16, 256)), "strikes": (("platemap",), 100_000),
            "periods": (("reference",), 100), "steps": (("engines",), 200_000),
            "repeats": (("reference", "engines", "platemap", "help", "ladder"), 5)}
@@ -131,7 +136,7 @@ def check_options(args: argparse.Namespace) -> None:
         elif args.what not in applies:
             raise UsageError(f"--{name.replace('_', '-')}: applies to {' and '.join(f'bench {a}' for a in applies)}, "
                              f"not bench {args.what}")
-    if args.what in ("sweep", "tune"):
+    if args.what in ("sweep", "tune", "atlas"):
         args.workers = local_workers(args.workers)
     if args.only == "warp" and unavailable_reason("mujoco_warp"):
         raise UsageError(f"--only warp: nothing to time: {unavailable_reason('mujoco_warp')}")
@@ -225,6 +230,20 @@ def _run_bench(args: argparse.Namespace, bar: Progress):
         print_table(pd.DataFrame([shown]).T.reset_index().rename(columns={"index": "figure", 0: "value"}),
                     title=f"over all cases (outputs hashed: before {figures['hash_before']}, after {figures['hash_after']}):")
         figures = shown
+    elif args.what == "atlas":
+        from chatterbench.comparisons.studies.bench import bench_atlas
+
+        table = bench_atlas(workers=args.workers, finished=lambda r: bar.write(
+            f"{r['scene']} / {r['engine']} {r['way']}: {r['runs']} runs, {r['judged']} judged, {r['wall_s']:.1f} s"))
+        print_table(table.round({"wall_s": 2, "runs_per_s": 1, "judged_per_s": 1}),
+                    title="atlas cases, serial (1 worker, per-point judge) and batched (--workers, prepared judge):")
+        serial, batched = table[table["way"] == "serial"], table[table["way"] == "batched"]
+        figures = {"same": float(batched["same"].all()),
+                   "speedup": batched["judged"].sum() / batched["wall_s"].sum()
+                   / (serial["judged"].sum() / serial["wall_s"].sum()),
+                   "serial_wall_s": serial["wall_s"].sum(), "batched_wall_s": batched["wall_s"].sum()}
+        print_table(pd.DataFrame([figures]).T.reset_index().rename(columns={"index": "figure", 0: "value"}),
+                    title="over all cases:")
     elif args.what == "platemap":
         figures = bench_platemap(strikes=args.strikes, repeats=args.repeats)
         print_table(pd.DataFrame([figures]), title="plate map, feigin-pair lower wall, reference exhaustive mode (best of repeats):")
@@ -237,13 +256,13 @@ def _run_bench(args: argparse.Namespace, bar: Progress):
 def register(sub, formatter) -> None:
     """Add ``bench`` to the ``chatterbench`` subparsers."""
     p = sub.add_parser("bench", help=COMMANDS["bench"], formatter_class=formatter)
-    p.add_argument("what", choices=("reference", "engines", "platemap", "sweep", "tune", "ladder", "help"), help="what to time")
+    p.add_argument("what", choices=("reference", "engines", "platemap", "sweep", "tune", "ladder", "atlas", "help"), help="what to time")
     p.add_argument("--max-runs", type=positive_int, default=None,
                    help="`bench tune`: runs each tune makes at most; None: tune's default")
     p.add_argument("--points", type=integer_type(2, 10_000), default=None, help="comparison points for `bench sweep`, "
                    "in [2, 10000]; None: 200")
     p.add_argument("--workers", type=positive_int, default=None,
-                   help="workers for `bench sweep` and `bench tune`, at most one per core; None: 2")
+                   help="workers for `bench sweep`, `bench tune` and `bench atlas`, at most one per core; None: 2")
     p.add_argument("--refine", metavar="SPEC.toml", default=None,
                    help="`bench sweep`: the adaptive map (a spec with [refine]) timed against its full fine grid; "
                         "None: feigin-pair, 1 forcing period, dt x R 5 x 5, depth 2")

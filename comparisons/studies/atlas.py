@@ -223,15 +223,15 @@ def case_name(source: str) -> str:
 
 
 def run_case(spec: AtlasSpec, scene_name: str, engine: str, executor=None, workers: int | None = None,
-             repeats: int = 1) -> tuple[dict[str, Any], Any]:
+             repeats: int = 1, per_point: bool = False) -> tuple[dict[str, Any], Any]:
     """One case: ``tune`` (module docstring) -> (case.json's content, the candidates table or None). A refusal
-    or a crash outside a run is the case's ``failed`` outcome, never the atlas's end."""
+    or a crash outside a run is the case's ``failed`` outcome, never the atlas's end. ``per_point``: the ladder
+    judged one point at a time (``bench atlas``'s baseline; the same answers)."""
     from chatterbench.engines.registry import engine_version, make_settings
     from chatterbench.reference.scene import load_scene
 
     from .tune import tune
     from .tune_answer import recommended
-    from .tune_search import ROBUST_FRACTION as _  # noqa: F401  (tune's modules, loaded before the clock starts)
 
     start = time.perf_counter()
     scene = load_scene(scene_name)
@@ -249,7 +249,7 @@ def run_case(spec: AtlasSpec, scene_name: str, engine: str, executor=None, worke
                 space[key] = (getattr(make_settings(engine, None, {key: value}), key.split(".", 1)[1]),)
         result = tune(scene, engine, spec.tolerances(), space=space, executor=executor, workers=workers,
                       repeats=repeats, max_runs=spec.max_runs, max_cost=spec.max_cost,
-                      robust_fraction=spec.robust_fraction, transfer=False)
+                      robust_fraction=spec.robust_fraction, transfer=False, per_point=per_point)
     except Exception as exc:  # noqa: BLE001  (a case's failure is recorded; the atlas goes on)
         return {**base, "status": "failed", "message": f"{type(exc).__name__}: {exc}",
                 "wall_s": round(time.perf_counter() - start, 2), "runs": 0}, None

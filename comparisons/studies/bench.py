@@ -12,6 +12,7 @@ the numba kernels), measured with ``time.perf_counter`` on one core.
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from pathlib import Path
@@ -413,3 +414,59 @@ def bench_ladder(cases=LADDER_CASES, repeats: int = 3):
                "extract_share_after": extracting / after, "judge_speedup": (before - extracting) / (after - extracting),
                "same": float(table["same"].all()), "hash_before": digest["before"], "hash_after": digest["after"]}
     return figures, table
+
+
+# the atlas's benchmark: a small atlas (scene, engine), each engine's knobs held where its frontier lies (its tune on
+# the ball), dt capped at 300 steps per simulated second: seconds a case, so serial and batched fit in one run
+ATLAS_CASES = (("bouncing-ball", "pybullet"), ("bouncing-ball", "mujoco"), ("impact-damper", "pybullet"),
+               ("impact-damper", "mujoco"))
+ATLAS_FIXED = {"pybullet.restitution_velocity_threshold": 0.1, "pybullet.num_solver_iterations": 50,
+               "mujoco.integrator": "euler", "mujoco.impedance": 0.9, "mujoco.w0_dt": 0.3}
+
+
+def bench_atlas(cases=ATLAS_CASES, workers: int = 2, max_runs: int = 40, max_cost: float = 300.0,
+                finished: Callable[[dict], None] | None = None):
+    """Each atlas case (``studies.atlas.run_case``) run twice: *serial* (one worker process, the ladder judged one
+    point at a time: ``tune_ladder.reference_levels``, as before the prepared run) and *batched* (``workers``
+    processes, the ladder judged from one prepared run: ``judge_levels``). One row per case and way: scene, engine,
+    way, runs, judged (ladder judgements: a run at each point it was judged at), wall_s, runs_per_s, judged_per_s,
+    and same (the batched case's frontier and answer equal the serial one's, on the batched row). ``finished(row)``
+    as each row is made.
+    """
+    from concurrent.futures import ProcessPoolExecutor
+
+    import pandas as pd
+
+    from .atlas import AtlasSpec, run_case
+    from .tune_ladder import Ladder
+
+    rows = []
+    for scene, engine in cases:
+        spec = AtlasSpec(scenes=(scene,), engines=(engine,), tolerance=0.05, max_runs=max_runs, max_cost=max_cost,
+                         fixed={k: v for k, v in ATLAS_FIXED.items() if k.startswith(engine + ".")})
+        answers = {}
+        for way, n, per_point in (("serial", 1, True), ("batched", workers, False)):
+            with ProcessPoolExecutor(max_workers=n) as pool:
+                start = time.perf_counter()
+                case, table = run_case(spec, scene, engine, executor=pool, per_point=per_point)
+                wall = time.perf_counter() - start
+            n = len(Ladder().points(spec.tolerances()))
+            judged = 0 if table is None else int(sum(points_judged(r, n) for r in table.to_dict("records")))
+            rec = case.get("recommended") or {}
+            answers[way] = json.dumps({k: rec.get(k) for k in ("dt", "settings", "robust", "tightest", "frontier")},
+                                      sort_keys=True, default=str)
+            rows.append({"scene": scene, "engine": engine, "way": way, "runs": case["runs"], "judged": judged,
+                         "wall_s": wall, "runs_per_s": case["runs"] / wall if wall > 0 else math.nan,
+                         "judged_per_s": judged / wall if wall > 0 else math.nan,
+                         "same": None if way == "serial" else answers["batched"] == answers["serial"]})
+            if finished is not None:
+                finished(rows[-1])
+    return pd.DataFrame(rows)
+
+
+def points_judged(row: dict, points: int) -> int:
+    """The ladder points (of ``points``) a tune row was judged at: all but its ``unjudged`` (none for a refused row)."""
+    if row.get("status") == "refused":
+        return 0
+    unjudged = row.get("unjudged")
+    return points - (len(unjudged) if isinstance(unjudged, (tuple, list)) else 0)

@@ -86,7 +86,7 @@ from ..pipeline.tolerances import Tolerances
 from .tune_checks import RATIO_COLUMNS, STRIKE_COLUMNS, check_ratios, describe_failures, judged_margin, strike_summary
 from .tune_frontier import answers, frontier_entries, json_value, tightest, tightest_point
 from .phases import PHASES, phase_solution
-from .tune_ladder import Ladder, judge_levels, margin_at
+from .tune_ladder import Ladder, judge_levels, margin_at, reference_levels
 from .transfer import attach_transfer
 from .tune_grid import FINEST, FLIGHT_STEPS, band_rule, dt_range  # noqa: F401  (tune's names: here too)
 from .tune_search import DT_RATIO, ROBUST_FRACTION, SEARCH_COLUMNS, Grid, agrees, need, round_dt, search
@@ -180,10 +180,11 @@ def short_label(row: dict[str, Any], defaults: dict[str, Any]) -> str:
 
 
 def _evaluate(ref: ReferenceSolution, engine: str, params: dict, points: tuple[Tolerances, ...], asked: int,
-              bounds: list[float] | None = None, ran: tuple | None = None) -> dict[str, Any]:
+              bounds: list[float] | None = None, ran: tuple | None = None, per_point: bool = False) -> dict[str, Any]:
     """Run one candidate, judge it at the asked tolerances ``points[asked]`` and at every ladder point where it can
     still matter (``tune_search.need`` of the search's ``bounds``; all of them for an engine whose steps are not
-    1 / dt); in a worker process. ``ran``: its (trajectory, strikes) already made (``batch_runs``)."""
+    1 / dt); in a worker process. ``ran``: its (trajectory, strikes) already made (``batch_runs``); ``per_point``: the
+    ladder judged one point at a time (``tune_ladder.reference_levels``, the same values: ``bench atlas``'s baseline)."""
     tol = points[asked]
     settings = candidate_settings(engine, params)
     band = "phase" in params  # a band run (``tune_search.Grid.neighbourhood``): the scene started phase x dt later
@@ -194,8 +195,8 @@ def _evaluate(ref: ReferenceSolution, engine: str, params: dict, points: tuple[T
     steps = steps_per_sim_s(engine, settings, run)
     fixed = adapter(engine).cost_lever(settings) == "dt" and math.isfinite(steps)
     judged = need(steps, bounds, asked) if bounds is not None and fixed else range(len(points))
-    levels = judge_levels(ref, engine, settings, run.trajectory, points, known={asked: (run, table, impacts)},
-                          only=judged)
+    levels = (reference_levels if per_point else judge_levels)(ref, engine, settings, run.trajectory, points,
+                                                               known={asked: (run, table, impacts)}, only=judged)
     return {**params, "settings": settings_label(params), **metrics(table), **ratios, **strike_summary(strikes, tol), **levels,
             "failed": describe_failures(table, ratios, tol), "steps_per_sim_s": steps,
             "cost_per_sim_s": run.cost_per_sim_s, "cost_repeats": 1, "status": run.status, "message": run.trajectory.message}
@@ -210,12 +211,13 @@ def _refused(params: dict, exc: Exception) -> dict[str, Any]:
 
 
 def _evaluator(executor: Executor, ref: ReferenceSolution, engine: str, points: tuple[Tolerances, ...], asked: int,
-               batched: bool = False):
+               batched: bool = False, per_point: bool = False):
     """A function running a batch of candidates in parallel, one row each, in order; ``batched``: the candidates'
     runs and strikes made here as one batch of the engine (``batch_runs``), only their judging in parallel."""
     def run_batch(batch: list[dict], stage: str, bounds: list[float] | None = None) -> list[dict]:
         ran = batch_runs(ref, engine, batch, points[asked]) if batched else [None] * len(batch)
-        futures = [r if isinstance(r, InputError) else executor.submit(_evaluate, ref, engine, p, points, asked, bounds, r)
+        futures = [r if isinstance(r, InputError) else executor.submit(_evaluate, ref, engine, p, points, asked, bounds, r,
+                                                                             per_point)
                    for p, r in zip(batch, ran)]  # a refusal of the batch's own checks stands in for its future
         return [{**_row(fut, params), "stage": stage} for fut, params in zip(futures, batch)]
     return run_batch
@@ -342,6 +344,7 @@ def tune(
     phases: tuple[float, ...] = PHASES,
     robust_fraction: float = ROBUST_FRACTION,
     transfer: bool = True,
+    per_point: bool = False,
 ) -> TuneResult:
     """The cheapest robust settings of ``engine`` whose every episode passes within ``tolerance``, and the robust
     frontier over a ladder of tolerances (module docstring).
@@ -383,6 +386,9 @@ def tune(
     transfer : bool
         Recheck the answer and every frontier point on the scene's family (``studies.transfer``: other energies
         and masses, 10 s): ``extra["transfer"]``, each frontier entry's ``transfer``.
+    per_point : bool
+        Judge the ladder one point at a time (``tune_ladder.reference_levels``) instead of from one prepared run
+        (``judge_levels``): the same values, slower; ``bench atlas``'s baseline.
     """
     check_engine(engine)
     tol = tolerance if isinstance(tolerance, Tolerances) else Tolerances(stick=tolerance, exit=tolerance, first_impact=tolerance)
@@ -409,7 +415,7 @@ def tune(
     executor = executor or ProcessPoolExecutor(max_workers=workers)
     try:
         batched = batches_on_device(engine) if batched is None else batched
-        done = search(_evaluator(executor, ref, engine, points, asked, batched), grid, max_runs, tie_band, check_robust,
+        done = search(_evaluator(executor, ref, engine, points, asked, batched, per_point), grid, max_runs, tie_band, check_robust,
                       weight=lambda p: run_weight(scene, p["dt"]), levels=[(p.stick, p.restitution) for p in points],
                       asked=asked, max_cost=max_cost, phases=phases, fraction=robust_fraction)
         result = _result(scene, engine, tol, ref, done, space, grid, points, asked, ladder, batched, started, tie_band,
