@@ -29,7 +29,7 @@ from chatterbench.reference.scene import Scene
 
 from .base import EngineAdapter
 from .impact_lines import judged_by
-from .registry import adapter, available_engines, check_engine
+from .registry import adapter, available_engines, check_engine, plugin_said
 from .settings import SettingsError
 
 
@@ -101,4 +101,4 @@ def model_file(engine: str, scene: Scene, settings: Any, flight_band: float | No
 def measurement(engine: str) -> str:
     """Python that measures one impact's e in the user's own model, with the snippet's placeholders ("" for an
     engine without one)."""
-    return adapter(check_engine(engine)).measurement()
+    return plugin_said(check_engine(engine), "measurement", instead=lambda fault: "", kept="the guide has no measurement")

@@ -25,6 +25,7 @@ import dataclasses
 import importlib
 import importlib.metadata
 import importlib.util
+import warnings
 from dataclasses import dataclass
 from typing import Any, Sequence
 
@@ -232,9 +233,40 @@ def is_plugin(name: str) -> bool:
     return bool(_TABLE[check_engine(name)].plugin)
 
 
+class PluginFault(UserWarning):
+    """A plugin's own reporting code (``version``, ``snippet``) raised: the work around it is kept, the text it could
+    not give is replaced (``engine_version``, ``engine_snippet``), and the command line shows this as a note."""
+
+
+def plugin_said(name: str, method: str, *args: Any, instead: Any, kept: str) -> Any:
+    """``adapter(name).method(*args)``; for a plugin whose method raises, ``instead(fault)`` and a ``PluginFault``
+    warning ``fault; kept`` (``fault``: ``plugin engine 'line': its snippet() raised RuntimeError: ...``). A built-in
+    engine's failure is a bug: raised."""
+    try:
+        return getattr(adapter(name), method)(*args)
+    except Exception as exc:
+        if not is_plugin(name):
+            raise
+        said = " ".join(str(exc).split())
+        fault = f"plugin engine {name!r}: its {method}() raised {type(exc).__name__}" + (f": {said[:200]}" if said else "")
+        warnings.warn(f"{fault}; {kept}", PluginFault, stacklevel=2)
+        return instead(fault)
+
+
 def engine_version(name: str) -> str:
-    """Version string of the engine's Python package."""
-    return adapter(name).version()
+    """Version string of the engine's Python package (``unknown (why)`` for a plugin whose ``version()`` raises)."""
+    return str(plugin_said(name, "version", instead=lambda fault: f"unknown ({fault})",
+                           kept="its version is recorded as unknown"))
+
+
+def engine_snippet(name: str, scene: Scene, settings: Any) -> str:
+    """The engine's snippet of ``settings`` (``EngineAdapter.snippet``); for a plugin whose ``snippet()`` raises, the
+    settings as chatterbench holds them (the base adapter's snippet) under a comment saying so."""
+    def instead(fault: str) -> str:
+        return f"# {fault}; its settings as chatterbench holds them:\n{EngineAdapter.snippet(adapter(name), scene, settings)}"
+
+    return plugin_said(name, "snippet", scene, settings, instead=instead,
+                       kept="its settings are written as chatterbench holds them")
 
 
 @dataclass(frozen=True)

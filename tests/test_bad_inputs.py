@@ -703,6 +703,9 @@ def markdown(shared: Path | None = None) -> str:
         "(`tests/test_bad_inputs.py` checks each). Gate files are the one exception by design: a refused",
         "gate file lists every problem, one per line.",
     ]
+    import test_round_five as round_five  # issue 45, Why 8-12: the file's last section
+
+    out += round_five.markdown_rows(shared)
     return "\n".join(out) + "\n"
 
 

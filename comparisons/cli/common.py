@@ -147,13 +147,22 @@ class _Held(list):
 @contextmanager
 def held_warnings():
     """Hold the warnings raised inside (numpy's ``overflow encountered``, ...) and issue them at the end, unless
-    ``.keep`` was set False: a refused command's one error line is then all it prints."""
+    ``.keep`` was set False: a refused command's one error line is then all it prints. A plugin's fault
+    (``engines.registry.PluginFault``) is a ``chatterbench: note:`` line."""
     held = _Held()
     with warnings.catch_warnings(record=True) as caught:
         yield held
     if held.keep:
+        from chatterbench.engines.registry import PluginFault
+
+        noted = set()
         for w in caught:
-            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno, source=w.source)
+            if issubclass(w.category, PluginFault):  # a plugin's own code failed: one note, the work kept
+                if str(w.message) not in noted:
+                    print(f"chatterbench: note: {one_line(str(w.message))}", file=sys.stderr)
+                noted.add(str(w.message))
+            else:
+                warnings.warn_explicit(w.message, w.category, w.filename, w.lineno, source=w.source)
 
 
 def one_line(message: str) -> str:

@@ -149,6 +149,23 @@ def check_links(option: str, folder: str | Path | None, names: tuple[str, ...]) 
                              f"written through a link in {option}: remove it or choose another {option}")
 
 
+def check_shapes(option: str, folder: str | Path | None, files: Sequence[str] = (), folders: Sequence[str] = ()) -> None:
+    """Refuse (``UsageError``) an output folder where a file the command writes (``files``) is a directory, or a
+    folder it writes into (``folders``) is something else: found before the work, not at its last write."""
+    if folder is None:
+        return
+    for name in files:
+        path = Path(folder, name)
+        if path.is_dir() and not path.is_symlink():
+            raise UsageError(f"{option} {folder}: {path} is a directory where the command writes the file {name}; "
+                             f"remove it or choose another {option}")
+    for name in folders:
+        path = Path(folder, name)
+        if (path.exists() or path.is_symlink()) and not path.is_dir():
+            raise UsageError(f"{option} {folder}: {path} is a file where the command writes the folder {name}/; "
+                             f"remove it or choose another {option}")
+
+
 def write_error(exc: OSError, under: str | Path | None = None) -> str:
     """One line for an OSError met while writing (a full disk, a permission taken away).
 

@@ -26,7 +26,7 @@ from .commands import COMMANDS
 from .common import (UsageError, add_budget, add_out, add_scene, add_set, add_tolerance, budget_of, local_workers,
                      engine_list, integer_type, parse_tolerances, positive_float, positive_int, print_table,
                      load_noted, split_overrides)
-from .paths import check_dir, check_links, writing
+from .paths import check_dir, check_links, check_shapes, writing
 from .progress import CountingExecutor, Progress, waited_s
 
 SHOW = ["stage", "settings", "verdict", "robust", "neighbourhood", "worst_ratio", "failed", "steps_per_sim_s",
@@ -53,6 +53,9 @@ def cmd_tune(args: argparse.Namespace) -> int:
     if strangers:
         raise UsageError(f"--set {strangers[0]}: its engine is not among --engines {args.engines}")
     check_links("--out", args.out, (*WRITTEN, *engines))  # a link planted in DIR: refused before the search
+    sets = [""] if len(engines) == 1 else [f"{e}/" for e in engines]  # where each engine's set of files goes
+    check_shapes("--out", args.out, files=[*WRITTEN, *(f"{s}{name}" for s in sets for name in WRITTEN)],
+                 folders=[*engines, *(f"{s}frontier" for s in sets)])  # and a folder in a file's place, or the reverse
     scene = load_noted(args.scene, scene_over)
     tol = parse_tolerances(args.tolerance)
     budget = budget_of(args)  # the reference, then the finest candidate of each engine, before any run
@@ -98,6 +101,18 @@ def recommended_files(engines: list[str]) -> tuple[str, ...]:
     """The ``recommended.json`` files of a tune of ``engines``, relative to DIR: moved in after the rest of the set
     (``atomic.staged``), so that their presence says the guide beside them is the same tune's."""
     return ("recommended.json",) if len(engines) == 1 else tuple(f"{e}/recommended.json" for e in engines)
+
+
+MAX_COST_CAP = 1e12  # [steps per simulated s] a dt of 1e-12 s: finer than any run the step budget lets a scene take
+
+
+def cost_cap(text: str) -> float:
+    """``--max-cost``: a number in (0, MAX_COST_CAP] (a larger cap caps nothing; before, 1e308 was printed in full)."""
+    value = positive_float(text)
+    if value > MAX_COST_CAP:
+        raise argparse.ArgumentTypeError(f"{text!r}: must be in (0, {MAX_COST_CAP:g}] steps per simulated second "
+                                         "(a larger cap caps nothing: leave --max-cost out)")
+    return value
 
 
 def fraction_type(text: str) -> float:
@@ -200,7 +215,7 @@ def register(sub, formatter) -> None:
     p.add_argument("--max-runs", type=integer_type(1, 100_000), default=MAX_RUNS,
                    help="the search's budget: runs of up to 100,000 engine steps, a longer run counting as its steps / "
                         "100,000 (a neighbourhood once begun is completed)")
-    p.add_argument("--max-cost", type=positive_float, default=math.inf, metavar="STEPS_PER_S",
+    p.add_argument("--max-cost", type=cost_cap, default=math.inf, metavar="STEPS_PER_S",
                    help="a cap on the cost: no candidate of more engine steps per simulated second (1 / dt) is run or "
                         "answered (its dt x 0.8 neighbour still checks it); default: none")
     p.add_argument("--robust-fraction", type=fraction_type, default=ROBUST_FRACTION, metavar="F",

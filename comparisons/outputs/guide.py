@@ -42,7 +42,7 @@ from chatterbench.comparisons.studies.tune_answer import (FRAME_COLUMNS, fragile
                                                            searched_text, transfer_lines)
 from chatterbench.comparisons.studies.tune_checks import CHECKS, strike_summary
 from chatterbench.engines.export import export_files_names, measurement
-from chatterbench.engines.registry import adapter
+from chatterbench.engines.registry import engine_snippet
 
 from .figures import figure_bytes
 from .frontier_chart import frontier_figure
@@ -87,7 +87,7 @@ def snippet(result) -> str:
     from chatterbench.comparisons.studies.tune_evidence import chosen_settings
 
     settings = chosen_settings(result)
-    return "" if settings is None else adapter(result.engine).snippet(result.scene, settings)
+    return "" if settings is None else engine_snippet(result.engine, result.scene, settings)
 
 
 def _check_text(engine: str) -> str:

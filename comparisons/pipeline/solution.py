@@ -16,7 +16,8 @@ duration for a visit that starts in contact). Run-wide: the largest relative kin
 width; for a one-sided gap the largest distance from the wall the reference reaches).
 
 Promises: ``solve`` refuses (SceneError) a scene whose reference stops before its end (the
-engines are never judged against an unfinished reference); its exhaustive impacts are kept
+engines are never judged against an unfinished reference) or moves faster than light (``SPEED_OF_LIGHT``: the
+impact law has no meaning there, and the energy's square would overflow); its exhaustive impacts are kept
 (``impacts``) so that individual impacts can be judged.
 """
 
@@ -31,7 +32,7 @@ import numpy as np
 import pandas as pd
 
 from chatterbench.reference.dense import sample
-from chatterbench.reference.scene import Scene, SceneError
+from chatterbench.reference.scene import SPEED_OF_LIGHT, Scene, SceneError, fastest_push
 from chatterbench.reference.simulate import Result, simulate
 
 EPISODE_COLUMNS = [
@@ -152,6 +153,11 @@ def solve(scene: Scene) -> ReferenceSolution:
     impacts = exhaustive.log[exhaustive.log["kind"] == "impact"]
     episodes = _join(feigin.episodes, exhaustive.episodes, impacts)
     v_dense, reach = _dense_maxima(scene, exhaustive)
+    if not v_dense < SPEED_OF_LIGHT:  # also keeps v_dense**2 below: a float's square overflows past 1.3e154
+        push, acceleration = fastest_push(scene)
+        raise SceneError(f"scene {scene.name!r}: the reference's |y'| reaches {v_dense:.3g} m/s, faster than light "
+                         f"(speeds must stay below c = {SPEED_OF_LIGHT:.0f} m/s: Newton's impact law has no meaning past "
+                         f"it); the hardest push is {push}, {acceleration:.3g} m/s^2 on y: make it smaller")
     strikes = impacts["v_minus"].abs()
     v_max = float(strikes.max()) if len(strikes) else abs(scene.initial.vy)
     gap = scene.gap

@@ -14,8 +14,8 @@ Promises (each one a refusal, ``TableFileError``, in one line that names the fil
   refused by its kind, never read and never waited on (the pipe is opened without blocking);
 - nothing past ``MAX_TABLE_BYTES`` is read, the decompressed size of a ``.gz``, ``.bz2`` or
   ``.xz`` file included: it is decompressed as a stream and refused where it passes the limit
-  (a gzip bomb stops there), and a Parquet file's footer (its row count and uncompressed
-  size) is read before its data;
+  (a gzip bomb stops there), and a Parquet file's footer (its row count, at most ``MAX_TABLE_ROWS``,
+  and uncompressed size) is read before its data;
 - a CSV is UTF-8 text: a NUL byte (a sparse file is all NULs) or a line longer than
   ``MAX_LINE_BYTES`` is refused where it is found, before pandas sees the file;
 - only the empty cell and ``nan`` (any case) are missing values; any other text, "n/a" or
@@ -45,6 +45,7 @@ from chatterbench.reference.errors import InputError
 from chatterbench.reference.tables import printable
 
 MAX_TABLE_BYTES = 256 * 2**20  # [bytes] of table data, decompressed: about 2 million samples of 7 full-precision columns
+MAX_TABLE_ROWS = 2**21  # samples of a Parquet file, from its footer: as many as a CSV within MAX_TABLE_BYTES holds
 MAX_LINE_BYTES = 2**20  # [bytes] of one CSV line (a real one holds a few hundred)
 PARQUET = (".parquet", ".pq")
 _STREAMS = {".gz": lambda f: gzip.GzipFile(fileobj=f, mode="rb"), ".bz2": lambda f: bz2.BZ2File(f, "rb"),
@@ -148,6 +149,9 @@ def _read_parquet(fd: int, shown: str, columns: Sequence[str] | None) -> pd.Data
             pf = pq.ParquetFile(f)
             meta = pf.metadata
             size = sum(meta.row_group(i).total_byte_size for i in range(meta.num_row_groups))
+            if meta.num_rows > MAX_TABLE_ROWS:  # the sizes a footer states can be small (a column of one value)
+                raise TableFileError(f"trajectory {shown}: {meta.num_rows} rows (its footer), more than {MAX_TABLE_ROWS}, "
+                                     "the most a trajectory file may hold; write fewer samples (every k-th step)")
             if size > MAX_TABLE_BYTES:
                 raise _too_big(shown, f"{meta.num_rows} rows, {size / 2**20:.0f} MiB uncompressed: ")
             names = [str(n) for n in pf.schema_arrow.names]

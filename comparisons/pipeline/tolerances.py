@@ -37,13 +37,15 @@ from dataclasses import dataclass
 from typing import Any, Iterable, Mapping
 
 from chatterbench.reference.errors import InputError, check_integer, check_number, did_you_mean
-from chatterbench.reference.scene import split_assignment
+from chatterbench.reference.scene import TIME_RESOLUTION, split_assignment
 
 
 class ToleranceError(InputError):
     """A tolerance that is unknown or out of range; the message names it and what is allowed."""
 
 
+# the smallest fraction tolerance: the scene's times resolve to 1 / TIME_RESOLUTION of a run (reference/scene.py)
+MIN_FRACTION = 1.0 / TIME_RESOLUTION
 _FRACTIONS = ("stick", "exit", "first_impact", "restitution", "penetration", "persistence")
 
 
@@ -66,7 +68,10 @@ class Tolerances:
     def __post_init__(self) -> None:
         err = ToleranceError
         for name in _FRACTIONS:
-            check_number(f"tolerance {name}", getattr(self, name), lo=0.0, hi=1.0, lo_open=True, error=err)
+            value = check_number(f"tolerance {name}", getattr(self, name), lo=0.0, hi=1.0, lo_open=True, error=err)
+            if value < MIN_FRACTION:
+                raise err(f"tolerance {name} = {value!r}: must be in (0, 1] and at least {MIN_FRACTION:g} (event "
+                          f"times resolve to {MIN_FRACTION:g} of a run, TIME_RESOLUTION: a finer tolerance judges rounding)")
         check_number("tolerance resolved_steps", self.resolved_steps, lo=1.0, lo_open=True, hi=1e6, error=err)
         check_number("tolerance energy_gain", self.energy_gain, lo=0.0, lo_open=True, hi=1e6, error=err)
         check_integer("tolerance impact_count", self.impact_count, lo=0, hi=10**9, error=err)
@@ -133,8 +138,12 @@ def make_tolerances(values: Mapping[str, Any] | None = None, base: Tolerances | 
 
 def tolerance_values(items: Iterable[str]) -> dict[str, Any]:
     """The values ``--tolerance`` items give, by key (validated: unknown keys and bad values are refused);
-    a bare number stands for the timing tolerances (stick, exit, first_impact) at once."""
+    a bare number stands for the timing tolerances (stick, exit, first_impact) at once.
+
+    Each key gets one value: two items that set it to two values (``stick=0.3`` and a bare ``0.2``, or two bare
+    numbers) are refused naming both, whatever their order (before, the last one won without a word)."""
     values: dict[str, Any] = {}
+    given: dict[str, str] = {}  # key -> the item that set it
     for item in items:
         text = str(item).strip()
         if "=" not in text:
@@ -143,10 +152,17 @@ def tolerance_values(items: Iterable[str]) -> dict[str, Any]:
             except ValueError:
                 raise ToleranceError(f"--tolerance {text!r}: expected KEY=VALUE with KEY one of {', '.join(TOLERANCE_KEYS)}, "
                                      "or one number for stick, exit and first_impact together") from None
-            values.update({k: number for k in TIMING_KEYS})
-            continue
-        key, value = split_assignment(text)
-        values[key] = value
+            pairs = {k: number for k in TIMING_KEYS}
+        else:
+            key, value = split_assignment(text)
+            pairs = {key: value}
+        for key, value in pairs.items():
+            if key in values and values[key] != value:
+                both = " and ".join(f"--tolerance {t}" + ("" if "=" in t else f" (sets {', '.join(TIMING_KEYS)})")
+                                    for t in (given[key], text))
+                raise ToleranceError(f"{both}: two values for {key}; give each tolerance once (a bare number, or "
+                                     f"{', '.join(f'{k}=' for k in TIMING_KEYS)} each)")
+            values[key], given[key] = value, text
     make_tolerances(values, where="--tolerance")
     return values
 

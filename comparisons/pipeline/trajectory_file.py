@@ -26,7 +26,8 @@ Refused (``TrajectoryError``, one line naming the column and the row as a user c
 the first data row is row 1, on line 2 of a CSV): a missing column, a cell that is not a
 number (its text shown), times that do not increase strictly or leave the scene's time span,
 a NaN or inf before the last rows, fewer than two samples, a body 1 that the scene fixes or
-prescribes moving elsewhere (by more than the penetration allowance). Non-finite values in the
+prescribes moving elsewhere, a first sample away from the scene's state at that time (``check_start``: each by more
+than the penetration allowance; a contact skin of millimetres passes). Non-finite values in the
 last rows only end the run there: it is judged as ``diverged`` from that time (a blow-up, not
 bad input). Files are read bounded and by kind (``table_file.py``).
 """
@@ -43,6 +44,7 @@ import numpy as np
 import pandas as pd
 
 from chatterbench.engines.trajectory import Trajectory
+from chatterbench.reference.dense import sample
 from chatterbench.reference.errors import InputError
 from chatterbench.reference.scene import Scene, load_scene
 
@@ -102,7 +104,11 @@ def _numbers(table: TableFile, columns: list[str], where: str) -> dict[str, np.n
     data = {}
     for c in columns:
         raw = table.frame[c]
-        values = pd.to_numeric(raw, errors="coerce").to_numpy(dtype=float)
+        # true/false is no number: pandas reads a CSV column of "True"/"False" as booleans, which to_numeric makes 1/0
+        truth = (np.ones(len(raw), dtype=bool) if pd.api.types.is_bool_dtype(raw) else
+                 raw.map(lambda v: isinstance(v, (bool, np.bool_))).to_numpy(dtype=bool) if raw.dtype == object else
+                 np.zeros(len(raw), dtype=bool))
+        values = np.where(truth, np.nan, pd.to_numeric(raw.where(~truth), errors="coerce").to_numpy(dtype=float))
         text = raw.notna().to_numpy() & np.isnan(values)
         if text.any():
             k = int(np.argmax(text))
@@ -226,6 +232,23 @@ def check_body1(scene: Scene, traj: Trajectory, allowance: float, where: str = "
                               f"allowed: the penetration allowance, {allowance:.3g} m): it did not run this scene")
 
 
+def check_start(ref: ReferenceSolution, traj: Trajectory, allowance: float, where: str = "trajectory") -> None:
+    """The file's first sample where the scene's reference is at that time: y = x2 - x1 (and x1 where body 1 moves
+    under forces) within ``allowance`` [m], the penetration allowance: a contact skin (millimetres) passes, a file
+    that started elsewhere (the ball 300 mm higher) did not run this scene."""
+    scene, t0 = ref.scene, float(traj.t[0])
+    at = sample(scene, ref.exhaustive.log, [t0]).iloc[0]
+    x1, x2 = float(traj.x1[0]), float(traj.x2[0])
+    pairs = [("y = x2 - x1", x2 - x1, float(at["y"]))]
+    if not scene.body1_infinite:  # a fixed or prescribed body 1 is check_body1's
+        pairs.append(("x1", x1, float(at["x1"])))
+    for name, got, want in pairs:
+        if math.isfinite(allowance) and math.isfinite(got) and not abs(got - want) <= allowance:
+            raise TrajectoryError(f"{where}: the first sample, t = {t0:.6g} s, has {name} = {got:.6g} m where the scene's "
+                                  f"run has {want:.6g} m, {abs(got - want):.3g} m away (allowed: the penetration "
+                                  f"allowance, {allowance:.3g} m): it did not run this scene")
+
+
 def judge_trajectory(scene: Scene | str | Path, table_or_path: str | Path | pd.DataFrame, engine: str = "engine",
                      tol: Tolerances | None = None, solution: ReferenceSolution | None = None,
                      options: ExtractionOptions | None = None, version: str = "",
@@ -244,8 +267,9 @@ def judge_trajectory(scene: Scene | str | Path, table_or_path: str | Path | pd.D
     read = read_trajectory(table_or_path, scene, engine, precision)
     traj = read.trajectory
     ref = solution if solution is not None else solve(scene)
-    check_body1(scene, traj, tol.penetration * ref.length_scale,
-                "trajectory" if read.source == "table" else f"trajectory {read.source}")
+    where = "trajectory" if read.source == "table" else f"trajectory {read.source}"
+    check_body1(scene, traj, tol.penetration * ref.length_scale, where)
+    check_start(ref, traj, tol.penetration * ref.length_scale, where)
     options = options or ExtractionOptions(
         jump_atol=max(ExtractionOptions().jump_atol, float(np.max(rounding(read.precision, traj.v1, traj.v2)))),
         position_rounding=float(np.max(rounding(read.precision, traj.x1, traj.x2))) / ROUNDING)

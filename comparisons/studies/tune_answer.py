@@ -137,9 +137,9 @@ def point_folder(tolerances: dict[str, float]) -> str:
 def point_snippet(engine: str, scene, dt: float, settings: dict[str, Any]) -> str:
     """What a user pastes for ``settings`` at ``dt`` (the engine's snippet: MJCF for MuJoCo with solref and solimp,
     Python for PyBullet with every call): every value typed, none derived by hand; "" for an engine without one."""
-    from chatterbench.engines.registry import adapter, make_settings
+    from chatterbench.engines.registry import engine_snippet, make_settings
 
-    return adapter(engine).snippet(scene, make_settings(engine, float(dt), dict(settings)))
+    return engine_snippet(engine, scene, make_settings(engine, float(dt), dict(settings)))
 
 
 def point_record(result: TuneResult, entry: dict[str, Any]) -> dict[str, Any]:

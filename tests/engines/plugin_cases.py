@@ -22,7 +22,9 @@ without ``dt``), ``plain`` (settings not a dataclass), ``nostep`` (``build`` wit
 loading: ``crash_load`` (SIGSEGV), ``exit_load`` (``os._exit(0)``), ``hang_load`` (sleeps); and the
 other hostile entries of issue 34: ``nomodule`` (its module not installed), ``noclass``,
 ``nocolon`` (entry points naming no class), ``unchecked`` (any ``dt`` accepted), ``misnamed`` (an
-adapter calling itself ``other``), ``backwards`` (a whole-run adapter whose times go back).
+adapter calling itself ``other``), ``backwards`` (a whole-run adapter whose times go back); and two that run
+but whose reporting raises (issue 45): ``badversion`` (``version()``) and ``badsnippet`` (``snippet()``), the
+``line`` engine otherwise.
 And three pythons for Siconos's child (``$CHATTERBENCH_SICONOS_PYTHON``) that need no Siconos:
 one whose child never answers, one whose child writes garbage until its pipe is full, one that
 answers the probe with bytes that are not UTF-8.
@@ -108,6 +110,13 @@ _BACKWARDS = ("class Engine(EngineAdapter):\n    name, package, settings_type = 
               "        zero = np.zeros(run.n + 1)\n"
               "        run.add(t, {w: zero for w in run.scene.gap.walls}, y=zero + run.scene.initial.y, vy=zero)\n")
 
+# the README's engine (``line``, installed beside it) with one of its reporting methods raising: the run is fine, the
+# report of it is the plugin's own code that fails
+_LINE_CHILD = ("from cbtest_line import LineEngine\n\n\nclass Engine(LineEngine):\n"
+               "    name, package = {name!r}, 'cbtest-{name}'\n\n"
+               "    def tuning_space(self, scene):\n        return {{'dt': (1e-3, 3e-4)}}\n\n"
+               "    def {method}:\n        raise RuntimeError('this plugin cannot say')\n")
+
 PLUGINS = {  # engine name -> module source (the module is cbtest_NAME, the class Engine; None: no module written)
     "line": "",  # the README's engine (_line_engine), written when installed; its class is LineEngine
     "broken_import": "import chatterbench_no_such_dependency  # noqa: F401\n" + _HEAD + _SETTINGS + _adapter("broken_import"),
@@ -125,8 +134,10 @@ PLUGINS = {  # engine name -> module source (the module is cbtest_NAME, the clas
     "unchecked": _HEAD + "@dataclass(frozen=True)\nclass Settings:\n    dt: float = 1e-3\n\n\n" + _adapter("unchecked"),
     "misnamed": _HEAD + _SETTINGS + _adapter("other"),
     "backwards": _HEAD + _SETTINGS + _BACKWARDS,
+    "badversion": _LINE_CHILD.format(name="badversion", method="version(self)"),
+    "badsnippet": _LINE_CHILD.format(name="badsnippet", method="snippet(self, scene, settings)"),
 }
-LOADING = ("line", "backwards")  # the plugins that load (their faults are in their runs); every other one is broken
+LOADING = ("line", "backwards", "badversion", "badsnippet")  # the plugins that load (their faults are in their runs); every other one is broken
 ENTRIES = {"line": "cbtest_line:LineEngine", "noclass": "cbtest_noclass:Missing", "nocolon": "cbtest_nocolon"}
 
 
@@ -237,6 +248,18 @@ CASES = [
          ["run", "bouncing-ball", "--engines", "siconos"], 2, ("not UTF-8",), {ENV: "./" + NOT_UTF8}),
 ]
 
+# issue 45, Why 9: a plugin's reporting code that raises, where the work around it is done (docs/bad-inputs.md shows
+# these under "Round five", tests/test_round_five.py)
+ROUND_FIVE = [
+    Case("plugin-version-raises", "a plugin whose version() raises (before: compare ended in its traceback)",
+         ["compare", "bouncing-ball", "--engines", "badversion,pybullet", "--set", "duration=0.5"], 0,
+         ("badversion", "version() raised RuntimeError", "recorded as unknown")),
+    Case("plugin-snippet-raises", "a plugin whose snippet() raises (before: tune --out ended in its traceback after the "
+         "whole search, nothing written)", ["tune", "bouncing-ball", "--engines", "badsnippet", "--set", "duration=0.5",
+                                            "--max-runs", "4", "--repeats", "1", "--out", "tuned"], 1,
+         ("badsnippet", "snippet() raised RuntimeError", "as chatterbench holds them")),
+]
+
 
 def run_case(case: Case, folder: str | Path, timeout: float = 300) -> subprocess.CompletedProcess:
     """``chatterbench ARGV`` in a fresh python that has the plugins of ``folder`` installed, run in ``folder`` (the
@@ -254,7 +277,7 @@ def outcomes() -> dict[str, subprocess.CompletedProcess]:
     folder = install(tempfile.mkdtemp(prefix="cbtest-site-"))
     atexit.register(shutil.rmtree, folder, ignore_errors=True)
     with ThreadPoolExecutor(max_workers=3) as pool:  # the cases mostly wait (limits, imports): overlap them
-        done = dict(zip((c.id for c in CASES), pool.map(lambda c: run_case(c, folder), CASES)))
+        done = dict(zip((c.id for c in CASES + ROUND_FIVE), pool.map(lambda c: run_case(c, folder), CASES + ROUND_FIVE)))
     return done
 
 

@@ -19,7 +19,7 @@ import pytest
 from shared_runs import made_once, session_folder  # noqa: F401  (session_folder: tests/test_bad_inputs.py's too)
 
 import plugin_cases
-from plugin_cases import CASES, install, outcomes, run_case, said
+from plugin_cases import CASES, ROUND_FIVE, install, outcomes, run_case, said
 
 
 @functools.cache
@@ -40,7 +40,7 @@ def site(tmp_path_factory):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("case", CASES, ids=[c.id for c in CASES])
+@pytest.mark.parametrize("case", CASES + ROUND_FIVE, ids=[c.id for c in CASES + ROUND_FIVE])
 def test_a_broken_or_faulty_plugin_is_one_line_or_one_row(case, tmp_path_factory):
     # every case run once, with every plugin installed (shared with docs/bad-inputs.md: in this process, or in the
     # worker that ran them first)
@@ -60,6 +60,13 @@ def test_a_broken_or_faulty_plugin_is_one_line_or_one_row(case, tmp_path_factory
         assert rows["pybullet"][header.index("status")] == "ok"
         assert rows["pybullet"][header.index("verdict")] == "buzz"
         assert rows["line"][header.index("status")] == "crashed"
+    if case.id == "plugin-version-raises":  # issue 45: both runs judged and shown; the fault a note, not a traceback
+        summary = done.stdout.split("summary:")[1].splitlines()
+        header = summary[1].split()
+        rows = {r.split()[0]: r.split() for r in summary[2:] if r.strip()}
+        assert rows["badversion"][header.index("status")] == "ok" and rows["pybullet"][header.index("status")] == "ok"
+    if case.id == "plugin-snippet-raises":  # issue 45: the search's files written, the snippet the settings as held
+        assert "wrote under tuned: recommended.json, guide.md" in done.stdout, done.stdout[-2000:]
 
 
 @pytest.mark.slow
