@@ -99,17 +99,29 @@ def case_dir(out: Path, scene: str, engine: str) -> Path:
 
 
 def done_cases(out: Path) -> dict[tuple[str, str], dict[str, Any]]:
-    """The finished cases under ``out``: (scene, engine) -> case.json, read following no link out of ``out``."""
+    """The finished cases under ``out``: (scene, engine) -> case.json. A link anywhere under ``cases/`` is refused by
+    name (an atlas folder holds its own files; a read never follows one out of it)."""
     found = {}
     root = out / "cases"
-    if not root.is_dir() or root.is_symlink():
+    _no_link(root)
+    if not root.is_dir():
         return found
-    for scene_dir in sorted(p for p in root.iterdir() if p.is_dir() and not p.is_symlink()):
-        for engine_dir in sorted(p for p in scene_dir.iterdir() if p.is_dir() and not p.is_symlink()):
+    for scene_dir in sorted(root.iterdir()):
+        _no_link(scene_dir)
+        if not scene_dir.is_dir():
+            continue
+        for engine_dir in sorted(scene_dir.iterdir()):
+            _no_link(engine_dir)
             path = engine_dir / CASE_FILE
-            if path.is_file() and not path.is_symlink():
+            _no_link(path)
+            if engine_dir.is_dir() and path.is_file():
                 found[(scene_dir.name, engine_dir.name)] = read_case(path)
     return found
+
+
+def _no_link(path: Path) -> None:
+    if path.is_symlink():
+        raise AtlasError(f"{path}: a link; an atlas folder holds its own files, and no read follows a link out of it")
 
 
 def read_case(path: Path) -> dict[str, Any]:

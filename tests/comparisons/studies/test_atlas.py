@@ -1,0 +1,205 @@
+"""`chatterbench atlas` as a user runs it: a small atlas (2 scenes x 2 engines, knobs held, dt capped), killed and
+resumed without losing a finished case, the same tables through a real Dask cluster, and the report's atlas section;
+the tables' known answers both ways."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from chatterbench.comparisons.cli.main import main
+from chatterbench.comparisons.outputs.atlas_files import atlas_frame, atlas_table_markdown, frontier_frame
+from chatterbench.comparisons.outputs.atlas_section import packaged_atlas, read_atlas, version_notes
+from helpers import wait_until
+
+SMALL = ["bouncing-ball", "impact-damper", "--engines", "pybullet,mujoco", "--max-runs", "40", "--max-cost", "300",
+         "--set", "pybullet.restitution_velocity_threshold=0.1", "--set", "pybullet.num_solver_iterations=50",
+         "--set", "mujoco.integrator=euler", "--set", "mujoco.impedance=0.9", "--set", "mujoco.w0_dt=0.3"]
+TIMED = ["wall_s"]  # the only columns a rerun may change
+
+
+def _tables(out: Path) -> tuple[pd.DataFrame, pd.DataFrame]:
+    atlas = pd.read_parquet(out / "atlas.parquet").drop(columns=TIMED)
+    key = ["scene", "engine"]
+    return (atlas.sort_values(key).reset_index(drop=True),
+            pd.read_parquet(out / "frontier.parquet").sort_values([*key, "stick", "restitution"]).reset_index(drop=True))
+
+
+@pytest.fixture(scope="module")
+def small_atlas(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("atlas") / "small"
+    assert main(["atlas", *SMALL, "--workers", "2", "--out", str(out)]) == 0
+    return out
+
+
+# -- known answers of the tables ------------------------------------------------------------------------------------
+
+def _case(scene: str, engine: str, robust: bool, frontier: list[dict] | None = None, status: str = "ok") -> dict:
+    if status != "ok":
+        return {"scene": scene, "engine": engine, "status": status, "message": "RuntimeError: boom", "wall_s": 2.0,
+                "runs": 0, "engine_version": "1"}
+    frontier = frontier or []
+    return {"scene": scene, "engine": engine, "status": "ok", "message": "", "wall_s": 10.0, "runs": 100,
+            "engine_version": "1",
+            "recommended": {"robust": robust, "dt": 0.002, "settings": {f"{engine}.knob": 0.1},
+                            "cost_steps_per_s": 500.0, "written_tolerances": {"stick": 0.05, "restitution": 0.05},
+                            "persistence": {"open_fraction": 0.0, "onsets_per_s": 0.0},
+                            "tightest": {"stick": min((e["tolerances"]["stick"] for e in frontier), default=None),
+                                         "restitution": min((e["tolerances"]["restitution"] for e in frontier),
+                                                            default=None)},
+                            "frontier": frontier}}
+
+
+def _point(stick: float, restitution: float, cost: float) -> dict:
+    return {"tolerances": {"stick": stick, "restitution": restitution}, "dt": 1 / cost, "settings": {},
+            "cost_steps_per_s": cost, "margin": 0.5, "checked": {"runs": 70, "passed": 1.0},
+            "persistence": {"open_fraction": 0.0, "onsets_per_s": 0.0}}
+
+
+def test_the_atlas_table_says_what_each_case_reached_and_nothing_more():
+    robust = _case("bouncing-ball", "pybullet", True, [_point(0.05, 0.05, 500.0), _point(0.01, 0.02, 900.0)])
+    fragile = _case("bouncing-ball", "mujoco", False, [])  # nothing robust anywhere: no written setting
+    failed = _case("bouncing-ball", "drake", False, status="failed")
+    table = atlas_frame([robust, fragile, failed]).set_index("engine")
+    assert table.loc["pybullet", "robust_at_asked"] and table.loc["pybullet", "tightest_stick"] == 0.01
+    assert table.loc["pybullet", "frontier_points"] == 2 and table.loc["pybullet", "cost_steps_per_s"] == 500.0
+    assert not table.loc["mujoco", "robust_at_asked"] and pd.isna(table.loc["mujoco", "tightest_stick"])
+    assert table.loc["mujoco", "written"] == "" and pd.isna(table.loc["mujoco", "cost_steps_per_s"])
+    assert table.loc["drake", "status"] == "failed" and "boom" in table.loc["drake", "message"]
+    assert len(frontier_frame([robust, fragile, failed])) == 2
+
+
+def test_names_from_a_case_are_escaped_in_the_markdown():
+    hostile = _case("<img src=http://198.51.100.7/b.png>\n## INJ", "pybullet", True, [_point(0.05, 0.05, 500.0)])
+    text = atlas_table_markdown(atlas_frame([hostile]))
+    assert re.search(r"(?<!\\)<", text) is None and "\n## INJ" not in text and "\\<img" in text
+
+
+# -- the command ----------------------------------------------------------------------------------------------------
+
+@pytest.mark.slow
+def test_a_small_atlas_writes_its_cases_tables_and_charts(small_atlas):
+    out = small_atlas
+    for name in ("atlas.json", "atlas.csv", "atlas.parquet", "frontier.csv", "frontier.parquet", "atlas.md",
+                 "figures/overview.png", "figures/frontier-bouncing-ball.png", "figures/frontier-impact-damper.png"):
+        assert (out / name).is_file(), name
+    atlas, frontier = _tables(out)
+    assert len(atlas) == 4 and set(atlas["status"]) == {"ok"}
+    assert (frontier.groupby(["scene", "engine"]).size().reindex(pd.MultiIndex.from_frame(atlas[["scene", "engine"]]),
+                                                                 fill_value=0).to_numpy()
+            == atlas["frontier_points"].to_numpy()).all()
+    ball = atlas.set_index(["scene", "engine"]).loc[("bouncing-ball", "pybullet")]
+    # under 300 steps/s PyBullet's ball reaches a band-robust point (its tune found stick 10%, restitution 5% at 243)
+    assert ball["tightest_stick"] <= 0.1 and ball["open_fraction"] <= 0.01
+    provenance = json.loads((out / "atlas.json").read_text())
+    assert provenance["versions"]["pybullet"] and provenance["command"].startswith("chatterbench atlas")
+
+
+@pytest.mark.slow
+def test_the_cheapest_robust_point_matches_in_a_fresh_compare(small_atlas):
+    # the other way round from the atlas: its point, pasted into `compare` at its own tolerances, passes
+    case = json.loads((small_atlas / "cases" / "bouncing-ball" / "pybullet" / "case.json").read_text())
+    point = case["recommended"]["frontier"][0]
+    settings = [w for k, v in point["settings"].items() for w in ("--set", f"{k}={v}")]
+    tolerances = [w for k in ("stick", "exit", "first_impact", "restitution")
+                  for w in ("--tolerance", f"{k}={point['tolerances'][k]!r}")]
+    words = [sys.executable, "-m", "chatterbench.comparisons.cli", "compare", "bouncing-ball", "--engines", "pybullet",
+             "--dt", repr(point["dt"]), *settings, *tolerances]
+    done = subprocess.run(words, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0 and "match" in done.stdout, done.stdout + done.stderr
+
+
+@pytest.mark.slow
+def test_a_killed_atlas_resumes_keeping_every_finished_case(tmp_path, small_atlas):
+    out = tmp_path / "killed"
+    proc = subprocess.Popen([sys.executable, "-m", "chatterbench.comparisons.cli", "atlas", *SMALL, "--workers", "1",
+                             "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    first = out / "cases" / "bouncing-ball" / "pybullet" / "case.json"
+    wait_until(lambda: first.is_file() or proc.poll() is not None, "the atlas finished no case", limit=600)
+    assert proc.poll() is None, proc.communicate()
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    kept = first.read_bytes()
+    assert not (out / "atlas.parquet").exists()  # killed before the end
+    assert main(["atlas", *SMALL, "--workers", "2", "--out", str(out)]) == 0
+    assert first.read_bytes() == kept  # the finished case was not run again
+    assert json.loads((out / "atlas.json").read_text())["resumed"]
+    for mine, whole in zip(_tables(out), _tables(small_atlas)):
+        pd.testing.assert_frame_equal(mine, whole)
+
+
+@pytest.mark.slow
+def test_an_atlas_on_a_dask_cluster_gives_the_local_tables(tmp_path, cluster, small_atlas):
+    address, _ = cluster
+    out = tmp_path / "on-cluster"
+    done = subprocess.run([sys.executable, "-m", "chatterbench.comparisons.cli", "atlas", *SMALL, "--dask", address,
+                           "--out", str(out)], capture_output=True, text=True, timeout=900)
+    assert done.returncode == 0, done.stderr[-3000:]
+    for mine, local in zip(_tables(out), _tables(small_atlas)):
+        pd.testing.assert_frame_equal(mine, local)
+
+
+@pytest.mark.slow
+def test_another_search_in_the_same_folder_is_refused(small_atlas, tmp_path, capsys):
+    out = tmp_path / "copy"
+    shutil.copytree(small_atlas, out)
+    assert main(["atlas", *SMALL, "--tolerance", "0.1", "--out", str(out)]) == 2
+    assert "another search" in capsys.readouterr().err
+
+
+# -- the report's section -------------------------------------------------------------------------------------------
+
+@pytest.mark.slow
+def test_the_report_shows_an_atlas_and_says_when_versions_differ(small_atlas, tmp_path):
+    same = read_atlas(small_atlas)
+    assert same.version_notes == () and len(same.cases) == 4
+    moved = tmp_path / "moved"
+    shutil.copytree(small_atlas, moved)
+    spec = json.loads((moved / "atlas.json").read_text())
+    spec["versions"]["pybullet"] = "0.0.1"
+    (moved / "atlas.json").write_text(json.dumps(spec))
+    out = tmp_path / "report"
+    assert main(["report", "bouncing-ball", "--engines", "pybullet", "--atlas", str(moved), "--out", str(out)]) == 0
+    md, page = (out / "report.md").read_text(), (out / "index.html").read_text()
+    for text in (md, page):
+        assert "Atlas: every engine" in text and "the atlas measured pybullet 0.0.1" in text
+    assert page.count('id="atlas-frontier-') == 2 and 'id="atlas-overview"' in page
+
+
+def test_a_link_in_an_atlas_folder_is_refused_by_name(tmp_path):
+    outside = tmp_path / "outside.json"
+    outside.write_text(json.dumps({"scene": "x", "engine": "y", "status": "ok"}))
+    atlas = tmp_path / "atlas"
+    (atlas / "cases" / "bouncing-ball" / "pybullet").mkdir(parents=True)
+    (atlas / "atlas.json").write_text(json.dumps({"versions": {}}))
+    (atlas / "cases" / "bouncing-ball" / "pybullet" / "case.json").symlink_to(outside)
+    assert main(["report", "bouncing-ball", "--engines", "pybullet", "--atlas", str(atlas),
+                 "--out", str(tmp_path / "r")]) == 2
+    assert not (tmp_path / "r" / "report.md").exists()
+
+
+def test_version_notes_name_an_engine_only_where_it_moved():
+    from chatterbench.engines.registry import engine_version
+
+    here = engine_version("pybullet")
+    assert version_notes({"versions": {"pybullet": here}}, {"pybullet"}) == []
+    (note,) = version_notes({"versions": {"pybullet": "0.0.1"}}, {"pybullet"})
+    assert f"pybullet {here} is installed here" in note and "0.0.1" in note
+
+
+def test_the_packaged_atlas_has_its_provenance():
+    section = packaged_atlas()
+    assert section is not None, "comparisons/atlas_data holds no atlas"
+    p = section.provenance
+    assert p["command"].startswith("chatterbench atlas") and p["machine"] and p["versions"] and p["code"]
+    assert {c["status"] for c in section.cases} <= {"ok", "failed"} and len(section.cases) >= 2
