@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
 import sys
 import textwrap
@@ -28,7 +29,7 @@ from test_hostile_cases import GATE, REPORT, Case, Outcome, _scratch, message
 SECRET = "root:x:0:0:SECRET-OUTSIDE-THE-FOLDER"  # what an outside file holds: it must reach no output
 INJECTED = "x\n::warning title=INJ::injected\n## INJ fake PASS\n##[warning]INJ legacy\n| INJ | row |"
 BEACON = "<img src=http://198.51.100.7/beacon.png>"
-OVERLAY = ('<div style="position:fixed;inset:0;z-index:2147483647;background:white" class="cover" id="cover">'
+OVERLAY = ('<h2>Tuning</h2><div style="position:fixed;inset:0;z-index:2147483647;background:white" class="cover" id="cover">'
            "<h1>chatterbench report</h1><p>every engine: match</p></div><p>the answer</p>")
 # the ball on a free floor (examples/scenes), 1.6 s: a scene file whose ``name`` a case sets
 SCENE = (Path(__file__).resolve().parents[1] / "examples" / "scenes" / "ball-free-floor.toml").read_text().replace(
@@ -143,7 +144,7 @@ def _outside_not_shown(got: Outcome) -> str:
 
 def _no_overlay(got: Outcome) -> str:
     page = (got.root / "r" / "index.html").read_text()
-    section = page[page.index("every engine: match") - 400:page.index("the answer")]
+    section = page[page.index("<h2>Tuning</h2>"):page.index("the answer")]
     assert "position" not in section and "style=" not in section and "class=" not in section and 'id="cover"' not in page
     assert "the answer" in page and page.index("What produced this report") > page.index("the answer")
     return "r/index.html: the text kept, no style, class or id from the file (before: the div covered the page)"
@@ -153,7 +154,7 @@ def _markdown_inert(got: Outcome) -> str:
     lines = [ln for p in ("r/report.md", "d/guide.md") if (got.root / p).exists()
              for ln in (got.root / p).read_text().splitlines()]
     assert lines
-    raw = [ln for ln in lines if "<img" in ln or "<script" in ln or ln.lstrip().startswith("## INJ")]
+    raw = [ln for ln in lines if re.search(r"(?<!\\)<(img|script)", ln) or ln.lstrip().startswith("## INJ")]
     assert raw == [], raw
     return "no raw <img>, <script> or injected heading in the Markdown (before: raw in report.md and guide.md)"
 
@@ -215,11 +216,12 @@ ROUND_FIVE = [
     Case("report --tune overlay", "a guide section whose div covers the page (position:fixed, z-index, white; before: "
          "kept, the browser showed only 'every engine: match')", [*REPORT, "--tune", "t"], 0, (),
          setup=_tune_folder(guide=OVERLAY), after=_no_overlay),
-    Case("report --tune raw HTML engine", f"an engine field {BEACON}\\n## INJ in recommended.json (before: raw in "
-         "report.md)", [*REPORT, "--tune", "t"], 0, (),
-         setup=_tune_folder(rec=_recommended(engine=BEACON + "\n## INJ")), after=_markdown_inert),
+    Case("report --tune raw HTML engine", f"engine and scene fields {BEACON}\\n## INJ in recommended.json (before: "
+         "raw in report.md)", [*REPORT, "--tune", "t"], 0, (),
+         setup=_tune_folder(rec=_recommended(engine=BEACON + "\n## INJ", scene=BEACON + "\n## INJ")),
+         after=_markdown_inert),
     Case("tune scene named <script>", f"a scene named <script> with a remote {BEACON} (before: raw in guide.md)",
-         ["tune", "s.toml", "--engine", "pybullet", "--max-runs", "2", "--repeats", "1", "--out", "d"], 0, (),
+         ["tune", "s.toml", "--engine", "pybullet", "--max-runs", "2", "--repeats", "1", "--out", "d"], 1, (),
          setup=_scene_named("<script>alert(1)</script>" + BEACON + "\n## INJ"), after=_markdown_inert),
     Case("report scene named <script>", f"a scene named <script> with a remote {BEACON} (before: raw in report.md)",
          ["report", "s.toml", "--engines", "pybullet", "--out", "r"], 0, (),
