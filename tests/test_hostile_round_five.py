@@ -18,6 +18,7 @@ import sys
 import textwrap
 from pathlib import Path
 from typing import Callable
+from xml.etree import ElementTree as ET
 
 import pytest
 
@@ -97,8 +98,13 @@ def _injected_gate(root: Path) -> dict[str, str]:
     gate = root / f"gate{INJECTED}.toml"
     gate.write_text(f'description = {json.dumps("promises" + INJECTED)}\n'
                     f'[[check]]\nname = {json.dumps("check" + INJECTED)}\nscene = {json.dumps(scene.name)}\n'
-                    'engine = "pybullet"\ndt = 1e-3\nscene_overrides = { duration = 0.2 }\nlimits = ["status == ok"]\n')
-    assert cli(["gate", gate.name, "--save-baseline", "base.json"]).code == 0
+                    'engine = "pybullet"\ndt = 1e-3\nscene_overrides = { duration = 0.2 }\nlimits = ["status == ok"]\n'
+                    # a check that fails: its account, the commands to run next (the scene file's name in them), the
+                    # ::error annotation and the summary's failure rows are printed too
+                    f'[[check]]\nname = {json.dumps("failing" + INJECTED)}\nscene = {json.dumps(scene.name)}\n'
+                    'engine = "pybullet"\ndt = 1e-3\nscene_overrides = { duration = 0.2 }\nlimits = ["n_match >= 99"]\n')
+    cli(["gate", gate.name, "--save-baseline", "base.json"])
+    assert (root / "base.json").exists()
     data = json.loads((root / "base.json").read_text())
     data["versions"]["pybullet"] = "3.2.7" + INJECTED
     (root / "base.json").write_text(json.dumps(data))
@@ -161,6 +167,8 @@ def _log_clean(got: Outcome) -> str:
         assert not start.startswith(("::warning", "## INJ", "| INJ")), line
         assert "##[" not in line, line
         assert not start.startswith("::") or start.startswith(("::error ", "::notice ")), line
+    for junit in got.root.glob("j*.xml"):  # read by a JUnit reader: still XML, the failing check there
+        assert ET.parse(junit).getroot().find("testsuite/testcase/failure") is not None
     return ("no line of the log or the job summary starts with the injected ::warning, heading or table row "
             "(before: each its own line; a fake PASS heading)")
 
@@ -220,7 +228,8 @@ ROUND_FIVE = [
     Case("gate injected names", "a newline, '::warning', '## ' and '##[' in the check's name, the description, the "
          "gate file's and scene file's names, the scene's name and a baseline's versions (before: a workflow command "
          "line and a fake heading of their own)",
-         ["gate", f"gate{INJECTED}.toml", "--baseline", "base.json", "--junit", f"j{INJECTED}.xml"], 0, ("PASS: 1 of 1",),
+         ["gate", f"gate{INJECTED}.toml", "--baseline", "base.json", "--junit", f"j{INJECTED}.xml"], 1,
+         ("FAIL: 1 of 2 checks passed", "::error file="),
          setup=_injected_gate, after=_log_clean),
     Case("gate injected override key", "a newline and '::warning' in a scene_overrides key", ["gate", "k.toml"], 2,
          ("scene_overrides",), setup=_injected_key, after=_log_clean),

@@ -330,8 +330,7 @@ def guide_markdown(result, figures: dict | None = None, ev=None) -> str:
     if (check := result.extra.get("same_model")) is not None:
         lines += [f"## {_same_model_heading(check)}", "", check.sentence() + ".", "", _plain_md_table(_same_model_frame(check)),
                   ""]
-    text = snippet(result)
-    if text:
+    if text := snippet(result):
         lang = "xml" if text.lstrip().startswith("<") else "python"
         lines += ["## Paste", "", "```" + lang, text.rstrip(), "```", ""]
         lines += _check_markdown(result)
