@@ -100,10 +100,10 @@ def open_in(folder: str | Path, path: str | Path, what: str, error: type[InputEr
             except OSError as exc:
                 if exc.errno not in (errno.ELOOP, errno.ENOTDIR, errno.EMLINK) or not _is_link(part, here):
                     raise
-                shown = os.path.join(*parts[:i + 1])
-                raise error(f"{what}: {printable(shown)} is a symbolic link (-> {printable(os.readlink(part, dir_fd=here))}"
-                            "); nothing in an input folder is read through a link (it could show any file of this "
-                            "machine): put the file itself there") from None
+                where = "" if last else f"{printable(os.path.join(*parts[:i + 1]))} is "  # a folder on the way: named
+                raise error(f"{what}: {where}a symbolic link (-> {printable(os.readlink(part, dir_fd=here))}); nothing "
+                            "in an input folder is read through a link (it could show any file of this machine): put the "
+                            "file itself there") from None
             os.close(here)
             here = fd
         return here
@@ -131,6 +131,8 @@ def read_text(path: str | Path, what: str, error: type[InputError] = InputError,
     try:
         fd = (open_in(folder, path, what, error) if folder is not None else
               os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC))
+    except InputError:  # a link in the folder (open_in), said as it is
+        raise
     except (OSError, ValueError) as exc:  # ValueError: a NUL in the path
         raise error(f"{what}: cannot be read ({getattr(exc, 'strerror', None) or exc})") from None
     mode = os.fstat(fd).st_mode

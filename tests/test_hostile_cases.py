@@ -297,7 +297,7 @@ CASES = [
          [*REPORT, "--tune", "t"], 2, ("guide_section.html: not a regular file",), setup=_guide("fifo")),
     Case("report --tune /dev/zero", "a guide section linked to /dev/zero (before: 'no guide_section.html there'; "
          "issue 45: a link in the folder is refused as a link)",
-         [*REPORT, "--tune", "t"], 2, ("guide_section.html is a symbolic link (-> /dev/zero)",), setup=_guide("zero")),
+         [*REPORT, "--tune", "t"], 2, ("guide_section.html: a symbolic link (-> /dev/zero)",), setup=_guide("zero")),
     Case("report --tune dir", "a guide section that is a directory (before: 'no guide_section.html there')",
          [*REPORT, "--tune", "t"], 2,
          ("guide_section.html: cannot be read (is a directory)",), setup=_guide("dir")),

@@ -22,6 +22,7 @@ from xml.etree import ElementTree as ET
 
 import pytest
 
+from chatterbench.comparisons.pipeline.inert_text import log_text
 from helpers import cli
 from shared_runs import made_once, session_folder
 from test_hostile_cases import GATE, REPORT, Case, Outcome, _scratch, message
@@ -187,11 +188,11 @@ ROUND_FIVE = [
     # links out of an input folder
     Case("report --tune linked guide", "t/guide_section.html is a link to a file outside t (before: exit 0, the file "
          "in index.html)", [*REPORT, "--tune", "t"], 2,
-         ("--tune t: guide_section.html: guide_section.html is a symbolic link (-> ../elsewhere/secret.txt)",),
+         ("--tune t: guide_section.html: a symbolic link (-> ../elsewhere/secret.txt)",),
          setup=_tune_folder(link="guide"), after=_outside_not_shown),
     Case("report --tune linked recommended.json", "t/recommended.json is a link out of t (before: its content in "
          "report.md)", [*REPORT, "--tune", "t"], 2,
-         ("--tune t: recommended.json: recommended.json is a symbolic link (-> ../elsewhere/recommended.json)",),
+         ("--tune t: recommended.json: a symbolic link (-> ../elsewhere/recommended.json)",),
          setup=_tune_folder(link="rec"), after=_outside_not_shown),
     Case("report --tune linked folder", "t/pybullet is a link to a folder outside t (before: its recommended.json in "
          "report.md)", [*REPORT, "--tune", "t"], 2,
@@ -301,11 +302,14 @@ def markdown_rows(shared: Path | None = None) -> list[str]:
         got, said = run_case(case, shared)
         shown = "chatterbench " + " ".join(a if a and " " not in a and "\n" not in a else repr(a) for a in case.argv)
         cell = textwrap.shorten(message(case, got, said), 600, placeholder=" ...")
+        for form in (repr(INJECTED)[1:-1], log_text(INJECTED)):  # the doc names the injected text once, above
+            shown, cell = shown.replace(form, "INJ"), cell.replace(form, "INJ")
         rows.append(f"| `{case.id}` | {_cell(case.what)} | `{shown.replace('|', chr(92) + '|')}` | {_cell(cell)} "
                     f"({got.code}) |")
     return rows
 
 
 def _cell(text: str) -> str:
-    """A table cell of text from a case: its bars and angle brackets shown, never read as Markdown or HTML."""
-    return text.replace("|", "\\|").replace("<", "&lt;").replace(">", "&gt;")
+    """A table cell of text from a case: its bars and angle brackets shown, never read as Markdown or HTML (the line
+    breaks ``message`` puts between its lines kept)."""
+    return "<br>".join(t.replace("|", "\\|").replace("<", "&lt;").replace(">", "&gt;") for t in text.split("<br>"))
