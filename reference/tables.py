@@ -19,6 +19,7 @@ key costs tomllib's quadratic time.
 
 from __future__ import annotations
 
+import errno
 import math
 import os
 import re
@@ -80,15 +81,58 @@ def loads(text: str) -> dict[str, Any]:
         raise TooDeep() from None
 
 
+def open_in(folder: str | Path, path: str | Path, what: str, error: type[InputError] = InputError) -> int:
+    """A read-only descriptor of ``path``, a file under the input folder ``folder``, opened one name at a time from
+    ``folder`` without following a link (``O_NOFOLLOW`` at each step, so no link can be swapped in between): a link
+    on the way or at the end is ``error`` naming it and where it points. ``folder`` itself is the user's to name, a
+    link included; ``path`` that leaves it (``..``, an absolute name) is refused too. ``OSError`` otherwise."""
+    rel = os.path.relpath(os.path.abspath(path), os.path.abspath(folder))
+    parts = rel.split(os.sep)
+    if rel == os.curdir or rel.startswith(os.pardir) or os.pardir in parts:
+        raise error(f"{what}: not inside {folder}; nothing outside an input folder is read")
+    here = os.open(folder, os.O_RDONLY | os.O_DIRECTORY | os.O_CLOEXEC)
+    try:
+        for i, part in enumerate(parts):
+            last = i == len(parts) - 1
+            flags = os.O_RDONLY | os.O_NOFOLLOW | os.O_CLOEXEC | (os.O_NONBLOCK if last else os.O_DIRECTORY)
+            try:
+                fd = os.open(part, flags, dir_fd=here)
+            except OSError as exc:
+                if exc.errno not in (errno.ELOOP, errno.ENOTDIR, errno.EMLINK) or not _is_link(part, here):
+                    raise
+                where = "" if last else f"{printable(os.path.join(*parts[:i + 1]))} is "  # a folder on the way: named
+                raise error(f"{what}: {where}a symbolic link (-> {printable(os.readlink(part, dir_fd=here))}); nothing "
+                            "in an input folder is read through a link (it could show any file of this machine): put the "
+                            "file itself there") from None
+            os.close(here)
+            here = fd
+        return here
+    except BaseException:
+        os.close(here)
+        raise
+
+
+def _is_link(name: str, dir_fd: int) -> bool:
+    try:
+        return stat.S_ISLNK(os.lstat(name, dir_fd=dir_fd).st_mode)
+    except OSError:
+        return False
+
+
 def read_text(path: str | Path, what: str, error: type[InputError] = InputError, limit: int = MAX_FILE_BYTES,
-              kind: str = "TOML") -> str:
+              kind: str = "TOML", folder: str | Path | None = None) -> str:
     """The UTF-8 text of the regular file ``path`` of at most ``limit`` bytes, or ``error`` naming ``what``.
 
     Type and size are checked on the open file before reading: a device (``/dev/zero``), a
     named pipe (opened without waiting for a writer) or a directory is refused, never read.
+    ``folder``: ``path`` is a file of this input folder (``report --tune DIR``) and is reached
+    without following a link (``open_in``): a link in it, to a file or a subfolder, is refused by name.
     """
     try:
-        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)
+        fd = (open_in(folder, path, what, error) if folder is not None else
+              os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC))
+    except InputError:  # a link in the folder (open_in), said as it is
+        raise
     except (OSError, ValueError) as exc:  # ValueError: a NUL in the path
         raise error(f"{what}: cannot be read ({getattr(exc, 'strerror', None) or exc})") from None
     mode = os.fstat(fd).st_mode

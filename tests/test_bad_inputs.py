@@ -703,10 +703,27 @@ def markdown(shared: Path | None = None) -> str:
         "(`tests/test_bad_inputs.py` checks each). Gate files are the one exception by design: a refused",
         "gate file lists every problem, one per line.",
     ]
-    import test_round_five as round_five  # issue 45, Why 8-12: the file's last section
+    import test_round_five as round_five  # issue 45, Why 8-12
 
     out += round_five.markdown_rows(shared)
+    out += round_five_rows(shared)  # issue 45's security cases: the file's last section
     return "\n".join(out) + "\n"
+
+
+def round_five_rows(shared: Path | None = None) -> list[str]:
+    """The doc's section of issue 45's cases (``tests/test_hostile_round_five.py``), last in the file."""
+    import test_hostile_round_five as round_five
+
+    return ["", "## Round five: links, CI logs, pages, device targets", "",
+            "From `tests/test_hostile_round_five.py` (issue 45), run as the section above runs its cases: a link in an",
+            "input folder (`report --tune DIR`, `--sweep DIR`) is refused by name and nothing it points to reaches a page;",
+            "every name a gate prints or writes to `$GITHUB_STEP_SUMMARY` passes one encoder (`pipeline/inert_text.py`),",
+            "so none starts a line, a workflow command (`::warning`), a heading or a table row; a guide section keeps no",
+            "`style`, `class` or `id`; the Markdown outputs escape every name from an input; an output that is a link,",
+            "a pipe or a device is never renamed over (`/dev/stdout` and `/dev/stderr` are written through). `INJ` below",
+            "stands for the text `x\\n::warning title=INJ::injected\\n## INJ fake PASS\\n##[warning]INJ legacy\\n| INJ | row |`.",
+            "", "| case | what is wrong | command | what it says and leaves (exit code) |", "|---|---|---|---|",
+            *round_five.markdown_rows(shared)]
 
 
 def plugin_rows(shared: Path | None = None) -> list[str]:

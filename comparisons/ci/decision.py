@@ -39,6 +39,7 @@ from typing import Any, Mapping
 
 import pandas as pd
 
+from chatterbench.comparisons.pipeline.inert_text import log_text
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
 from chatterbench.reference.tables import toml_literal
 
@@ -135,7 +136,7 @@ class CheckDecision:
 
     def failure_line(self) -> str:
         """Every failure's ``message`` on one line (JUnit's failure message, the ``::error`` annotation)."""
-        return "; ".join(i.message() for i in self.failures)
+        return log_text("; ".join(i.message() for i in self.failures))
 
     def severity(self) -> tuple[int, float]:
         """(rank of the worst failure's kind, its excess); larger is worse, (-1, 0) for a pass."""
@@ -156,7 +157,7 @@ class CheckDecision:
     def progress_line(self, i: int, n: int) -> str:
         """``[i/n] NAME: pass (0.4 s)`` or ``[i/n] NAME: FAIL (reasons) (0.4 s)``."""
         verdict = "pass" if self.passed else f"FAIL ({self.reasons()})"
-        return f"[{i}/{n}] {self.name}: {verdict} ({self.result.wall_s:.1f} s)"
+        return log_text(f"[{i}/{n}] {self.name}: {verdict} ({self.result.wall_s:.1f} s)")
 
     def account(self) -> str:
         """Readable account: every item, measured against its limit, the run's context, and (failing) what to run next."""
@@ -174,7 +175,7 @@ class CheckDecision:
                      + (f": {str(row.get('message')).splitlines()[0]}" if row.get("message") else ""))
         if not self.passed and any(i.kind != "missing" for i in self.failures):
             lines += ["  to see it: " + compare_command(c), "  to search for settings that pass: " + tune_command(c)]
-        return "\n".join(lines)
+        return "\n".join(map(log_text, lines))  # each line its own: no name, key or message starts another
 
 
 def decide_check(result: CheckResult, base: Mapping[str, Any] | None = None, band: float = BAND) -> CheckDecision:
@@ -222,7 +223,7 @@ class Decision:
 
     def baseline_line(self) -> str:
         """``baseline PATH: engines now ...; baseline ...`` ("" without a baseline)."""
-        return f"baseline {self.baseline}: {self.versions}" if self.baseline else ""
+        return log_text(f"baseline {self.baseline}: {self.versions}") if self.baseline else ""
 
     def worst(self) -> CheckDecision | None:
         """The failing check to look at first (module docstring), None when the gate passes."""
@@ -231,8 +232,8 @@ class Decision:
 
     def headline(self) -> str:
         """``PASS: 2 of 2 checks passed[; 0 metric(s) regressed against B]``."""
-        return (f"{'PASS' if self.passed else 'FAIL'}: {self.n_passed} of {len(self.checks)} checks passed"
-                + (f"; {self.n_regressed} metric(s) regressed against {self.baseline}" if self.baseline else ""))
+        return log_text(f"{'PASS' if self.passed else 'FAIL'}: {self.n_passed} of {len(self.checks)} checks passed"
+                        + (f"; {self.n_regressed} metric(s) regressed against {self.baseline}" if self.baseline else ""))
 
     def table(self) -> pd.DataFrame:
         """One row per item: check, limit, measured, result (``pass`` / ``FAIL``)."""
@@ -248,11 +249,13 @@ class Decision:
         first = max(worst.failures, key=_rank)
         c = worst.result.check
         if first.kind == "missing":
-            return [f"Next: {c.name!r} is not in the baseline {self.baseline}; on the main branch, record it:",
-                    f"chatterbench gate {shlex.quote(self.result.gate.path)} --save-baseline {shlex.quote(self.baseline or 'baseline.json')}"]
-        return [f"Next, the worst check {c.name!r} ({first.message()}): "
-                "see its episodes and figures, then search for settings that pass:",
-                compare_command(c), tune_command(c)]
+            steps = [f"Next: {c.name!r} is not in the baseline {self.baseline}; on the main branch, record it:",
+                     f"chatterbench gate {shlex.quote(self.result.gate.path)} --save-baseline {shlex.quote(self.baseline or 'baseline.json')}"]
+        else:
+            steps = [f"Next, the worst check {c.name!r} ({first.message()}): "
+                     "see its episodes and figures, then search for settings that pass:",
+                     compare_command(c), tune_command(c)]
+        return [log_text(step) for step in steps]  # a file's name with a line break stays on its line
 
 
 def decide(result: GateResult, base: Mapping[str, Any] | None = None, band: float = BAND,

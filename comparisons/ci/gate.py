@@ -96,7 +96,7 @@ from chatterbench.reference.catalogue import CATALOGUE
 from chatterbench.reference.errors import (InputError, check_choice, check_fields, check_number, check_table, check_text,
                                           did_you_mean, is_number, unknown_keys)
 from chatterbench.reference.scene import Scene, load_scene
-from chatterbench.reference.tables import flatten, parse_toml, read_text
+from chatterbench.reference.tables import flatten, parse_toml, printable, read_text
 
 from .gate_lines import check_lines
 
@@ -324,7 +324,7 @@ def _check_scene(scene: str | Scene, overrides: Mapping[str, Any], base_dir: Pat
         return load_scene(_scene_source(scene, base_dir), overrides)
     except InputError as exc:
         key = "scene_overrides" if overrides and (isinstance(scene, Scene) or scene in CATALOGUE) else "scene"
-        raise GateError(f"{key}: {exc}") from None
+        raise GateError(f"{key}: {printable(str(exc))}") from None  # one problem: its quoted key on its line
 
 
 def _engine_settings(engine: str, dt: float | None, settings: Mapping[str, Any]) -> Any:
@@ -378,7 +378,8 @@ def make_check(
             try:
                 made[part] = make()
             except InputError as exc:  # GateError, and ToleranceError: each names the key and what is allowed
-                problems.append(str(exc))
+                # another reader's refusal is one problem: a line break in the key it quotes stays on its line
+                problems.append(str(exc) if isinstance(exc, GateError) else printable(str(exc)))
     if problems:
         pre = f"{source}: " if source else ""
         raise GateError("\n".join(pre + p for p in problems))

@@ -29,7 +29,9 @@ _QUOTES = ('"""', "'''")
 def _code_lines(text: str) -> list[tuple[int, str, bool]]:
     """(line number from 1, line, whether it starts outside a multi-line string) for every line of ``text``."""
     out, inside = [], None
-    for n, line in enumerate(text.splitlines(), 1):
+    # lines as TOML and GitHub count them (LF, CRLF): not str.splitlines, which also breaks at a U+2028 in a name
+    for n, line in enumerate(text.removesuffix("\n").split("\n"), 1):
+        line = line.removesuffix("\r")
         out.append((n, line, inside is None))
         for match in re.finditer(r'"""|\'\'\'', line):
             quote = match.group()

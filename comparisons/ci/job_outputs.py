@@ -17,7 +17,9 @@ Each renders ``decision.Decision`` and decides nothing:
 
 - ``job_summary``: Markdown for ``$GITHUB_STEP_SUMMARY`` (GitHub shows it on the run's page):
   PASS or FAIL, a row per failure (measured, limit, baseline), the commands to run next,
-  every item of every check, the engine versions.
+  every item of every check, the engine versions. Every name and string from an input (the
+  gate file's, a baseline's) passes ``pipeline.inert_text`` (``md_escape``, ``md_code``): none
+  starts a line, a heading or a table row of its own, none is a tag.
 - ``annotations``: one ``::error file=GATE,line=N,title=...::message`` workflow command per
   failed check (its failures; ``N``: the line of its worst failing limit in the gate file, or
   of its ``[[check]]`` header), and a ``::notice`` with the commands to run next, which GitHub
@@ -37,6 +39,7 @@ import os
 import stat
 from typing import Any
 
+from chatterbench.comparisons.pipeline.inert_text import md_code, md_escape
 from chatterbench.comparisons.pipeline.summary import METRIC_COLUMNS
 
 from .checks import fmt_value
@@ -49,9 +52,13 @@ UNITS["cost_per_sim_s"] = "s/s"
 
 
 def _escape(text: str, property_: bool = False) -> str:
-    """GitHub workflow-command escaping (``%``, line breaks; ``:`` and ``,`` in properties)."""
+    """GitHub workflow-command escaping (``%``, line breaks; ``:`` and ``,`` in properties); and the runner's legacy
+    ``##[`` (read anywhere in a line) broken as ``log_text`` breaks it."""
     text = text.replace("%", "%25").replace("\r", "%0D").replace("\n", "%0A")
-    return text.replace(":", "%3A").replace(",", "%2C") if property_ else text
+    text = text.replace(":", "%3A").replace(",", "%2C") if property_ else text
+    while "##[" in text:
+        text = text.replace("##[", "## [")
+    return text
 
 
 def annotations(decision: Decision) -> list[str]:
@@ -69,34 +76,30 @@ def annotations(decision: Decision) -> list[str]:
     return out
 
 
-def _cell(text: str) -> str:
-    return text.replace("|", "\\|").replace("\n", " ")
-
-
 def job_summary(decision: Decision) -> str:
     """The decision as Markdown: PASS/FAIL heading, a row per failure, what to run next, every item, the versions."""
     result = decision.result
-    lines = [f"## chatterbench gate `{result.gate.path}`: {'PASS' if decision.passed else 'FAIL'}", "",
+    lines = [f"## chatterbench gate {md_code(result.gate.path)}: {'PASS' if decision.passed else 'FAIL'}", "",
              f"{decision.n_passed} of {len(decision.checks)} checks passed (their runs took {result.wall_s:.1f} s)"
-             + (f"; {decision.n_regressed} metric(s) regressed against `{decision.baseline}` (band {decision.band:.0%})"
-                if decision.baseline else "") + ".", ""]
+             + (f"; {decision.n_regressed} metric(s) regressed against {md_code(decision.baseline)} (band "
+                f"{decision.band:.0%})" if decision.baseline else "") + ".", ""]
     if not decision.passed:
         lines += ["### Failures", "", "| check | failure | measured | limit | baseline | note |", "|---|---|---:|---|---:|---|"]
         for c in decision.checks:
             for i in c.failures:
                 base = "" if i.baseline is None else fmt_value(i.baseline)
-                lines.append(f"| {_cell(c.name)} | {i.kind} | {_cell(fmt_value(i.measured))} | `{_cell(i.limit)}` | {base} | "
-                             f"{_cell(i.note)} |")
-        steps = decision.next_steps()
-        lines += ["", "### What to run next", "", steps[0], "", "```sh", *steps[1:], "```", ""]
+                lines.append(f"| {md_escape(c.name)} | {i.kind} | {md_escape(fmt_value(i.measured))} | "
+                             f"{md_code(i.limit).replace('|', chr(92) + '|')} | {base} | {md_escape(i.note)} |")
+        steps = decision.next_steps()  # each on one line (decision.next_steps): none closes the fence
+        lines += ["", "### What to run next", "", md_escape(steps[0]), "", "```sh", *steps[1:], "```", ""]
     lines += ["### Every check", "", "| check | limit | measured | result |", "|---|---|---:|---|"]
     for c in decision.checks:
         for i in c.items:
-            lines.append(f"| {_cell(c.name)} | `{_cell(i.limit)}` | {_cell(fmt_value(i.measured))} | "
-                         f"{'pass' if i.passed else '**FAIL**'} |")
-    lines += ["", "Engines: " + ", ".join(f"{e} {v}" for e, v in sorted(result.versions.items()))]
-    if decision.baseline:
-        lines += ["", f"Baseline `{decision.baseline}`: {decision.versions}."]
+            lines.append(f"| {md_escape(c.name)} | {md_code(i.limit).replace('|', chr(92) + '|')} | "
+                         f"{md_escape(fmt_value(i.measured))} | {'pass' if i.passed else '**FAIL**'} |")
+    lines += ["", "Engines: " + md_escape(", ".join(f"{e} {v}" for e, v in sorted(result.versions.items())))]
+    if decision.baseline:  # its versions are the baseline file's text: a cache's, maybe
+        lines += ["", f"Baseline {md_code(decision.baseline)}: {md_escape(decision.versions)}."]
     return "\n".join(lines) + "\n"
 
 

@@ -31,6 +31,7 @@ from typing import Any
 from xml.etree import ElementTree as ET
 
 from chatterbench.comparisons.pipeline.atomic import write_text
+from chatterbench.comparisons.pipeline.inert_text import log_text
 from chatterbench.comparisons.pipeline.summary import METRIC_COLUMNS
 
 from .decision import Decision
@@ -47,11 +48,13 @@ def _cases(decision: Decision) -> list[tuple[str, float, tuple[str, str, str] | 
         row = c.result.row
         system_out = json.dumps({k: _json_value(row.get(k)) for k in ("scene", "engine", "dt", "status", "verdict",
                                  "n_episodes", "n_match", *METRIC_COLUMNS, "cost_per_sim_s", "engine_version")}, default=str)
-        out.append((c.name, c.result.wall_s, failure, system_out))
+        name = log_text(c.name)  # a JUnit reader prints it to its log: one line, inert
+        out.append((name, c.result.wall_s, failure, system_out))
         for i in c.failures:
             if i.kind == "regressed":
-                text = f"{c.name}: {i.message()}\n{decision.baseline_line()}"
-                out.append((f"{c.name}: {i.metric} against the baseline", 0.0, (i.message(), "GateRegression", text), None))
+                text = f"{name}: {log_text(i.message())}\n{decision.baseline_line()}"
+                out.append((f"{name}: {i.metric} against the baseline", 0.0, (log_text(i.message()), "GateRegression",
+                                                                              text), None))
     return out
 
 
@@ -59,17 +62,17 @@ def junit_xml(decision: Decision) -> str:
     """The decision as JUnit XML (module docstring)."""
     result, cases = decision.result, _cases(decision)
     failures = str(sum(f is not None for _, _, f, _ in cases))
-    stem = Path(result.gate.path).stem
+    stem = log_text(Path(result.gate.path).stem)
     suites = ET.Element("testsuites", name="chatterbench gate", tests=str(len(cases)),
                         failures=failures, errors="0", time=f"{result.wall_s:.3f}")
-    suite = ET.SubElement(suites, "testsuite", name=result.gate.path, tests=str(len(cases)),
+    suite = ET.SubElement(suites, "testsuite", name=log_text(result.gate.path), tests=str(len(cases)),
                           failures=failures, errors="0", skipped="0", time=f"{result.wall_s:.3f}",
                           timestamp=datetime.now(timezone.utc).isoformat(timespec="seconds"), hostname=socket.gethostname())
     props = ET.SubElement(suite, "properties")
     for engine, version in sorted(result.versions.items()):
-        ET.SubElement(props, "property", name=f"{engine}.version", value=version)
+        ET.SubElement(props, "property", name=log_text(f"{engine}.version"), value=log_text(version))
     if decision.baseline:
-        ET.SubElement(props, "property", name="baseline", value=decision.baseline)
+        ET.SubElement(props, "property", name="baseline", value=log_text(decision.baseline))
         ET.SubElement(props, "property", name="band", value=f"{decision.band:g}")
     for name, wall, failure, system_out in cases:
         case = ET.SubElement(suite, "testcase", classname=f"chatterbench.gate.{stem}", name=name, time=f"{wall:.3f}")

@@ -26,12 +26,12 @@ from contextlib import contextmanager
 from typing import TYPE_CHECKING, Any, Sequence
 
 from chatterbench.comparisons.pipeline.budget import GIB, MAX_MEMORY, MAX_STEPS, Budget
+from chatterbench.comparisons.pipeline.inert_text import log_text
 from chatterbench.comparisons.pipeline.tolerances import Tolerances, tolerances_from_items
 from chatterbench.engines.isolate import set_run_limit
 from chatterbench.engines.registry import DEFAULT_ENGINES, ENGINE_NAMES, check_engine, make_settings
 from chatterbench.reference.errors import InputError, did_you_mean
 from chatterbench.reference.scene import Scene, load_scene, split_assignment
-from chatterbench.reference.tables import printable
 
 if TYPE_CHECKING:  # pandas and the sweep's modules load with the work, not with --help (issue 33)
     import pandas as pd
@@ -168,7 +168,7 @@ def held_warnings():
 def one_line(message: str) -> str:
     """A message on one line, safe for a terminal: control characters (a newline, an escape sequence typed into a
     key) shown escaped (``\\n``, ``\\x1b``); a word longer than ``SHOWN`` characters shortened with an ellipsis."""
-    return _LONG_WORD.sub(lambda m: f"{m[0][:60]}...{m[0][-20:]} ({len(m[0])} characters)", printable(message))
+    return _LONG_WORD.sub(lambda m: f"{m[0][:60]}...{m[0][-20:]} ({len(m[0])} characters)", log_text(message))
 
 
 def scene_notes(scene: Scene, file=None) -> None:
@@ -211,10 +211,11 @@ def print_table(frame: pd.DataFrame, title: str | None = None, file=None) -> Non
     """Print a DataFrame as a compact fixed-width table."""
     file = file or sys.stdout
     if title:
-        print(title, file=file)
+        print(log_text(title), file=file)
     if frame.empty:
         print("  (none)", file=file)
         return
+    frame = frame.map(lambda v: log_text(v) if isinstance(v, str) else v)  # a name from a file starts no line of its own
     print(frame.to_string(index=False, float_format=lambda v: f"{v:.9g}"), file=file)
 
 

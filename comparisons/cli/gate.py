@@ -28,6 +28,7 @@ from pathlib import Path
 
 from chatterbench.comparisons.ci.baseline import BAND, load_baseline, save_baseline
 from chatterbench.comparisons.pipeline.atomic import write_text
+from chatterbench.comparisons.pipeline.inert_text import log_text
 from chatterbench.reference.errors import check_number
 
 from .commands import COMMANDS
@@ -53,7 +54,8 @@ def cmd_gate(args: argparse.Namespace) -> int:
     check_number("--band", args.band, lo=0.0, error=UsageError)
     base = load_baseline(args.baseline) if args.baseline else None  # a bad baseline costs no run
     gate = load_gate(args.gates, base_tolerances=parse_tolerances(args.tolerance))
-    print(f"{gate.path}: {len(gate.checks)} checks" + (f" ({gate.description})" if gate.description else ""), file=sys.stderr)
+    print(log_text(f"{gate.path}: {len(gate.checks)} checks" + (f" ({gate.description})" if gate.description else "")),
+          file=sys.stderr)
     file_notes([check.scene for check in gate.checks])
     if base is not None and base.get("gate") and not same_file(base["gate"], gate.path):
         print(f"chatterbench: note: --baseline {one_line(args.baseline)} was saved from gate file "
@@ -66,7 +68,7 @@ def cmd_gate(args: argparse.Namespace) -> int:
             bar.write(decided[-1].progress_line(i, len(gate.checks)))
 
         result = run_gate(gate, on_check=on_check, timeout=args.timeout, budget=budget_of(args),
-                          starting=lambda i, check: bar.stage(check.name))
+                          starting=lambda i, check: bar.stage(log_text(check.name)))
     decision = decide(result, base, args.band, args.baseline, checks=tuple(decided))
     print_table(decision.table(), title=f"{gate.path}: {len(result.results)} checks")
     for c in decision.checks:
@@ -83,7 +85,7 @@ def cmd_gate(args: argparse.Namespace) -> int:
         _verdict(decision, result)
         raise
     if written:
-        print(f"wrote {', '.join(written)}")
+        print(log_text(f"wrote {', '.join(written)}"))
     _verdict(decision, result)
     return decision.exit_code
 

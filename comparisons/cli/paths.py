@@ -35,7 +35,7 @@ from contextlib import contextmanager, nullcontext, suppress
 from pathlib import Path
 from typing import Sequence
 
-from chatterbench.comparisons.pipeline.atomic import TEMP_NAME_EXTRA, confined, staged
+from chatterbench.comparisons.pipeline.atomic import TEMP_NAME_EXTRA, confined, staged, standard_stream
 
 from .common import UsageError
 
@@ -90,13 +90,25 @@ def check_dir(option: str, path: str | Path | None) -> None:
 def check_file(option: str, path: str | Path | None) -> None:
     """Refuse (``UsageError``) a file option that names a directory or a place no file can be written.
 
-    The file is written beside itself and renamed over (``pipeline/atomic.py``): a device or a
-    pipe would be replaced, not written to, so only a regular file, a link or a new name will do.
+    The file is written beside itself and renamed over (``pipeline/atomic.py``): a device, a
+    pipe or a link would be replaced, not written to, so only a regular file or a new name will
+    do, or this process's stdout or stderr (``/dev/stdout``), which is written through.
     """
     if path is None:
         return
     path = Path(path)
     with _checking(option, path):
+        if standard_stream(path) is not None:  # /dev/stdout, /dev/stderr: written through (atomic.write_with)
+            return
+        if path.is_symlink():  # a rename would replace the link itself (issue 45: /dev/stdout, run as root)
+            target = os.readlink(path)
+            if not path.exists():
+                raise UsageError(f"{option} {path}: a symbolic link to nothing (-> {target}); give a file path")
+            if path.is_file():
+                raise UsageError(f"{option} {path}: a symbolic link (-> {target}), which the write would replace; give "
+                                 "the file itself")
+            raise UsageError(f"{option} {path}: a symbolic link (-> {target}) to what is not a regular file (a device, "
+                             "pipe or socket); give a file path")
         if path.is_dir():
             raise UsageError(f"{option} {path}: is a directory; give a file path")
         if path.exists() and not path.is_file():

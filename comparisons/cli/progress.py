@@ -35,6 +35,7 @@ from concurrent.futures import Executor, Future
 from contextlib import contextmanager
 from typing import Any, Callable, Iterator
 
+from chatterbench.comparisons.pipeline.inert_text import log_text
 from chatterbench.engines.registry import ENGINE_NAMES, adapter, unavailable_reason
 from chatterbench.reference.errors import InputError
 
@@ -211,7 +212,7 @@ class Progress:
         if self.started:
             self._update(1)
         self.started = True
-        self.what = what
+        self.what = what = log_text(what)  # a check's or scene's name: shown in the heartbeat line too
         for engine in ENGINE_NAMES:  # what its first run costs before it steps (``EngineAdapter.first_run_note``)
             if (engine in what.split() or what.endswith(engine)) and not unavailable_reason(engine):
                 if adapter(engine).first_run_note:
@@ -234,12 +235,12 @@ class Progress:
         if line in self._noted:
             return
         self._noted.add(line)
-        self.bar.write(f"chatterbench: note: {line}", file=self.file)
+        self.bar.write(log_text(f"chatterbench: note: {line}"), file=self.file)
         heartbeat.said()
 
     def write(self, line: str) -> None:
         """A progress line (a log's record of what finished), printed above the bar."""
-        self.bar.write(line, file=self.file)
+        self.bar.write(log_text(line), file=self.file)
         heartbeat.said()
 
     def printing(self):

@@ -52,8 +52,8 @@ GUIDE_MAX_BYTES = 16 * 2**20  # [bytes] of a guide section: tune writes about 0.
 
 
 def guide_section(folder: str) -> str:
-    """``FOLDER/guide_section.html`` as the report embeds it: a regular file of at most ``GUIDE_MAX_BYTES``, read
-    without following it past that, made inert (``outputs.inert_html``: no script, nothing loaded, nothing left open);
+    """``FOLDER/guide_section.html`` as the report embeds it: a regular file of at most ``GUIDE_MAX_BYTES`` (not a
+    link: ``reference.tables.open_in``), read without following it past that, made inert (``outputs.inert_html``: no script, nothing loaded, nothing left open);
     what was left out is said in one note line."""
     from chatterbench.comparisons.outputs.inert_html import inert_section
 
@@ -61,7 +61,8 @@ def guide_section(folder: str) -> str:
     if not path.exists() and not path.is_symlink():
         raise UsageError(f"--tune {folder}: no guide_section.html there (write one with `chatterbench tune ... --out "
                          f"{folder}`)")
-    text = read_text(path, f"--tune {folder}: guide_section.html", UsageError, limit=GUIDE_MAX_BYTES, kind="HTML")
+    text = read_text(path, f"--tune {folder}: guide_section.html", UsageError, limit=GUIDE_MAX_BYTES, kind="HTML",
+                     folder=folder)  # a link in the folder is refused: the page would show any file it points to
     section = inert_section(text)
     if section.removed:
         print(f"chatterbench: note: --tune {one_line(folder)}: guide_section.html holds what `chatterbench tune` does not "

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping, Sequence
@@ -39,6 +40,7 @@ from chatterbench.reference.tables import read_text
 from .style import engine_colour
 
 MAX_JSON_BYTES = 4 * 2**20  # [bytes] of a recommended.json: tune writes a few KiB
+MAX_FRONTIER_POINTS = 100  # entries of one frontier: tune's ladder has at most 6 x 6 points (its levels and the asked)
 
 MARKERS = ("o", "s", "D", "^", "v", "P", "X")  # one shape per engine, so that a point under another engine's shows
 AXES = (("stick", "timing (sticking tolerance; exit and first impact move with it)", "restitution", "r"),
@@ -140,16 +142,16 @@ def read_frontiers(dirs: Sequence[str | Path]) -> tuple[TunedFrontier, ...]:
     """Every ``recommended.json`` of each ``tune --out`` directory: ``DIR/recommended.json`` (one engine) or
     ``DIR/ENGINE/recommended.json`` (several), in that order; files without a ``frontier`` are left out.
 
-    Each is read as a regular file of at most ``MAX_JSON_BYTES`` (``reference.tables.read_text``) and
+    Each is read as a regular file of at most ``MAX_JSON_BYTES`` (``reference.tables.read_text``), reached
+    without following a link (a linked file or engine folder is refused by name: ``reference.tables.open_in``), and
     its frontier checked entry by entry: a file that is not what ``tune`` writes is an ``InputError``
-    naming it and the field, never a failure inside the chart.
+    naming it and the field, never a failure inside the chart; so is a frontier of more than
+    ``MAX_FRONTIER_POINTS`` entries (every one is drawn and labelled).
     """
     out = []
     for d in dirs:
-        for path in [Path(d) / "recommended.json", *sorted(Path(d).glob("*/recommended.json"))]:
-            if not path.exists():
-                continue
-            text = read_text(path, f"--tune {d}: {path.relative_to(d)}", limit=MAX_JSON_BYTES, kind="JSON")
+        for path in _tuned_files(Path(d)):
+            text = read_text(path, f"--tune {d}: {path.relative_to(d)}", limit=MAX_JSON_BYTES, kind="JSON", folder=d)
             try:
                 rec = json.loads(text)
             except (ValueError, RecursionError) as exc:
@@ -157,6 +159,10 @@ def read_frontiers(dirs: Sequence[str | Path]) -> tuple[TunedFrontier, ...]:
                                  f"({str(exc).splitlines()[0][:200]})") from None
             if isinstance(rec, dict) and isinstance(rec.get("frontier"), list):
                 where = f"--tune {d}: {path.relative_to(d)}"
+                if len(rec["frontier"]) > MAX_FRONTIER_POINTS:  # each is drawn and labelled: 12,000 took minutes
+                    raise InputError(f"{where}: a frontier of {len(rec['frontier']):,} points, more than the "
+                                     f"{MAX_FRONTIER_POINTS} the report draws (`chatterbench tune` writes at most one per "
+                                     "point of its ladder, 36)")
                 out.append(TunedFrontier(scene=str(rec.get("scene", "")), engine=str(rec.get("engine", "")),
                                          frontier=tuple(_checked_entry(e, f"{where}: frontier[{i}]")
                                                         for i, e in enumerate(rec["frontier"])),
@@ -165,20 +171,41 @@ def read_frontiers(dirs: Sequence[str | Path]) -> tuple[TunedFrontier, ...]:
     return tuple(out)
 
 
+def _tuned_files(folder: Path) -> list[Path]:
+    """``folder/recommended.json`` and ``folder/ENGINE/recommended.json`` where they are, links included (the reader
+    refuses those by name); hidden names (a tune's staging folder) left out."""
+    found = [folder / "recommended.json"] if os.path.lexists(folder / "recommended.json") else []
+    try:
+        entries = sorted(os.scandir(folder), key=lambda e: e.name)
+    except OSError:  # not a folder: guide_section's reader has said so
+        return found
+    for entry in entries:
+        inner = Path(entry.path) / "recommended.json"
+        if not entry.name.startswith(".") and (entry.is_symlink() or entry.is_dir()) and os.path.lexists(inner):
+            found.append(inner)
+    return found
+
+
 def _positive(value: Any, what: str) -> float:
     """``value`` as a finite positive number, or an ``InputError`` naming ``what`` and the allowed range."""
+    if value is None:
+        raise InputError(f"{what}: missing (`chatterbench tune` writes a number > 0)")
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
         raise InputError(f"{what}: {str(value)[:40]!r} is not a number > 0 (`chatterbench tune` writes one)")
     return float(value)
 
 
 def _checked_entry(entry: Any, what: str) -> dict[str, Any]:
-    """A frontier entry with the fields the chart draws checked: ``tolerances.stick``, ``.restitution``, the cost."""
+    """A frontier entry with the fields the report shows checked: ``tolerances.stick``, ``.restitution``, the cost,
+    ``dt`` and ``settings`` (a table, or absent)."""
     if not isinstance(entry, dict) or not isinstance(entry.get("tolerances"), dict):
         raise InputError(f"{what}: not an entry with 'tolerances' and 'cost_steps_per_s' (`chatterbench tune` writes one)")
     for axis in ("stick", "restitution"):
         _positive(entry["tolerances"].get(axis), f"{what}.tolerances.{axis}")
     _positive(entry.get("cost_steps_per_s"), f"{what}.cost_steps_per_s")
+    _positive(entry.get("dt"), f"{what}.dt")  # the report prints it as a number: before, KeyError or a format error
+    if not isinstance(entry.get("settings") or {}, dict):
+        raise InputError(f"{what}.settings: not a table of the engine's settings (`chatterbench tune` writes one)")
     return entry
 
 

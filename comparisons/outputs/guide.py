@@ -35,6 +35,7 @@ import math
 import pandas as pd
 from matplotlib.figure import Figure
 
+from chatterbench.comparisons.pipeline.inert_text import md_escape
 from chatterbench.comparisons.pipeline.vocabulary import COLOURS, text_colour
 from chatterbench.comparisons.studies.tune import passing, short_label
 from chatterbench.comparisons.studies.tune_ladder import level_text
@@ -316,7 +317,7 @@ def guide_markdown(result, figures: dict | None = None, ev=None) -> str:
     chosen settings' evidence (``tune_evidence.evidence``), whose strikes and run impacts the restitution claim gives."""
     x = result.extra
     searched = searched_text(result) if "searched" in x else f"{len(result.table)} candidates"
-    lines = [f"# Tuning {result.engine} for {result.scene.name}", "",
+    lines = [f"# Tuning {md_escape(result.engine)} for {md_escape(result.scene.name)}", "",  # names from a user's file
              f"Tolerances: {result.tolerance.describe()}; every episode must pass.", "",
              f"Searched: {searched}; the search took {_fmt(x.get('wall_time_s', math.nan))} s (reference, runs and "
              "timing). The answer is the cheapest robust "
@@ -329,8 +330,7 @@ def guide_markdown(result, figures: dict | None = None, ev=None) -> str:
     if (check := result.extra.get("same_model")) is not None:
         lines += [f"## {_same_model_heading(check)}", "", check.sentence() + ".", "", _plain_md_table(_same_model_frame(check)),
                   ""]
-    text = snippet(result)
-    if text:
+    if text := snippet(result):
         lang = "xml" if text.lstrip().startswith("<") else "python"
         lines += ["## Paste", "", "```" + lang, text.rstrip(), "```", ""]
         lines += _check_markdown(result)

@@ -3,17 +3,20 @@
     >>> from chatterbench.comparisons.outputs.inert_html import inert_section
     >>> section = inert_section('<h2 id="t">Tuning</h2><script>alert(1)</script><img src="https://x.test/a.png"><!-- x')
     >>> section.html
-    '<h2 id="t">Tuning</h2>'
+    '<h2>Tuning</h2>'
     >>> section.removed
     ('1 script', '1 image not embedded in the file', '1 comment')
 
 ``report --tune DIR`` puts ``DIR/guide_section.html`` into its page, which promises no script
 and no network. The file is parsed (``html.parser``) and written again from what it holds:
-the elements a guide is made of (``ALLOWED``) with their allowed attributes, text escaped
-again; an image only when its picture is in the file (``data:image/png|jpeg|gif;base64``);
-a ``style`` only of plain declarations (no ``url(...)``, nothing that loads); every other
+the elements a guide is made of (``ALLOWED``: text, headings, tables, lists, code, figures)
+with their allowed attributes, text escaped again; an image only when its picture is in the
+file (``data:image/png|jpeg|gif;base64``), so nothing is loaded from elsewhere; every other
 element, attribute, comment and declaration left out, the content of ``script``, ``style``
-and the like with it. Tags left open are closed where the section ends, so nothing in it
+and the like with it. No ``style``, ``class`` or ``id`` is kept (issue 45: a ``position:fixed``
+div, or a class or id the report's style sheet places, could cover the page with a fake one):
+the report's own style sheet sets the section's look. These three, which ``tune`` writes
+itself, are dropped without a word; what ``tune`` does not write is counted. Tags left open are closed where the section ends, so nothing in it
 (an unclosed ``<!--``, ``<table>``, ``<textarea>``) can hide or swallow the rest of the page.
 ``removed`` counts what was left out, for the one line the command prints about it.
 """
@@ -26,8 +29,10 @@ from collections import Counter
 from html.parser import HTMLParser
 from typing import NamedTuple
 
-# element -> the attributes it keeps; what `chatterbench tune` writes into guide_section.html (outputs/guide.py)
-_COMMON = ("id", "class", "style", "title")
+# element -> the attributes it keeps; what `chatterbench tune` writes into guide_section.html (outputs/guide.py),
+# less its presentation (SILENT): nothing from the file places, hides or covers anything on the page
+_COMMON = ("title",)
+SILENT = {"id", "class", "style"}  # written by tune, dropped without a note
 ALLOWED = {
     **dict.fromkeys(("h2", "h3", "h4", "p", "figure", "figcaption", "pre", "code", "strong", "em", "b", "i", "span",
                      "div", "ul", "ol", "li", "table", "thead", "tbody", "tr", "details", "summary", "br"), _COMMON),
@@ -38,7 +43,6 @@ VOID = {"br", "img"}
 DROPPED_WITH_CONTENT = {"script", "style", "iframe", "object", "embed", "template", "noscript", "svg", "math", "textarea",
                         "title", "head", "xmp", "noembed", "noframes"}
 _IMAGE = re.compile(r"data:image/(?:png|jpeg|gif);base64,[A-Za-z0-9+/=\s]*")
-_STYLE = re.compile(r"[\s\w#.%,;:!-]*")  # declarations of words, numbers, colours: no "(" (url, expression), no "\", "@"
 
 
 class InertSection(NamedTuple):
@@ -71,7 +75,9 @@ class _Rewriter(HTMLParser):
         kept = []
         for name, value in attrs:
             value = "" if value is None else value
-            if name not in ALLOWED[tag] or (name == "style" and not _STYLE.fullmatch(value)):
+            if name in SILENT:
+                continue
+            if name not in ALLOWED[tag]:
                 self.removed[f"{name} attribute"] += 1
             elif name == "src" and not _IMAGE.fullmatch(value):
                 self.removed["image not embedded in the file"] += 1

@@ -20,6 +20,7 @@ from typing import Sequence
 import pandas as pd
 
 from chatterbench.comparisons.pipeline.atomic import write_text
+from chatterbench.comparisons.pipeline.inert_text import md_code, md_escape
 from chatterbench.comparisons.pipeline.conformance import describe, same_model_pairs
 from chatterbench.comparisons.pipeline.vocabulary import COLOURS, MEANINGS, NAMES, text_colour
 
@@ -30,7 +31,7 @@ from .report import (EPISODE_COLUMNS, HEADERS, SUMMARY_COLUMNS, Figure, Report, 
                      plural, provenance_items, summary_frame, tolerance_line, build_report, scene_figures, sweep_figures,
                      sweep_rows)
 
-__all__ = ["build_report", "report_html", "report_markdown", "write_report"]
+__all__ = ["build_report", "md_escape", "report_html", "report_markdown", "write_report"]
 
 
 # -- HTML (style sheet: ``style.PAGE_CSS``, shared with the tuning guide) -----------------------------------------
@@ -145,17 +146,11 @@ def report_html(report: Report) -> str:
 def _md_table(frame: pd.DataFrame, columns: Sequence[str]) -> str:
     lines = ["| " + " | ".join(HEADERS.get(c, c) for c in columns) + " |",
              "| " + " | ".join("---" if c in ("scene", "engine", "wall", "verdict", "status") else "---:" for c in columns) + " |"]
-    for _, row in frame.iterrows():
-        lines.append("| " + " | ".join(cell(c, row[c]).replace("|", "\\|") for c in columns) + " |")
+    for _, row in frame.iterrows():  # a name from a file (scene, engine, message) shown as written: md_escape
+        lines.append("| " + " | ".join(md_escape(cell(c, row[c])) for c in columns) + " |")
     if len(frame) == 0:
         lines.append("| " + " | ".join(["-"] * len(columns)) + " |")
     return "\n".join(lines)
-
-
-def md_escape(text: str) -> str:
-    """``text`` as literal Markdown: every character Markdown or HTML reads as markup backslash-escaped, line breaks
-    as spaces (a name from a user's file shows as written, never as a link, code or tag)."""
-    return "".join("\\" + c if c in "\\`*_{}[]<>()#+!|~" else " " if c in "\r\n" else c for c in str(text))
 
 
 def _point_text(entry: dict) -> str:
@@ -179,35 +174,41 @@ def _frontier_lines(report: Report, scene: str) -> list[str]:
 def report_markdown(report: Report) -> str:
     """The report's tables in Markdown (GitHub flavour), for issues and pull requests."""
     out = ["# chatterbench report", "",
-           f"{plural(len(report.comparisons), 'scene')} on {', '.join(report.engines)} against the exact reference. "
+           f"{plural(len(report.comparisons), 'scene')} on {md_escape(', '.join(report.engines))} against the exact reference. "
            "Errors are engine minus reference, worst = the largest in magnitude over the scene's episodes, with its sign "
            "(negative: the engine sticks, exits or first hits early, or keeps less than R of its speed).", "",
            "## Summary", "", _md_table(summary_frame(report), SUMMARY_COLUMNS), ""]
     for c in report.comparisons:
-        out += [f"## {c.scene.name}", "", f"{tolerance_line(c)}.", "", _md_table(c.table, EPISODE_COLUMNS), ""]
-        out += [f"{k.line()}\n" for k in report.cross_checks if k.scene == c.scene.name]
-        out += [f"Conformance: {describe(c, a, b)}\n" for a, b in same_model_pairs(c.runs)]
+        out += [f"## {md_escape(c.scene.name)}", "", f"{tolerance_line(c)}.", "", _md_table(c.table, EPISODE_COLUMNS), ""]
+        out += [f"{md_escape(k.line())}\n" for k in report.cross_checks if k.scene == c.scene.name]
+        out += [f"Conformance: {md_escape(describe(c, a, b))}\n" for a, b in same_model_pairs(c.runs)]
         out += _frontier_lines(report, c.scene.name)
     for section in report.sweeps:  # the charts are in index.html; here the verdicts they draw
         rows = sweep_rows(section, report.engines)
         counts = rows.groupby(["engine", "verdict"]).size().unstack(fill_value=0)
-        out += [f"## Sweep: {section.source}", "", f"{len(rows)} rows of {', '.join(report.engines)}; runs per "
-                "verdict (the work-precision chart and stability maps are in index.html):", "",
-                "| engine | " + " | ".join(counts.columns) + " |", "|---|" + "---:|" * len(counts.columns)]
-        out += [f"| {engine} | " + " | ".join(str(int(v)) for v in row) + " |" for engine, row in counts.iterrows()]
+        out += [f"## Sweep: {md_escape(section.source)}", "", f"{len(rows)} rows of {md_escape(', '.join(report.engines))}; "
+                "runs per verdict (the work-precision chart and stability maps are in index.html):", "",
+                "| engine | " + " | ".join(map(md_escape, counts.columns)) + " |", "|---|" + "---:|" * len(counts.columns)]
+        out += [f"| {md_escape(engine)} | " + " | ".join(str(int(v)) for v in row) + " |"
+                for engine, row in counts.iterrows()]
         out.append("")
     ran = {c.scene.name for c in report.comparisons}
     for scene in sorted({f.scene for f in report.frontiers} - ran):  # tuned scenes the report did not run
+<<<<<<< HEAD
         out += [f"## {scene} (tuned)", "", *_frontier_lines(report, scene)]
     if report.atlas is not None:
         from .atlas_section import atlas_md
 
         out += [atlas_md(report.atlas)]
+=======
+        out += [f"## {md_escape(scene)} (tuned)", "", *_frontier_lines(report, scene)]
+>>>>>>> r5-security
     out += ["## What produced this report", ""]
-    for key, value in provenance_items(report):
-        out.append(f"- {key}: `{value}`" if key == "command" else f"- {key}: {value}")
-    for row in engine_rows(report):
-        out.append(f"- {row['engine']} {row['version']}: {row['settings']}")
+    for key, value in provenance_items(report):  # the command and the --set overrides are a user's text
+        out.append(f"- {key}: {md_code(value)}" if key == "command" else
+                   f"- {key}: {md_escape(value) if key in ('overrides', 'machine') else value}")
+    for row in engine_rows(report):  # a plugin's name, version and settings: its own text
+        out.append(f"- {md_escape(row['engine'])} {md_escape(row['version'])}: {md_escape(row['settings'])}")
     return "\n".join(out) + "\n"
 
 

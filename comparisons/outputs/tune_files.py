@@ -37,6 +37,7 @@ from typing import Sequence
 import pandas as pd
 
 from chatterbench.comparisons.pipeline.atomic import write_frame, write_text
+from chatterbench.comparisons.pipeline.inert_text import md_escape
 from chatterbench.comparisons.studies.tune_answer import frontier_line, recommended
 from chatterbench.comparisons.studies.tune_evidence import evidence
 
@@ -114,10 +115,10 @@ def write_tune_files(results: Sequence, out: Path) -> list[str]:
 
 def _combined_markdown(results: Sequence) -> str:
     first = results[0]
-    lines = [f"# Tuning {', '.join(r.engine for r in results)} for {first.scene.name}", "",
+    lines = [f"# Tuning {md_escape(', '.join(r.engine for r in results))} for {md_escape(first.scene.name)}", "",
              f"Tolerances: {first.tolerance.describe()}; every episode must pass.", ""]
     for r in results:
-        lines += [f"- **{r.engine}**: {frontier_line(r)} ([its guide]({r.engine}/guide.md), "
+        lines += [f"- **{md_escape(r.engine)}**: {frontier_line(r)} ([its guide]({r.engine}/guide.md), "
                   f"[recommended.json]({r.engine}/recommended.json))", ""]
     lines += ["![frontier](frontier.png)", "", f"*{CAPTIONS['frontier']} One line per engine.*", ""]
     return "\n".join(lines)

@@ -70,6 +70,44 @@ class LinkRefused(OSError):
     """A write inside an output folder that would go through a symbolic link (``confined``)."""
 
 
+class NotRenamedOver(OSError):
+    """A target that is a symbolic link, a named pipe, a device or a socket: a rename would replace it (issue 45: a
+    ``--summary /dev/stdout`` run as root replaced the machine's ``/dev/stdout`` link with a regular file)."""
+
+
+def standard_stream(path: str | Path) -> int | None:
+    """1 or 2 when ``path`` (links followed) is the file, pipe or terminal this process's stdout or stderr writes to
+    (``/dev/stdout``, ``/proc/self/fd/2``, the file stdout was redirected to), else None."""
+    try:
+        target = os.stat(path)
+    except (OSError, ValueError):
+        return None
+    for fd in (1, 2):
+        try:
+            mine = os.fstat(fd)
+        except OSError:
+            continue
+        if (mine.st_dev, mine.st_ino) == (target.st_dev, target.st_ino):
+            return fd
+    return None
+
+
+def _write_to_stream(fd: int, writer: Callable[[Path], None]) -> None:
+    """``writer``'s file, written through stdout (1) or stderr (2) after what Python holds for it."""
+    import sys
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as folder:
+        made = Path(folder) / "out"
+        writer(made)
+        data = made.read_bytes()
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):  # closed, or not a file: nothing held
+            stream.flush()
+    while data:
+        data = data[os.write(fd, data):]
+
+
 def _draw(n: int) -> str:
     return "".join(secrets.choice(_TEMP_CHARS) for _ in range(n))
 
@@ -208,12 +246,26 @@ def write_with(path: Path, writer: Callable[[Path], None]) -> Path:
     """Call ``writer(tmp_path)`` then atomically move the result to ``path``; returns ``path``.
 
     The temp file is created (empty, mode 0666 less the umask, as any new file) before
-    ``writer`` runs; it is removed on every failure, ``BaseException`` included.
+    ``writer`` runs; it is removed on every failure, ``BaseException`` included. Nothing is
+    renamed over what is not a regular file: a ``path`` that is this process's stdout or stderr
+    (``/dev/stdout``, or the file either was redirected to) is written through it
+    (``standard_stream``); a symbolic link, a named pipe, a device or a socket is
+    ``NotRenamedOver``, left as it was.
     """
     path = Path(path)
     tmp = None
     try:
         _no_links(path)
+        stream = standard_stream(path)
+        if stream is not None:
+            _write_to_stream(stream, writer)
+            return path
+        with contextlib.suppress(FileNotFoundError):
+            mode = os.lstat(path).st_mode
+            if not stat.S_ISREG(mode):
+                what = (f"a symbolic link (-> {os.readlink(path)})" if stat.S_ISLNK(mode) else
+                        "a named pipe, a device or a socket" if not stat.S_ISDIR(mode) else "a directory")
+                raise NotRenamedOver(errno.EPERM, f"{what}, not a regular file: nothing is written over it", str(path))
         path.parent.mkdir(parents=True, exist_ok=True)
         for _ in range(_TRIES):
             # named before it exists, so an interrupt at any point below still finds it to remove

@@ -247,6 +247,9 @@ def load_rows(path: str | Path) -> pd.DataFrame:
     """The rows of a dataset: a sweep directory (``rows.parquet``), a ``.parquet`` or a ``.csv`` file."""
     path = Path(path)
     if path.is_dir():
+        if (path / "rows.parquet").is_symlink():  # a sweep writes none: it could stand for any file of the machine
+            raise DatasetError(f"{path}: rows.parquet is a symbolic link (-> {os.readlink(path / 'rows.parquet')}); "
+                               "nothing in an input folder is read through a link: give the file itself")
         if not (path / "rows.parquet").is_file():
             hint = (" (the sweep has not finished: finish it with `chatterbench sweep SPEC --out DIR --resume`)"
                     if (path / "rows").is_dir() else " (give a sweep output directory, a .parquet or a .csv file)")

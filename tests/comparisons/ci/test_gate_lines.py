@@ -126,3 +126,12 @@ def test_the_readmes_gate_file_format_reads_as_written(tmp_path):
     assert check.line == _line_of(example, "[[check]]")
     assert check.limit_lines == tuple(_line_of(example, f'"{t}"') for t in ("verdict == match", "exit_error_max <= 2e-3",
                                                                              "n_match >= 13"))
+
+
+def test_a_line_separator_inside_a_name_does_not_move_the_lines():
+    from chatterbench.comparisons.ci.gate_lines import check_lines
+
+    # issue 45: U+2028 and U+0085 are allowed in a TOML string; str.splitlines broke the line there, so every limit
+    # after it was pointed at one line too far
+    text = '[[check]]\nname = "a\u2028b\x85c"\nlimits = [\n  "verdict == match",\n]\n'
+    assert check_lines(text, [["verdict == match"]]) == [(1, (4,))]

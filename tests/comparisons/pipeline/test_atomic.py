@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import signal
+import stat
 import subprocess
 import sys
 import time
@@ -127,3 +128,38 @@ def test_a_killed_tunes_staged_folder_is_removed_by_the_next_set_and_only_it(tmp
     finally:
         runs.kill()
         runs.wait()
+
+
+# -- issue 45: nothing is renamed over what is not a regular file (stand-ins in tmp_path, never the machine's /dev) --
+def _char_device(path):
+    if os.geteuid() != 0:
+        pytest.skip("making a character device needs root")
+    os.mknod(path, 0o600 | stat.S_IFCHR, os.makedev(1, 3))  # the null device's numbers: writing to it is harmless
+
+
+@pytest.mark.parametrize("kind", ["fifo", "link to a file", "link to a fifo", "dangling link", "char device"])
+def test_a_target_that_is_not_a_regular_file_is_left_as_it_was(tmp_path, kind):
+    from chatterbench.comparisons.pipeline.atomic import write_text
+
+    target = tmp_path / "target"
+    if kind in ("fifo", "link to a fifo"):
+        os.mkfifo(tmp_path / "pipe")
+    if kind == "fifo":
+        target = tmp_path / "pipe"
+    elif kind == "link to a fifo":
+        target.symlink_to("pipe")
+    elif kind == "link to a file":
+        (tmp_path / "file.txt").write_text("the user's\n")
+        target.symlink_to("file.txt")
+    elif kind == "dangling link":
+        target.symlink_to("nowhere")
+    else:
+        _char_device(target)
+    before = os.lstat(target)
+    with pytest.raises(OSError, match="not a regular file: nothing is written over it"):  # atomic.NotRenamedOver
+        write_text(target, "summary")
+    after = os.lstat(target)
+    assert (after.st_ino, after.st_mode) == (before.st_ino, before.st_mode)  # the same inode: not renamed over
+    assert sorted(p.name for p in tmp_path.iterdir() if p.name.endswith(".tmp")) == []  # no temp file left
+    if kind == "link to a file":
+        assert (tmp_path / "file.txt").read_text() == "the user's\n"
