@@ -159,3 +159,17 @@ def check_fields(data: Mapping[str, Any], fields: Mapping[str, Callable[[str, An
     if problems is not None:
         problems.extend(refused)
     return out
+
+
+# c [m/s]: Newton's mechanics and his impact law stop describing anything near it; an input speed at or past it is
+# refused, and a run whose speeds pass it is refused by the judge's reference (``push.fastest_push`` names the likely
+# cause). Below it the square of a speed never overflows (v^2 < 9e16).
+SPEED_OF_LIGHT = 299_792_458.0
+
+
+def check_speed(where: str, value: float, error: type[InputError] = InputError) -> float:
+    """``value`` [m/s], refused (``error`` naming ``where``) unless slower than light."""
+    if not abs(value) < SPEED_OF_LIGHT:
+        raise error(f"{where} = {value!r}: must be in (-{SPEED_OF_LIGHT:.0f}, {SPEED_OF_LIGHT:.0f}) [m/s] "
+                    "(slower than light: Newton's impact law has no meaning past it)")
+    return value

@@ -43,7 +43,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from .errors import InputError, check_number, check_text, did_you_mean
+from .errors import InputError, check_number, check_speed, check_text, did_you_mean
 from .tables import TooDeep, loads, printable, read_toml
 
 BODIES = ("body1", "body2", "coupling")
@@ -64,19 +64,6 @@ def _positive(where: str, value: Any) -> float:
 
 def _non_negative(where: str, value: Any) -> float:
     return check_number(where, value, lo=0.0, error=SceneError)
-
-
-# c [m/s]: Newton's mechanics and his impact law stop describing anything near it; an input speed at or past it is
-# refused, and a run whose speeds pass it is refused by the judge's reference (``fastest_push`` names the likely cause).
-# Below it the square of a speed never overflows (v^2 < 9e16).
-SPEED_OF_LIGHT = 299_792_458.0
-
-
-def _below_light(where: str, value: float) -> float:
-    if not abs(value) < SPEED_OF_LIGHT:
-        raise SceneError(f"{where} = {value!r}: must be in (-{SPEED_OF_LIGHT:.0f}, {SPEED_OF_LIGHT:.0f}) [m/s] "
-                         "(slower than light: Newton's impact law has no meaning past it)")
-    return value
 
 
 @dataclass(frozen=True)
@@ -198,14 +185,12 @@ class Initial:
     vy: float = 0.0
 
     def __post_init__(self) -> None:
-        for name in ("t", "x1", "v1", "y", "vy"):
-            _finite(f"initial.{name}", getattr(self, name))
-        for name in ("v1", "vy"):
-            _below_light(f"initial.{name}", getattr(self, name))
+        for name in ("t", "x1", "v1", "y", "vy"):  # speeds slower than light (``errors.SPEED_OF_LIGHT``)
+            value = _finite(f"initial.{name}", getattr(self, name))
+            _ = check_speed(f"initial.{name}", value, SceneError) if name in ("v1", "vy") else value
 
 
-# a run's duration spans at least this many float spacings at its start and end times, so that
-# event times resolve to 1e-9 of the duration (initial.t up to about 4.5e6 x duration)
+# a run's duration spans at least this many float spacings at its start and end times (times resolve to 1e-9 of it)
 TIME_RESOLUTION = 1e9
 
 
@@ -321,34 +306,6 @@ class Scene:
             del d["prescribed"]
         d["forces"] = [{k: f[k] for k in ("kind", "on", *Force._PARAMS[f["kind"]])} for f in d["forces"]]
         return d
-
-
-def fastest_push(scene: Scene) -> tuple[str, float]:
-    """The scene's term that accelerates the gap y hardest: (its field, value and mass as text, |y''| it gives [m/s^2]).
-
-    Each term alone, at the initial state: a constant or harmonic force F on a body of mass m gives |F| / m (on the
-    coupling: |F| (1/m1 + 1/m2)), a spring its pull at the initial state, gravity |g| when body 1 does not fall with
-    body 2, a prescribed body 1 amplitude omega^2; ("the scene", 0.0) when nothing pushes. Used to name the likely
-    cause of a run too fast to judge.
-    """
-    x1, y = scene.initial.x1, scene.initial.y
-    inverse = {"body1": 0.0 if scene.body1_infinite else 1.0 / scene.mass1, "body2": 1.0 / scene.mass2}
-    inverse["coupling"] = inverse["body1"] + inverse["body2"]
-    mass = {"body1": f"mass1 = {scene.mass1:g} kg", "body2": f"mass2 = {scene.mass2:g} kg",
-            "coupling": f"mass1 = {scene.mass1:g} kg, mass2 = {scene.mass2:g} kg"}
-    at = {"body1": x1, "body2": x1 + y, "coupling": y}
-    terms = [("the scene", 0.0)]
-    if scene.body1_infinite and scene.gravity:
-        terms.append((f"gravity = {scene.gravity:g} m/s^2", abs(scene.gravity)))
-    if scene.prescribed is not None:
-        p = scene.prescribed
-        terms.append((f"prescribed.amplitude = {p.amplitude:g} m at omega = {p.omega:g} rad/s", abs(p.amplitude) * p.omega * p.omega))
-    for i, f in enumerate(scene.forces):
-        name, unit, force = {"constant": ("value", "N", f.value), "harmonic": ("amplitude", "N", f.amplitude),
-                             "spring": ("stiffness", "N/m", f.stiffness * (at[f.on] - f.rest)),
-                             "damper": ("damping", "N s/m", 0.0)}[f.kind]
-        terms.append((f"forces[{i}].{name} = {getattr(f, name):g} {unit} on {f.on} ({mass[f.on]})", abs(force) * inverse[f.on]))
-    return max(terms, key=lambda term: term[1])
 
 
 # -- building scenes from plain data (TOML, catalogue, --set) ---------------------

@@ -22,8 +22,9 @@ from chatterbench.comparisons.studies.limits import MAX_RUNS, ROBUST_FRACTION
 from chatterbench.reference.scene import split_assignment
 
 from .commands import COMMANDS
-from .common import (UsageError, add_budget, add_out, add_set, add_tolerance, budget_of, engine_list, integer_type,
-                     load_noted, local_workers, parse_tolerances, positive_float, positive_int, print_table)
+from .common import (UsageError, add_budget, add_out, add_set, add_tolerance, budget_of, dask_client, engine_list,
+                     integer_type, load_noted, local_workers, parse_tolerances, positive_float, positive_int,
+                     print_table)
 from .paths import check_dir, writing
 from .progress import CountingExecutor, Progress, waited_s
 
@@ -58,18 +59,9 @@ def cmd_atlas(args: argparse.Namespace) -> int:
             case_name(source)
     except AtlasError as exc:
         raise UsageError(str(exc)) from None
-    if args.dask is not None and not args.dask.strip():
-        raise UsageError("--dask '': no scheduler address; give one (tcp://host:8786), or leave --dask out to run locally")
     budget = budget_of(args)
     command = "chatterbench " + " ".join(shlex.quote(a) for a in sys.argv[1:])
-    client = None
-    if args.dask:
-        try:
-            from distributed import Client
-
-            client = Client(args.dask, timeout=10)
-        except (OSError, TimeoutError, ValueError) as exc:
-            raise UsageError(f"--dask {args.dask}: cannot reach the Dask scheduler ({exc})") from None
+    client = dask_client(args.dask)
     try:
         with writing("--out", out):
             try:

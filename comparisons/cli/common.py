@@ -393,3 +393,17 @@ def add_judging(p: argparse.ArgumentParser) -> None:
 
 def add_out(p: argparse.ArgumentParser, default: str | None = None, what: str = "write the files under DIR") -> None:
     p.add_argument("--out", metavar="DIR", default=default, help=what)
+
+
+def dask_client(address: str | None):
+    """``--dask ADDRESS``'s client (None without one); an empty address or an unreachable scheduler refused by name."""
+    if address is None:
+        return None
+    if not address.strip():
+        raise UsageError("--dask '': no scheduler address; give one (tcp://host:8786), or leave --dask out to run locally")
+    try:
+        from distributed import Client
+
+        return Client(address, timeout=10)
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise UsageError(f"--dask {address}: cannot reach the Dask scheduler ({exc})") from None

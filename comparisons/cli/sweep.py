@@ -23,7 +23,7 @@ from chatterbench.comparisons.pipeline.tolerances import tolerance_values
 from chatterbench.comparisons.studies.limits import NO_WORKER_WAIT, NO_WORKERS
 
 from .commands import COMMANDS
-from .common import (UsageError, add_budget, add_out, add_tolerance, budget_of, file_notes, local_workers, positive_int,
+from .common import (UsageError, add_budget, dask_client, add_out, add_tolerance, budget_of, file_notes, local_workers, positive_int,
                      print_table, timeout_seconds)
 from .paths import check_dir, writing
 from .progress import Progress, waited_s
@@ -53,17 +53,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         sweep = dataclasses.replace(sweep, timeout=args.timeout)
     if args.tolerance:
         sweep = dataclasses.replace(sweep, tolerances={**dict(sweep.tolerances), **tolerance_values(args.tolerance)})
-    if args.dask is not None and not args.dask.strip():
-        raise UsageError("--dask '': no scheduler address; give one (tcp://host:8786), or leave --dask out to run locally")
     workers = args.workers if args.dask else local_workers(args.workers, budget.max_memory)
-    client = None
-    if args.dask:
-        try:
-            from distributed import Client
-
-            client = Client(args.dask, timeout=10)
-        except (OSError, TimeoutError, ValueError) as exc:
-            raise UsageError(f"--dask {args.dask}: cannot reach the Dask scheduler ({exc})") from None
+    client = dask_client(args.dask)
     try:
         with writing("--out", out):  # a full disk mid-sweep: one line naming the file; finished parts stay
             rows = run_sweep(sweep, out, executor=client, resume=args.resume, workers=workers, batch=args.batch,

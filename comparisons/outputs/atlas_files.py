@@ -30,7 +30,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from .frontier_chart import frontier_figure
-from .report_page import md_escape
+from ..pipeline.inert_text import md_escape
 
 ATLAS_COLUMNS = ["scene", "engine", "status", "robust_at_asked", "tightest_stick", "tightest_restitution", "written",
                  "dt", "settings", "cost_steps_per_s", "open_fraction", "onsets_per_s", "frontier_points", "runs",

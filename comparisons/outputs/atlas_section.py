@@ -151,7 +151,7 @@ def atlas_html(section: AtlasSection, img) -> str:
 
 def atlas_md(section: AtlasSection) -> str:
     """The section as Markdown: the atlas's table under a heading, with where it comes from and the version notes."""
-    from .report_page import md_escape
+    from ..pipeline.inert_text import md_escape
 
     notes = "".join(f"Versions differ: {md_escape(n)}.\n\n" for n in section.version_notes)
     return (f"## Atlas: every engine's band-robust frontier on every scene\n\nFrom {md_escape(section.source)}. "

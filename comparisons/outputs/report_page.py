@@ -194,15 +194,11 @@ def report_markdown(report: Report) -> str:
         out.append("")
     ran = {c.scene.name for c in report.comparisons}
     for scene in sorted({f.scene for f in report.frontiers} - ran):  # tuned scenes the report did not run
-<<<<<<< HEAD
-        out += [f"## {scene} (tuned)", "", *_frontier_lines(report, scene)]
+        out += [f"## {md_escape(scene)} (tuned)", "", *_frontier_lines(report, scene)]
     if report.atlas is not None:
         from .atlas_section import atlas_md
 
         out += [atlas_md(report.atlas)]
-=======
-        out += [f"## {md_escape(scene)} (tuned)", "", *_frontier_lines(report, scene)]
->>>>>>> r5-security
     out += ["## What produced this report", ""]
     for key, value in provenance_items(report):  # the command and the --set overrides are a user's text
         out.append(f"- {key}: {md_code(value)}" if key == "command" else

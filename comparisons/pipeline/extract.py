@@ -117,6 +117,7 @@ from chatterbench.reference.scene import Scene
 
 from chatterbench.reference.errors import check_number
 
+from .free_flight import first_root
 from .sticking import Stick, at_rest, last_landing, stick_frame, stick_rows, sticking_start, stuck_stretches
 from .surface import surface_speed, surface_velocity
 from .tolerances import ToleranceError
@@ -183,27 +184,6 @@ def free_relative_acceleration(scene: Scene, t, x1, v1, y, vy) -> np.ndarray:
     return np.broadcast_to(np.asarray(relative_acceleration(scene, t, x1, v1, y, vy), dtype=float), t.shape).astype(float)
 
 
-def _first_root(d, u, a, h):
-    """Smallest s in [0, h] with d + u s + a s^2 / 2 = 0, elementwise; NaN where none.
-
-    Uses the cancellation-free pair of quadratic roots (q = -(u + sign(u) sqrt(disc)) / 2,
-    roots q / (a/2) and d / q) so that tiny d keeps full relative precision.
-    """
-    d, u, a, h = (np.asarray(v, dtype=float) for v in np.broadcast_arrays(d, u, a, h))
-    half = 0.5 * a
-    disc = u * u - 4.0 * half * d
-    with np.errstate(divide="ignore", invalid="ignore"):
-        sq = np.sqrt(np.where(disc >= 0.0, disc, np.nan))
-        q = -0.5 * (u + np.where(u >= 0.0, sq, -sq))
-        r1 = np.where(half != 0.0, q / half, np.nan)
-        r2 = np.where(q != 0.0, d / q, np.where(d == 0.0, 0.0, np.nan))
-    out = np.full(d.shape, np.nan)
-    for r in (r1, r2):
-        ok = (r >= 0.0) & (r <= h) & ~(out <= r)
-        out = np.where(ok, r, out)
-    return np.where(d <= 0.0, 0.0, out)  # already on or past the wall
-
-
 def contact_runs(contact: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Runs of contact samples: run i covers starts[i] .. stops[i] - 1; stops[i] is the first
     free sample after it, or n when the data end in contact. Arrays of int, shape (m,)."""
@@ -237,7 +217,7 @@ def _release_times(t: np.ndarray, force: np.ndarray | None, starts: np.ndarray,
             sb, sa = t[prev] - t_last, t[prev2] - t_last
             c1 = (f0 - f1) / sb
             c2 = ((f2 - f0) / (sa - sb) - c1) / sa
-            s_q = _first_root(f1, c1 - c2 * sb, 2.0 * c2, t_next - t_last)
+            s_q = first_root(f1, c1 - c2 * sb, 2.0 * c2, t_next - t_last)
         rel = np.where(ok, np.clip(zero, t_last, t_next), rel)
         smooth = inside & (last - 2 >= starts[done]) & ~np.isnan(s_q)
         near = np.where(smooth, np.abs(t_last + np.nan_to_num(s_q) - rel), np.inf)
@@ -266,7 +246,7 @@ def _wall_impacts(traj: Trajectory, y: np.ndarray, vy: np.ndarray, scene: Scene,
 
     # (i) contact onsets: the last free sample before, carried forwards to the wall
     k = np.maximum(starts - 1, 0)
-    s_in = _first_root(d[k], u[k], a[k], t[starts] - t[k])
+    s_in = first_root(d[k], u[k], a[k], t[starts] - t[k])
     t_in = np.where(np.isnan(s_in), t[starts], t[k] + np.nan_to_num(s_in))
     t_in_bound = np.where(np.isnan(s_in), t[starts] - t[k], 0.0)  # the parabola misses: somewhere in the step
     # the speeds where the body crosses the undeformed surface (surface.py): a soft contact lets go below it
@@ -282,7 +262,7 @@ def _wall_impacts(traj: Trajectory, y: np.ndarray, vy: np.ndarray, scene: Scene,
     released = stops < n_s
     e = np.minimum(stops, n_s - 1)  # the first free sample after, carried to where it crosses the surface
     j_out = _free_neighbour(t, u, a, contact, e, 1, options)
-    s_out = _first_root(d[e], -u[e], a[e], t[e] - t[np.maximum(e - 1, 0)])
+    s_out = first_root(d[e], -u[e], a[e], t[e] - t[np.maximum(e - 1, 0)])
     # a rebound (the free motion presses); at an exit (a >= 0) the free motion pulls the body out of a
     # resting penetration: no rebound to measure, its speed at release
     rebound = (surface_velocity(t, d, u, a, e, j_out) > 0.0) & (a[e] < 0.0)
@@ -302,13 +282,13 @@ def _wall_impacts(traj: Trajectory, y: np.ndarray, vy: np.ndarray, scene: Scene,
                          *(_jump_steps(t, d, u, a, contact, traj.index, options, lo)
                            for lo in range(0, n_s - 1, _STEP_BLOCK))])
     h = t[ks + 1] - t[ks] if len(ks) else np.empty(0)
-    s_fwd = _first_root(d[ks], u[ks], a[ks], h)
+    s_fwd = first_root(d[ks], u[ks], a[ks], h)
     # an impact needs the body to come to the wall: moving towards it, or carried there by the free motion
     # within the step; a body rising from the wall all through the step is lifting off, whatever its jump
     # (a file whose forcing runs ahead of the scene's leaves while the scene's y'' still presses)
     arrives = (u[ks] < 0.0) | ~np.isnan(s_fwd)
     ks, h, s_fwd = ks[arrives], h[arrives], s_fwd[arrives]
-    s_bwd = _first_root(d[ks + 1], -u[ks + 1], a[ks + 1], h)
+    s_bwd = first_root(d[ks + 1], -u[ks + 1], a[ks + 1], h)
     t_j = np.where(~np.isnan(s_fwd), t[ks] + s_fwd, np.where(~np.isnan(s_bwd), t[ks + 1] - s_bwd, t[ks + 1]))
     between = {"t": t_j, "v_minus": u[ks] + a[ks] * (t_j - t[ks]), "v_plus": u[ks + 1] - a[ks + 1] * (t[ks + 1] - t_j),
                "t_release": t_j, "first": ks + 1, "begin": ks + 1, "contact": np.zeros(len(ks), bool),

@@ -32,7 +32,9 @@ import numpy as np
 import pandas as pd
 
 from chatterbench.reference.dense import sample
-from chatterbench.reference.scene import SPEED_OF_LIGHT, Scene, SceneError, fastest_push
+from chatterbench.reference.push import fastest_push
+from chatterbench.reference.errors import SPEED_OF_LIGHT
+from chatterbench.reference.scene import Scene, SceneError
 from chatterbench.reference.simulate import Result, simulate
 
 EPISODE_COLUMNS = [

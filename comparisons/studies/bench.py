@@ -418,8 +418,8 @@ def bench_ladder(cases=LADDER_CASES, repeats: int = 3):
 
 # the atlas's benchmark: a small atlas (scene, engine), each engine's knobs held where its frontier lies (its tune on
 # the ball), dt capped at 300 steps per simulated second: seconds a case, so serial and batched fit in one run
-ATLAS_CASES = (("bouncing-ball", "pybullet"), ("bouncing-ball", "mujoco"), ("impact-damper", "pybullet"),
-               ("impact-damper", "mujoco"))
+ATLAS_CASES = (("bouncing-ball", "pybullet"), ("bouncing-ball", "mujoco"), ("feigin-pair", "pybullet"),
+               ("feigin-pair", "mujoco"))
 ATLAS_FIXED = {"pybullet.restitution_velocity_threshold": 0.1, "pybullet.num_solver_iterations": 50,
                "mujoco.integrator": "euler", "mujoco.impedance": 0.9, "mujoco.w0_dt": 0.3}
 

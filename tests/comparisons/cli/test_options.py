@@ -28,8 +28,8 @@ def _subparsers() -> dict[str, argparse.ArgumentParser]:
 
 def test_every_subcommand_is_registered():
     assert set(_subparsers()) == {"scenes", "engines", "run", "compare", "judge", "report", "gate", "platemap", "tune",
-                                  "calibrate", "sweep", "chart", "bench"}
-    assert len(SUBCOMMANDS) == 13
+                                  "atlas", "calibrate", "sweep", "chart", "bench"}
+    assert len(SUBCOMMANDS) == 14
 
 
 @pytest.mark.parametrize("name", sorted(_subparsers()))

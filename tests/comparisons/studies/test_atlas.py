@@ -21,7 +21,7 @@ from chatterbench.comparisons.outputs.atlas_files import atlas_frame, atlas_tabl
 from chatterbench.comparisons.outputs.atlas_section import packaged_atlas, read_atlas, version_notes
 from helpers import wait_until
 
-SMALL = ["bouncing-ball", "impact-damper", "--engines", "pybullet,mujoco", "--max-runs", "40", "--max-cost", "300",
+SMALL = ["bouncing-ball", "feigin-pair", "--engines", "pybullet,mujoco", "--max-runs", "40", "--max-cost", "300",
          "--set", "pybullet.restitution_velocity_threshold=0.1", "--set", "pybullet.num_solver_iterations=50",
          "--set", "mujoco.integrator=euler", "--set", "mujoco.impedance=0.9", "--set", "mujoco.w0_dt=0.3"]
 TIMED = ["wall_s"]  # the only columns a rerun may change
@@ -90,7 +90,7 @@ def test_names_from_a_case_are_escaped_in_the_markdown():
 def test_a_small_atlas_writes_its_cases_tables_and_charts(small_atlas):
     out = small_atlas
     for name in ("atlas.json", "atlas.csv", "atlas.parquet", "frontier.csv", "frontier.parquet", "atlas.md",
-                 "figures/overview.png", "figures/frontier-bouncing-ball.png", "figures/frontier-impact-damper.png"):
+                 "figures/overview.png", "figures/frontier-bouncing-ball.png", "figures/frontier-feigin-pair.png"):
         assert (out / name).is_file(), name
     atlas, frontier = _tables(out)
     assert len(atlas) == 4 and set(atlas["status"]) == {"ok"}
