@@ -15,7 +15,6 @@ from __future__ import annotations
 import argparse
 import math
 import shlex
-import sys
 from pathlib import Path
 
 from chatterbench.comparisons.studies.limits import MAX_RUNS, ROBUST_FRACTION
@@ -60,7 +59,7 @@ def cmd_atlas(args: argparse.Namespace) -> int:
     except AtlasError as exc:
         raise UsageError(str(exc)) from None
     budget = budget_of(args)
-    command = "chatterbench " + " ".join(shlex.quote(a) for a in sys.argv[1:])
+    command = _command_line(args)
     client = dask_client(args.dask)
     try:
         with writing("--out", out):
@@ -80,6 +79,25 @@ def cmd_atlas(args: argparse.Namespace) -> int:
     print(f"wrote under {out}: " + ", ".join(written))
     print(f"atlas took {waited_s():.1f} s since the command started")
     return 0 if (atlas["status"] == "ok").all() else 1
+
+
+def _command_line(args: argparse.Namespace) -> str:
+    """The command, rebuilt from the parsed options (the atlas's provenance)."""
+    words = ["chatterbench", "atlas", *args.scenes]
+    if args.engines:
+        words += ["--engines", args.engines]
+    for item in args.tolerance or []:
+        words += ["--tolerance", item]
+    words += ["--max-runs", str(args.max_runs)]
+    if math.isfinite(args.max_cost):
+        words += ["--max-cost", f"{args.max_cost:g}"]
+    if args.robust_fraction != ROBUST_FRACTION:
+        words += ["--robust-fraction", f"{args.robust_fraction:g}"]
+    for item in args.set or []:
+        words += ["--set", item]
+    if args.dask:
+        words += ["--dask", args.dask]
+    return " ".join(shlex.quote(w) for w in [*words, "--out", args.out])
 
 
 def _run(out: Path, spec, command: str, client, workers: int | None, budget):

@@ -389,7 +389,8 @@ def flight_floor(dt: float, restitution: float, stick_tolerance: float = math.na
 
 
 def extract(traj: Trajectory, scene: Scene, stick_tolerance: float = math.nan,
-            options: ExtractionOptions | None = None, offsets: Mapping[str, float] | None = None) -> Extraction:
+            options: ExtractionOptions | None = None, offsets: Mapping[str, float] | None = None,
+            walls: dict | None = None) -> Extraction:
     """Impacts, event log and episodes of a sampled trajectory (module docstring).
 
     Parameters
@@ -405,6 +406,9 @@ def extract(traj: Trajectory, scene: Scene, stick_tolerance: float = math.nan,
     offsets : mapping wall -> float, optional
         [m] a contact skin per wall: the body rests this far from the wall (> 0: outside the gap), so
         the wall's surface is taken there (``trajectory_file.resting_offsets`` measures it in a file).
+    walls : dict, optional
+        A cache kept by the caller across extractions of one ``traj`` (same options and offsets) at other sticking
+        tolerances (tune's ladder): each wall's impacts, which the tolerance does not move, found once.
     """
     options = options or ExtractionOptions()
     t = np.asarray(traj.t, dtype=float)
@@ -419,11 +423,16 @@ def extract(traj: Trajectory, scene: Scene, stick_tolerance: float = math.nan,
     R = scene.restitution
     f_min = flight_floor(dt, R, stick_tolerance, options)
     y, vy = traj.y, traj.vy  # each a new array per read: read once
-    acc = free_relative_acceleration(scene, t, traj.x1, traj.v1, y, vy)
+    walls = {} if walls is None else walls
+    acc = walls.get("acc")
+    if acc is None:
+        acc = walls["acc"] = free_relative_acceleration(scene, t, traj.x1, traj.v1, y, vy)
     x1, v1 = np.asarray(traj.x1, float), np.asarray(traj.v1, float)
     rows, impact_rows, sticks = [], [], []
     for wall in scene.gap.walls:
-        imp = _wall_impacts(traj, y, vy, scene, wall, acc, options, offsets)
+        imp = walls.get(wall)
+        if imp is None:
+            imp = walls[wall] = _wall_impacts(traj, y, vy, scene, wall, acc, options, offsets)
         nrm = 1.0 if wall == "lower" else -1.0
         pressing = imp["a_release"] < 0.0
         band = np.where(pressing, -imp["a_release"], 0.0) * f_min**2 / 8.0

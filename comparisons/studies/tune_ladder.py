@@ -142,13 +142,14 @@ def judge_levels(ref: ReferenceSolution, engine: str, settings: Any, trajectory,
         return flight_floor(dt, ref.scene.restitution, ref.stick_tolerance(tol.stick))
 
     contacts = {}  # the contact over each rest window, shared by the extractions (``PreparedRun``)
+    walls = {}  # each wall's impacts, found once for every f_min's extraction (``extract``'s cache)
     prepared = {floor(points[i]): PreparedRun(ref, run.found, trajectory, contacts) for i, (run, _, _) in (known or {}).items()}
     for i, tol in enumerate(points):
         if i not in wanted or shortcut and tol.stick in failed_timing:
             continue
         f_min = floor(tol)
         if f_min not in prepared:  # one extraction per f_min, as ``judge_run`` makes it
-            found = extract(trajectory, ref.scene, ref.stick_tolerance(tol.stick))
+            found = extract(trajectory, ref.scene, ref.stick_tolerance(tol.stick), walls=walls)
             prepared[f_min] = PreparedRun(ref, found, trajectory, contacts)
         level = prepared[f_min].verdicts(tol, complete=False)  # a passing point's rows are whole
         if _agrees(level.verdicts):
