@@ -203,3 +203,26 @@ def test_the_packaged_atlas_has_its_provenance():
     p = section.provenance
     assert p["command"].startswith("chatterbench atlas") and p["machine"] and p["versions"] and p["code"]
     assert {c["status"] for c in section.cases} <= {"ok", "failed"} and len(section.cases) >= 2
+
+
+@pytest.mark.slow
+def test_a_cell_of_the_packaged_atlas_recomputed_from_scratch_gives_its_answer():
+    # the report's atlas is data kept in the repository: one of its cells, tuned again here with the atlas's own
+    # search, reaches the same frontier (tolerances, dt, settings, cost); fixed-step costs, no timing decides it
+    from chatterbench.comparisons.studies.atlas import AtlasSpec, run_case
+    from chatterbench.comparisons.pipeline.tolerances import Tolerances
+
+    section = packaged_atlas()
+    (kept,) = [c for c in section.cases if (c["scene"], c["engine"]) == ("bouncing-ball", "pybullet")]
+    search = section.provenance["search"]
+    spec = AtlasSpec(scenes=("bouncing-ball",), engines=("pybullet",), tolerance=Tolerances(**search["tolerances"]),
+                     max_runs=search["max_runs"], robust_fraction=search["robust_fraction"], fixed=search["fixed"])
+    again, _ = run_case(spec, "bouncing-ball", "pybullet", workers=2)
+
+    def answer(case):
+        rec = case["recommended"]
+        return ([(e["tolerances"]["stick"], e["tolerances"]["restitution"], e["dt"], e["settings"], e["cost_steps_per_s"])
+                 for e in rec["frontier"]], rec["tightest"], rec["robust"])
+
+    assert json.loads(json.dumps(answer(again))) == answer(kept)
+    assert kept["recommended"]["frontier"], "the cell checked must have a frontier to compare"
