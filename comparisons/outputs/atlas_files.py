@@ -94,8 +94,10 @@ def scene_frontiers(cases: Iterable[dict[str, Any]], scene: str) -> dict[str, li
 
 
 def scene_figure(cases: Sequence[dict[str, Any]], scene: str, asked: dict[str, float] | None) -> Figure:
-    """A scene's work-precision chart of robust settings, one line per engine."""
-    return frontier_figure(scene_frontiers(cases, scene), scene, asked=asked)
+    """A scene's work-precision chart of robust settings, one line per engine; its points labelled where at most two
+    engines have any (more would cover each other: ``frontier.csv`` and the table list them)."""
+    frontiers = scene_frontiers(cases, scene)
+    return frontier_figure(frontiers, scene, asked=asked, labels=sum(1 for f in frontiers.values() if f) <= 2)
 
 
 LEVELS = (0.01, 0.02, 0.05, 0.1, 0.2)  # the ladder's sticking levels: the overview's colour steps
@@ -130,6 +132,11 @@ def overview_figure(atlas: pd.DataFrame) -> Figure:
         ax.text(j, i, text, ha="center", va="center", fontsize=7, color=colour)
     import numpy as np
 
+    done = {(r["scene"], r["engine"]) for _, r in atlas.iterrows()}
+    for i, scene in enumerate(scenes):
+        for j, engine in enumerate(engines):
+            if (scene, engine) not in done:
+                ax.text(j, i, "not in the atlas", ha="center", va="center", fontsize=7, color="0.45", style="italic")
     data = np.ma.masked_invalid(np.array(grid, dtype=float))
     ax.set_facecolor("0.88")
     mesh = ax.pcolormesh(np.arange(len(engines) + 1) - 0.5, np.arange(len(scenes) + 1) - 0.5, data, cmap=cmap,
@@ -175,6 +182,27 @@ def table_cells(atlas: pd.DataFrame) -> list[list[str]]:
     return rows
 
 
+POINT_HEADERS = ("scene", "engine", "frontier points: stick / restitution tolerance, steps per simulated second")
+
+
+def point_cells(cases: Iterable[dict[str, Any]]) -> list[list[str]]:
+    """Per case with a frontier, its points cheapest first as ``5/2%: 425`` (the charts leave them unlabelled where
+    many engines share one)."""
+    rows = []
+    for c in cases:
+        points = [f"{100 * e['tolerances']['stick']:g}/{100 * e['tolerances']['restitution']:g}%: "
+                  f"{e['cost_steps_per_s']:,.0f}" for e in (c.get("recommended") or {}).get("frontier") or []]
+        if points:
+            rows.append([c["scene"], c["engine"], "; ".join(points)])
+    return rows
+
+
+def points_markdown(cases: Iterable[dict[str, Any]]) -> str:
+    """``point_cells`` as a Markdown table, every cell escaped."""
+    lines = ["| " + " | ".join(POINT_HEADERS) + " |", "| --- | --- | --- |"]
+    return "\n".join(lines + ["| " + " | ".join(md_escape(c) for c in row) + " |" for row in point_cells(cases)])
+
+
 def atlas_table_markdown(atlas: pd.DataFrame) -> str:
     """The atlas table in Markdown, every cell escaped (``md_escape``)."""
     lines = ["| " + " | ".join(TABLE_HEADERS) + " |",
@@ -188,6 +216,12 @@ def atlas_markdown(atlas: pd.DataFrame, provenance: dict[str, Any], figures: Seq
     lines = ["# The atlas: band-robust frontiers", "", md_escape(provenance_sentence(provenance)), ""]
     lines += [f"![{md_escape(Path(f).stem)}]({f})" for f in figures] + ([""] if figures else [])
     return "\n".join(lines) + atlas_table_markdown(atlas) + "\n"
+
+
+def atlas_file_markdown(atlas: pd.DataFrame, cases: Sequence[dict[str, Any]], provenance: dict[str, Any],
+                        figures: Sequence[str]) -> str:
+    """atlas.md: ``atlas_markdown`` and each case's frontier points."""
+    return atlas_markdown(atlas, provenance, figures) + "\n" + points_markdown(cases) + "\n"
 
 
 def _share(v: float) -> str:
@@ -230,5 +264,5 @@ def write_atlas_files(out: Path, cases: Sequence[dict[str, Any]], provenance: di
     for scene in dict.fromkeys(atlas["scene"]):
         write_figure(scene_figure(cases, scene, asked), out / "figures", f"frontier-{scene}")
         figures.append(f"figures/frontier-{scene}.png")
-    write_text(out / "atlas.md", atlas_markdown(atlas, provenance, figures))
+    write_text(out / "atlas.md", atlas_file_markdown(atlas, cases, provenance, figures))
     return written + ["atlas.md"] + [f.replace(".png", ".png/.svg") for f in figures]

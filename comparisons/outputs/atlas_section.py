@@ -25,7 +25,7 @@ from typing import Any
 
 from chatterbench.reference.errors import InputError
 
-from .atlas_files import (TABLE_HEADERS, atlas_frame, atlas_table_markdown, overview_figure, provenance_sentence,
+from .atlas_files import (POINT_HEADERS, TABLE_HEADERS, point_cells, points_markdown, atlas_frame, atlas_table_markdown, overview_figure, provenance_sentence,
                           scene_figure, table_cells)
 
 DATA = Path(__file__).resolve().parent.parent / "atlas_data"  # the dataset kept in the package
@@ -143,10 +143,18 @@ def atlas_html(section: AtlasSection, img) -> str:
             parts.append(img(scene_figure(section.cases, scene, asked), f"atlas-frontier-{scene}",
                              f"{scene}: each engine's cheapest band-robust setting against the tolerance it reaches, "
                              "timing (left) and restitution (right), from the atlas"))
-    parts.append("<table><thead><tr>" + "".join(f"<th>{html.escape(h)}</th>" for h in TABLE_HEADERS)
-                 + "</tr></thead><tbody>" + "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in row) + "</tr>"
-                                                    for row in table_cells(atlas)) + "</tbody></table>")
+    parts.append(_table(TABLE_HEADERS, table_cells(atlas), text=(0, 1, 2, 5)))
+    parts.append(_table(POINT_HEADERS, point_cells(section.cases), text=(0, 1, 2)))
     return "\n".join(parts)
+
+
+def _table(headers, rows, text=()) -> str:
+    """An HTML table of plain cells, escaped; the columns in ``text`` left-aligned (the page's ``text`` class)."""
+    cls = lambda k: ' class="text"' if k in text else ' class="num"'  # noqa: E731
+    return ("<table><thead><tr>" + "".join(f"<th{cls(k)}>{html.escape(h)}</th>" for k, h in enumerate(headers))
+            + "</tr></thead><tbody>" + "".join("<tr>" + "".join(f"<td{cls(k)}>{html.escape(c)}</td>"
+                                                                for k, c in enumerate(row)) + "</tr>" for row in rows)
+            + "</tbody></table>")
 
 
 def atlas_md(section: AtlasSection) -> str:
@@ -156,7 +164,7 @@ def atlas_md(section: AtlasSection) -> str:
     notes = "".join(f"Versions differ: {md_escape(n)}.\n\n" for n in section.version_notes)
     return (f"## Atlas: every engine's band-robust frontier on every scene\n\nFrom {md_escape(section.source)}. "
             f"{md_escape(provenance_sentence(section.provenance))}.\n\n{notes}"
-            f"{atlas_table_markdown(atlas_frame(section.cases))}\n")
+            f"{atlas_table_markdown(atlas_frame(section.cases))}\n\n{points_markdown(section.cases)}\n")
 
 
 def check_atlas(folder: str) -> AtlasSection:

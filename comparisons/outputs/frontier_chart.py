@@ -63,8 +63,9 @@ def _pct(v: float) -> str:
 
 
 def frontier_figure(frontiers: Mapping[str, Sequence[dict[str, Any]]], scene: str,
-                    asked: Mapping[str, float] | None = None) -> Figure:
-    """The chart (module docstring); ``frontiers``: engine -> its frontier entries; ``asked``: the asked tolerances."""
+                    asked: Mapping[str, float] | None = None, labels: bool = True) -> Figure:
+    """The chart (module docstring); ``frontiers``: engine -> its frontier entries; ``asked``: the asked tolerances;
+    ``labels`` False: no point labelled (many engines: the atlas's table lists the points)."""
     fig = Figure(figsize=(10.5, 4.8), layout="constrained")
     axes = fig.subplots(1, 2)
     for ax, (axis, label, other, short) in zip(axes, AXES):
@@ -83,7 +84,7 @@ def frontier_figure(frontiers: Mapping[str, Sequence[dict[str, Any]]], scene: st
             others = [e for e in entries if e not in steps]  # dearer here, but tighter on the other axis
             ax.plot([e["tolerances"][axis] for e in others], [e["cost_steps_per_s"] for e in others], marker, mfc="none",
                     color=colour, ms=size, mew=1.4, ls="none", zorder=3 + k)
-            for e in entries:
+            for e in entries if labels else ():
                 at_asked = asked is not None and all(e["tolerances"].get(a) == asked.get(a) for a in ("stick", "restitution"))
                 text = f"{short} {_pct(e['tolerances'][other])}, {e['cost_steps_per_s']:,.0f}/s" + (" (asked)" if at_asked else "")
                 ax.annotate(text, (e["tolerances"][axis], e["cost_steps_per_s"]), textcoords="offset points",
