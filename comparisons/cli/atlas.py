@@ -129,9 +129,9 @@ def register(sub, formatter) -> None:
     """Add ``atlas`` to the ``chatterbench`` subparsers."""
     p = sub.add_parser("atlas", help=COMMANDS["atlas"], formatter_class=formatter)
     p.add_argument("scenes", nargs="*", metavar="SCENE",
-                   help="built-in scene names or scene TOML files (default: every built-in scene)")
+                   help="built-in scene names or scene TOML files; none: every built-in scene")
     p.add_argument("--engines", "--engine", default=None, metavar="E[,E...]",
-                   help="the engines, comma-separated (default: every engine installed here)")
+                   help="the engines, comma-separated; None: every engine installed here")
     add_tolerance(p)
     p.set_defaults(tolerance=None)
     p.add_argument("--workers", type=positive_int, default=None,
