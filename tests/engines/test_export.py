@@ -258,9 +258,11 @@ def test_export_refuses_the_scene_file_it_reads(tmp_path):
     scene_file.write_text(scene_toml(load_scene("bouncing-ball")))
     before = scene_file.read_text()
     (tmp_path / "link.py").symlink_to(scene_file)
-    for target in (scene_file, tmp_path / "link.py"):  # in this process: a refusal, and a write, by the command's code
-        done = cli_here(["run", str(scene_file), "--engines", "pybullet", "--export-model", str(target)])
-        assert done.code == 2 and "is the SCENE file" in done.err and "name another file" in done.err, done.err
+    done = cli_here(["run", str(scene_file), "--engines", "pybullet", "--export-model", str(scene_file)])
+    assert done.code == 2 and "is the SCENE file" in done.err and "name another file" in done.err, done.err
+    # a link to it: refused as a link (issue 45: a write never replaces a link), the scene untouched either way
+    done = cli_here(["run", str(scene_file), "--engines", "pybullet", "--export-model", str(tmp_path / "link.py")])
+    assert done.code == 2 and "a symbolic link" in done.err and "give the file itself" in done.err, done.err
     assert scene_file.read_text() == before
     done = cli_here(["run", str(scene_file), "--engines", "pybullet", "--dt", "1e-3", "--export-model", str(tmp_path / "t.py")])
     assert done.code == 0 and (tmp_path / "t.py").is_file(), done.err  # another name: written

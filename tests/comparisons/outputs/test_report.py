@@ -138,6 +138,13 @@ def _probe(page: Path, tmp_path: Path) -> dict:
     return json.loads(found.group(1))
 
 
+def _atlas_images() -> int:
+    """The figures of the report's default atlas section: the overview and one chart per scene of the kept atlas."""
+    from chatterbench.comparisons.outputs.atlas_section import packaged_atlas
+
+    return 1 + len({c["scene"] for c in packaged_atlas().cases})
+
+
 def _ink(shot: Path, size: tuple[int, int]) -> float:
     """The share of a screenshot that is not background (text, table rules, figures)."""
     import matplotlib.image
@@ -151,8 +158,9 @@ def _ink(shot: Path, size: tuple[int, int]) -> float:
 def test_report_renders_in_chromium(report_dir, tmp_path):
     page = (report_dir / "index.html").read_text()
     n_img = page.count("<img ")
-    # time series, chatter ladder and episode errors, work-precision, one stability map per engine
-    assert n_img == 3 + 1 + 2
+    # time series, chatter ladder and episode errors, work-precision, one stability map per engine; the kept atlas's
+    # overview and one chart per scene it holds
+    assert n_img == 3 + 1 + 2 + _atlas_images() and 'id="atlas-overview"' in page
     result = _probe(report_dir / "index.html", tmp_path)
     assert result["title"] == "chatterbench report"
     assert result["tables"] >= 3  # summary, episodes, provenance (+ legend, engines)
@@ -181,7 +189,7 @@ def test_the_readmes_report_loads_every_figure_in_chromium(tmp_path, monkeypatch
         for stem in ("timeseries", "ladder", "episode-errors"):
             assert f'id="{stem}-{scene}"' in page
     result = _probe(out / "index.html", tmp_path)
-    assert len(result["images"]) == page.count("<img ") == 3 * len(scenes)
+    assert len(result["images"]) == page.count("<img ") == 3 * len(scenes) + _atlas_images()
     for width, height, complete in result["images"]:
         assert complete and width > 500 and height > 300  # decoded, at the size the figures were drawn
     # the first screen a reader sees, kept beside the report
