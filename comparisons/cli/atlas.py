@@ -18,7 +18,7 @@ import shlex
 from pathlib import Path
 
 from chatterbench.comparisons.studies.limits import MAX_RUNS, ROBUST_FRACTION
-from chatterbench.reference.scene import split_assignment
+from chatterbench.reference.scene import load_scene, split_assignment
 
 from .commands import COMMANDS
 from .common import (UsageError, add_budget, add_out, add_set, add_tolerance, budget_of, dask_client, engine_list,
@@ -51,6 +51,12 @@ def cmd_atlas(args: argparse.Namespace) -> int:
             raise UsageError(f"--set {item}: atlas --set fixes an engine's knob (ENGINE.KNOB=VALUE) of one of "
                              f"--engines {','.join(engines)}; scene fields belong in a scene file")
         fixed[key] = value
+    from chatterbench.comparisons.studies.tune import engine_space
+
+    from .tune import fixed as held
+
+    for engine in engines:  # a knob an engine does not search: refused before any case runs
+        held(engine, engine_space(engine, load_scene(scenes[0])), args.set or [])
     spec = AtlasSpec(scenes=scenes, engines=engines, tolerance=parse_tolerances(args.tolerance),
                      max_runs=args.max_runs, robust_fraction=args.robust_fraction, fixed=fixed, max_cost=args.max_cost)
     try:

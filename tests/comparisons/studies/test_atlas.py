@@ -157,6 +157,18 @@ def test_another_search_in_the_same_folder_is_refused(small_atlas, tmp_path, cap
     assert "another search" in capsys.readouterr().err
 
 
+def test_bad_input_is_refused_before_any_case_runs(tmp_path, capsys):
+    out = tmp_path / "atlas"
+    for words, said in ((["--engines", "pybullet", "--set", "pybullet.nope=1"], "--set pybullet.nope=1: pybullet searches"),
+                        (["--engines", "pybullet", "--set", "restitution=0.3"], "scene fields belong in a scene file"),
+                        (["--engines", "bogus"], "engine 'bogus'")):
+        argv = ["atlas", "bouncing-ball", *words, "--out", str(out)]
+        assert main(argv) == 2
+        assert said in capsys.readouterr().err
+        assert not out.exists()  # nothing written, nothing run
+    assert main(["atlas", "bouncing-ball", "--engines", "pybullet"]) == 2 and "--out DIR is needed" in capsys.readouterr().err
+
+
 # -- the report's section -------------------------------------------------------------------------------------------
 
 @pytest.mark.slow
