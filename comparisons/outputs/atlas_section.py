@@ -69,6 +69,11 @@ def read_atlas(folder: str | Path, source: str | None = None) -> AtlasSection:
     for case in cases:
         _check_case(case, folder)
     provenance = {**provenance, "wall_s": sum(c.get("wall_s") or 0 for c in cases if _positive(c.get("wall_s")))}
+    codes = sorted({str(c["code"]) for c in cases if c.get("code")})
+    if len(codes) > 1 or (codes and codes[0] != provenance.get("code")):  # a resumed atlas: say which code ran
+        provenance["code"] = f"cases made by {', '.join(codes)}" + (
+            f" (and {provenance['code']})" if provenance.get("code") and provenance["code"] not in codes
+            and any(not c.get("code") for c in cases) else "")
     return AtlasSection(source=source or str(folder), provenance=provenance, cases=cases,
                         version_notes=tuple(version_notes(provenance, {c["engine"] for c in cases})))
 

@@ -11,7 +11,8 @@ ladder of timing x restitution levels, the band-robust rule (every dt of [0.8, 1
 impact phases and the knob neighbours), the contact's persistence after each stick, no transfer
 recheck (``tune`` itself does that, for the one answer a user writes). A case's outcome is
 ``recommended.json`` as ``tune --out`` writes it (``tune_answer.recommended``) with the case's
-wall time [s], its runs and the engine's version; a case that cannot run (the engine refuses
+wall time [s], its runs, the engine's version and the code that ran it (a resumed atlas may hold cases of
+several commits: the report names them); a case that cannot run (the engine refuses
 the scene, or crashes outside a run) is kept as a ``failed`` case with the message, and the
 atlas goes on.
 
@@ -247,7 +248,7 @@ def run_case(spec: AtlasSpec, scene_name: str, engine: str, executor=None, worke
 
     start = time.perf_counter()
     scene = load_scene(scene_name)
-    base = {"scene": scene.name, "engine": engine, "engine_version": engine_version(engine)}
+    base = {"scene": scene.name, "engine": engine, "engine_version": engine_version(engine), "code": code_version()}
     try:
         space = None
         own = {k: v for k, v in spec.fixed.items() if k.split(".", 1)[0] == engine}

@@ -238,3 +238,17 @@ def test_a_cell_of_the_packaged_atlas_recomputed_from_scratch_gives_its_answer()
 
     assert json.loads(json.dumps(answer(again))) == json.loads(json.dumps(answer(kept)))
     assert kept["recommended"]["frontier"], "the cell checked must have a frontier to compare"
+
+
+def test_a_resumed_atlas_names_every_commit_its_cases_ran_on(tmp_path):
+    atlas = tmp_path / "atlas"
+    atlas.mkdir()
+    (atlas / "atlas.json").write_text(json.dumps({"versions": {}, "code": "git aaa", "command": "chatterbench atlas"}))
+    for engine, code in (("pybullet", "git aaa"), ("mujoco", "git bbb")):
+        (atlas / "cases" / "bouncing-ball" / engine).mkdir(parents=True)
+        case = {**_case("bouncing-ball", engine, False), "code": code}
+        (atlas / "cases" / "bouncing-ball" / engine / "case.json").write_text(json.dumps(case))
+    assert read_atlas(atlas).provenance["code"] == "cases made by git aaa, git bbb"
+    (atlas / "cases" / "bouncing-ball" / "mujoco" / "case.json").write_text(
+        json.dumps({**_case("bouncing-ball", "mujoco", False), "code": "git aaa"}))
+    assert read_atlas(atlas).provenance["code"] == "git aaa"  # one commit: as the atlas says
