@@ -368,6 +368,11 @@ SLOW = {"report --tune hostile"}  # besides the interrupted ones: a run of sever
                                   for c in CASES], ids=[c.id for c in CASES])
 def test_hostile_case(case, tmp_path_factory):
     got, _ = run_case(case, session_folder(tmp_path_factory))
+    assert_outcome(got, case)
+
+
+def assert_outcome(got: Outcome, case) -> None:
+    """A case's run says what it should: its exit code, no traceback, each of its words (round five's cases too)."""
     assert got.code == case.code, (got.code, got.output[-3000:])
     assert "Traceback" not in got.output, got.output
     for word in case.words:

@@ -25,7 +25,7 @@ import pytest
 from chatterbench.comparisons.pipeline.inert_text import log_text
 from helpers import cli
 from shared_runs import made_once, session_folder
-from test_hostile_cases import GATE, REPORT, Case, Outcome, _scratch, message
+from test_hostile_cases import GATE, REPORT, Case, Outcome, _scratch, assert_outcome, message
 
 SECRET = "root:x:0:0:SECRET-OUTSIDE-THE-FOLDER"  # what an outside file holds: it must reach no output
 INJECTED = "x\n::warning title=INJ::injected\n## INJ fake PASS\n##[warning]INJ legacy\n| INJ | row |"
@@ -270,10 +270,7 @@ SLOW = {"report --tune overlay", "report --tune raw HTML engine", "tune scene na
                                   for c in ROUND_FIVE], ids=[c.id for c in ROUND_FIVE])
 def test_round_five_case(case, tmp_path_factory):
     got, _ = run_case(case, session_folder(tmp_path_factory))
-    assert got.code == case.code, (got.code, got.output[-3000:])
-    assert "Traceback" not in got.output, got.output
-    for word in case.words:
-        assert word in got.output, (word, got.output[-3000:])
+    assert_outcome(got, case)
 
 
 def test_case_ids_are_unique():

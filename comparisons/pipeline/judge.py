@@ -216,6 +216,31 @@ class _Found:
                 "first_impact_bound": float(self.t_bound[first[0]]) if len(first) else math.nan}
 
 
+def reference_row(r) -> dict:
+    """A judged row's start from reference episode ``r`` (a row of ``ref.episodes``): its times, counts and scales,
+    no engine time yet, no rest window."""
+    return {"wall": r.wall, "ref_t_first_impact": r.t_first_impact, "ref_t_plate_entry": r.t_plate_entry,
+            "ref_t_stick": r.t_stick, "ref_t_exit": r.t_exit, "ref_n_impacts": int(r.n_impacts),
+            "chatter_duration": r.chatter_duration, "sliding_duration": r.sliding_duration,
+            "ref_v_first_impact": r.v_first_impact, "stick_scale": r.stick_scale,
+            "t_first_impact": math.nan, "t_stick": math.nan, "t_exit": math.nan, **_NO_REST}
+
+
+def engine_times(e, imps: _Found) -> dict:
+    """Engine episode ``e``'s times [s], impact count and their bounds (``_Found.bounds``), as a judged row holds them."""
+    return {"t_first_impact": e.t_first_impact, "t_stick": e.t_stick, "t_exit": e.t_exit, "n_impacts": int(e.n_impacts),
+            **imps.bounds(e)}
+
+
+def unpaired_row(e, imps: _Found) -> dict:
+    """The judged row of engine episode ``e`` that no reference episode pairs: no reference time, no measured impact."""
+    return {"wall": e.wall, "ref_t_first_impact": math.nan, "ref_t_plate_entry": math.nan, "ref_t_stick": math.nan,
+            "ref_t_exit": math.nan, "ref_n_impacts": 0, "chatter_duration": math.nan, "sliding_duration": math.nan,
+            "ref_v_first_impact": math.nan, "stick_scale": math.nan, **engine_times(e, imps), "resolved_impacts": 0,
+            "ref_resolved_impacts": 0, "restitution_error": math.nan, "restitution_excess": math.nan,
+            "unmeasured_impacts": 0, "measured_impacts": 0, **_NO_REST}
+
+
 def judge(ref: ReferenceSolution, found: Extraction, traj: Trajectory, tol: Tolerances | None = None) -> Judgement:
     """Judge one engine run (module docstring): one row per reference episode and per unpaired engine episode."""
     tol = tol or Tolerances()
@@ -232,16 +257,11 @@ def judge(ref: ReferenceSolution, found: Extraction, traj: Trajectory, tol: Tole
     rows, visit_pairs, windows = [], [], []
     prev_end = scene.initial.t
     for i, r in enumerate(rows_of(ref_eps)):
-        row = {"wall": r.wall, "ref_t_first_impact": r.t_first_impact, "ref_t_plate_entry": r.t_plate_entry,
-               "ref_t_stick": r.t_stick, "ref_t_exit": r.t_exit, "ref_n_impacts": int(r.n_impacts),
-               "chatter_duration": r.chatter_duration, "sliding_duration": r.sliding_duration,
-               "ref_v_first_impact": r.v_first_impact, "stick_scale": r.stick_scale,
-               "t_first_impact": math.nan, "t_stick": math.nan, "t_exit": math.nan, **_NO_REST}
+        row = reference_row(r)
         j = paired.get(i)
         if j is not None:
             e = eng_rows[j]
-            row.update(t_first_impact=e.t_first_impact, t_stick=e.t_stick, t_exit=e.t_exit,
-                       n_impacts=int(e.n_impacts), **imps.bounds(e))
+            row.update(engine_times(e, imps))
             visit = imps.visit_columns(r.wall, e.t_first_impact, e.t_exit)
             if not math.isnan(e.t_stick):
                 window = rest_window(e.t_stick, r.t_stick, tol.stick * r.stick_scale, e.t_exit, r.t_exit,
@@ -267,13 +287,7 @@ def judge(ref: ReferenceSolution, found: Extraction, traj: Trajectory, tol: Tole
         start = e.t_first_impact if not math.isnan(e.t_first_impact) else e.t_stick
         if j in used or start >= t_div:  # what a diverged run makes afterwards is no episode (its run row says so)
             continue
-        rows.append({"wall": e.wall, "ref_t_first_impact": math.nan, "ref_t_plate_entry": math.nan, "ref_t_stick": math.nan,
-                     "ref_t_exit": math.nan, "ref_n_impacts": 0, "chatter_duration": math.nan, "sliding_duration": math.nan,
-                     "ref_v_first_impact": math.nan, "stick_scale": math.nan, "t_first_impact": e.t_first_impact,
-                     "t_stick": e.t_stick, "t_exit": e.t_exit, **imps.bounds(e),
-                     "n_impacts": int(e.n_impacts), "resolved_impacts": 0,
-                     "ref_resolved_impacts": 0, "restitution_error": math.nan, "restitution_excess": math.nan,
-                     "unmeasured_impacts": 0, "measured_impacts": 0, **_NO_REST})
+        rows.append(unpaired_row(e, imps))
         windows.append((e.t_first_impact if not math.isnan(e.t_first_impact) else e.t_stick, e.t_exit))
     beyond = pen > allowance
     facts = RunFacts(status=traj.status, t_end=t_end, t_diverged=t_div,

@@ -44,9 +44,9 @@ from chatterbench.engines.trajectory import Trajectory
 
 from .extract import Extraction
 from .impacts import ImpactPairs, measured_at, pair_impacts, reference_flights
-from .judge import (_ERROR_INPUTS, _JUDGED_COLUMNS, _NO_REST, TABLE_COLUMNS, Judgement, RunFacts, _empty_table, _Found,
-                    _joined_pairs, _judged_table, _pairs, _row_type, _window_max, error_values, penetration, rows_of,
-                    run_row, sliding_min, time_diverged)
+from .judge import (_ERROR_INPUTS, _JUDGED_COLUMNS, TABLE_COLUMNS, Judgement, RunFacts, _empty_table, _Found,
+                    _joined_pairs, _judged_table, _pairs, _row_type, _window_max, engine_times, error_values, penetration,
+                    reference_row, rows_of, run_row, sliding_min, time_diverged, unpaired_row)
 from .persistence import ContactRest, contact_rest, rest_window
 from .solution import ReferenceSolution
 from .tolerances import Tolerances
@@ -128,16 +128,11 @@ class PreparedRun:
         self.windows = []  # [s] each reference episode's penetration window
         prev_end = scene.initial.t
         for i, r in enumerate(rows_of(ref.episodes)):  # as ``judge`` does, without what a tolerance moves
-            row = {"wall": r.wall, "ref_t_first_impact": r.t_first_impact, "ref_t_plate_entry": r.t_plate_entry,
-                   "ref_t_stick": r.t_stick, "ref_t_exit": r.t_exit, "ref_n_impacts": int(r.n_impacts),
-                   "chatter_duration": r.chatter_duration, "sliding_duration": r.sliding_duration,
-                   "ref_v_first_impact": r.v_first_impact, "stick_scale": r.stick_scale,
-                   "t_first_impact": math.nan, "t_stick": math.nan, "t_exit": math.nan, **_NO_REST}
+            row = reference_row(r)
             j = paired.get(i)
             e = self.eng_rows[j] if j is not None else None
             if e is not None:
-                row.update(t_first_impact=e.t_first_impact, t_stick=e.t_stick, t_exit=e.t_exit,
-                           n_impacts=int(e.n_impacts), **self.imps.bounds(e))
+                row.update(engine_times(e, self.imps))
                 visit = self.imps.visit_columns(r.wall, e.t_first_impact, e.t_exit)
             else:
                 row["n_impacts"] = self.imps.count(r.wall, r.t_first_impact, r.t_exit)
@@ -187,14 +182,7 @@ class PreparedRun:
             start = e.t_first_impact if not math.isnan(e.t_first_impact) else e.t_stick
             if j in self.used or start >= t_div:  # as ``judge``: what a diverged run makes afterwards is no episode
                 continue
-            engine_rows.append({
-                "wall": e.wall, "ref_t_first_impact": math.nan, "ref_t_plate_entry": math.nan, "ref_t_stick": math.nan,
-                "ref_t_exit": math.nan, "ref_n_impacts": 0, "chatter_duration": math.nan, "sliding_duration": math.nan,
-                "ref_v_first_impact": math.nan, "stick_scale": math.nan, "t_first_impact": e.t_first_impact,
-                "t_stick": e.t_stick, "t_exit": e.t_exit, **self.imps.bounds(e),
-                "n_impacts": int(e.n_impacts), "resolved_impacts": 0,
-                "ref_resolved_impacts": 0, "restitution_error": math.nan, "restitution_excess": math.nan,
-                "unmeasured_impacts": 0, "measured_impacts": 0, **_NO_REST})
+            engine_rows.append(unpaired_row(e, self.imps))
             windows.append((start, e.t_exit))
         allowance = tol.penetration * self.ref.length_scale
         beyond = self.pen > allowance
