@@ -33,7 +33,7 @@ SHOW = ["scene", "engine", "status", "robust_at_asked", "tightest_stick", "tight
 
 def cmd_atlas(args: argparse.Namespace) -> int:
     from chatterbench.comparisons.outputs.atlas_files import atlas_frame, write_atlas_files
-    from chatterbench.comparisons.studies.atlas import AtlasError, AtlasSpec, case_name, default_scenes, open_atlas
+    from chatterbench.comparisons.studies.atlas import AtlasError, AtlasSpec, case_name, default_scenes
     from chatterbench.engines.registry import available_engines
 
     if not args.out:
@@ -69,12 +69,11 @@ def cmd_atlas(args: argparse.Namespace) -> int:
     client = dask_client(args.dask)
     try:
         with writing("--out", out):
-            try:
-                open_atlas(out, spec, command)
+            try:  # another search in the folder, or a link in it: refused before any case runs
+                provenance, cases = _run(out, spec, command, client, args.workers, budget)
             except AtlasError as exc:
                 raise UsageError(str(exc)) from None
-            cases = _run(out, spec, command, client, args.workers, budget)
-            provenance = open_atlas(out, spec, command) | {"wall_s": sum(c.get("wall_s") or 0 for c in cases.values())}
+            provenance = provenance | {"wall_s": sum(c.get("wall_s") or 0 for c in cases.values())}
             written = write_atlas_files(out, list(cases.values()), provenance)
     finally:
         if client is not None:

@@ -177,8 +177,8 @@ def table_cells(atlas: pd.DataFrame) -> list[list[str]]:
             continue
         setting = (f"dt={r['dt']:g}" + (f", {r['settings']}" if r["settings"] else "")) if r["written"] else "-"
         rows.append([r["scene"], r["engine"], "yes" if r["robust_at_asked"] else "no", _pct(r["tightest_stick"]),
-                     _pct(r["tightest_restitution"]), setting, _cost(r["cost_steps_per_s"]), _share(r["open_fraction"]),
-                     _rate(r["onsets_per_s"]), str(r["frontier_points"]), str(r["runs"]), f"{r['wall_s']:.0f}"])
+                     _pct(r["tightest_restitution"]), setting, _cost(r["cost_steps_per_s"]), _number(r["open_fraction"]),
+                     _number(r["onsets_per_s"]), str(r["frontier_points"]), str(r["runs"]), f"{r['wall_s']:.0f}"])
     return rows
 
 
@@ -224,11 +224,8 @@ def atlas_file_markdown(atlas: pd.DataFrame, cases: Sequence[dict[str, Any]], pr
     return atlas_markdown(atlas, provenance, figures) + "\n" + points_markdown(cases) + "\n"
 
 
-def _share(v: float) -> str:
-    return "-" if not math.isfinite(v) else f"{v:.3g}"
-
-
-def _rate(v: float) -> str:
+def _number(v: float) -> str:
+    """A share or a rate in 3 digits; "-" where none was measured."""
     return "-" if not math.isfinite(v) else f"{v:.3g}"
 
 

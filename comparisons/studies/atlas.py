@@ -275,12 +275,13 @@ def run_case(spec: AtlasSpec, scene_name: str, engine: str, executor=None, worke
 
 def run_atlas(out: Path, spec: AtlasSpec, command: str = "", executor=None, workers: int | None = None,
               started: Callable[[str, str, int, int], None] | None = None,
-              finished: Callable[[dict[str, Any]], None] | None = None) -> dict[tuple[str, str], dict[str, Any]]:
+              finished: Callable[[dict[str, Any]], None] | None = None
+              ) -> tuple[dict[str, Any], dict[tuple[str, str], dict[str, Any]]]:
     """Run every case of ``spec`` not yet done under ``out`` (module docstring), each written as it finishes;
-    returns every finished case under ``out``. ``started(scene, engine, k, n)`` as case k of the n to run begins,
-    ``finished(case)`` as it ends."""
+    returns the atlas's provenance (``open_atlas``: opened once, before any case) and every finished case under
+    ``out``. ``started(scene, engine, k, n)`` as case k of the n to run begins, ``finished(case)`` as it ends."""
     out.mkdir(parents=True, exist_ok=True)
-    open_atlas(out, spec, command)
+    made = open_atlas(out, spec, command)
     done = done_cases(out)
     names = {source: case_name(source) for source in spec.scenes}
     todo = [(source, engine) for source, engine in spec.cases() if (names[source], engine) not in done]
@@ -292,7 +293,7 @@ def run_atlas(out: Path, spec: AtlasSpec, command: str = "", executor=None, work
         done[(names[source], engine)] = case
         if finished is not None:
             finished(case)
-    return done
+    return made, done
 
 
 def write_case(out: Path, case: dict[str, Any], table) -> None:
