@@ -176,7 +176,7 @@ def report_lines() -> list[str]:
         '    print(f"rest wall={wall} t0={t0:.6f} t1={t1:.6f} onsets={n} onsets_per_s={rate:.4g} open={share:.4g} '
         'gap_max={gap:.4g}")',
         "import sys",
-        "if len(sys.argv) > 1:  # python THIS_FILE run.csv: the samples as chatterbench judge reads them",
+        "if __name__ == '__main__' and len(sys.argv) > 1:  # python THIS_FILE run.csv: the samples as chatterbench judge reads them",
         "    with open(sys.argv[1], 'w') as out:",
         "        out.write(','.join(['t', 'x1', 'x2', 'v1', 'v2', *('force_' + w for w in WALLS)]) + '\\n')",
         "        for k in range(len(ys)):",

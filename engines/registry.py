@@ -182,6 +182,18 @@ def make_settings(name: str, dt: float | None = None, overrides: Sequence[str] |
                           f"{type(exc).__name__}: {exc}".splitlines()[0]) from None
 
 
+def settings_for(engines: Sequence[str], dt: float | None = None,
+                 overrides: Sequence[str] | dict = ()) -> dict[str, Any]:
+    """Each engine's settings object (``make_settings``) from one timestep ``dt`` [s] (None: each engine's default)
+    and ``NAME.KEY=VALUE`` overrides: the way text and numbers become settings, checked once, here.
+
+    >>> from chatterbench.engines.registry import settings_for
+    >>> {name: s.dt for name, s in settings_for(("mujoco", "pybullet"), 1e-3).items()}
+    {'mujoco': 0.001, 'pybullet': 0.001}
+    """
+    return {name: make_settings(check_engine(name), dt, overrides) for name in engines}
+
+
 def settings_dict(settings: Any) -> dict[str, Any]:
     """Plain-data form of a settings object (for reports and Parquet rows)."""
     return dataclasses.asdict(settings)

@@ -2,7 +2,8 @@
 
 Run before and after a change that must not change what the suite answers (a refactoring)::
 
-    python3 tests/behaviour_hashes.py [OUT_DIR]
+    python3 tests/behaviour_hashes.py [OUT_DIR]          # run the commands into OUT_DIR, print the hashes
+    python3 tests/behaviour_hashes.py --hash-only OUT_DIR  # the hashes of an earlier run's outputs
 
 It runs the commands a user runs (``compare`` on the four built-in scenes with MuJoCo and PyBullet, ``tune`` of
 PyBullet on bouncing-ball with a small budget, ``report`` with MuJoCo, PyBullet and DART) and prints one line per
@@ -33,11 +34,12 @@ def digest(text: str) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def csv_without_clocks(path: Path) -> str:
-    """A CSV file's rows without its clocked columns."""
+def csv_without_clocks(path: Path, any_order: bool = False) -> str:
+    """A CSV file's rows without its clocked columns; ``any_order``: the rows sorted (rows written as runs finish)."""
     rows = list(csv.reader(io.StringIO(path.read_text())))
     keep = [i for i, name in enumerate(rows[0]) if name not in CLOCKED_COLUMNS]
-    return "\n".join(",".join(row[i] for i in keep) for row in rows)
+    lines = [",".join(row[i] for i in keep) for row in rows]
+    return "\n".join(lines[:1] + (sorted(lines[1:]) if any_order else lines[1:]))
 
 
 def json_without_clocks(path: Path) -> str:
@@ -70,30 +72,45 @@ def markdown_without_clocks(path: Path) -> str:
     return "\n".join(out)
 
 
-def chatterbench(*args: str) -> None:
-    subprocess.run([sys.executable, "-m", "chatterbench.comparisons.cli", *args], check=True,
-                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+def chatterbench(*args: str) -> int:
+    """``chatterbench ARGS`` in a fresh process, its output left out; its exit code (1: a tune found nothing robust)."""
+    return subprocess.run([sys.executable, "-m", "chatterbench.comparisons.cli", *args],
+                          stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL).returncode
 
 
-def main(out: Path) -> dict[str, str]:
-    hashes: dict[str, str] = {}
+def run(out: Path) -> list[int]:
+    """Run the commands into ``out``; their exit codes."""
+    codes = []
+    for scene in SCENES:
+        codes.append(chatterbench("compare", scene, "--engines", "mujoco,pybullet", "--out", str(out / "compare" / scene)))
+    codes.append(chatterbench("tune", "bouncing-ball", "--engines", "pybullet", "--max-runs", "40", "--workers", "1",
+                              "--repeats", "1", "--out", str(out / "tune")))
+    codes.append(chatterbench("report", "--engines", "mujoco,pybullet,dart", "--atlas", "none", "--out",
+                              str(out / "report")))
+    (out / "exit_codes.txt").write_text(" ".join(map(str, codes)))
+    return codes
+
+
+def hashes(out: Path) -> dict[str, str]:
+    """The outputs under ``out`` (``run``'s) hashed."""
+    found: dict[str, str] = {}
     for scene in SCENES:
         d = out / "compare" / scene
-        chatterbench("compare", scene, "--engines", "mujoco,pybullet", "--out", str(d))
         for name in ("episodes.csv", "impacts_mujoco.csv", "impacts_pybullet.csv", "reference_episodes.csv"):
-            hashes[f"compare {scene} {name}"] = digest(csv_without_clocks(d / name))
-    d = out / "tune"
-    chatterbench("tune", "bouncing-ball", "--engines", "pybullet", "--max-runs", "40", "--workers", "1",
-                 "--repeats", "1", "--out", str(d))
-    hashes["tune candidates.csv"] = digest(csv_without_clocks(d / "candidates.csv"))
-    hashes["tune recommended.json"] = digest(json_without_clocks(d / "recommended.json"))
-    d = out / "report"
-    chatterbench("report", "--engines", "mujoco,pybullet,dart", "--atlas", "none", "--out", str(d))
-    hashes["report report.md"] = digest(markdown_without_clocks(d / "report.md"))
-    return hashes
+            found[f"compare {scene} {name}"] = digest(csv_without_clocks(d / name))
+    # the candidates are written as they are judged, in an order the workers' timing decides: sorted
+    found["tune candidates.csv"] = digest(csv_without_clocks(out / "tune" / "candidates.csv", any_order=True))
+    found["tune recommended.json"] = digest(json_without_clocks(out / "tune" / "recommended.json"))
+    found["report report.md"] = digest(markdown_without_clocks(out / "report" / "report.md"))
+    found["exit codes"] = (out / "exit_codes.txt").read_text()
+    return found
 
 
 if __name__ == "__main__":
-    folder = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(tempfile.mkdtemp(prefix="chatterbench-hashes-"))
-    for key, value in main(folder).items():
+    again = sys.argv[1:2] == ["--hash-only"]  # hash the outputs of an earlier run again
+    args = sys.argv[2:] if again else sys.argv[1:]
+    folder = Path(args[0]) if args else Path(tempfile.mkdtemp(prefix="chatterbench-hashes-"))
+    if not again:
+        run(folder)
+    for key, value in hashes(folder).items():
         print(f"{value}  {key}")

@@ -6,7 +6,8 @@
     >>> from chatterbench.reference.scene import load_scene
     >>> from chatterbench.comparisons.outputs.comparison_files import write_comparison
     >>> from chatterbench.comparisons import compare
-    >>> paths = write_comparison(compare(load_scene("bouncing-ball"), engines=("pybullet",), dt=1e-3), tmp / "cmp")
+    >>> from chatterbench.engines.registry import settings_for
+    >>> paths = write_comparison(compare(load_scene("bouncing-ball"), settings=settings_for(("pybullet",), 1e-3)), tmp / "cmp")
     >>> sorted(p.name for p in paths if p.suffix == ".png")
     ['episode_errors.png', 'ladder.png', 'timeseries.png']
 

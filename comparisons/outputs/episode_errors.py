@@ -3,7 +3,8 @@
     >>> from chatterbench.reference.scene import load_scene
     >>> from chatterbench.comparisons.outputs.episode_errors import episode_errors_figure
     >>> from chatterbench.comparisons import compare
-    >>> fig = episode_errors_figure(compare(load_scene("bouncing-ball"), engines=("pybullet",), dt=1e-3))
+    >>> from chatterbench.engines.registry import settings_for
+    >>> fig = episode_errors_figure(compare(load_scene("bouncing-ball"), settings=settings_for(("pybullet",), 1e-3)))
     >>> [ax.get_gid() for ax in fig.axes]
     ['stick_error_rel', 'exit_error_rel', 'restitution_error']
 

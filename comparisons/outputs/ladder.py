@@ -3,7 +3,8 @@
     >>> from chatterbench.reference.scene import load_scene
     >>> from chatterbench.comparisons.outputs.ladder import ladder_figure
     >>> from chatterbench.comparisons import compare
-    >>> c = compare(load_scene("bouncing-ball", ["duration=1.6"]), engines=("pybullet",), dt=1e-3)
+    >>> from chatterbench.engines.registry import settings_for
+    >>> c = compare(load_scene("bouncing-ball", ["duration=1.6"]), settings=settings_for(("pybullet",), 1e-3))
     >>> fig = ladder_figure(c)
     >>> [ax.get_title().split(":")[0] for ax in fig.axes]
     ['visit 1 (lower wall)']

@@ -1,7 +1,9 @@
 """The comparison report: every scene on every engine, in one self-contained HTML page and a Markdown twin.
 
     >>> from chatterbench.comparisons.outputs.report import build_report
-    >>> report = build_report(["bouncing-ball"], engines=("pybullet",), dt=1e-3, progress=None)
+    >>> from chatterbench.engines.registry import settings_for
+    >>> report = build_report(["bouncing-ball"], engines=("pybullet",), dt=1e-3, progress=None,
+    ...                       settings=settings_for(("pybullet",), 1e-3))
     >>> report.summary[["scene", "engine", "verdict"]].values.tolist()    # on time, then its contact keeps opening
     [['bouncing-ball', 'pybullet', 'buzz']]
 
@@ -138,17 +140,17 @@ def build_report(
     Parameters
     ----------
     scenes : built-in scene names or scene TOML paths (default: the whole catalogue).
-    dt : engine timestep [s]; default: each engine's default settings.
-    scene_overrides, engine_overrides : ``KEY=VALUE`` items (``duration=1.6``;
-        ``mujoco.w0_dt=0.05``) applied to every scene / engine.
+    dt : the timestep asked for [s] (``--dt``), for the page's text and the Siconos cross-check; None: each engine's
+        default. The engines run at their ``settings``.
+    scene_overrides : ``KEY=VALUE`` items (``duration=1.6``) applied to every scene.
+    engine_overrides : the ``--set ENGINE.KEY=VALUE`` text the settings were made from, for the provenance.
     progress : called with one line per scene and engine as the runs finish; None: silent.
     timeout : wall-clock limit [s] of each engine run, run isolated in a child (``compare``);
         a crash or hang is that engine's failure verdict and the report goes on. None: in-process.
     budget : every scene's reference and engine runs are checked against it before the first run.
     stage : called with ``SCENE: reference`` and ``SCENE: ENGINE`` as each run starts (a progress bar).
-    settings : engine name -> settings object (``chatterbench report`` makes them from ``--dt`` and ``--set``); an
-        engine's items of ``engine_overrides`` are then only the provenance's text; engines without one get ``dt`` and
-        their ``engine_overrides``.
+    settings : engine name -> settings object (``chatterbench report`` makes them from ``--dt`` and ``--set``, once:
+        ``registry.settings_for``); engines without one run at their defaults.
     """
     say = progress or (lambda line: None)
     loaded = [load_scene(s, list(scene_overrides)) for s in scenes]
@@ -157,9 +159,7 @@ def build_report(
     if twice:
         raise SceneError(f"scenes: {', '.join(map(repr, twice))} given more than once (by name or by a file's name = "
                          "...); a report has one section per scene name: give each once, or rename one")
-    given = dict(settings or {})
-    text = [o for o in engine_overrides if o.split("=", 1)[0].split(".")[0].strip() not in given]  # the others'
-    made = engine_settings(engines, dt, text, given)  # once, for every scene
+    made = engine_settings(engines, settings)  # once, for every scene
     if budget is not None:
         for scene in loaded:
             check_comparison(scene, made, budget)

@@ -4,7 +4,9 @@
     >>> from pathlib import Path
     >>> tmp = Path(tempfile.mkdtemp())
     >>> from chatterbench.comparisons.outputs.report_page import build_report, write_report
-    >>> report = build_report(["bouncing-ball"], engines=("pybullet",), dt=1e-3, progress=None)
+    >>> from chatterbench.engines.registry import settings_for
+    >>> report = build_report(["bouncing-ball"], engines=("pybullet",), dt=1e-3, progress=None,
+    ...                       settings=settings_for(("pybullet",), 1e-3))
     >>> [p.name for p in write_report(report, tmp / "report")]
     ['index.html', 'report.md']
 """

@@ -4,9 +4,10 @@
     >>> import pandas as pd
     >>> from chatterbench.comparisons.outputs.stability_map import stability_map_figure
     >>> from chatterbench.comparisons import compare
+    >>> from chatterbench.engines.registry import settings_for
     >>> from chatterbench.comparisons.pipeline.summary import summarize
-    >>> rows = pd.DataFrame([summarize(compare(load_scene("bouncing-ball", [f"restitution={r}"]), engines=("pybullet",),
-    ...                                        dt=dt), "pybullet", {"dt": dt, "restitution": r})
+    >>> rows = pd.DataFrame([summarize(compare(load_scene("bouncing-ball", [f"restitution={r}"]),
+    ...                                        settings=settings_for(("pybullet",), dt=dt)), "pybullet", {"dt": dt, "restitution": r})
     ...                      for dt in (1e-3, 3e-4) for r in (0.3, 0.5)])          # a small sweep's rows
     >>> fig = stability_map_figure(rows, "dt", "restitution")      # one panel per engine
     >>> len(fig.axes)

@@ -3,7 +3,8 @@
     >>> from chatterbench.reference.scene import load_scene
     >>> from chatterbench.comparisons.outputs.timeseries import timeseries_figure
     >>> from chatterbench.comparisons import compare
-    >>> fig = timeseries_figure(compare(load_scene("bouncing-ball"), engines=("pybullet",), dt=1e-3))
+    >>> from chatterbench.engines.registry import settings_for
+    >>> fig = timeseries_figure(compare(load_scene("bouncing-ball"), settings=settings_for(("pybullet",), 1e-3)))
     >>> [ax.get_gid() for ax in fig.axes]   # the run and a zoom on the end of the first chatter sequence
     ['run', 'zoom']
 

@@ -2,7 +2,8 @@
 
     >>> from chatterbench.reference.scene import load_scene
     >>> from chatterbench.comparisons import compare
-    >>> result = compare(load_scene("bouncing-ball"), engines=("mujoco", "pybullet"), dt=1e-4)
+    >>> from chatterbench.engines.registry import settings_for
+    >>> result = compare(load_scene("bouncing-ball"), settings=settings_for(("mujoco", "pybullet"), dt=1e-4))
     >>> result.table[["engine", "wall", "verdict"]].values.tolist()   # PyBullet's default threshold 0: it keeps bouncing
     [['mujoco', 'lower', 'rebound'], ['pybullet', 'lower', 'buzz']]
     >>> result.summary()[["engine", "verdict", "n_match"]].values.tolist()   # the columns of ``summary.ROW_COLUMNS``
@@ -16,8 +17,8 @@ and ``cost_per_sim_s`` (wall-clock seconds of engine stepping per simulated seco
 ``diverged``) and its rows say so; the other engines' results are kept.
 
 Settings are objects here (``settings={"pybullet": PybulletSettings(...)}``, or
-``registry.make_settings``); ``dt`` and ``overrides`` build them for the engines not given
-one, for callers who hold strings. Each class of failure is caught in one place, none here:
+``registry.settings_for(engines, dt, overrides)`` for callers who hold a timestep and strings:
+made and checked there, once); an engine given none runs at its defaults. Each class of failure is caught in one place, none here:
 an engine's failure (it raises, blows up, stops short, its samples do not fit) by the
 adapter, as the run's status (``base.EngineAdapter.run``); a crash or a hang of an isolated
 run (``timeout``) by ``isolate``, which also turns anything the child raises into ``error``.
@@ -145,23 +146,18 @@ def judge_run(ref: ReferenceSolution, name: str, settings: Any, tol: Tolerances,
     return run, judged.table, judged.impacts
 
 
-def _override_keys(overrides: Sequence[str] | Mapping[str, Any]) -> list[str]:
-    return list(overrides) if isinstance(overrides, Mapping) else [str(o).split("=", 1)[0].strip() for o in overrides]
+def engine_settings(engines: Sequence[str], settings: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """Each engine's settings object: ``settings[name]`` as given, else its defaults (``registry.make_settings``).
 
-
-def engine_settings(engines: Sequence[str], dt: float | None = None, overrides: Sequence[str] | Mapping[str, Any] = (),
-                    settings: Mapping[str, Any] | None = None) -> dict[str, Any]:
-    """Each engine's settings object: ``settings[name]`` as given, else its defaults with ``dt`` [s] and ``overrides``
-    (``registry.make_settings``).
-
-    Raises SettingsError, naming the entry, for an unknown engine, a ``settings`` entry for an engine not in
-    ``engines`` or of another engine's type, and a timestep or an override given for an engine that has an object.
+    Raises SettingsError, naming the entry, for an unknown engine, and for a ``settings`` entry for an engine not in
+    ``engines`` or of another engine's type. Text (``--dt``, ``--set``, a TOML file) becomes settings objects at the
+    edge, before this: ``registry.make_settings`` / ``registry.settings_for``.
 
     >>> from chatterbench.comparisons.pipeline.compare import engine_settings
     >>> from chatterbench.engines.pybullet_engine import PybulletSettings
-    >>> s = engine_settings(("mujoco", "pybullet"), 1e-3, settings={"pybullet": PybulletSettings(dt=1e-3)})
-    >>> type(s["mujoco"]).__name__, s["mujoco"].dt, s["pybullet"].restitution_velocity_threshold
-    ('MujocoSettings', 0.001, 0.0)
+    >>> s = engine_settings(("mujoco", "pybullet"), {"pybullet": PybulletSettings(dt=1e-3)})
+    >>> type(s["mujoco"]).__name__, s["mujoco"].dt, s["pybullet"].dt
+    ('MujocoSettings', 0.0001, 0.001)
     """
     given = dict(settings or {})
     for name, obj in given.items():
@@ -172,20 +168,12 @@ def engine_settings(engines: Sequence[str], dt: float | None = None, overrides: 
         if type(obj) is not want:
             raise SettingsError(f"settings[{name!r}]: a {type(obj).__name__}; {name} takes a {want.__name__} "
                                 f"(registry.make_settings({name!r}, ...))")
-        if dt is not None and obj.dt != dt:
-            raise SettingsError(f"settings[{name!r}].dt = {obj.dt:g} and dt = {dt:g}: two timesteps for {name}; give one")
-        mine = [k for k in _override_keys(overrides) if k.split(".")[0] == name]
-        if mine:
-            raise SettingsError(f"overrides {mine[0]} and settings[{name!r}]: two ways of giving {name}'s settings; "
-                                "set it in the settings object")
-    return {name: given[name] if name in given else make_settings(check_engine(name), dt, overrides) for name in engines}
+    return {name: given[name] if name in given else make_settings(check_engine(name)) for name in engines}
 
 
 def compare(
     scene: Scene,
-    engines: Sequence[str] = DEFAULT_ENGINES,
-    dt: float | None = None,
-    overrides: Sequence[str] = (),
+    engines: Sequence[str] | None = None,
     tol: Tolerances | None = None,
     trajectories: Mapping[str, Trajectory] | None = None,
     solution: ReferenceSolution | None = None,
@@ -199,12 +187,8 @@ def compare(
 
     Parameters
     ----------
-    engines : sequence of names of ``engines.registry.ENGINE_NAMES`` (default ``DEFAULT_ENGINES``)
-    dt : float, optional
-        Engine timestep [s]; default: each engine's default settings.
-    overrides : sequence of str
-        ``mujoco.KEY=VALUE`` / ``pybullet.KEY=VALUE`` engine settings (parsed here: a caller
-        holding settings objects passes ``settings``).
+    engines : sequence of names of ``engines.registry.ENGINE_NAMES``, optional
+        The engines run, in this order; None: those of ``settings`` when given, else ``DEFAULT_ENGINES``.
     tol : Tolerances, optional
     trajectories : mapping engine name -> Trajectory, optional
         Runs already made (a sweep's MuJoCo batch, or any trajectory to judge: the exact
@@ -226,12 +210,13 @@ def compare(
         Called with ``"reference"`` before the reference is solved and with each engine's name
         before that engine runs (the command line's progress bar).
     settings : mapping engine name -> settings object, optional
-        The settings of some or all of ``engines``, each of its engine's ``settings_type``
-        (``registry.make_settings``); the others are built from ``dt`` and ``overrides``
-        (``engine_settings``).
+        The settings of some or all of ``engines``, each of its engine's ``settings_type``; the others run at
+        their defaults. The only way settings come in: text becomes these objects at the edge
+        (``registry.settings_for(engines, dt, overrides)``, the command line's ``settings_of``), checked there once.
     """
     tol = tol or Tolerances()
-    settings = engine_settings(engines, dt, overrides, settings)  # every refusal before any run
+    engines = tuple(engines if engines is not None else settings or DEFAULT_ENGINES)
+    settings = engine_settings(engines, settings)  # every refusal before any run
     if budget is not None:
         check_comparison(scene, {n: s for n, s in settings.items() if n not in (trajectories or {})}, budget,
                          reference=solution is None)

@@ -3,7 +3,8 @@
     >>> from chatterbench.reference.scene import load_scene
     >>> from chatterbench.comparisons.pipeline.summary import summarize
     >>> from chatterbench.comparisons import compare
-    >>> result = compare(load_scene("bouncing-ball"), engines=("pybullet",), dt=1e-3)
+    >>> from chatterbench.engines.registry import settings_for
+    >>> result = compare(load_scene("bouncing-ball"), settings=settings_for(("pybullet",), 1e-3))
     >>> row = summarize(result, "pybullet", params={"dt": 1e-3})
     >>> row["point_id"], row["verdict"], row["n_episodes"]     # on time, then bouncing at g dt (threshold 0)
     ('bcf533bb0b267c67', 'buzz', 1)

@@ -123,8 +123,6 @@ def plate_map(
     n_speed: int = 32,
     max_speed: float | None = None,
     engines: Sequence[str] = (),
-    dt: float | None = None,
-    overrides: Sequence[str] = (),
     lead: float | None = None,
     progress: Callable[[str], None] | None = None,
     settings: Mapping[str, Any] | None = None,
@@ -132,10 +130,10 @@ def plate_map(
     """Map which strikes on ``wall`` end in sliding (module docstring); one row per strike.
 
     ``progress``, when given, is called with the engine's name after each engine strike is run.
-    ``settings``: engine name -> settings object; engines without one get ``dt`` [s] and ``overrides``
-    (``pipeline.compare.engine_settings``).
+    ``settings``: engine name -> settings object (``registry.settings_for`` makes them from a timestep and text);
+    engines without one run at their defaults.
     """
-    made = engine_settings(engines, dt, overrides, settings)  # every refusal before any run
+    made = engine_settings(engines, settings)  # every refusal before any run
     if wall not in scene.gap.walls:
         raise SceneError(f"wall = {wall!r}: must be one of {', '.join(scene.gap.walls)}")
     if not scene.forcing_omegas:  # strikes are placed by the phase of a forcing period

@@ -17,6 +17,8 @@ from chatterbench.comparisons.cli.main import main
 from chatterbench.engines.registry import make_settings, run_engine, run_engine_isolated
 from chatterbench.reference import load_scene
 
+from helpers import RESTS, ball_check, ball_gate
+
 BALL = ["bouncing-ball", "--set", "duration=1.6"]  # one sliding episode, Zeno point 1.355 s
 # PyBullet as a user sets it: the ball rests after the stick (at its default threshold 0 it keeps bouncing at g dt: buzz)
 RESTING = ["--set", "pybullet.restitution_velocity_threshold=0.002"]
@@ -73,24 +75,9 @@ def test_report_is_written_when_one_engine_segfaults(monkeypatch, tmp_path, caps
 def test_a_hanging_engine_times_out_and_the_gate_reports_the_others(monkeypatch, tmp_path, capsys):
     monkeypatch.setenv("CHATTERBENCH_FAULT", "hang:mujoco")
     gate = tmp_path / "gate.toml"
-    gate.write_text("""
-[defaults]
-dt = 1e-4
-scene_overrides = { duration = 1.6 }
+    gate.write_text(ball_gate(ball_check("ball/pybullet", ["verdict == match"], settings=RESTS),
+                              ball_check("ball/mujoco", ["verdict in [match, rebound]"], engine="mujoco")))
 
-[[check]]
-name = "ball/pybullet"
-scene = "bouncing-ball"
-engine = "pybullet"
-settings = { restitution_velocity_threshold = 0.002 }   # the ball rests (its default 0 keeps bouncing: buzz)
-limits = ["verdict == match"]
-
-[[check]]
-name = "ball/mujoco"
-scene = "bouncing-ball"
-engine = "mujoco"
-limits = ["verdict in [match, rebound]"]
-""")
     junit = tmp_path / "gate.xml"
     assert main(["gate", str(gate), "--timeout", "2", "--junit", str(junit)]) == 1
     out = capsys.readouterr().out

@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from chatterbench.engines.registry import settings_for
 from chatterbench.engines import registry
 from chatterbench.engines.settings import SettingsError, settings_with_overrides
 from chatterbench.reference.scene import load_scene, scene_from_dict
@@ -182,7 +183,7 @@ def test_feigin_pair_runs_and_is_judged_in_both_modes(mode, capsys):
     from chatterbench.comparisons.pipeline.compare import compare
 
     scene = load_scene("feigin-pair", [f"duration={1.5 * 2 * math.pi!r}"])
-    result = compare(scene, engines=("drake",), overrides=[f"drake.mode={mode}"])
+    result = compare(scene, settings=settings_for(("drake",), None, [f"drake.mode={mode}"]))
     table = result.table
     assert len(table) and set(table["status"]) == {"ok"}
     with capsys.disabled():

@@ -14,7 +14,7 @@ from chatterbench.comparisons import compare
 from chatterbench.comparisons.pipeline.conformance import conformance, parting
 from chatterbench.engines.mujoco_engine import MujocoSettings
 from chatterbench.engines.mujoco_engine import MujocoEngine
-from chatterbench.engines.registry import make_settings
+from chatterbench.engines.registry import make_settings, settings_for
 from chatterbench.engines.settings import SettingsError
 from chatterbench.reference.scene import load_scene
 
@@ -82,7 +82,7 @@ def test_float32_follows_float64_closely_but_not_exactly(batch):
 def test_its_runs_are_judged_and_the_conformance_says_where_they_differ(batch):
     scenes, warp, c = batch
     scene = scenes[0]
-    result = compare(scene, engines=("mujoco", "mujoco_warp"), dt=DT,
+    result = compare(scene, settings=settings_for(("mujoco", "mujoco_warp"), DT),
                      trajectories={"mujoco": c[0], "mujoco_warp": warp[0]})
     verdicts = result.table.set_index("engine")["verdict"]
     assert verdicts["mujoco_warp"] == verdicts["mujoco"]  # at dt = 1e-3 float32 does not change the verdict
@@ -97,7 +97,7 @@ def test_its_runs_are_judged_and_the_conformance_says_where_they_differ(batch):
 def test_a_wrong_restitution_in_warp_is_caught_by_judge_and_conformance(batch):
     scenes, warp, c = batch
     wrong = dataclasses.replace(warp[3], engine="mujoco_warp")  # R = 0.55 run, judged as the R = 0.5 scene
-    result = compare(scenes[0], engines=("mujoco", "mujoco_warp"), dt=DT,
+    result = compare(scenes[0], settings=settings_for(("mujoco", "mujoco_warp"), DT),
                      trajectories={"mujoco": c[0], "mujoco_warp": wrong})
     table = conformance(result, "mujoco", "mujoco_warp")
     assert table["disagree"].all()
@@ -131,7 +131,7 @@ def test_where_the_executors_differ_the_conformance_says_where_and_by_how_much(b
     # MuJoCo C never sticks before the end (missed), MuJoCo Warp does (late), after 186 contact
     # onsets to MuJoCo C's 5; they agree in flight and part after the first impact (0.45 s)
     scenes, warp, c = batch
-    result = compare(scenes[STIFF], engines=("mujoco", "mujoco_warp"), dt=DT,
+    result = compare(scenes[STIFF], settings=settings_for(("mujoco", "mujoco_warp"), DT),
                      trajectories={"mujoco": c[STIFF], "mujoco_warp": warp[STIFF]})
     table = conformance(result, "mujoco", "mujoco_warp")
     assert table["disagree"].all()

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from chatterbench.engines.registry import settings_for
 from chatterbench.engines import registry
 from chatterbench.engines.settings import SettingsError
 from chatterbench.reference.catalogue import CATALOGUE
@@ -66,7 +67,7 @@ def test_bouncing_ball_theta_one_lifts_off_late():
 def test_feigin_pair_matches_the_reference():
     from chatterbench.comparisons.pipeline.compare import compare
 
-    result = compare(load_scene("feigin-pair"), engines=["siconos"], dt=1e-4)
+    result = compare(load_scene("feigin-pair"), settings=settings_for(["siconos"], 1e-4))
     assert result.summary()["verdict"].tolist() == ["match"]
 
 
@@ -78,11 +79,11 @@ def test_a_prescribed_floor_is_exact_and_told_from_a_fixed_one():
             "initial": {"t": 0.0, "x1": 0.01, "v1": 0.0, "y": 0.2, "vy": 0.0}}
     shaken = scene_from_dict(data)
     s = SiconosSettings(dt=1e-4)
-    assert compare(shaken, engines=["siconos"], dt=1e-4).summary()["verdict"].tolist() == ["match"]
+    assert compare(shaken, settings=settings_for(["siconos"], 1e-4)).summary()["verdict"].tolist() == ["match"]
     # the known answer the other way: the ball on a fixed floor, judged as the shaken scene, does not match
     fixed = scene_from_dict({**data, "prescribed": None, "initial": {**data["initial"], "x1": 0.0}})
     traj = SiconosEngine().run(fixed, s)
-    wrong = compare(shaken, engines=["siconos"], dt=1e-4, trajectories={"siconos": traj})
+    wrong = compare(shaken, settings=settings_for(["siconos"], 1e-4), trajectories={"siconos": traj})
     assert wrong.summary()["verdict"].tolist() != ["match"]
 
 

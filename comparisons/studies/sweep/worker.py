@@ -28,7 +28,8 @@ from chatterbench.comparisons.pipeline.compare import compare
 from chatterbench.comparisons.pipeline.summary import failure_row, mass_ratio, summarize
 from chatterbench.comparisons.pipeline.tolerances import make_tolerances
 from chatterbench.engines.isolate import Outcome, run_isolated
-from chatterbench.engines.registry import adapter, can_batch, engine_version, is_plugin, make_settings, run_engine_batch
+from chatterbench.engines.registry import (adapter, can_batch, engine_version, is_plugin, make_settings, run_engine_batch,
+                                           settings_for)
 from chatterbench.engines.trajectory import Trajectory
 from chatterbench.reference.scene import Scene, load_scene
 
@@ -55,7 +56,7 @@ def _warm_up(task: RunTask) -> None:
             return
         try:
             if task.engine in todo and not is_plugin(task.engine):  # a plugin's runs are isolated: nothing to warm
-                compare(load_scene("bouncing-ball", {"duration": 0.6}), engines=(task.engine,), dt=1e-3)
+                compare(load_scene("bouncing-ball", {"duration": 0.6}), settings=settings_for((task.engine,), 1e-3))
             if ("scene", task.scene) in todo:
                 compare(load_scene(task.scene, task.scene_overrides()), engines=())
         except Exception:  # a warm-up failure is only slower runs; the runs report real errors

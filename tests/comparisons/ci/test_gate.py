@@ -8,31 +8,17 @@ import pytest
 from chatterbench.comparisons.cli.main import main
 from chatterbench.comparisons.ci.gate import GateError, Limit, limits_from_keywords, load_gate, parse_limit
 
+from helpers import RESTS, ball_check, ball_gate
+
 # The ball's Zeno point is at 1.355 s; a 1.6 s run keeps its one sliding episode. With
 # restitutionVelocityThreshold = 0.5 m/s PyBullet stops the ball at its 5th impact, 1.299 s,
 # 56 ms early; with 0.002 m/s (just above its resting bounce, g dt = 1e-3 m/s: gates/default.toml)
 # it sticks 2.1 ms late and rests: match (with the default 0 it sticks as late but keeps bouncing: buzz).
-FAILING_GATE = """
-description = "PyBullet's velocity threshold must not stick the ball early"
-
-[defaults]
-dt = 1e-4
-scene_overrides = { duration = 1.6 }
-
-[[check]]
-name = "ball/pybullet threshold 0.002"
-scene = "bouncing-ball"
-engine = "pybullet"
-settings = { restitution_velocity_threshold = 0.002 }
-limits = ["verdict == match", "stick_error_max <= 1e-2"]
-
-[[check]]
-name = "ball/pybullet threshold 0.5"
-scene = "bouncing-ball"
-engine = "pybullet"
-settings = { restitution_velocity_threshold = 0.5 }
-limits = ["verdict == match", "stick_error_max <= 1e-2", "n_episodes == 1"]
-"""
+FAILING_GATE = ball_gate(
+    ball_check("ball/pybullet threshold 0.002", ["verdict == match", "stick_error_max <= 1e-2"], settings=RESTS),
+    ball_check("ball/pybullet threshold 0.5", ["verdict == match", "stick_error_max <= 1e-2", "n_episodes == 1"],
+               settings="{ restitution_velocity_threshold = 0.5 }"),
+    description="PyBullet's velocity threshold must not stick the ball early")
 
 
 def test_failing_gate_exits_1_and_junit_names_the_failing_check(tmp_path, capsys):

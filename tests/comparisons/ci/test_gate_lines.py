@@ -11,33 +11,13 @@ import re
 
 import pytest
 
-from helpers import cli
+from helpers import RESTS, ball_check, ball_gate, cli
 
-GATE = """\
-# two checks of the ball on PyBullet (0.2 s of engine time each)
-description = "lines"
-
-[defaults]
-dt = 1e-4
-scene_overrides = { duration = 1.6 }
-settings = { restitution_velocity_threshold = 0.002 }   # the ball rests (its default 0 keeps bouncing: buzz)
-
-[[check]]
-name = "passes"
-scene = "bouncing-ball"
-engine = "pybullet"
-limits = ["verdict == match"]
-
-[[check]]   # the one that fails
-name = "fails"
-scene = "bouncing-ball"
-engine = "pybullet"
-tolerances = { stick = 0.06 }
-limits = [
-    "verdict == match",
-    "stick_error_max <= 1e-6",
-]
-"""
+GATE = ball_gate(  # two checks of the ball on PyBullet (0.2 s of engine time each)
+    ball_check("passes", ["verdict == match"]),
+    ball_check("fails", ["verdict == match", "stick_error_max <= 1e-6"], comment="# the one that fails",
+               extra="tolerances = { stick = 0.06 }"),
+    description="lines", defaults=f"settings = {RESTS}   # the ball rests (its default 0 keeps bouncing: buzz)\n")
 
 
 def _line_of(text: str, needle: str) -> int:
@@ -62,7 +42,7 @@ def test_the_annotation_names_the_gate_file_and_the_failing_limits_line(tmp_path
     where = re.match(r"::error file=([^,]+),line=(\d+),title=chatter gate fails::", errors[0])
     assert where, errors[0]
     assert where[1] == "gates/mine.toml"  # as given, relative to where the job runs (the repository's root)
-    assert int(where[2]) == _line_of(GATE, '"stick_error_max <= 1e-6"') == 22
+    assert int(where[2]) == _line_of(GATE, '"stick_error_max <= 1e-6"')
 
 
 def test_a_check_missing_from_the_baseline_points_at_its_header(tmp_path, monkeypatch, github):

@@ -2,6 +2,7 @@
 
 from helpers import count_settings_made, measured
 
+from chatterbench.engines.registry import settings_for
 from chatterbench.comparisons.ci.checks import run_gate
 from chatterbench.comparisons.ci.gate import parse_gate
 from chatterbench.comparisons.pipeline.budget import Budget
@@ -24,5 +25,5 @@ def test_a_gate_makes_each_checks_settings_once_and_runs_them(monkeypatch):
     scene = load_scene("bouncing-ball", ["duration=1.6"])
     for r, text in zip(result.results, ("pybullet.restitution_velocity_threshold=0.5", "mujoco.w0_dt=0.1")):
         engine = r.check.engine
-        assert measured(r.row) == measured(summarize(compare(scene, engines=(engine,), dt=1e-3, overrides=[text]),
+        assert measured(r.row) == measured(summarize(compare(scene, settings=settings_for((engine,), 1e-3, [text])),
                                                       engine, {})), engine

@@ -7,7 +7,7 @@ import pytest
 
 from chatterbench.comparisons.cli.main import main
 from chatterbench.comparisons.studies.restitution_curve import CURVE_COLUMNS, IMPACT_COLUMNS, STRIKES, strike_phases
-from chatterbench.engines.registry import unavailable_reason
+from chatterbench.engines.registry import unavailable_reason, settings_for
 
 from helpers import cli
 
@@ -86,7 +86,7 @@ def test_calibrate_lists_the_worst_impact_the_report_has(tmp_path, capsys):
 
     # the report's worst restitution error of MuJoCo (w0 dt = 0.1, dt = 3e-4) on the ball is its 6th impact
     # (-12.7% measured), past the first 2 that are listed: calibrate must show it and say it is the worst
-    table = compare(load_scene("bouncing-ball"), engines=("mujoco",), dt=3e-4, overrides=["mujoco.w0_dt=0.1"]).table
+    table = compare(load_scene("bouncing-ball"), settings=settings_for(("mujoco",), 3e-4, ["mujoco.w0_dt=0.1"])).table
     errors = table["restitution_error"].dropna()
     report_worst = float(errors.loc[errors.abs().idxmax()])
     assert main(["calibrate", "mujoco", "--dt", "3e-4", "--set", "mujoco.w0_dt=0.1", "--points", "2", "--impacts", "2",

@@ -11,6 +11,7 @@ import termios
 
 from helpers import needs_engine
 
+from chatterbench.engines.registry import settings_for
 from chatterbench.comparisons.cli.progress import Progress
 from chatterbench.comparisons.pipeline.compare import compare
 from chatterbench.reference import load_scene
@@ -66,5 +67,5 @@ def test_mujoco_warps_compile_is_noted_terminal_or_not():
 
 def test_compare_says_each_run_as_it_starts():
     said = []
-    compare(load_scene("bouncing-ball", ["duration=0.6"]), engines=("pybullet", "mujoco"), dt=1e-3, progress=said.append)
+    compare(load_scene("bouncing-ball", ["duration=0.6"]), settings=settings_for(("pybullet", "mujoco"), 1e-3), progress=said.append)
     assert said == ["reference", "pybullet", "mujoco"]

@@ -10,7 +10,7 @@ import pytest
 from chatterbench.comparisons import compare
 from chatterbench.comparisons.outputs.episode_errors import CLIP, PANELS, episode_errors_figure
 from chatterbench.comparisons.pipeline.solution import solve
-from chatterbench.engines.registry import make_settings, run_engine
+from chatterbench.engines.registry import make_settings, run_engine, settings_for
 from chatterbench.reference import load_scene
 
 # two visits to a wall, the first with an exit (Zeno points 1.64 and 5.37 s, exit at pi)
@@ -63,7 +63,7 @@ def test_a_wrong_restitution_puts_the_points_outside_the_band(solution):
 
 
 def test_the_ball_has_no_exit_and_its_panel_says_why():
-    c = compare(load_scene("bouncing-ball", ["duration=1.6"]), engines=("pybullet",), dt=1e-3)
+    c = compare(load_scene("bouncing-ball", ["duration=1.6"]), settings=settings_for(("pybullet",), 1e-3))
     exit_ax = episode_errors_figure(c).axes[1]
     assert not len(_points(exit_ax, "points:exit_error_rel:pybullet")[1])
     assert any(t.get_text().startswith("no exit measured: no sliding stretch of the reference ends") for t in exit_ax.texts)
@@ -73,7 +73,7 @@ def test_the_ball_has_no_exit_and_its_panel_says_why():
 def test_far_and_unmeasured_episodes_say_so():
     # MuJoCo on the impact damper at its default settings misses the first sliding stretches and
     # later sticks most of a chatter duration late: past CLIP tolerances, drawn on the edge
-    c = compare(load_scene("impact-damper", ["duration=3"]), engines=("mujoco",), dt=1e-4)
+    c = compare(load_scene("impact-damper", ["duration=3"]), settings=settings_for(("mujoco",), 1e-4))
     ax = episode_errors_figure(c).axes[0]
     table = c.table[c.table["wall"] != ""]
     far = table[table["stick_error_rel"].abs() > CLIP * c.tolerances.stick]

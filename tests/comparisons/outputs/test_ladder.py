@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from chatterbench.engines.registry import settings_for
 from chatterbench.comparisons import compare
 from chatterbench.comparisons.cli.main import main
 from chatterbench.comparisons.outputs.ladder import MAX_VISITS, ladder_figure
@@ -13,7 +14,7 @@ from chatterbench.reference import load_scene
 
 @pytest.fixture(scope="module")
 def feigin():
-    return compare(load_scene("feigin-pair", ["duration=9.5"]), engines=("mujoco", "pybullet"), dt=1e-4)
+    return compare(load_scene("feigin-pair", ["duration=9.5"]), settings=settings_for(("mujoco", "pybullet"), 1e-4))
 
 
 def _points(ax, gid: str) -> np.ndarray:
@@ -51,7 +52,7 @@ def test_compare_out_writes_the_ladder(tmp_path):
 
 
 def test_a_run_without_chatter_says_so():
-    c = compare(load_scene("feigin-pair", ["duration=0.5"]), engines=("pybullet",), dt=1e-3)
+    c = compare(load_scene("feigin-pair", ["duration=0.5"]), settings=settings_for(("pybullet",), 1e-3))
     fig = ladder_figure(c)
     assert "no chatter in this run" in fig.axes[0].texts[0].get_text()
 
@@ -67,7 +68,7 @@ def test_a_visit_that_starts_at_rest_has_no_ladder():
 
 def test_the_title_says_how_many_visits_are_shown_of_how_many():
     # 12.6 s: four visits with chatter (Zeno points 1.64, 5.37, 8.51, 11.66 s), the ladder draws the first three
-    c = compare(load_scene("feigin-pair", ["duration=12.6"]), engines=("pybullet",), dt=1e-4)
+    c = compare(load_scene("feigin-pair", ["duration=12.6"]), settings=settings_for(("pybullet",), 1e-4))
     n = int(((c.reference.n_impacts > 1) & (c.reference.chatter_duration > 0)).sum())
     assert n == 4
     fig = ladder_figure(c)

@@ -12,6 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from chatterbench.engines.registry import settings_for
 from chatterbench.comparisons.cli.main import main
 from chatterbench.comparisons.pipeline.compare import compare
 from chatterbench.comparisons.pipeline.summary import summarize
@@ -32,7 +33,7 @@ def report_dir(tmp_path_factory):
     rows = []
     for r in (0.5, 0.6):
         for dt in (1e-3, 2e-3):
-            c = compare(load_scene("bouncing-ball", [SHORT, f"restitution={r}"]), engines=("mujoco", "pybullet"), dt=dt)
+            c = compare(load_scene("bouncing-ball", [SHORT, f"restitution={r}"]), settings=settings_for(("mujoco", "pybullet"), dt))
             rows += [summarize(c, e, {"dt": dt, "restitution": r}) for e in c.runs]
     (root / "sweep").mkdir()
     pd.DataFrame(rows).to_parquet(root / "sweep" / "rows.parquet", index=False)

@@ -9,6 +9,7 @@ import pandas as pd
 import pytest
 from matplotlib.colors import to_rgba
 
+from chatterbench.engines.registry import settings_for
 from chatterbench.comparisons.cli.main import main
 from chatterbench.comparisons.pipeline.compare import compare
 from chatterbench.comparisons.pipeline.solution import solve
@@ -42,9 +43,9 @@ def _sweep(scene: str, fixed: list[str], grid: dict[str, tuple], dts=DTS, w0_dts
         ref = solve(sc)
         for dt in dts:
             for w in w0_dts:
-                c = compare(sc, engines=("mujoco",), dt=dt, overrides=[f"mujoco.w0_dt={w}"], solution=ref)
+                c = compare(sc, settings=settings_for(("mujoco",), dt, [f"mujoco.w0_dt={w}"]), solution=ref)
                 rows.append(summarize(c, "mujoco", {"dt": dt, **values, "mujoco.w0_dt": w}))
-            c = compare(sc, engines=("pybullet",), dt=dt, overrides=[f"{k}={v}" for k, v in PYBULLET.items()], solution=ref)
+            c = compare(sc, settings=settings_for(("pybullet",), dt, [f"{k}={v}" for k, v in PYBULLET.items()]), solution=ref)
             rows.append(summarize(c, "pybullet", {"dt": dt, **values, **PYBULLET}))
     return pd.DataFrame(rows)
 

@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from chatterbench.engines.registry import settings_for
 from chatterbench.comparisons import compare
 from chatterbench.comparisons.cli.main import main
 from chatterbench.comparisons.outputs.timeseries import MAX_VISITS, engine_episodes, shown_until, timeseries_figure
@@ -16,13 +17,13 @@ from chatterbench.reference import load_scene
 @pytest.fixture(scope="module")
 def feigin():
     # five visits to a wall (Zeno points 1.64, 5.37, 8.51, 11.66, 14.80 s): one more than the main panel shows
-    return compare(load_scene("feigin-pair", ["duration=16"]), engines=("mujoco", "pybullet"), dt=1e-4)
+    return compare(load_scene("feigin-pair", ["duration=16"]), settings=settings_for(("mujoco", "pybullet"), 1e-4))
 
 
 @pytest.fixture(scope="module")
 def ball():
     # the ball reaches its Zeno point at 1.355 s; MuJoCo's soft contact sticks about 32 ms after it
-    return compare(load_scene("bouncing-ball", ["duration=1.6"]), engines=("mujoco", "pybullet"), dt=1e-4)
+    return compare(load_scene("bouncing-ball", ["duration=1.6"]), settings=settings_for(("mujoco", "pybullet"), 1e-4))
 
 
 def _axes(fig):
@@ -88,7 +89,7 @@ def test_legends_list_only_what_is_drawn(ball, feigin):
 def test_the_zoom_frames_the_first_real_chatter_not_a_contact_at_rest():
     # spring-pair starts resting on its wall (one "impact" at speed 0 at t = 0): before, the zoom
     # framed that contact and showed nothing with unreadable ticks
-    c = compare(load_scene("spring-pair", ["duration=4"]), engines=("pybullet",), dt=1e-4)
+    c = compare(load_scene("spring-pair", ["duration=4"]), settings=settings_for(("pybullet",), 1e-4))
     assert c.reference["n_impacts"].iloc[0] == 1
     zoom = _axes(timeseries_figure(c))["zoom"]
     second = c.reference.iloc[1]
@@ -100,8 +101,7 @@ def test_the_zoom_frames_the_first_real_chatter_not_a_contact_at_rest():
 
 def test_a_diverged_engine_leaves_the_reference_axis_intact_and_says_so():
     # MuJoCo at w0_dt = 5 (unstable, allowed) blows up at t = 0.9 s and reaches y = -263 m
-    c = compare(load_scene("feigin-pair", ["duration=3.5"]), engines=("mujoco", "pybullet"), dt=1e-4,
-                overrides=["mujoco.w0_dt=5", "mujoco.allow_unstable=true"])
+    c = compare(load_scene("feigin-pair", ["duration=3.5"]), settings=settings_for(("mujoco", "pybullet"), 1e-4, ["mujoco.w0_dt=5", "mujoco.allow_unstable=true"]))
     assert c.runs["mujoco"].status == "diverged" or math.isfinite(c.runs["mujoco"].t_diverged)
     run = _axes(timeseries_figure(c))["run"]
     allowance = c.tolerances.penetration * c.solution.length_scale
@@ -111,7 +111,7 @@ def test_a_diverged_engine_leaves_the_reference_axis_intact_and_says_so():
     assert legend.get_gid() == "clipped"
     (text,) = [t.get_text() for t in legend.get_texts()]
     assert text.startswith("mujoco clipped: leaves the axis at t = 0.9")
-    pybullet = timeseries_figure(compare(load_scene("feigin-pair", ["duration=3.5"]), engines=("pybullet",), dt=1e-4))
+    pybullet = timeseries_figure(compare(load_scene("feigin-pair", ["duration=3.5"]), settings=settings_for(("pybullet",), 1e-4)))
     assert _axes(pybullet)["run"].get_legend() is None  # an engine that stays inside is not said to leave
 
 

@@ -3,6 +3,7 @@
 import pandas as pd
 import pytest
 
+from chatterbench.engines.registry import settings_for
 from chatterbench.comparisons.cli.main import main
 from chatterbench.comparisons.outputs.work_precision import work_precision_figure
 from chatterbench.comparisons.pipeline.compare import compare
@@ -43,7 +44,7 @@ def test_the_example_sweep_charts_both_engines(tmp_path):
 def test_runs_without_an_episode_say_so_once():
     # the old example: 0.6 s, one impact and no sticking (verdict none); MuJoCo at 1 ms goes through the floor
     scene = load_scene("bouncing-ball", ["duration=0.6"])
-    rows = pd.DataFrame([summarize(compare(scene, engines=(e,), dt=dt), e, {"dt": dt})
+    rows = pd.DataFrame([summarize(compare(scene, settings=settings_for((e,), dt)), e, {"dt": dt})
                          for e in ("mujoco", "pybullet") for dt in (1e-3, 3e-4)])
     assert set(rows["verdict"]) <= {"none", "penetrated"} and (rows["verdict"] == "none").any()
     fig = work_precision_figure(rows)

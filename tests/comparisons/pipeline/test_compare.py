@@ -7,6 +7,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from chatterbench.engines.registry import settings_for
 from chatterbench.comparisons.cli.main import main
 from chatterbench.comparisons.pipeline.compare import COLUMNS, compare
 from chatterbench.reference import load_scene
@@ -20,7 +21,7 @@ def feigin_both(tmp_path_factory):
     # (shared_engine_runs.py); a comparison that runs its engines itself: the tests below
     scene = load_scene("feigin-pair")
     runs = {engine: engine_run(tmp_path_factory, engine, scene, 1e-4) for engine in ("mujoco", "pybullet")}
-    return compare(scene, engines=("mujoco", "pybullet"), dt=1e-4, trajectories=runs)
+    return compare(scene, settings=settings_for(("mujoco", "pybullet"), 1e-4), trajectories=runs)
 
 
 @pytest.mark.slow
@@ -69,8 +70,7 @@ def test_feigin_pair_both_engines_slide_on_both_walls_every_half_period(feigin_b
 def test_pybullet_velocity_threshold_sticks_the_ball_early():
     # restitutionVelocityThreshold = 0.5 m/s kills the bounces below 0.5 m/s: the ball stops
     # at the 5th impact (1.299 s), 56 ms before the Zeno point 1.3546 s (tolerance 40 ms)
-    c = compare(load_scene("bouncing-ball"), engines=("pybullet",), dt=1e-4,
-                overrides=["pybullet.restitution_velocity_threshold=0.5"])
+    c = compare(load_scene("bouncing-ball"), settings=settings_for(("pybullet",), 1e-4, ["pybullet.restitution_velocity_threshold=0.5"]))
     row = c.table.iloc[0]
     assert row["verdict"] == "early"
     assert row["stick_error_zeno"] < -0.04
@@ -80,8 +80,7 @@ def test_pybullet_velocity_threshold_sticks_the_ball_early():
 def test_mujoco_w0_dt_far_past_stability_is_caught(w0_dt):
     # past Euler's stability limit (1.55 at R = 0.5) the contact gains energy and blows up:
     # it must be reported as diverged or penetrated, never as a match
-    c = compare(load_scene("feigin-pair", ["duration=8"]), engines=("mujoco",), dt=1e-4,
-                overrides=[f"mujoco.w0_dt={w0_dt}", "mujoco.allow_unstable=true"])
+    c = compare(load_scene("feigin-pair", ["duration=8"]), settings=settings_for(("mujoco",), 1e-4, [f"mujoco.w0_dt={w0_dt}", "mujoco.allow_unstable=true"]))
     assert set(c.table["verdict"]) <= {"diverged", "penetrated"}
     assert len(c.table) >= 1
 
@@ -92,7 +91,7 @@ def test_another_bounded_trajectory_is_not_called_diverged():
     # takes it 21% above the reference's largest relative kinetic energy: another trajectory,
     # not a numerical blow-up (every sample finite, energy bounded)
     scene = load_scene("feigin-pair", {"duration": 18.84955592153876, "restitution": 0.8, "mass2": 0.5})
-    c = compare(scene, engines=("pybullet",), dt=1e-3, overrides=["pybullet.restitution_velocity_threshold=0.1"])
+    c = compare(scene, settings=settings_for(("pybullet",), 1e-3, ["pybullet.restitution_velocity_threshold=0.1"]))
     assert c.runs["pybullet"].status == "ok"
     assert "diverged" not in set(c.table["verdict"])
     assert "spurious" in set(c.table["verdict"])
@@ -100,7 +99,7 @@ def test_another_bounded_trajectory_is_not_called_diverged():
 
 def test_an_engine_fault_is_classified_and_the_other_engine_kept(monkeypatch):
     monkeypatch.setenv("CHATTERBENCH_FAULT", "raise:mujoco")  # the test-only fault hook, engines/faults.py
-    c = compare(load_scene("bouncing-ball"), engines=("mujoco", "pybullet"), dt=1e-4)
+    c = compare(load_scene("bouncing-ball"), settings=settings_for(("mujoco", "pybullet"), 1e-4))
     assert c.runs["mujoco"].status == "error" and "InjectedFault" in c.runs["mujoco"].trajectory.message
     assert set(c.table.loc[c.table["engine"] == "mujoco", "verdict"]) == {"error"}
     # the other engine's run is complete and judged as usual

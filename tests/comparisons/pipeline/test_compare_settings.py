@@ -6,6 +6,7 @@ from helpers import cli, solution
 
 import chatterbench.engines.settings as engine_settings_module
 from chatterbench.comparisons.pipeline.compare import compare
+from chatterbench.engines.registry import settings_for
 from chatterbench.engines.mujoco_engine import MujocoSettings
 from chatterbench.engines.mujoco_warp_engine.settings import MujocoWarpSettings
 from chatterbench.engines.pybullet_engine import PybulletSettings
@@ -34,42 +35,48 @@ def test_a_settings_object_is_the_run_and_the_verdict_follows_it():
     default = compare(BALL, engines=("pybullet",), settings={"pybullet": PybulletSettings(dt=1e-3)}, solution=ref)
     assert default.table["verdict"].tolist() == ["buzz"] and 0.3 < default.table["open_fraction"].iloc[0] < 0.4
     # the object and the text it stands for are one run, bit for bit (for callers who hold strings)
-    text = compare(BALL, engines=("pybullet",), dt=1e-3, overrides=["pybullet.restitution_velocity_threshold=0.5"],
+    text = compare(BALL, settings=settings_for(("pybullet",), 1e-3, ["pybullet.restitution_velocity_threshold=0.5"]),
                    solution=ref)
     pd.testing.assert_frame_equal(c.table.drop(columns="cost_per_sim_s"), text.table.drop(columns="cost_per_sim_s"))
 
 
-@pytest.mark.parametrize("engines, settings, dt, overrides, words", [
-    (("pybullet",), {"mujoco": MujocoSettings()}, None, (), ("settings['mujoco']", "not among the engines run (pybullet)")),
-    (("pybullet",), {"pybullet": MujocoSettings()}, None, (), ("settings['pybullet']", "MujocoSettings", "PybulletSettings")),
+@pytest.mark.parametrize("engines, settings, words", [
+    (("pybullet",), {"mujoco": MujocoSettings()}, ("settings['mujoco']", "not among the engines run (pybullet)")),
+    (("pybullet",), {"pybullet": MujocoSettings()}, ("settings['pybullet']", "MujocoSettings", "PybulletSettings")),
     # MuJoCo Warp's settings are MuJoCo's plus its own: still another engine's
-    (("mujoco",), {"mujoco": MujocoWarpSettings()}, None, (), ("settings['mujoco']", "MujocoWarpSettings")),
-    (("pybullet",), {"pybullet": PybulletSettings(dt=1e-3)}, 1e-4, (), ("settings['pybullet'].dt = 0.001", "dt = 0.0001")),
-    (("pybullet",), {"pybullet": PybulletSettings()}, None, ["pybullet.restitution_velocity_threshold=0.5"],
-     ("pybullet.restitution_velocity_threshold", "settings['pybullet']")),
-    (("pybullet", "mujco"), {"pybullet": PybulletSettings()}, None, (), ("'mujco'", "did you mean 'mujoco'")),
+    (("mujoco",), {"mujoco": MujocoWarpSettings()}, ("settings['mujoco']", "MujocoWarpSettings")),
+    (("pybullet", "mujco"), {"pybullet": PybulletSettings()}, ("'mujco'", "did you mean 'mujoco'")),
 ])
-def test_settings_that_do_not_fit_are_refused_before_any_run(engines, settings, dt, overrides, words):
+def test_settings_that_do_not_fit_are_refused_before_any_run(engines, settings, words):
     started = []
     with pytest.raises(SettingsError) as err:
-        compare(BALL, engines=engines, settings=settings, dt=dt, overrides=overrides, progress=started.append)
+        compare(BALL, engines=engines, settings=settings, progress=started.append)
     assert all(w in str(err.value) for w in words), str(err.value)
     assert started == []  # not even the reference
 
 
-def test_settings_given_for_some_engines_and_built_for_the_others():
+@pytest.mark.parametrize("text", [{"dt": 1e-3}, {"overrides": ["pybullet.restitution_velocity_threshold=0.5"]}])
+def test_compare_takes_settings_objects_only(text):
+    # one way in: a timestep or text is made into settings at the edge (registry.settings_for), not inside compare
+    with pytest.raises(TypeError, match="unexpected keyword"):
+        compare(BALL, engines=("pybullet",), **text)
+
+
+def test_settings_given_for_some_engines_and_the_defaults_for_the_others():
     scene = load_scene("bouncing-ball", ["duration=0.3"])  # before the first impact: no episode, two cheap runs
-    c = compare(scene, engines=("mujoco", "pybullet"), dt=1e-3, settings={"pybullet": PybulletSettings(dt=1e-3)},
-                overrides=["mujoco.w0_dt=0.1"])
-    assert c.runs["mujoco"].settings["w0_dt"] == 0.1 and c.runs["mujoco"].settings["dt"] == 1e-3
+    c = compare(scene, engines=("mujoco", "pybullet"), settings={"pybullet": PybulletSettings(dt=1e-3)})
+    assert c.runs["mujoco"].settings["dt"] == MujocoSettings().dt and c.runs["mujoco"].settings["w0_dt"] == 0.03
     assert c.runs["pybullet"].settings["dt"] == 1e-3
+    assert list(c.runs) == ["mujoco", "pybullet"]  # in the order of engines
+    # engines left out: those of the settings, in their order
+    assert list(compare(scene, settings={"pybullet": PybulletSettings(dt=1e-3)}).runs) == ["pybullet"]
 
 
 def test_an_engine_fault_is_caught_by_its_adapter_and_the_other_engine_kept(monkeypatch):
     monkeypatch.setenv("CHATTERBENCH_FAULT", "raise:mujoco")  # the test-only fault hook, engines/faults.py
     scene = load_scene("bouncing-ball", ["duration=1.6"])
     # PyBullet with the threshold that lets the ball rest (its default 0 keeps bouncing after the stick: buzz)
-    c = compare(scene, engines=("mujoco", "pybullet"), dt=1e-3, overrides=["pybullet.restitution_velocity_threshold=0.02"])
+    c = compare(scene, settings=settings_for(("mujoco", "pybullet"), 1e-3, ["pybullet.restitution_velocity_threshold=0.02"]))
     mj = c.runs["mujoco"]
     # the adapter's classification (its message names the engine; its record is the run's, with MuJoCo's own
     # w0 and solref), not a catch-all's further up
@@ -84,9 +91,9 @@ def test_settings_the_scene_cannot_run_are_the_callers_mistake_not_an_engine_err
     # Euler is stable to w0 dt = 1.55
     scene = load_scene("bouncing-ball", ["duration=0.3"])
     with pytest.raises(SettingsError, match="stability limit"):
-        compare(scene, engines=("mujoco",), dt=1e-3, overrides=["mujoco.w0_dt=1.8"])
+        compare(scene, settings=settings_for(("mujoco",), 1e-3, ["mujoco.w0_dt=1.8"]))
     # isolated (the command line's way), whatever the child raises is its run's error: the others go on
-    c = compare(scene, engines=("mujoco", "pybullet"), dt=1e-3, overrides=["mujoco.w0_dt=1.8"], timeout=60)
+    c = compare(scene, settings=settings_for(("mujoco", "pybullet"), 1e-3, ["mujoco.w0_dt=1.8"]), timeout=60)
     assert c.runs["mujoco"].status == "error" and "stability limit" in c.runs["mujoco"].trajectory.message
     assert c.runs["pybullet"].status == "ok"
 

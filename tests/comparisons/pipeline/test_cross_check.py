@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 
+from chatterbench.engines.registry import settings_for
 from chatterbench.comparisons.pipeline.cross_check import cross_check
 from chatterbench.engines.registry import available_engines
 from chatterbench.reference.scene import load_scene
@@ -47,7 +48,8 @@ def test_without_siconos_the_line_says_why(monkeypatch):
 def test_the_report_carries_the_line_per_scene():
     from chatterbench.comparisons.outputs.report_page import build_report, report_html, report_markdown
 
-    report = build_report(["bouncing-ball"], engines=("pybullet",), dt=1e-3, progress=None)
+    report = build_report(["bouncing-ball"], engines=("pybullet",), dt=1e-3, progress=None,
+                          settings=settings_for(("pybullet",), 1e-3))
     (check,) = report.cross_checks
     assert check.scene == "bouncing-ball" and check.dt == 1e-3 and check.verdict == "match"
     from chatterbench.comparisons.pipeline.inert_text import md_escape
@@ -66,7 +68,7 @@ def test_a_report_running_siconos_reuses_its_run(monkeypatch):
 
     monkeypatch.setattr(module, "judge_run", judged_again)
     report = build_report(["bouncing-ball"], engines=("siconos",), dt=1e-3, progress=None,
-                          engine_overrides=["siconos.theta=1"])
+                          engine_overrides=["siconos.theta=1"], settings=settings_for(("siconos",), 1e-3, ["siconos.theta=1"]))
     (check,) = report.cross_checks
     row = report.summary.iloc[0]
     # the report's own Siconos run (theta = 1 here, +3.9 ms) is the one checked, not a second run at the defaults

@@ -12,6 +12,7 @@ import functools
 
 import pytest
 
+from chatterbench.engines.registry import settings_for
 from chatterbench.comparisons import Tolerances, compare, reference_trajectory
 from chatterbench.comparisons.ci.checks import run_check
 from chatterbench.comparisons.ci.gate import limits_from_keywords, make_check
@@ -77,7 +78,7 @@ def test_nothing_depends_on_the_runs_duration():
     # the tolerances come from each visit (chatter 0.903 s), not from the run (2 s or 3 s)
     rows = []
     for duration in (2.0, 3.0):
-        c = compare(load_scene("bouncing-ball", [f"duration={duration}"]), engines=("mujoco",), dt=1e-4)
+        c = compare(load_scene("bouncing-ball", [f"duration={duration}"]), settings=settings_for(("mujoco",), 1e-4))
         assert len(c.table) == 1
         rows.append(c.table.iloc[0])
     for col in ("verdict", "resolved_impacts", "ref_resolved_impacts"):
@@ -91,10 +92,10 @@ def test_nothing_depends_on_the_runs_duration():
 def test_a_failed_run_never_agrees_and_fails_a_gate(monkeypatch):
     # 0.3 s of the ball: it has not reached the floor, the reference has no episode to judge
     scene = load_scene("bouncing-ball", ["duration=0.3"])
-    ok = compare(scene, engines=("pybullet",), dt=1e-3)
+    ok = compare(scene, settings=settings_for(("pybullet",), 1e-3))
     assert ok.summary()["verdict"].tolist() == ["none"]
     monkeypatch.setenv("CHATTERBENCH_FAULT", "raise:pybullet")  # the test-only fault hook, engines/faults.py
-    failed = compare(scene, engines=("pybullet",), dt=1e-3)
+    failed = compare(scene, settings=settings_for(("pybullet",), 1e-3))
     assert failed.runs["pybullet"].status == "error"
     assert failed.table["verdict"].tolist() == ["error"] and failed.summary()["verdict"].tolist() == ["error"]
     # a gate that accepts "no sliding" does not accept a run that failed to say anything ...
@@ -110,7 +111,7 @@ def test_a_failed_run_never_agrees_and_fails_a_gate(monkeypatch):
 @pytest.fixture(scope="module")
 def damper_mujoco():
     """MuJoCo at its defaults on the impact damper, dt = 1e-4 s, compared (read by two tests)."""
-    return compare(load_scene("impact-damper"), engines=("mujoco",), dt=1e-4)
+    return compare(load_scene("impact-damper"), settings=settings_for(("mujoco",), 1e-4))
 
 
 def test_a_missed_episode_still_counts_the_engines_impacts(damper_mujoco):
@@ -125,7 +126,7 @@ def test_a_missed_episode_still_counts_the_engines_impacts(damper_mujoco):
 def test_penetration_is_judged_against_the_scene_not_the_engine():
     # at dt = 1e-3 MuJoCo's default contact is w0 = 30 rad/s: a 1.2 m/s strike sinks about
     # v / w0 = 35 mm into the 40 mm cavity; the allowance is 10% of the gap for every engine
-    c = compare(load_scene("impact-damper"), engines=("mujoco", "pybullet"), dt=1e-3)
+    c = compare(load_scene("impact-damper"), settings=settings_for(("mujoco", "pybullet"), 1e-3))
     mj, pb = (c.table[c.table["engine"] == e] for e in ("mujoco", "pybullet"))
     assert c.runs["mujoco"].t_penetrated == c.runs["mujoco"].t_penetrated  # measured, not NaN
     assert "penetrated" in set(mj["verdict"]) and mj["penetration_max"].max() > 0.004
@@ -228,7 +229,7 @@ def test_a_run_that_ends_in_the_middle_of_a_bounce_is_not_a_stick():
     # 0.455 s of the ball: MuJoCo's soft contact is in the middle of the first bounce (it began
     # at 0.4515 s and lasts ~10 ms) when the data end. Found while building the judge: a
     # contact the data end in was taken for sticking, a spurious episode at the end of the run.
-    c = compare(load_scene("bouncing-ball", ["duration=0.455"]), engines=("mujoco",), dt=1e-4)
+    c = compare(load_scene("bouncing-ball", ["duration=0.455"]), settings=settings_for(("mujoco",), 1e-4))
     assert c.runs["mujoco"].trajectory.contact["lower"][-1]  # the data do end in contact
     assert c.table.empty and c.summary()["verdict"].tolist() == ["none"]
 

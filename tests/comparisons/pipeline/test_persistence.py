@@ -20,6 +20,7 @@ import pytest
 
 from helpers import cli
 
+from chatterbench.engines.registry import settings_for
 from chatterbench.comparisons.pipeline.compare import compare
 from chatterbench.reference.scene import load_scene
 
@@ -31,14 +32,14 @@ REST_LINE = re.compile(r"^rest wall=lower t0=(\S+) t1=(\S+) onsets=(\d+) onsets_
 
 def test_pybullet_bouncing_at_g_dt_after_the_stick_is_buzz_and_a_threshold_rests():
     scene = load_scene("bouncing-ball", TEN_SECONDS)
-    buzz = compare(scene, engines=("pybullet",), dt=float(BUZZ[0]), overrides=BUZZ[1]).table.iloc[0]
+    buzz = compare(scene, settings=settings_for(("pybullet",), float(BUZZ[0]), BUZZ[1])).table.iloc[0]
     assert buzz["verdict"] == "buzz"
     assert abs(buzz["stick_error_rel"]) < 0.05  # it sticks on time: the timing checks pass, the contact does not hold
     assert 90 < buzz["onset_rate"] < 130 and buzz["contact_onsets"] > 800  # one onset every 3 steps (3.1 ms)
     assert 0.3 < buzz["open_fraction"] < 0.4 and 10e-6 < buzz["gap_max"] < 60e-6 and buzz["force_swing"] > 1.5
     assert re.search(r"\d+ contact onsets in \S+ s \(\d+ per second\), open \d+\.\d% of that time", buzz["reason"])
     # the other way: the threshold drops the g dt bounces; the contact stays closed from the stick on
-    rest = compare(scene, engines=("pybullet",), dt=float(REST[0]), overrides=REST[1]).table.iloc[0]
+    rest = compare(scene, settings=settings_for(("pybullet",), float(REST[0]), REST[1])).table.iloc[0]
     assert rest["verdict"] == "match" and rest["reason"] == ""
     assert rest["contact_onsets"] == 0 and rest["open_fraction"] == 0.0 and rest["gap_max"] == 0.0
     assert rest["rest_window"] > 8.0  # judged over the 8.6 s after the stick, not a moment
@@ -111,6 +112,7 @@ def test_a_gap_only_file_is_judged_from_the_samples_where_they_resolve_the_flick
         w.writerows({k: r[k] for k in ("t", "x1", "x2", "v1", "v2")} for r in rows)
     judged = cli(["judge", str(tmp_path / "ball.toml"), str(tmp_path / "gap.csv"), "--engine", "pybullet",
                   "--out", str(tmp_path / "g"), "--no-figures"])
+    assert judged.code == 1, judged.err  # judge exits 1: the verdict (buzz) is not an agreement
     with open(tmp_path / "g" / "episodes.csv") as f:
         episode = next(csv.DictReader(f))
     assert episode["verdict"] == "buzz" and float(episode["contact_resolution"]) < 1e-6, episode

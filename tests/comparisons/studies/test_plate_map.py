@@ -4,6 +4,7 @@ import math
 
 import numpy as np
 
+from chatterbench.engines.registry import settings_for
 from chatterbench.comparisons.outputs.plate_map_figure import plate_map_figure
 from chatterbench.comparisons.studies.plate_map import plate_map
 from chatterbench.reference import load_scene
@@ -11,7 +12,7 @@ from chatterbench.reference import load_scene
 
 def test_plate_map_regions_on_feigin_pair_with_mujoco():
     scene = load_scene("feigin-pair")
-    table = plate_map(scene, "lower", n_phase=10, n_speed=4, engines=("mujoco",), dt=1e-4)
+    table = plate_map(scene, "lower", n_phase=10, n_speed=4, engines=("mujoco",), settings=settings_for(("mujoco",), 1e-4))
     assert len(table) == 40
     # sufficient conditions: no strike inside Feigin's plate may leave in the reference
     assert not (table["feigin"] & ~table["reference"]).any()
@@ -34,8 +35,8 @@ def test_an_engines_strikes_go_as_batches_with_the_column_of_single_runs(monkeyp
     from chatterbench.comparisons.studies import plate_map as pm
 
     scene = load_scene("feigin-pair")
-    args = dict(n_phase=4, n_speed=4, engines=("mujoco_warp", "mujoco"), dt=1e-3,
-                overrides=["mujoco_warp.device='cpu'"])
+    engines = ("mujoco_warp", "mujoco")
+    args = dict(n_phase=4, n_speed=4, engines=engines, settings=settings_for(engines, 1e-3, ["mujoco_warp.device='cpu'"]))
     together = plate_map(scene, "lower", **args)
     monkeypatch.setattr(pm, "STRIKES_PER_BATCH", 1)
     alone = plate_map(scene, "lower", **args)

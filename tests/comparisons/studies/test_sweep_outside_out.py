@@ -13,7 +13,7 @@ import os
 import stat
 import subprocess
 import sys
-import time
+import threading
 from pathlib import Path
 
 import pytest
@@ -103,25 +103,65 @@ def test_cleanup_removes_only_the_temp_files_of_a_sweep_of_this_directory(place)
 LONG = 'scene = "bouncing-ball"\nengines = ["pybullet"]\n[set]\nduration = 30\n[grid]\ndt = [1e-4, 2e-4, 3e-4, 4e-4]\n'
 
 
+class _Stderr(threading.Thread):
+    """A process's stderr read as it comes (``-X importtime`` writes more than a pipe holds): its lines, and an event
+    set once the process is inside the command's own imports (its package imported, a module after it finished, the
+    command's modules still to come)."""
+
+    def __init__(self, proc: subprocess.Popen) -> None:
+        super().__init__(daemon=True)
+        self.proc, self.lines, self.importing = proc, [], threading.Event()
+
+    def run(self) -> None:
+        seen_package = False
+        for line in self.proc.stderr:
+            self.lines.append(line)
+            if seen_package and line.startswith("import time:"):
+                self.importing.set()
+            seen_package |= line.rstrip().endswith("| chatterbench.comparisons.cli")
+
+    def text(self) -> str:
+        """What the process wrote, the import times left out."""
+        return "".join(line for line in self.lines if not line.startswith("import time:"))
+
+
+def _phase_reached(out: Path, phase: str) -> bool:
+    """Whether the sweep writing into ``out`` is in ``phase``: starting (its lock taken, no row yet: the pool and its
+    first runs starting) or running (a row written, the other runs going on)."""
+    if phase == "starting":
+        return (out / LOCK_NAME).exists()
+    return any((out / "rows").glob("*.parquet")) if (out / "rows").is_dir() else False
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("after", [0.4, 1.2, 2.5])  # while importing (Python's own start is before), starting, running
-def test_ctrl_c_of_a_sweep_is_one_line_exit_130_promptly(tmp_path, after):
+@pytest.mark.parametrize("phase", ["importing", "starting", "running"])
+def test_ctrl_c_of_a_sweep_is_one_line_exit_130_promptly(tmp_path, phase):
     (tmp_path / "long.toml").write_text(LONG)
-    # a terminal's Ctrl-C reaches the whole process group: the sweep, its pool and their isolated runs
-    proc = subprocess.Popen([sys.executable, "-m", "chatterbench.comparisons.cli", "sweep", "long.toml", "--out", "o",
-                             "--workers", "2"], cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
-    time.sleep(after)
+    # a terminal's Ctrl-C reaches the whole process group: the sweep, its pool and their isolated runs; Python's
+    # -X importtime says on stderr where the import is (its lines are left out of the stderr checked below)
+    proc = subprocess.Popen([sys.executable, "-X", "importtime", "-m", "chatterbench.comparisons.cli", "sweep",
+                             "long.toml", "--out", "o", "--workers", "2"], cwd=tmp_path, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True)
+    stderr = _Stderr(proc)
+    stderr.start()
+    if phase == "importing":
+        assert stderr.importing.wait(300), "the command finished its imports unseen"
+    else:
+        wait_until(lambda: _phase_reached(tmp_path / "o", phase), f"the sweep never reached {phase}", limit=300)
     rows = tmp_path / "o" / "rows"
     finished = sorted(rows.glob("*.parquet")) if rows.is_dir() else []  # each run of 30 s of the ball takes seconds
     os.killpg(proc.pid, __import__("signal").SIGINT)
-    _, err = proc.communicate(timeout=300)
+    proc.wait(timeout=300)
+    stderr.join(timeout=60)
+    err = stderr.text()
     # before: -2 and a traceback when interrupted while importing; the pool's runs finished first (1-4 s to stop)
     assert proc.returncode == 130, err
     assert err == "chatterbench: interrupted\n", err
     # stopped at once: no run in progress at the interrupt was carried on to its row, and no process is left
     assert (sorted(rows.glob("*.parquet")) if rows.is_dir() else []) == finished
     wait_until(lambda: not _group_alive(proc.pid), "a process of the interrupted sweep is still alive")
+    # and no half-written file is left (a temp is renamed into place whole, or removed)
+    assert not list((tmp_path / "o").rglob("*.tmp")) if (tmp_path / "o").exists() else True
 
 
 def _group_alive(pgid: int) -> bool:
@@ -130,7 +170,6 @@ def _group_alive(pgid: int) -> bool:
     except ProcessLookupError:
         return False
     return True
-    assert not [p for p in (tmp_path / "o").rglob("*.tmp")] if (tmp_path / "o").exists() else True
 
 
 def test_an_emoji_scene_name_prints_on_an_ascii_terminal(tmp_path):

@@ -4,6 +4,7 @@ import pytest
 from helpers import count_settings_made, measured
 
 import chatterbench.engines.settings as engine_settings_module
+from chatterbench.engines.registry import settings_for
 from chatterbench.comparisons.pipeline.compare import compare
 from chatterbench.comparisons.pipeline.summary import summarize
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
@@ -32,7 +33,7 @@ def test_a_sweep_run_makes_its_settings_once(monkeypatch):
     scene = load_scene("bouncing-ball", ["duration=1.6"])
     for task, row in zip(tasks, batched):
         text = f"mujoco.w0_dt={dict(task.params)['mujoco.w0_dt']}"
-        assert measured(summarize(compare(scene, engines=("mujoco",), dt=1e-3, overrides=[text]), "mujoco", {})) == \
+        assert measured(summarize(compare(scene, settings=settings_for(("mujoco",), 1e-3, [text])), "mujoco", {})) == \
             measured(row)
 
 

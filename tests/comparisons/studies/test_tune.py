@@ -13,7 +13,7 @@ from chatterbench.comparisons.pipeline.solution import solve
 from chatterbench.comparisons.studies.tune import choose, engine_space, reachable, tune
 from chatterbench.comparisons.studies.tune_checks import check_ratios, describe_failures
 from chatterbench.engines.mujoco_engine import MujocoSettings, stability_limit
-from chatterbench.engines.registry import make_settings
+from chatterbench.engines.registry import make_settings, settings_for
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
 from chatterbench.reference import load_scene
 from chatterbench.reference.errors import InputError
@@ -41,9 +41,8 @@ def test_tune_mujoco_feigin_pair_reruns_as_match():
     # every cheaper candidate failed, and says which check: here the sticking error, late
     cheaper = result.cheaper()
     assert len(cheaper) and cheaper["failed"].str.startswith("sticking error +").all()
-    rerun = compare(scene, engines=("mujoco",), dt=best["dt"],
-                    overrides=[f"mujoco.w0_dt={best['mujoco.w0_dt']}", f"mujoco.integrator={best['mujoco.integrator']}",
-                               f"mujoco.impedance={best['mujoco.impedance']}"],
+    rerun = compare(scene, settings=settings_for(("mujoco",), best["dt"], [f"mujoco.w0_dt={best['mujoco.w0_dt']}", f"mujoco.integrator={best['mujoco.integrator']}",
+                               f"mujoco.impedance={best['mujoco.impedance']}"]),
                     tol=tol)
     assert (rerun.table["verdict"] == "match").all()
     text = guide_markdown(result)

@@ -22,7 +22,7 @@ from chatterbench.comparisons.studies.tune_answer import searched_text
 from chatterbench.comparisons.studies.tune_checks import check_ratios, judged_margin
 from chatterbench.comparisons.studies.tune_ladder import Ladder, at_level, judge_levels, tolerance_items
 from chatterbench.comparisons.studies.tune_search import agrees
-from chatterbench.engines.registry import make_settings
+from chatterbench.engines.registry import make_settings, settings_for
 from chatterbench.reference import load_scene
 
 # MuJoCo's own answer for the ball at 5% is "none" (issue 26); fixing the integrator at its default and the impedance
@@ -45,7 +45,7 @@ def ball_mujoco(tmp_path_factory):
 
 def _verdicts(scene, entry: dict, dt: float, engine: str = "mujoco") -> list[str]:
     tol = tolerances_from_items(tolerance_items(Tolerances(**entry["tolerances"])))  # as `compare --tolerance` takes them
-    c = compare(scene, engines=(engine,), dt=dt, overrides=[f"{k}={v}" for k, v in entry["settings"].items()], tol=tol)
+    c = compare(scene, settings=settings_for((engine,), dt, [f"{k}={v}" for k, v in entry["settings"].items()]), tol=tol)
     return c.table["verdict"].tolist()
 
 

@@ -27,7 +27,7 @@ from chatterbench.comparisons.studies.tune import tune
 from chatterbench.comparisons.studies.tune_answer import recommended
 from chatterbench.comparisons.studies.tune_checks import check_ratios, describe_failures
 from chatterbench.comparisons.studies.tune_search import agrees
-from chatterbench.engines.registry import make_settings
+from chatterbench.engines.registry import make_settings, settings_for
 from chatterbench.reference import load_scene
 
 T = 0.05
@@ -49,7 +49,7 @@ ISSUE_26_ANSWERS = {
 def _table(scene, t: float, r: float, dt: float, settings: dict):
     """``compare``'s table with ``settings`` as ``--set K=V`` items, at ``dt`` [s]."""
     tol = Tolerances(stick=t, exit=t, first_impact=t, restitution=r)
-    return compare(scene, engines=("mujoco",), dt=dt, overrides=[f"{k}={v}" for k, v in settings.items()], tol=tol).table
+    return compare(scene, settings=settings_for(("mujoco",), dt, [f"{k}={v}" for k, v in settings.items()]), tol=tol).table
 
 
 def _verdicts(scene, t: float, r: float, dt: float, settings: dict) -> list[str]:
@@ -108,7 +108,7 @@ def test_mujoco_bouncing_ball_at_t_0_05_is_reported_not_robust_with_the_reason()
     assert rec["failed"] or rec["neighbourhood_fails"]  # the check that fails: its own, or its neighbours'
     # the JSON's setting, through compare, gives the verdict the JSON says
     sets = [f"{k}={v!r}" if isinstance(v, str) else f"{k}={v}" for k, v in rec["settings"].items()]
-    verdicts = compare(scene, engines=("mujoco",), dt=rec["dt"], overrides=sets, tol=_tol(0.05)).table["verdict"]
+    verdicts = compare(scene, settings=settings_for(("mujoco",), rec["dt"], sets), tol=_tol(0.05)).table["verdict"]
     assert verdicts.map(agrees).all() == agrees(rec["verdict"]), (verdicts.tolist(), rec["verdict"])
 
 

@@ -9,6 +9,7 @@ import pytest
 
 from helpers import band_failures
 
+from chatterbench.engines.registry import settings_for
 from chatterbench.comparisons.cli.main import main
 from chatterbench.comparisons.pipeline.compare import compare
 from chatterbench.comparisons.pipeline.solution import solve
@@ -38,8 +39,7 @@ def fp_pybullet():
 def _verdicts(scene, rec: dict, dt: float) -> list[str]:
     """The episodes' verdicts of ``compare`` with a recommended.json's settings, as ``--set K=V`` items, at ``dt``."""
     sets = [f"{k}={v}" for k, v in rec["settings"].items()]
-    return compare(scene, engines=(rec["engine"],), dt=dt, overrides=sets, tol=Tolerances(stick=T, exit=T, first_impact=T),
-                   ).table["verdict"].tolist()
+    return compare(scene, settings=settings_for((rec["engine"],), dt, sets), tol=Tolerances(stick=T, exit=T, first_impact=T)).table["verdict"].tolist()
 
 
 @pytest.mark.slow  # one tune of PyBullet in the default space, 80 runs
