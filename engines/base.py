@@ -24,10 +24,14 @@ force model as an affine map, ``force_plan``), records the samples chunk by chun
 ``window.Recorder``, so every long run comes back compact), times the steps, classifies
 what happened, and steps the same world with no recording for the benchmark's bare loop. An
 engine that runs a whole run at once (MuJoCo's rollout, Drake's integrator, a child process)
-writes ``simulate(run)`` instead, handing its samples to ``Recording.add``. Either way the
-adapter declares its facts (``compliant``, ``precision``, ``cost_lever``, ``tuning_space``,
-``contact_scales``), checked when it is registered (``contract.py``). The base keeps these
-promises for every engine, and ``tests/engines/test_contract.py`` checks them:
+writes ``samples(run)`` instead, a generator of the run's samples chunk by chunk
+(``wholerun.Samples``), which the base steps, times and records as it does a stepping engine's
+(``wholerun.py``): no adapter reads a clock. Either way the adapter declares its facts
+(``compliant``, ``precision``, ...), checked when it is registered (``contract.py``), and may
+implement the optional capabilities of ``capabilities.py`` (a tuning space, an exported model,
+a snippet). A plugin imports all it needs from ``api.py``. The base keeps these promises for
+every engine, and the shipped contract suite (``contract_suite.py``: ``pytest
+--chatterbench-engine NAME``) checks them:
 
 - ``run`` samples the scene at ``sample_times(scene, settings.dt)``: sample 0 is the initial
   state, sample k the state after k steps, the last one at or before the scene's end;
@@ -67,6 +71,7 @@ from .settings import SettingsError
 from .stepping import bare_seconds as stepping_bare_seconds
 from .stepping import n_steps, run_steps  # n_steps: a run's steps, exported here
 from .trajectory import Trajectory
+from .wholerun import record as record_chunks
 from .window import Recorder
 
 MAXVAL = 1e10  # [m, m/s] a larger |position| or |velocity| is a blow-up (MuJoCo's mjMAXVAL, for every engine)
@@ -101,17 +106,18 @@ STATUS_MESSAGE = {
 
 
 class Diverged(RuntimeError):
-    """Raised by an adapter's ``simulate`` when its engine itself reports a blow-up (MuJoCo's warnings)."""
+    """Raised by an adapter (``step`` or ``samples``) when its engine itself reports a blow-up (MuJoCo's warnings):
+    the run is ``diverged``."""
 
 
 class Crashed(RuntimeError):
-    """Raised by an adapter's ``simulate`` when the process running its engine died (a child of the adapter killed
-    by a signal, as Siconos's): the run is ``crashed``, as an isolated run whose own process dies."""
+    """Raised by an adapter when the process running its engine died (a child of the adapter killed by a signal, as
+    Siconos's): the run is ``crashed``, as an isolated run whose own process dies."""
 
 
 class TimedOut(RuntimeError):
-    """Raised by an adapter's ``simulate`` when it stopped its engine at the run's time limit (``isolate.run_limit``:
-    a child process of the adapter killed, as Siconos's): the run is ``timeout``, as an isolated run past its limit."""
+    """Raised by an adapter when it stopped its engine at the run's time limit (``isolate.run_limit``: a child
+    process of the adapter killed, as Siconos's): the run is ``timeout``, as an isolated run past its limit."""
 
 
 _count_steps = n_steps  # ``EngineAdapter.benchmark``'s argument has the name
@@ -136,11 +142,13 @@ def failed_trajectory(engine: str, scene: Scene, status: str, message: str, sett
 
 
 class Recording:
-    """One run's samples as the adapter hands them over: checked, cut at a blow-up, body 1 filled, recorded.
+    """One run's samples as the base hands them over: checked, cut at a blow-up, body 1 filled, recorded.
 
     ``record`` (the settings record; an adapter may add what its run learns), ``wall_time``
-    [s] (the adapter adds its stepping time), ``contact_time`` [s] and ``contact_frequency``
-    [rad/s] (defaults from ``EngineAdapter.contact_scales``) go into the trajectory.
+    [s] (the base adds the stepping time it measured), ``contact_time`` [s] and ``contact_frequency``
+    [rad/s] (defaults from ``EngineAdapter.contact_scales``; an adapter whose run calibrates its
+    contact may set them) go into the trajectory. A whole-run adapter's ``samples(run)`` reads
+    ``scene``, ``settings``, ``n`` (the run's steps) and ``stopped``.
     """
 
     def __init__(self, engine: str, scene: Scene, settings: Any, record: dict[str, Any], compact_above: float | None,
@@ -245,8 +253,8 @@ class BenchmarkResult:
 
 class EngineAdapter:
     """One engine behind the suite's contract (module docstring). Subclasses set the class facts and write ``build``
-    and ``step`` (or ``simulate``, a whole run at once); the base writes the run, the batch, the record and the
-    benchmark."""
+    and ``step`` (or ``samples``, a whole run at once); the base writes the run, the batch, the record, the timing and
+    the benchmark."""
 
     name: ClassVar[str]  # the registry name, "mujoco"
     package: ClassVar[str]  # the distribution whose version is reported
@@ -254,7 +262,9 @@ class EngineAdapter:
     compliant: ClassVar[bool] = False  # a contact law with its own time scale (True) or a rigid impulse law
     precision: ClassVar[str] = "float64"  # the arithmetic the engine steps in
     batches: ClassVar[bool] = False  # does run_batch do better than one run after another?
-    bytes_per_step: ClassVar[float] = 500.0  # [B] memory a run holds per step, samples and engine state (measured)
+    # [B] per step of a run: the memory it holds, samples and engine state (measured); ``--max-memory`` reads it
+    # (``comparisons/pipeline/budget.py``: a run's estimate is a base cost + steps x bytes_per_step, refused over it)
+    bytes_per_step: ClassVar[float] = 500.0
     bench_step_cap: ClassVar[int | None] = None  # most steps a benchmark repeat takes (a slow engine's cap)
     # the registry name of an engine that steps this very model on another executor ("": none); compare reports
     # the two's conformance (``comparisons/pipeline/conformance.py``) whenever both ran
@@ -269,54 +279,37 @@ class EngineAdapter:
     force_sum: ClassVar[str] = "grouped"
     isolated: bool = False  # every run in a forked child under ``isolate.run_limit`` (the registry's plugins)
 
-    # -- what an adapter writes: its world and one step of it (or a whole run, ``simulate``) ---------
+    # -- what an adapter writes: its world and one step of it (or a whole run, ``samples``) ----------
     def build(self, scene: Scene, settings: Any) -> Any:
         """The engine's world for ``scene`` at ``settings``, at ``scene.initial`` (t0, x1, v1, x2 = x1 + y, v2 = v1 +
         vy), the walls on body 1 where y = x2 - x1 meets ``scene.gap.lower`` (and ``upper``), no scene force in it
         (the base applies them). A world with a ``close()`` method is closed when the run ends."""
-        raise NotImplementedError(f"{type(self).__name__} writes neither build and step nor simulate")
+        raise NotImplementedError(f"{type(self).__name__} writes neither build and step nor samples")
 
     def step(self, world: Any, forces: tuple[float, float]) -> tuple[tuple, tuple[float, ...]]:
         """Advance ``world`` one step of ``settings.dt`` [s] with ``forces`` = (on body 1, on body 2) [N] along x
         applied over it. Returns ``(x1, v1, x2, v2)`` after the step [m, m/s] (x1, v1: None for an infinite body 1,
         which the base fills in) and per wall of ``scene.gap.walls`` the force [N] it pushed body 2 with in the
         step (> 0: a contact), or () when no wall touched body 2."""
-        raise NotImplementedError(f"{type(self).__name__} writes neither build and step nor simulate")
+        raise NotImplementedError(f"{type(self).__name__} writes neither build and step nor samples")
 
     def drive(self, world: Any, x1: float, v1: float, x1_end: float) -> None:
         """Before a step, move a prescribed (infinite) body 1: it is at ``x1`` [m] with velocity ``v1`` [m/s] at the
         step's start and at ``x1_end`` [m] at its end. An adapter without it refuses prescribed scenes."""
         raise NotImplementedError(f"{type(self).__name__} cannot move a prescribed body 1")
 
-    def simulate(self, run: Recording) -> None:
-        """The whole run: the base's step loop over ``build`` and ``step`` (``stepping.run_steps``). An adapter that
-        runs its engine a whole run at once overrides it: step ``run.n`` times and hand the samples (the initial
-        state first) to ``run.add``, stopping when it returns False; add the stepping wall time to
-        ``run.wall_time``. Raise (anything) for a failure of the engine, ``Diverged`` for a blow-up the engine
+    def samples(self, run: Recording) -> Iterator[Any]:
+        """A whole run at once, for an engine that cannot be stepped from outside (an integrator of its own, a child
+        process), as a generator (``wholerun.py``): set the engine up for ``run`` (``run.scene``, ``run.settings``,
+        ``run.n`` steps of ``run.settings.dt``), yield ``None`` once set up, then step and yield the samples chunk
+        by chunk as ``wholerun.Samples``, in order, the initial state first. The base times what the generator
+        does after its set-up (the run's stepping time) and records each chunk; the yield's value is False once the
+        run is cut (stop then). Raise (anything) for a failure of the engine, ``Diverged`` for a blow-up the engine
         reports itself, ``Crashed`` when a process the adapter runs its engine in died, ``TimedOut`` when it
         stopped one at the run's time limit."""
-        if not self.steps():
-            raise NotImplementedError(f"{type(self).__name__} writes neither build and step nor simulate")
-        run_steps(self, run)
+        raise NotImplementedError(f"{type(self).__name__} writes neither build and step nor samples")
 
-    def bare_seconds(self, scene: Scene, settings: Any, traj: Trajectory) -> float:
-        """Seconds of the engine's own loop over the run ``traj`` (full; the adapter's own run of ``scene``): the
-        same model and forces with no recording. The base's: ``step`` on a fresh world with the run's forces
-        (``stepping.bare_seconds``); for a whole-run adapter that writes none, the run's own stepping time."""
-        if self.steps():
-            return stepping_bare_seconds(self, scene, settings, traj)
-        return traj.wall_time
-
-    @classmethod
-    def steps(cls) -> bool:
-        """Whether the adapter writes ``build`` and ``step`` (the base's step loop runs it)."""
-        return cls.build is not EngineAdapter.build and cls.step is not EngineAdapter.step
-
-    @classmethod
-    def whole_runs(cls) -> bool:
-        """Whether the adapter writes ``simulate``, a whole run at once (a fast path, or its only way)."""
-        return cls.simulate is not EngineAdapter.simulate
-
+    # -- what an adapter may write: optional facts and capabilities (``capabilities.py``), the base's defaults --
     def export(self, scene: Scene, settings: Any, command: str | None = None) -> dict[str, str]:
         """File name (each of ``exports``) -> text: ``scene`` at ``settings`` as files that run in the engine alone,
         printing one line per impact (``impact_lines``); ``command``, the command that wrote them, kept in them."""
@@ -352,6 +345,37 @@ class EngineAdapter:
         return "dt"
 
     # -- what the base does for every engine ------------------------------------------------------
+    def simulate(self, run: Recording) -> None:
+        """Step the whole run into ``run``: the base's step loop over ``build`` and ``step`` (``stepping.run_steps``),
+        or the adapter's ``samples`` generator driven, timed and recorded (``wholerun.record``); raises the engine's
+        failure once the samples before it are recorded. Not an adapter's to write."""
+        if self.steps():
+            run_steps(self, run)
+        elif self.whole_runs():
+            record_chunks(run, self.samples(run))
+        else:
+            raise NotImplementedError(f"{type(self).__name__} writes neither build and step nor samples")
+
+    def bare_seconds(self, scene: Scene, settings: Any, traj: Trajectory) -> float:
+        """Seconds of the engine's own loop over the run ``traj`` (full; the adapter's own run of ``scene``): the
+        same model and forces with no recording. The base's: ``step`` on a fresh world with the run's forces
+        (``stepping.bare_seconds``); for a whole-run adapter, the run's own stepping time (what the base timed
+        inside its generator). An adapter overrides it only for a loop the base cannot time (MuJoCo Warp's
+        captured graphs with nothing read back)."""
+        if self.steps():
+            return stepping_bare_seconds(self, scene, settings, traj)
+        return traj.wall_time
+
+    @classmethod
+    def steps(cls) -> bool:
+        """Whether the adapter writes ``build`` and ``step`` (the base's step loop runs it)."""
+        return cls.build is not EngineAdapter.build and cls.step is not EngineAdapter.step
+
+    @classmethod
+    def whole_runs(cls) -> bool:
+        """Whether the adapter writes ``samples``, a whole run at once (a fast path, or its only way)."""
+        return cls.samples is not EngineAdapter.samples
+
     def settings(self, settings: Any = None) -> Any:
         """``settings``, or the defaults when None; SettingsError for another engine's settings."""
         if settings is None:

@@ -104,11 +104,12 @@ def _adapter(name: str, settings: str = "Settings", steps: str = _STEPS) -> str:
 
 
 _BACKWARDS = ("class Engine(EngineAdapter):\n    name, package, settings_type = 'backwards', 'cbtest-backwards', Settings\n\n"
-              "    def simulate(self, run):  # a whole-run engine that hands its samples over in the wrong order\n"
+              "    def samples(self, run):  # a whole-run engine that yields its samples in the wrong order\n"
               "        import numpy as np\n"
+              "        from chatterbench.engines.api import Samples\n"
               "        t = run.scene.initial.t + run.settings.dt * np.arange(run.n + 1)[::-1]\n"
               "        zero = np.zeros(run.n + 1)\n"
-              "        run.add(t, {w: zero for w in run.scene.gap.walls}, y=zero + run.scene.initial.y, vy=zero)\n")
+              "        yield Samples(t, {w: zero for w in run.scene.gap.walls}, y=zero + run.scene.initial.y, vy=zero)\n")
 
 # the README's engine (``line``, installed beside it) with one of its reporting methods raising: the run is fine, the
 # report of it is the plugin's own code that fails
