@@ -29,9 +29,9 @@ as ``Samples``, in order, the initial state first. The base (``record``)
    classifies it).
 
 ``record_many`` drives the generators of a batch's runs in turn, a chunk of each (MuJoCo's
-runs sharing one ``MjData``), each run's time its own; ``record_block`` drives one generator
-that steps many runs as one (MuJoCo Warp's worlds) and yields ``BlockSamples``, handed over
-with ``batch_recording.add_many``; the block's stepping time is shared by the runs by weight.
+runs sharing one ``MjData``), each run's time its own; ``batch_recording.record_block`` drives
+one generator that steps many runs as one (MuJoCo Warp's worlds) and yields ``BlockSamples``
+(``one_of_block``: such a generator of one run as that run's own).
 
 Promises: the samples are exactly what the generator yields, in its order (the base adds
 nothing but body 1 of an infinite mass and the cut); the set-up before a ``None`` is never
@@ -42,13 +42,11 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from typing import TYPE_CHECKING, Any, Generator, Mapping, Sequence
+from typing import Any, Generator, Mapping, Sequence
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from .base import Recording
-
+Recording = Any  # a ``base.Recording`` (not imported: the base imports this module)
 # a whole-run adapter's generator: yields None (set up) or Samples, is sent whether to go on, returns anything
 Chunks = Generator["Samples | None", "bool | None", Any]
 
@@ -166,38 +164,6 @@ def record_many(runs: Sequence[Recording], chunks: Sequence[Chunks]) -> list[Bas
         for c in chunks:
             c.close()
     return [f.failure for f in feeds]
-
-
-def record_block(runs: Sequence[Recording], chunks: Generator[BlockSamples | None, None, Any],
-                 weights: Sequence[float]) -> Any:
-    """Drive one generator that steps ``runs`` as one block (``BlockSamples``, handed over with
-    ``batch_recording.add_many``); the block's stepping time goes to the runs in proportion to ``weights``
-    (their steps). Returns what the generator returned; raises what it raised."""
-    from .batch_recording import add_many
-
-    clock = time.perf_counter
-    wall = 0.0
-    try:
-        while True:
-            start = clock()
-            try:
-                got = next(chunks)
-            except StopIteration as stop:
-                wall += clock() - start
-                return stop.value
-            except BaseException:
-                wall += clock() - start
-                raise
-            if got is None:  # set up
-                continue
-            add_many(runs, got.t, got.force, y=got.y, vy=got.vy, x1=got.x1, v1=got.v1, bad=got.bad,
-                     lengths=got.lengths)
-            wall += clock() - start  # a block's hand-over is timed with its steps (the runs' checks made together)
-    finally:
-        chunks.close()
-        total = float(sum(weights))
-        for r, w in zip(runs, weights):
-            r.wall_time += wall * w / total if total > 0 else 0.0
 
 
 def one_of_block(chunks: Generator[BlockSamples | None, None, Any], run: Recording) -> Chunks:

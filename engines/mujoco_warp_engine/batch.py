@@ -14,7 +14,7 @@ read to its own end) are grouped; each group goes in blocks of ``BlockPlan.world
 ``HOST_BYTES``), and each block is one model of that many worlds (``worlds.put_worlds``)
 stepped ``BlockPlan.chunk`` steps at a time (``kernels.Stepper``: captured where warp can)
 and read back after each chunk (``samples.hand_over``), a generator the base drives, times
-and records (``wholerun.record_block``; a run alone: ``wholerun.one_of_block``). Each block's trajectories are handed
+and records (``batch_recording.record_block``; a run alone: ``wholerun.one_of_block``). Each block's trajectories are handed
 on as soon as it is done, so a caller that keeps only a summary of each (``bench``, a sweep)
 holds one block at a time: host memory within ``HOST_BYTES`` at any number of worlds.
 
@@ -38,9 +38,10 @@ from chatterbench.reference.scene import Scene
 
 from ..api import Diverged, EngineAdapter, Recording, SettingsError
 from ..base import n_steps, settings_fields
+from ..batch_recording import record_block
 from ..mujoco_common import Prepared, prepare, warning_note
 from ..trajectory import Trajectory
-from ..wholerun import BlockSamples, record_block
+from ..wholerun import BlockSamples
 from ..window import CHUNK
 from .kernels import STEPS_PER_GRAPH, Stepper, load_kernels
 from .samples import Before, controls_of, hand_over
@@ -126,7 +127,7 @@ def roll_worlds(worlds: Worlds, ps: Sequence[Prepared], runs: Sequence[Recording
 
 def run_block(runs: Sequence[Recording], ps: Sequence[Prepared], device: str, chunk: int) -> list[Exception | None]:
     """Step the runs as the worlds of one MuJoCo Warp model (when they cannot share one: the runs of each compiled
-    structure as one, e.g. one integrator's), driven, timed and recorded by the base (``wholerun.record_block``);
+    structure as one, e.g. one integrator's), driven, timed and recorded by the base (``batch_recording.record_block``);
     each run's failure (None: none) for ``Recording.trajectory``."""
     try:
         worlds = put_worlds(ps, device)

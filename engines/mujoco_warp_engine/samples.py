@@ -29,7 +29,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ..base import Recording
+from ..recording import Recording
 from ..mujoco_common import Prepared
 from ..wholerun import BlockSamples
 
