@@ -3,13 +3,14 @@
     >>> import numpy as np
     >>> from chatterbench.engines.api import EngineAdapter, Samples
     >>> from chatterbench.engines.base import Recording
+    >>> from chatterbench.engines.pybullet_engine import PybulletSettings
+    >>> from chatterbench.engines.wholerun import record
     >>> from chatterbench.reference.scene import load_scene
     >>> class Resting(EngineAdapter):          # a toy whole-run engine: the ball stays where it starts
     ...     def samples(self, run):
     ...         yield None                      # set up: what came before is not stepping time
     ...         t = run.scene.initial.t + run.settings.dt * np.arange(run.n + 1)
     ...         yield Samples(t, {"lower": np.zeros(len(t))}, y=np.full(len(t), run.scene.initial.y), vy=0 * t)
-    >>> from chatterbench.engines.pybullet_engine import PybulletSettings
     >>> run = Recording("resting", load_scene("bouncing-ball"), PybulletSettings(dt=0.5), {}, None, (0.0, np.inf))
     >>> record(run, Resting().samples(run)); run.trajectory().status, len(run.trajectory().t)
     ('ok', 5)
