@@ -20,14 +20,18 @@ solver's step and a solver writes only ``_step_impl``: an adapter writes
 
 and the base does the rest (``stepping.py``): it checks the settings (``SettingsError`` before
 the engine starts), makes the settings record, applies the scene's forces every step (its
-force model as an affine map, ``force_plan``), records the samples chunk by chunk (through
-``window.Recorder``, so every long run comes back compact), times the steps, classifies
-what happened, and steps the same world with no recording for the benchmark's bare loop. An
+force model as an affine map, ``force_plan``), records the samples chunk by chunk
+(``recording.Recording``, through ``window.Recorder``: every long run comes back compact),
+times the steps, classifies what happened (``status.Status``), and steps the same world with no recording for the benchmark's bare loop. An
 engine that runs a whole run at once (MuJoCo's rollout, Drake's integrator, a child process)
-writes ``simulate(run)`` instead, handing its samples to ``Recording.add``. Either way the
-adapter declares its facts (``compliant``, ``precision``, ``cost_lever``, ``tuning_space``,
-``contact_scales``), checked when it is registered (``contract.py``). The base keeps these
-promises for every engine, and ``tests/engines/test_contract.py`` checks them:
+writes ``samples(run)`` instead, a generator of the run's samples chunk by chunk
+(``wholerun.Samples``), which the base steps, times and records as it does a stepping engine's
+(``wholerun.py``): no adapter reads a clock. Either way the adapter declares its facts
+(``compliant``, ``precision``, ...), checked when it is registered (``contract.py``), and may
+implement the optional capabilities of ``capabilities.py`` (a tuning space, an exported model,
+a snippet). A plugin imports all it needs from ``api.py``. The base keeps these promises for
+every engine, and the shipped contract suite (``contract_suite.py``: ``pytest
+--chatterbench-engine NAME``) checks them:
 
 - ``run`` samples the scene at ``sample_times(scene, settings.dt)``: sample 0 is the initial
   state, sample k the state after k steps, the last one at or before the scene's end;
@@ -49,12 +53,11 @@ promises for every engine, and ``tests/engines/test_contract.py`` checks them:
 from __future__ import annotations
 
 import dataclasses
-import enum
 import functools
 import math
 import time
 from importlib.metadata import version as package_version
-from typing import Any, ClassVar, Iterator, Mapping, Sequence
+from typing import Any, ClassVar, Iterator, Sequence
 
 import numpy as np
 
@@ -63,56 +66,13 @@ from chatterbench.reference.scene import Scene
 
 from .faults import inject_planned
 from .isolate import Outcome, call_isolated, inside
+from .recording import GRID_SLACK, MAXVAL, Recording  # noqa: F401  (GRID_SLACK, MAXVAL: read from here too)
 from .settings import SettingsError
+from .status import STATUS_MESSAGE, Crashed, Diverged, Status, TimedOut, failed_trajectory  # noqa: F401
 from .stepping import bare_seconds as stepping_bare_seconds
 from .stepping import n_steps, run_steps  # n_steps: a run's steps, exported here
 from .trajectory import Trajectory
-from .window import Recorder
-
-MAXVAL = 1e10  # [m, m/s] a larger |position| or |velocity| is a blow-up (MuJoCo's mjMAXVAL, for every engine)
-GRID_SLACK = 1e-3  # [steps] how far a sample's time may be from t0 + k dt (rounding, an accumulated t += dt)
-
-
-class Status(enum.StrEnum):
-    """How a run ended; compares equal to its string (``Status.OK == "ok"``), ``message`` says what it means."""
-
-    OK = "ok"
-    ERROR = "error"
-    DIVERGED = "diverged"
-    TIMEOUT = "timeout"
-    CRASHED = "crashed"
-
-    @property
-    def message(self) -> str:
-        """What the status means (``STATUS_MESSAGE``)."""
-        return STATUS_MESSAGE[self]
-
-    def __repr__(self) -> str:
-        return repr(self.value)  # shown as the string it equals, in tuples, lists and tables
-
-
-STATUS_MESSAGE = {
-    Status.OK: "the run reached the end of the scene",
-    Status.ERROR: "the engine raised, refused the model or stopped short; the samples before are kept",
-    Status.DIVERGED: "a state or force became non-finite or huge; the samples before it are kept",
-    Status.TIMEOUT: "the run passed its wall-clock limit and was stopped (an isolated run, or the engine's own child)",
-    Status.CRASHED: "the process running the engine died (a signal, or out of memory)",
-}
-
-
-class Diverged(RuntimeError):
-    """Raised by an adapter's ``simulate`` when its engine itself reports a blow-up (MuJoCo's warnings)."""
-
-
-class Crashed(RuntimeError):
-    """Raised by an adapter's ``simulate`` when the process running its engine died (a child of the adapter killed
-    by a signal, as Siconos's): the run is ``crashed``, as an isolated run whose own process dies."""
-
-
-class TimedOut(RuntimeError):
-    """Raised by an adapter's ``simulate`` when it stopped its engine at the run's time limit (``isolate.run_limit``:
-    a child process of the adapter killed, as Siconos's): the run is ``timeout``, as an isolated run past its limit."""
-
+from .wholerun import record as record_chunks
 
 _count_steps = n_steps  # ``EngineAdapter.benchmark``'s argument has the name
 
@@ -120,108 +80,6 @@ _count_steps = n_steps  # ``EngineAdapter.benchmark``'s argument has the name
 def sample_times(scene: Scene, dt: float) -> np.ndarray:
     """The sample times of a run [s], t0 + k dt for k = 0..n_steps(duration, dt); shape (n + 1,)."""
     return scene.initial.t + dt * np.arange(n_steps(scene.duration, dt) + 1)
-
-
-def failed_trajectory(engine: str, scene: Scene, status: str, message: str, settings: dict[str, Any] | None = None,
-                      wall_time: float = 0.0) -> Trajectory:
-    """The trajectory of a run that failed before its first step: the initial state as its one sample."""
-    ini = scene.initial
-    one = lambda v: np.array([float(v)])  # noqa: E731
-    walls = scene.gap.walls
-    return Trajectory(
-        engine=engine, t=one(ini.t), x1=one(ini.x1), x2=one(ini.x1 + ini.y), v1=one(ini.v1), v2=one(ini.v1 + ini.vy),
-        contact={w: np.zeros(1, bool) for w in walls}, normal_force={w: np.zeros(1) for w in walls},
-        wall_time=wall_time, settings=dict(settings or {}), status=Status(status), message=message,
-    )
-
-
-class Recording:
-    """One run's samples as the adapter hands them over: checked, cut at a blow-up, body 1 filled, recorded.
-
-    ``record`` (the settings record; an adapter may add what its run learns), ``wall_time``
-    [s] (the adapter adds its stepping time), ``contact_time`` [s] and ``contact_frequency``
-    [rad/s] (defaults from ``EngineAdapter.contact_scales``) go into the trajectory.
-    """
-
-    def __init__(self, engine: str, scene: Scene, settings: Any, record: dict[str, Any], compact_above: float | None,
-                 scales: tuple[float, float]) -> None:
-        self.engine, self.scene, self.settings, self.record = engine, scene, settings, record
-        self.n = n_steps(scene.duration, settings.dt)  # steps; the run has n + 1 samples
-        self.wall_time = 0.0
-        self.contact_time, self.contact_frequency = scales
-        self.cut = ""  # why the samples were cut ("": not cut)
-        self.recorder = Recorder(scene, self.n + 1, compact_above)  # MemoryError for a run that cannot fit
-
-    @property
-    def stopped(self) -> bool:
-        """Whether a blow-up ended the run (the adapter stops stepping)."""
-        return bool(self.cut)
-
-    def add(self, t: np.ndarray, force: Mapping[str, np.ndarray], *, y: np.ndarray | None = None,
-            vy: np.ndarray | None = None, x2: np.ndarray | None = None, v2: np.ndarray | None = None,
-            x1: np.ndarray | None = None, v1: np.ndarray | None = None, bad: np.ndarray | None = None) -> bool:
-        """The next samples, in order: times ``t`` [s], per wall the force on body 2 [N] (contact where > 0),
-        body 2 as ``x2, v2`` or relative to body 1 as ``y, vy`` (then x2 = x1 + y), body 1 as ``x1, v1``
-        (None for an infinite body 1: its prescribed motion, or rest at x1), ``bad``: samples the engine
-        knows to be broken. Cuts at the first bad, non-finite or huge sample; returns whether to go on.
-        ValueError for samples off the run's time grid t0 + k dt, k = 0..n (out of order, or too many)."""
-        if self.cut:
-            return False
-        self._check_times(np.asarray(t, dtype=float))
-        state = [a for a in (x1, v1, y, vy, x2, v2) if a is not None]
-        broken = ~np.logical_and.reduce([np.isfinite(a) for a in (*state, *force.values())])
-        broken |= np.logical_or.reduce([np.abs(a) > MAXVAL for a in state])
-        if bad is not None:
-            broken |= bad
-        m = len(t)
-        if broken.any():
-            m = int(np.argmax(broken))
-            self.cut = f"non-finite or huge state at t = {t[m]:.6g} s (sample {self.recorder.count + m})"
-            t, force = t[:m], {w: f[:m] for w, f in force.items()}
-            x1, v1, y, vy, x2, v2 = (None if a is None else a[:m] for a in (x1, v1, y, vy, x2, v2))
-        if x1 is None:
-            x1, v1 = self.body1(t)
-        if x2 is None:
-            x2, v2 = x1 + y, v1 + vy
-        self.recorder.add(t, x1, v1, x2, v2, {w: f > 0.0 for w, f in force.items()}, force)
-        return not self.cut
-
-    def _check_times(self, t: np.ndarray) -> None:
-        """The samples handed over are the next ones of the run's grid, to ``GRID_SLACK`` of a step."""
-        k, dt = self.recorder.count, self.settings.dt
-        grid = self.scene.initial.t + dt * np.arange(k, k + len(t))
-        off = ~(np.abs(t - grid) <= GRID_SLACK * dt)
-        if off.any() or k + len(t) > self.n + 1:
-            i = int(np.argmax(off)) if off.any() else self.n + 1 - k
-            shown = f"t = {t[i]:.9g} s, not t0 + k dt = {grid[i]:.9g} s" if off.any() else "past the run's end"
-            raise ValueError(f"sample {k + i}: {shown} (the samples are t0 + k dt, k = 0..{self.n}, in order)")
-
-    def body1(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Position [m] and velocity [m/s] of an infinite body 1 at times ``t``: prescribed, or at rest."""
-        scene = self.scene
-        if not scene.body1_infinite:
-            raise ValueError("body 1 has a finite mass: the engine reports its motion")
-        if scene.prescribed is not None:
-            return scene.prescribed.position(t), scene.prescribed.velocity(t)
-        return np.full(len(t), scene.initial.x1), np.zeros(len(t))
-
-    def trajectory(self, failure: BaseException | None = None) -> Trajectory:
-        """The recorded samples with their status (module docstring: how a run is classified)."""
-        status, message = Status.OK, ""
-        if failure is not None:
-            status = (Status.DIVERGED if isinstance(failure, Diverged) else Status.CRASHED if isinstance(failure, Crashed)
-                      else Status.TIMEOUT if isinstance(failure, TimedOut) else Status.ERROR)
-            message = f"{self.engine}: {type(failure).__name__}: {failure}".splitlines()[0]
-        if self.cut:
-            status, message = Status.DIVERGED, "; ".join(filter(None, (self.cut, message)))
-        elif status is Status.OK and self.recorder.count < self.n + 1:
-            status, message = Status.ERROR, f"{self.engine} stopped at sample {self.recorder.count} of {self.n + 1}"
-        fields = dict(settings=self.record, status=status, message=message, contact_time=self.contact_time,
-                      contact_frequency=self.contact_frequency)
-        if not self.recorder.count:  # failed before its first sample: the initial state stands for it
-            return dataclasses.replace(failed_trajectory(self.engine, self.scene, status, message), **fields,
-                                       wall_time=self.wall_time)
-        return self.recorder.trajectory(self.engine, self.wall_time, **fields)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -245,8 +103,8 @@ class BenchmarkResult:
 
 class EngineAdapter:
     """One engine behind the suite's contract (module docstring). Subclasses set the class facts and write ``build``
-    and ``step`` (or ``simulate``, a whole run at once); the base writes the run, the batch, the record and the
-    benchmark."""
+    and ``step`` (or ``samples``, a whole run at once); the base writes the run, the batch, the record, the timing and
+    the benchmark."""
 
     name: ClassVar[str]  # the registry name, "mujoco"
     package: ClassVar[str]  # the distribution whose version is reported
@@ -254,7 +112,9 @@ class EngineAdapter:
     compliant: ClassVar[bool] = False  # a contact law with its own time scale (True) or a rigid impulse law
     precision: ClassVar[str] = "float64"  # the arithmetic the engine steps in
     batches: ClassVar[bool] = False  # does run_batch do better than one run after another?
-    bytes_per_step: ClassVar[float] = 500.0  # [B] memory a run holds per step, samples and engine state (measured)
+    # [B] per step of a run: the memory it holds, samples and engine state (measured); ``--max-memory`` reads it
+    # (``comparisons/pipeline/budget.py``: a run's estimate is a base cost + steps x bytes_per_step, refused over it)
+    bytes_per_step: ClassVar[float] = 500.0
     bench_step_cap: ClassVar[int | None] = None  # most steps a benchmark repeat takes (a slow engine's cap)
     # the registry name of an engine that steps this very model on another executor ("": none); compare reports
     # the two's conformance (``comparisons/pipeline/conformance.py``) whenever both ran
@@ -269,54 +129,37 @@ class EngineAdapter:
     force_sum: ClassVar[str] = "grouped"
     isolated: bool = False  # every run in a forked child under ``isolate.run_limit`` (the registry's plugins)
 
-    # -- what an adapter writes: its world and one step of it (or a whole run, ``simulate``) ---------
+    # -- what an adapter writes: its world and one step of it (or a whole run, ``samples``) ----------
     def build(self, scene: Scene, settings: Any) -> Any:
         """The engine's world for ``scene`` at ``settings``, at ``scene.initial`` (t0, x1, v1, x2 = x1 + y, v2 = v1 +
         vy), the walls on body 1 where y = x2 - x1 meets ``scene.gap.lower`` (and ``upper``), no scene force in it
         (the base applies them). A world with a ``close()`` method is closed when the run ends."""
-        raise NotImplementedError(f"{type(self).__name__} writes neither build and step nor simulate")
+        raise NotImplementedError(f"{type(self).__name__} writes neither build and step nor samples")
 
     def step(self, world: Any, forces: tuple[float, float]) -> tuple[tuple, tuple[float, ...]]:
         """Advance ``world`` one step of ``settings.dt`` [s] with ``forces`` = (on body 1, on body 2) [N] along x
         applied over it. Returns ``(x1, v1, x2, v2)`` after the step [m, m/s] (x1, v1: None for an infinite body 1,
         which the base fills in) and per wall of ``scene.gap.walls`` the force [N] it pushed body 2 with in the
         step (> 0: a contact), or () when no wall touched body 2."""
-        raise NotImplementedError(f"{type(self).__name__} writes neither build and step nor simulate")
+        raise NotImplementedError(f"{type(self).__name__} writes neither build and step nor samples")
 
     def drive(self, world: Any, x1: float, v1: float, x1_end: float) -> None:
         """Before a step, move a prescribed (infinite) body 1: it is at ``x1`` [m] with velocity ``v1`` [m/s] at the
         step's start and at ``x1_end`` [m] at its end. An adapter without it refuses prescribed scenes."""
         raise NotImplementedError(f"{type(self).__name__} cannot move a prescribed body 1")
 
-    def simulate(self, run: Recording) -> None:
-        """The whole run: the base's step loop over ``build`` and ``step`` (``stepping.run_steps``). An adapter that
-        runs its engine a whole run at once overrides it: step ``run.n`` times and hand the samples (the initial
-        state first) to ``run.add``, stopping when it returns False; add the stepping wall time to
-        ``run.wall_time``. Raise (anything) for a failure of the engine, ``Diverged`` for a blow-up the engine
+    def samples(self, run: Recording) -> Iterator[Any]:
+        """A whole run at once, for an engine that cannot be stepped from outside (an integrator of its own, a child
+        process), as a generator (``wholerun.py``): set the engine up for ``run`` (``run.scene``, ``run.settings``,
+        ``run.n`` steps of ``run.settings.dt``), yield ``None`` once set up, then step and yield the samples chunk
+        by chunk as ``wholerun.Samples``, in order, the initial state first. The base times what the generator
+        does after its set-up (the run's stepping time) and records each chunk; the yield's value is False once the
+        run is cut (stop then). Raise (anything) for a failure of the engine, ``Diverged`` for a blow-up the engine
         reports itself, ``Crashed`` when a process the adapter runs its engine in died, ``TimedOut`` when it
         stopped one at the run's time limit."""
-        if not self.steps():
-            raise NotImplementedError(f"{type(self).__name__} writes neither build and step nor simulate")
-        run_steps(self, run)
+        raise NotImplementedError(f"{type(self).__name__} writes neither build and step nor samples")
 
-    def bare_seconds(self, scene: Scene, settings: Any, traj: Trajectory) -> float:
-        """Seconds of the engine's own loop over the run ``traj`` (full; the adapter's own run of ``scene``): the
-        same model and forces with no recording. The base's: ``step`` on a fresh world with the run's forces
-        (``stepping.bare_seconds``); for a whole-run adapter that writes none, the run's own stepping time."""
-        if self.steps():
-            return stepping_bare_seconds(self, scene, settings, traj)
-        return traj.wall_time
-
-    @classmethod
-    def steps(cls) -> bool:
-        """Whether the adapter writes ``build`` and ``step`` (the base's step loop runs it)."""
-        return cls.build is not EngineAdapter.build and cls.step is not EngineAdapter.step
-
-    @classmethod
-    def whole_runs(cls) -> bool:
-        """Whether the adapter writes ``simulate``, a whole run at once (a fast path, or its only way)."""
-        return cls.simulate is not EngineAdapter.simulate
-
+    # -- what an adapter may write: optional facts and capabilities (``capabilities.py``), the base's defaults --
     def export(self, scene: Scene, settings: Any, command: str | None = None) -> dict[str, str]:
         """File name (each of ``exports``) -> text: ``scene`` at ``settings`` as files that run in the engine alone,
         printing one line per impact (``impact_lines``); ``command``, the command that wrote them, kept in them."""
@@ -352,6 +195,37 @@ class EngineAdapter:
         return "dt"
 
     # -- what the base does for every engine ------------------------------------------------------
+    def simulate(self, run: Recording) -> None:
+        """Step the whole run into ``run``: the base's step loop over ``build`` and ``step`` (``stepping.run_steps``),
+        or the adapter's ``samples`` generator driven, timed and recorded (``wholerun.record``); raises the engine's
+        failure once the samples before it are recorded. Not an adapter's to write."""
+        if self.steps():
+            run_steps(self, run)
+        elif self.whole_runs():
+            record_chunks(run, self.samples(run))
+        else:
+            raise NotImplementedError(f"{type(self).__name__} writes neither build and step nor samples")
+
+    def bare_seconds(self, scene: Scene, settings: Any, traj: Trajectory) -> float:
+        """Seconds of the engine's own loop over the run ``traj`` (full; the adapter's own run of ``scene``): the
+        same model and forces with no recording. The base's: ``step`` on a fresh world with the run's forces
+        (``stepping.bare_seconds``); for a whole-run adapter, the run's own stepping time (what the base timed
+        inside its generator). An adapter overrides it only for a loop the base cannot time (MuJoCo Warp's
+        captured graphs with nothing read back)."""
+        if self.steps():
+            return stepping_bare_seconds(self, scene, settings, traj)
+        return traj.wall_time
+
+    @classmethod
+    def steps(cls) -> bool:
+        """Whether the adapter writes ``build`` and ``step`` (the base's step loop runs it)."""
+        return cls.build is not EngineAdapter.build and cls.step is not EngineAdapter.step
+
+    @classmethod
+    def whole_runs(cls) -> bool:
+        """Whether the adapter writes ``samples``, a whole run at once (a fast path, or its only way)."""
+        return cls.samples is not EngineAdapter.samples
+
     def settings(self, settings: Any = None) -> Any:
         """``settings``, or the defaults when None; SettingsError for another engine's settings."""
         if settings is None:

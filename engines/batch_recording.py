@@ -18,16 +18,20 @@ them over in one call; each run gets exactly what its own ``Recording.add`` woul
 same samples, cut and message: ``tests/engines/test_mujoco_warp.py`` runs a batch both ways),
 and the per-sample checks (non-finite or huge state, non-finite force, what the engine marks
 bad) are made on the whole chunk at once, so that a batch of thousands of worlds costs a few
-microseconds per world and chunk beyond its samples.
+microseconds per world and chunk beyond its samples. ``record_block`` is the base's driver of
+such an engine's block: its generator of ``wholerun.BlockSamples`` stepped, timed and recorded
+(a single run's is ``wholerun.record``).
 """
 
 from __future__ import annotations
 
-from typing import Mapping, Sequence
+import time
+from typing import Any, Generator, Mapping, Sequence
 
 import numpy as np
 
-from .base import MAXVAL, Recording
+from .recording import MAXVAL, Recording
+from .wholerun import BlockSamples
 
 
 def add_many(runs: Sequence[Recording], t: np.ndarray, force: Mapping[str, np.ndarray], *, y: np.ndarray,
@@ -71,3 +75,33 @@ def add_many(runs: Sequence[Recording], t: np.ndarray, force: Mapping[str, np.nd
         fw = {wall: force[wall][w, :m] for wall in walls}
         r.recorder.add(tw, b1[0], b1[1], b1[0] + state[0][w, :m], b1[1] + state[1][w, :m],
                        {wall: f > 0.0 for wall, f in fw.items()}, fw)
+
+
+def record_block(runs: Sequence[Recording], chunks: Generator[BlockSamples | None, None, Any],
+                 weights: Sequence[float]) -> Any:
+    """Drive one generator that steps ``runs`` as one block (``BlockSamples``, None once set up; each handed over
+    with ``add_many``); the block's stepping time goes to the runs in proportion to ``weights``
+    (their steps). Returns what the generator returned; raises what it raised."""
+    clock = time.perf_counter
+    wall = 0.0
+    try:
+        while True:
+            start = clock()
+            try:
+                got = next(chunks)
+            except StopIteration as stop:
+                wall += clock() - start
+                return stop.value
+            except BaseException:
+                wall += clock() - start
+                raise
+            if got is None:  # set up
+                continue
+            add_many(runs, got.t, got.force, y=got.y, vy=got.vy, x1=got.x1, v1=got.v1, bad=got.bad,
+                     lengths=got.lengths)
+            wall += clock() - start  # a block's hand-over is timed with its steps (the runs' checks made together)
+    finally:
+        chunks.close()
+        total = float(sum(weights))
+        for r, w in zip(runs, weights):
+            r.wall_time += wall * w / total if total > 0 else 0.0

@@ -5,7 +5,7 @@
     >>> problem(PybulletEngine, "pybullet")              # "": it keeps the contract
     ''
     >>> problem(int, "pybullet")
-    'int is not an EngineAdapter subclass (chatterbench.engines.EngineAdapter)'
+    'int is not an EngineAdapter subclass (chatterbench.engines.api.EngineAdapter)'
 
 ``problem(cls, name)`` is what the registry asks of every adapter class it loads, built in or
 a plugin's (``registry.adapter``): the first thing that breaks the contract of ``base.py``, or
@@ -16,8 +16,9 @@ a plugin's (``registry.adapter``): the first thing that breaks the contract of `
 - ``settings_type`` is a frozen dataclass with a ``dt`` field [s] and defaults for every field;
   its defaults make settings with a finite ``dt`` > 0, and ``dt`` = -1, 0 and NaN are each
   refused with ``SettingsError`` (a checked ``dt``: ``reference.errors.check_number``);
-- the adapter writes ``build`` and ``step`` (the base's step loop runs them) or ``simulate``
-  (a whole run at once);
+- the adapter writes ``build`` and ``step`` (the base's step loop runs them) or ``samples``
+  (a whole run at once, a generator the base drives: ``wholerun.py``), and not ``simulate``
+  (the base's);
 - its facts have their types: ``compliant`` and ``batches`` booleans, ``precision`` one of
   ``PRECISIONS``, ``bytes_per_step`` a finite number > 0, ``bench_step_cap`` None or an integer
   >= 1, ``force_sum`` one of ``FORCE_SUMS``, ``same_model_as``, ``first_run_note`` and
@@ -59,7 +60,7 @@ _FACTS = {  # fact -> (type check, what it must be)
 def problem(cls: Any, name: str) -> str:
     """The first way adapter class ``cls`` breaks the contract for the engine ``name`` (module docstring), "" if none."""
     if not (isinstance(cls, type) and issubclass(cls, EngineAdapter)):
-        return f"{getattr(cls, '__name__', repr(cls))} is not an EngineAdapter subclass (chatterbench.engines.EngineAdapter)"
+        return f"{getattr(cls, '__name__', repr(cls))} is not an EngineAdapter subclass (chatterbench.engines.api.EngineAdapter)"
     for check in (_named, _settings, _methods, _facts):
         found = check(cls, name)
         if found:
@@ -108,13 +109,16 @@ def _settings(cls: type, name: str) -> str:
 
 
 def _methods(cls: type, name: str) -> str:
+    if cls.simulate is not EngineAdapter.simulate:
+        return (f"{cls.__name__} writes simulate, the base's run: a whole-run engine writes samples(run), a generator "
+                "of its samples the base times and records (chatterbench.engines.api.Samples)")
     if cls.steps() or cls.whole_runs():
         return ""
     half = [m for m in ("build", "step") if getattr(cls, m) is not getattr(EngineAdapter, m)]
     if half:
         missing = ({"build", "step"} - set(half)).pop()
-        return f"{cls.__name__} writes {half[0]} but not {missing} (an adapter writes build and step, or simulate)"
-    return f"{cls.__name__} writes neither build and step nor simulate (base.EngineAdapter)"
+        return f"{cls.__name__} writes {half[0]} but not {missing} (an adapter writes build and step, or samples)"
+    return f"{cls.__name__} writes neither build and step nor samples (base.EngineAdapter)"
 
 
 def _facts(cls: type, name: str) -> str:

@@ -10,8 +10,8 @@
 MuJoCo (``mujoco_engine``, ``mujoco.rollout`` in float64) and MuJoCo Warp
 (``mujoco_warp_engine``, warp kernels in float32) run the same model (``mujoco_engine.model``:
 the MjSpec, contact law, forces, controls) and read their samples the same way: rows of
-rollout's layout (time, qpos, qvel) and the sensors at the start of each step, handed to the
-base's ``Recording`` (``take``). Both import these pieces from here, never from each other.
+rollout's layout (time, qpos, qvel) and the sensors at the start of each step, yielded to the
+base as ``wholerun.Samples`` (``take``). Both import these pieces from here, never from each other.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ import numpy as np
 
 from chatterbench.reference.scene import Scene
 
-from .base import Recording
+from .wholerun import Samples
 from .restitution import contact_duration
 
 if TYPE_CHECKING:
@@ -153,10 +153,10 @@ def contact_scales(scene: Scene, s: MujocoSettings) -> tuple[float, float]:
     return contact_duration(s.zeta(scene.restitution), s.w0), s.w0
 
 
-def take(run: Recording, p: Prepared, k0: int, before: np.ndarray, state: np.ndarray, sensordata: np.ndarray) -> None:
-    """Hand samples k0 .. k0 + c - 1 to ``run`` from ``before`` (the state at sample k0), ``state`` (c rows of
-    rollout's layout: time, qpos, qvel after each step) and ``sensordata`` (c rows, at the start of each step,
-    i.e. at the samples). A sensor that is not finite or a time that went back (a reset) is a blow-up."""
+def take(p: Prepared, k0: int, before: np.ndarray, state: np.ndarray, sensordata: np.ndarray) -> Samples:
+    """Samples k0 .. k0 + c - 1 of the run ``p`` (the base records them) from ``before`` (the state at sample k0),
+    ``state`` (c rows of rollout's layout: time, qpos, qvel after each step) and ``sensordata`` (c rows, at the
+    start of each step, i.e. at the samples). A sensor that is not finite or a time that went back (a reset) is a blow-up."""
     scene, s, nq = p.scene, p.settings, p.structure.model.nq
     c = len(state)
     rows = np.concatenate([before[None], state[:c - 1]])  # the state at samples k0 .. k0 + c - 1
@@ -177,7 +177,7 @@ def take(run: Recording, p: Prepared, k0: int, before: np.ndarray, state: np.nda
     else:
         force = {w: np.maximum(sens[:, 3 * i], 0.0) for i, w in enumerate(walls)}
     body1 = {} if scene.body1_infinite else {"x1": qpos[:, 0], "v1": qvel[:, 0]}
-    run.add(t, force, y=y, vy=vy, bad=bad, **body1)
+    return Samples(t, force, y=y, vy=vy, bad=bad, **body1)
 
 
 def warned(data: mujoco.MjData) -> set[str]:

@@ -6,7 +6,9 @@
     0.05
 
 Unknown keys are refused with the nearest valid name; values are parsed as TOML and
-validated by the settings class itself.
+validated by the settings class itself, with the checks here (``check_dt``, ``check_number``,
+``check_integer``, ``check_choice``: ``SettingsError`` naming the field and its range, which a
+plugin imports from ``api.py``).
 """
 
 from __future__ import annotations
@@ -15,6 +17,9 @@ import dataclasses
 from typing import Any, Mapping, Sequence, TypeVar
 
 from chatterbench.reference.errors import InputError, did_you_mean
+from chatterbench.reference.errors import check_choice as _check_choice
+from chatterbench.reference.errors import check_integer as _check_integer
+from chatterbench.reference.errors import check_number as _check_number
 from chatterbench.reference.scene import split_assignment
 
 T = TypeVar("T")
@@ -42,3 +47,26 @@ def settings_with_overrides(base: T, overrides: Sequence[str] | Mapping[str, Any
         return dataclasses.replace(base, **changes)
     except TypeError as exc:
         raise SettingsError(f"{prefix} settings: {exc}") from None
+
+
+def check_dt(engine: str, dt: Any) -> float:
+    """Engine ``engine``'s step ``dt`` [s] as a float when it is a finite number > 0, else ``SettingsError`` naming
+    ``ENGINE.dt`` and the range (``euler.dt = 0: must be > 0 [s]``): what every settings ``__post_init__`` checks."""
+    return _check_number(f"{engine}.dt", dt, lo=0.0, lo_open=True, unit=" [s]", error=SettingsError)
+
+
+def check_number(where: str, value: Any, lo: float | None = None, hi: float | None = None, lo_open: bool = False,
+                 hi_open: bool = False, unit: str = "") -> float:
+    """A setting ``value`` as a float when it is a finite number in the range, else ``SettingsError`` naming ``where``
+    (``"euler.damping"``) and the range, with ``unit`` (``" [s]"``) after it."""
+    return _check_number(where, value, lo=lo, hi=hi, lo_open=lo_open, hi_open=hi_open, unit=unit, error=SettingsError)
+
+
+def check_integer(where: str, value: Any, lo: int | None = None, hi: int | None = None) -> int:
+    """A setting ``value`` when it is an integer (not a bool) in [lo, hi], else ``SettingsError`` naming ``where``."""
+    return _check_integer(where, value, lo=lo, hi=hi, error=SettingsError)
+
+
+def check_choice(where: str, value: Any, allowed: Sequence[str]) -> str:
+    """A setting ``value`` when it is one of ``allowed``, else ``SettingsError`` naming ``where`` and listing them."""
+    return _check_choice(where, value, allowed, error=SettingsError)

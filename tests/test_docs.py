@@ -121,7 +121,7 @@ def test_every_file_the_docs_and_gate_files_name_is_there():
     # issue 33: gates/default.toml said "Format: chatterbench/comparisons/gate.py" (it is comparisons/ci/gate.py), the
     # README named tests/comparisons/test_judge.py (it is under pipeline/); a path is read as a user types it
     missing = []
-    for doc in [ROOT / "README.md", *ROOT.joinpath("gates").glob("*.toml"), *ROOT.joinpath("docs").glob("*.md")]:
+    for doc in [ROOT / "README.md", *ROOT.joinpath("gates").glob("*.toml"), *ROOT.joinpath("docs").rglob("*.md")]:
         for match in _NAMED_PATH.finditer(doc.read_text(encoding="utf-8")):
             path = ROOT / match[1].removeprefix("chatterbench/")  # the package's path inside the repository
             module = path.with_name(path.name.split(".")[0] + ".py")  # engines/registry.BUILT_IN: a name in a module

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 from chatterbench.reference.scene import Scene
 
-from ..base import EngineAdapter
+from ..api import EngineAdapter
 from .settings import BOUNCE_THRESHOLD, DartSettings, settings_snippet
 from .world import BALL, DartWorld, build
 

@@ -8,7 +8,8 @@
     ('ok', 0.452)
 
 Drake's integrator chooses its own steps (continuous mode) and its plant holds the scene's
-forces, so the adapter runs whole runs (``simulate``, the base's fast path). Sampling, at
+forces, so the adapter runs whole runs (``samples``, a generator the base drives, times and
+records: ``wholerun.py``; the diagram built and the simulator initialized are its set-up). Sampling, at
 ``base.sample_times(scene, dt)`` in both modes:
 
 - **discrete**: the plant steps at dt; two ``VectorLogSink``s (C++, per-step publishing) log
@@ -25,23 +26,22 @@ forces, so the adapter runs whole runs (``simulate``, the base's fast path). Sam
   force at a sample is Drake's Hunt-Crossley law at the sampled state
   (``contact.ContactLaw.normal_force``; the tests check it against Drake's contact port).
 
-Promises: the samples go to the run's ``base.Recording`` in ``window.CHUNK`` slices (a long run
-comes back compact, as every engine's does), and the base classifies the run: Drake's own
+Promises: the samples go to the base in ``window.CHUNK`` slices (a long run comes back
+compact, as every engine's does), and the base classifies the run: Drake's own
 exception is ``"error"`` with the samples before it, a non-finite state ``"diverged"``; the
 settings are checked when made, the contact calibrated as the model is built.
 """
 
 from __future__ import annotations
 
-import time
-from typing import Any
+from typing import Any, Generator, Iterator
 
 import numpy as np
 
 from chatterbench.reference.scene import Scene
 
-from ..base import EngineAdapter, Recording, sample_times
-from ..trajectory import Trajectory
+from ..api import EngineAdapter, Recording, Samples
+from ..base import sample_times
 from ..window import CHUNK
 from .contact import contact_law
 from .model import DrakeModel, build
@@ -107,9 +107,12 @@ def hermite(ts: np.ndarray, xs: np.ndarray, t: np.ndarray, nv: int) -> np.ndarra
     return out.T
 
 
-def _continuous(model: DrakeModel, scene: Scene, s: DrakeSettings, t: np.ndarray) -> tuple[np.ndarray, dict, float, str, int]:
-    """States at the sample times (k, 2 nv), wall forces, stepping wall time, Drake's error message and the
-    integrator's steps taken (the cost the user's ``accuracy`` buys; tune ranks by it)."""
+Stepped = Generator[None, Any, tuple[np.ndarray, dict, str, int]]  # set up (one None), then stepped: the results
+
+
+def _continuous(model: DrakeModel, scene: Scene, s: DrakeSettings, t: np.ndarray) -> Stepped:
+    """Set up (yields None once), then step: states at the sample times (k, 2 nv), wall forces, Drake's error
+    message and the integrator's steps taken (the cost the user's ``accuracy`` buys; tune ranks by it)."""
     from pydrake.systems.framework import EventStatus
 
     sim = _simulator(model, scene, s)
@@ -126,7 +129,7 @@ def _continuous(model: DrakeModel, scene: Scene, s: DrakeSettings, t: np.ndarray
 
     sim.set_monitor(monitor)
     sim.Initialize()
-    start = time.perf_counter()
+    yield
     message = _advance(sim, float(t[-1] - t[0]))
     steps_t, steps_x = np.array(ts), np.array(xs)
     finite = np.isfinite(steps_x).all(axis=1)
@@ -141,15 +144,14 @@ def _continuous(model: DrakeModel, scene: Scene, s: DrakeSettings, t: np.ndarray
     if not finite.all() and len(x) < len(t):  # the sample after the last finite step: non-finite ("diverged")
         x = np.vstack([x, np.full((1, x.shape[1]), np.nan)])
         forces = {w: np.append(f, 0.0) for w, f in forces.items()}
-    wall = time.perf_counter() - start
-    return x, forces, wall, message, sim.get_integrator().get_num_steps_taken()
+    return x, forces, message, sim.get_integrator().get_num_steps_taken()
 
 
-def _discrete(model: DrakeModel, scene: Scene, s: DrakeSettings, t: np.ndarray) -> tuple[np.ndarray, dict, float, str, int]:
+def _discrete(model: DrakeModel, scene: Scene, s: DrakeSettings, t: np.ndarray) -> Stepped:
     """As ``_continuous``, from the loggers of a discrete plant."""
     sim = _simulator(model, scene, s)
     sim.Initialize()
-    start = time.perf_counter()
+    yield
     message = _advance(sim, float(t[-1] - t[0]))
     context = sim.get_context()
     state, contact = (model.loggers[k].FindLog(context) for k in ("state", "contact"))
@@ -164,8 +166,7 @@ def _discrete(model: DrakeModel, scene: Scene, s: DrakeSettings, t: np.ndarray) 
     forces = {"lower": np.maximum(push, 0.0)}
     if "upper" in model.walls:
         forces["upper"] = np.maximum(-push, 0.0)
-    wall = time.perf_counter() - start
-    return x, forces, wall, message, len(x) - 1
+    return x, forces, message, len(x) - 1
 
 
 def snippet(scene: Scene, settings: DrakeSettings | None = None) -> str:
@@ -204,9 +205,9 @@ class DrakeEngine(EngineAdapter):
     compliant = True
     bytes_per_step = 250.0  # measured peak growth per sample, feigin-pair: 181 B (continuous, 4e5) and 214 B (discrete, 1e5)
 
-    def simulate(self, run: Recording) -> None:
-        """Build the diagram (calibrating the contact), advance it over the run, hand the samples to ``run`` in
-        ``window.CHUNK`` slices; ``DrakeError`` with Drake's message when it stopped."""
+    def samples(self, run: Recording) -> Iterator[Samples | None]:
+        """Build the diagram (calibrating the contact) and the simulator (set up), advance it over the run, yield the
+        samples in ``window.CHUNK`` slices; ``DrakeError`` with Drake's message when it stopped."""
         scene, s = run.scene, run.settings
         t = sample_times(scene, s.dt)
         model = build(scene, s)
@@ -214,15 +215,15 @@ class DrakeEngine(EngineAdapter):
         run.record.update(stiffness=law.stiffness, dissipation=law.dissipation, relaxation_time=law.relaxation_time,
                           w0_used=law.w0, calibrated_restitution=law.restitution, calibration_speed_used=law.calibration_speed)
         run.contact_time, run.contact_frequency = law.contact_time, law.w0
-        x, forces, wall, message, run.record["steps_taken"] = (_continuous if s.mode == "continuous" else _discrete)(
-            model, scene, s, t)
-        run.wall_time += wall
+        x, forces, message, run.record["steps_taken"] = yield from (
+            _continuous if s.mode == "continuous" else _discrete)(model, scene, s, t)
         nv = model.nv
         for k0 in range(0, len(x), CHUNK):
             rows = x[k0:k0 + CHUNK]
             body1 = {"x1": rows[:, 0], "v1": rows[:, nv]} if model.finite else {}
-            if not run.add(t[k0:k0 + len(rows)], {w: forces[w][k0:k0 + len(rows)] for w in model.walls}, y=rows[:, nv - 1],
-                           vy=rows[:, -1], **body1):
+            chunk = Samples(t[k0:k0 + len(rows)], {w: forces[w][k0:k0 + len(rows)] for w in model.walls},
+                            y=rows[:, nv - 1], vy=rows[:, -1], **body1)
+            if (yield chunk) is False:
                 break
         if message:
             raise DrakeError(message)
@@ -230,14 +231,6 @@ class DrakeEngine(EngineAdapter):
     def record(self, scene: Scene, settings: DrakeSettings) -> dict[str, Any]:
         """The cost lever and the contact law's name (the run adds the calibrated contact and the steps taken)."""
         return {"cost_lever": settings.cost_lever, "law": settings.law}
-
-    def bare_seconds(self, scene: Scene, s: DrakeSettings, traj: Trajectory) -> float:
-        """Seconds of Drake's own ``AdvanceTo`` over the run on the same model, nothing logged or monitored."""
-        sim = _simulator(build(scene, s, record=False), scene, s)
-        sim.Initialize()
-        start = time.perf_counter()
-        sim.AdvanceTo(float(sample_times(scene, s.dt)[-1] - scene.initial.t))
-        return time.perf_counter() - start
 
     def snippet(self, scene: Scene, settings: DrakeSettings | None = None) -> str:
         """The contact properties and configs, as Python (``snippet``)."""

@@ -7,13 +7,14 @@
     ('ok', True, 300)
 
 MuJoCo's model holds the scene's forces itself (springs as joint stiffness, time-dependent forces
-as precomputed controls: ``model.py``), so the adapter runs whole runs (``simulate``, the base's
-fast path) rather than steps the base would push forces into.
+as precomputed controls: ``model.py``), so the adapter runs whole runs (``samples``, a generator
+the base drives, times and records: ``wholerun.py``) rather than steps the base would push
+forces into.
 
 Promises: ``mujoco.rollout`` runs the trajectory in chunks of ``window.CHUNK`` steps (the full
 physics state and the solver's warm start carried from one to the next: the samples are those
-of one call, bit for bit), each chunk's samples go to the run's ``base.Recording``
-(``mujoco_common.take``); autoreset is disabled so MuJoCo cannot hide a blow-up by resetting
+of one call, bit for bit), each chunk's samples yielded to the base (``mujoco_common.take``);
+autoreset is disabled so MuJoCo cannot hide a blow-up by resetting
 the state, and MuJoCo's own blow-up warnings make the run ``diverged`` (``base.Diverged``);
 ``run_batch`` gives each run's trajectory bit for bit. MuJoCo's own ``rollout`` call over a
 whole run would hold every step's full state and sensor data (about 190 B a step); chunks
@@ -23,7 +24,7 @@ hold ``CHUNK`` steps of it at a time.
 from __future__ import annotations
 
 import time
-from typing import Any, Sequence
+from typing import Any, Iterator, Sequence
 
 import mujoco
 import numpy as np
@@ -32,46 +33,42 @@ from mujoco import rollout as mj_rollout
 from chatterbench.reference.scene import Scene
 
 from .. import mujoco_common
-from ..base import Diverged, EngineAdapter, Recording, n_steps
+from ..api import Diverged, EngineAdapter, Recording, Samples
+from ..base import n_steps
 from ..mujoco_common import Prepared, prepare, quiet_log, rollout_controls, take, warned, warning_note
 from ..trajectory import Trajectory
+from ..wholerun import record_many
 from ..window import CHUNK
 from .compiled import structure
 from .settings import MujocoSettings, stability_limit
 
 
-def _roll(ps: list[Prepared], runs: list[Recording]) -> tuple[list[set[str]], float]:
-    """Roll ``ps`` out, ``CHUNK`` steps of each in turn, each from where its last chunk ended, into ``runs``.
+def _rollout(p: Prepared, data: mujoco.MjData) -> Iterator[Samples]:
+    """Roll ``p`` out ``CHUNK`` steps at a time, each chunk from where the last one ended, yielding its samples.
 
     A chunk starts from the full physics state the last one ended in and its solver warm start
     (``initial_warmstart``; zero at a run's start, as a fresh MjData has it), so the samples are
-    bit for bit those of one call. The runs share one MjData (rollout sets the whole physics
-    state and the warm start at each call); its warnings are cleared before each call, so each
-    run's are its own. A run that goes bad stops there. Returns each run's MuJoCo warnings and the
-    stepping wall time [s].
+    bit for bit those of one call. Runs may share ``data`` (rollout sets the whole physics state
+    and the warm start at each call, and this run's are read back before anything else steps it);
+    its warnings are cleared before each call, so each run's are its own. Stops when the base
+    says the run was cut; raises ``Diverged`` at the end when MuJoCo warned of a blow-up.
     """
-    data = mujoco.MjData(ps[0].structure.model)  # same sizes for all (``_signature``)
-    states = [p.initial_state for p in ps]
-    warm = [np.zeros((1, p.structure.model.nv)) for p in ps]
-    names: list[set[str]] = [set() for _ in ps]
-    nstep, wall = ps[0].nstep, 0.0
-    for k0 in range(0, nstep, CHUNK):
-        k1 = min(nstep, k0 + CHUNK)
-        for b, (p, r) in enumerate(zip(ps, runs)):
-            if r.stopped:
-                continue
-            control = rollout_controls(p, k0, k1)
-            data.warning.number[:] = 0
-            start = time.perf_counter()
-            state, sensordata = mj_rollout.rollout(p.model, data, states[b], control, control_spec=p.control_spec,
-                                                   nstep=k1 - k0, initial_warmstart=warm[b])
-            wall += time.perf_counter() - start
-            names[b] |= warned(data)
-            take(r, p, k0, states[b][0], state[0], sensordata[0])
-            states[b], warm[b] = state[:, -1].copy(), data.qacc_warmstart[None].copy()
-        if all(r.stopped for r in runs):
+    state, warm = p.initial_state, np.zeros((1, p.structure.model.nv))
+    names: set[str] = set()
+    for k0 in range(0, p.nstep, CHUNK):
+        k1 = min(p.nstep, k0 + CHUNK)
+        control = rollout_controls(p, k0, k1)
+        data.warning.number[:] = 0
+        with quiet_log():
+            rolled, sensordata = mj_rollout.rollout(p.model, data, state, control, control_spec=p.control_spec,
+                                                    nstep=k1 - k0, initial_warmstart=warm)
+        names |= warned(data)
+        chunk = take(p, k0, state[0], rolled[0], sensordata[0])
+        state, warm = rolled[:, -1].copy(), data.qacc_warmstart[None].copy()
+        if (yield chunk) is False:
             break
-    return names, wall
+    if names:
+        raise Diverged(warning_note(names, p.settings))
 
 
 def _signature(p: Prepared) -> tuple:
@@ -90,8 +87,8 @@ def roll_batch(engine: EngineAdapter, jobs: Sequence[tuple[Scene, Any]]) -> list
     run alone. Runs that differ only in start, length and contact law share one compiled model
     (``compiled.shared_model``: one compile for a batch of strikes). Each trajectory is the one
     ``run`` gives, bit for bit (its full physics state, warm start and warnings are its own at
-    every call: ``_roll``); its ``wall_time`` is its share of its group's stepping time (group wall / group
-    size) and ``settings["batch_size"]`` says how many shared it. A group in which MuJoCo
+    every call: ``_rollout``); its ``wall_time`` is the time the base measured in its own chunks
+    (``wholerun.record_many``) and ``settings["batch_size"]`` says how many shared it. A group in which MuJoCo
     warned or a state blew up is rerun one run at a time, so that a diverged run is
     classified alone; a group of one already is that run. Raises SettingsError, like ``run``,
     before anything runs.
@@ -111,21 +108,18 @@ def roll_batch(engine: EngineAdapter, jobs: Sequence[tuple[Scene, Any]]) -> list
     for members in groups.values():
         idx = [i for i, _ in members]
         group = [runs[i] for i in idx]
-        try:
-            with quiet_log():
-                names, wall = _roll([p for _, p in members], group)
-        except Exception:  # noqa: BLE001  rerun alone: each run's own failure is then its own result
-            names, wall = None, 0.0
-        if names is not None and len(idx) == 1:  # a group of one is the run alone, rolled as run() rolls it
-            group[0].wall_time = wall
-            out[idx[0]] = group[0].trajectory(Diverged(warning_note(names[0], group[0].settings)) if names[0] else None)
+        data = mujoco.MjData(members[0][1].structure.model)  # one for all: same sizes (``_signature``)
+        failures = record_many(group, [_rollout(p, data) for _, p in members])
+        alone = [f is not None and not isinstance(f, Diverged) for f in failures]  # an exception of MuJoCo's
+        if len(idx) == 1 and not alone[0]:  # a group of one is the run alone, rolled as run() rolls it
+            out[idx[0]] = group[0].trajectory(failures[0])
             continue
-        if names is None or any(names) or any(r.stopped for r in group):
+        if any(f is not None for f in failures) or any(r.stopped for r in group):
             for i in idx:  # a possible blow-up is run and classified alone, as one call
                 out[i] = engine.run(*jobs[i])
             continue
         for r in group:
-            r.wall_time, r.record["batch_size"] = wall / len(group), len(group)
+            r.record["batch_size"] = len(group)
         for i, r in zip(idx, group):
             out[i] = r.trajectory()
     return out  # type: ignore[return-value]
@@ -143,27 +137,17 @@ class MujocoEngine(EngineAdapter):
     exports = ("model.xml", "run.py")  # the full MJCF, and a runner that needs only mujoco
     export_kind = "an MJCF model"
 
-    def simulate(self, run: Recording) -> None:
-        """One run: the model, its rollout chunk by chunk; ``Diverged`` when MuJoCo warned of a blow-up."""
+    def samples(self, run: Recording) -> Iterator[Samples | None]:
+        """One run: the model (set up), its rollout chunk by chunk (``_rollout``); ``Diverged`` when MuJoCo warned of
+        a blow-up."""
         p = prepare(run.scene, run.settings, run.n)
-        with quiet_log():
-            (names,), wall = _roll([p], [run])
-        run.wall_time += wall
-        if names:
-            raise Diverged(warning_note(names, run.settings))
+        data = mujoco.MjData(p.structure.model)
+        yield None
+        yield from _rollout(p, data)
 
     def run_batch(self, jobs: Sequence[tuple[Scene, MujocoSettings]]) -> list[Trajectory]:
         """Compatible runs rolled out together, each bit for bit as alone (``roll_batch``)."""
         return roll_batch(self, list(jobs))
-
-    def bare_seconds(self, scene: Scene, settings: MujocoSettings, traj: Trajectory) -> float:
-        """Seconds of one bare ``mujoco.rollout`` call over the run, its controls made beforehand."""
-        p = prepare(scene, settings, n_steps(scene.duration, settings.dt))
-        control = rollout_controls(p, 0, p.nstep)
-        data = mujoco.MjData(p.model)
-        start = time.perf_counter()
-        mj_rollout.rollout(p.model, data, p.initial_state, control, control_spec=p.control_spec, nstep=p.nstep)
-        return time.perf_counter() - start
 
     def validate(self, scene: Scene, settings: MujocoSettings) -> None:
         """Settings the scene cannot run with are refused by the MjSpec build (``model.build_spec``), compiled once

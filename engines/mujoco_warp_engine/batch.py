@@ -13,12 +13,13 @@ read to its own end) are grouped; each group goes in blocks of ``BlockPlan.world
 (``block_plan``: every world's recorded samples and the chunk read back within
 ``HOST_BYTES``), and each block is one model of that many worlds (``worlds.put_worlds``)
 stepped ``BlockPlan.chunk`` steps at a time (``kernels.Stepper``: captured where warp can)
-and read back after each chunk (``samples.hand_over``). Each block's trajectories are handed
+and read back after each chunk (``samples.hand_over``), a generator the base drives, times
+and records (``batch_recording.record_block``; a run alone: ``wholerun.one_of_block``). Each block's trajectories are handed
 on as soon as it is done, so a caller that keeps only a summary of each (``bench``, a sweep)
 holds one block at a time: host memory within ``HOST_BYTES`` at any number of worlds.
 
 ``settings["batch_size"]`` says how many worlds shared the block, ``wall_time`` is the run's
-share of the block's stepping and reading back (by its steps), ``settings["warmup_s"]`` the kernels' loading
+share of the block's stepping and reading back as the base timed it (by its steps), ``settings["warmup_s"]`` the kernels' loading
 (``kernels.load_kernels``: compiling, the first time on a machine) and ``settings["kernels"]``
 whether they were ``compiled`` or ``cached``; a world whose acceleration passed MAXVAL is
 ``diverged`` with MuJoCo's warning, as in MuJoCo C.
@@ -27,19 +28,20 @@ whether they were ``compiled`` or ``cached``; a world whose acceleration passed 
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass
-from typing import Any, Iterator, Sequence
+from typing import Any, Generator, Iterator, Sequence
 
 import mujoco
 import numpy as np
 
 from chatterbench.reference.scene import Scene
 
-from ..base import Diverged, EngineAdapter, Recording, n_steps, settings_fields
+from ..api import Diverged, EngineAdapter, Recording, SettingsError
+from ..base import n_steps, settings_fields
+from ..batch_recording import record_block
 from ..mujoco_common import Prepared, prepare, warning_note
-from ..settings import SettingsError
 from ..trajectory import Trajectory
+from ..wholerun import BlockSamples
 from ..window import CHUNK
 from .kernels import STEPS_PER_GRAPH, Stepper, load_kernels
 from .samples import Before, controls_of, hand_over
@@ -76,11 +78,13 @@ def block_plan(nworld: int, samples: int, walls: int, row_floats: int, host_byte
     return BlockPlan(worlds, max(chunk, min(CHUNK, whole, room)))
 
 
-def roll_worlds(worlds: Worlds, ps: Sequence[Prepared], runs: Sequence[Recording], chunk: int) -> dict[str, Any]:
+def roll_worlds(worlds: Worlds, ps: Sequence[Prepared], runs: Sequence[Recording],
+                chunk: int) -> Generator[BlockSamples | None, None, dict[str, Any]]:
     """Step every world its ``nstep`` times from its initial state with its controls (all of them the longest run's
-    steps: a world past its end steps on unread), ``chunk`` steps of all of them at a
-    time, each chunk handed to the runs (``samples.hand_over``). Returns ``warned`` (per world: MuJoCo's
-    mjWARN_BADQACC), ``wall`` (stepping and reading back [s]), ``load`` (``kernels.KernelLoad``) and ``capture_s``."""
+    steps: a world past its end steps on unread), ``chunk`` steps of all of them at a time, yielding each chunk's
+    samples for the runs (``samples.hand_over``), None once set up (the kernels loaded, the data put, the steps
+    captured). Returns ``warned`` (per world: MuJoCo's mjWARN_BADQACC), ``load`` (``kernels.KernelLoad``) and
+    ``capture_s``."""
     wp, mjw = warp_modules()
     mjm = warp_model(ps[0].structure.model)
     nw, nstep = len(ps), max(p.nstep for p in ps)
@@ -98,13 +102,12 @@ def roll_worlds(worlds: Worlds, ps: Sequence[Prepared], runs: Sequence[Recording
         bad_acc = wp.array(np.full(nw, nstep, np.int32), dtype=wp.int32)
         stepper = Stepper(worlds.model, d, nw, [d.qpos, d.qvel, d.qacc, d.sensordata, d.ctrl, d.mocap_pos, ctrl_in,
                                                 mocap_in, *out, bad_acc], worlds.device)
-        wall = 0.0
+        yield None
         for k0 in range(0, nstep, chunk):
             k1 = min(nstep, k0 + chunk)
             if all(r.stopped or r.recorder.count == r.n + 1 for r in runs):  # every run cut, or at its end
                 break
             ctrl, mocap = controls_of(ps, k0, k1, chunk)
-            start = time.perf_counter()
             ctrl_in.assign(ctrl)
             mocap_in.assign(mocap)
             if mjm.nu:
@@ -114,17 +117,18 @@ def roll_worlds(worlds: Worlds, ps: Sequence[Prepared], runs: Sequence[Recording
             stepper.start(k0)
             stepper.run(k1 - k0)
             qpos, qvel, sens = (a.numpy()[:, : k1 - k0] for a in out)
-            chunk_warned = hand_over(runs, ps, k0, before, qpos, qvel, sens, bad_acc.numpy())
-            wall += time.perf_counter() - start
+            samples, chunk_warned = hand_over(runs, ps, k0, before, qpos, qvel, sens, bad_acc.numpy())
+            yield samples
             warned = [a or b for a, b in zip(warned, chunk_warned)]
             if all(r.stopped for r in runs):
                 break
-    return {"warned": warned, "wall": wall, "load": load, "capture_s": stepper.capture_s}
+    return {"warned": warned, "load": load, "capture_s": stepper.capture_s}
 
 
 def run_block(runs: Sequence[Recording], ps: Sequence[Prepared], device: str, chunk: int) -> list[Exception | None]:
     """Step the runs as the worlds of one MuJoCo Warp model (when they cannot share one: the runs of each compiled
-    structure as one, e.g. one integrator's); each run's failure (None: none) for ``Recording.trajectory``."""
+    structure as one, e.g. one integrator's), driven, timed and recorded by the base (``batch_recording.record_block``);
+    each run's failure (None: none) for ``Recording.trajectory``."""
     try:
         worlds = put_worlds(ps, device)
     except Incompatible:  # models that differ in a shared field: a block per compiled structure (else per run)
@@ -135,13 +139,16 @@ def run_block(runs: Sequence[Recording], ps: Sequence[Prepared], device: str, ch
             failures.update(zip(mine, run_block([runs[i] for i in mine], [ps[i] for i in mine], device, chunk)))
         return [failures[i] for i in range(len(ps))]
     try:
-        done = roll_worlds(worlds, ps, runs, chunk)
+        done = record_block(runs, roll_worlds(worlds, ps, runs, chunk), [p.nstep for p in ps])  # by its steps
     except Exception as exc:  # noqa: BLE001  an engine failure is a result, not a crash
         return [exc] * len(runs)
+    return finished(runs, done)
+
+
+def finished(runs: Sequence[Recording], done: dict[str, Any]) -> list[Exception | None]:
+    """What a block's ``roll_worlds`` returned (``done``) into its runs' records; each run's failure (None: none)."""
     load = done["load"]
-    steps = sum(p.nstep for p in ps)
-    for r, p in zip(runs, ps):
-        r.wall_time = done["wall"] * p.nstep / steps  # its share of the block's steps
+    for r in runs:
         r.record.update(batch_size=len(runs), warmup_s=load.seconds, kernels="compiled" if load.compiled else "cached",
                         capture_s=done["capture_s"])
     return [Diverged(warning_note({"mjWARN_BADQACC"}, r.settings)) if w else None for r, w in zip(runs, done["warned"])]

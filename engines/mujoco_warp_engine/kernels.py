@@ -33,7 +33,7 @@ import time
 from dataclasses import dataclass
 from typing import Any, Callable
 
-from ..base import MAXVAL
+from ..recording import MAXVAL
 from .worlds import warp_modules
 
 STEPS_PER_GRAPH = 16  # [steps] captured in one graph: 16 x ~90 kernel nodes; a chunk is a multiple of it

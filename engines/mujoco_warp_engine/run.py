@@ -13,8 +13,8 @@ contact law, forces and precomputed controls, compiled once per structure), adap
 forcing, initial state, dt, w0 dt) into one MuJoCo Warp model of many worlds
 (``batch.iter_blocks``: blocks within the host's memory); one ``mujoco_warp.step`` advances
 them all, and the steps and the per-step recording are captured as a graph and replayed
-(``kernels.Stepper``). Every chunk of samples comes back and goes to the runs'
-``base.Recording`` as MuJoCo's do (``samples.hand_over``: contact flags and forces from the
+(``kernels.Stepper``). Every chunk of samples comes back and goes to the base, which records
+it in the runs' ``base.Recording`` as MuJoCo's and times it (``wholerun.py``) (``samples.hand_over``: contact flags and forces from the
 same sensors, blow-ups, a long run kept compact), so memory stays bounded.
 
 Promises: sample k is the state after k steps and its contact force the one MuJoCo Warp
@@ -43,13 +43,15 @@ from chatterbench.reference.errors import check_integer
 from chatterbench.reference.scene import Scene
 
 from .. import mujoco_common
-from ..base import EngineAdapter, Recording, n_steps, version_of
+from ..api import EngineAdapter, Recording, Samples
+from ..base import n_steps, version_of
 from ..mujoco_common import prepare, rollout_controls
 from ..trajectory import Trajectory
-from .batch import HOST_BYTES, block_plan, iter_blocks, run_block
+from ..wholerun import one_of_block
+from .batch import HOST_BYTES, block_plan, finished, iter_blocks, roll_worlds
 from .kernels import STEPS_PER_GRAPH, graphs, load_kernels
 from .settings import MujocoWarpSettings
-from .worlds import device_model, device_name, warp_model, warp_modules
+from .worlds import device_model, device_name, put_worlds, warp_model, warp_modules
 
 
 GPU_UNIT_RUNS = 4096  # [runs] a sweep's unit of work on a GPU: one batch of worlds (``unit_runs``)
@@ -96,12 +98,15 @@ class MujocoWarpEngine(EngineAdapter):
         "on the CPU; cached by warp under ~/.cache/warp, then loaded in seconds)")
     host_bytes = HOST_BYTES  # [B] a batch's host memory: its worlds go in blocks within it (``batch.block_plan``)
 
-    def simulate(self, run: Recording) -> None:
-        """One run as a model of one world; ``Diverged`` for MuJoCo's acceleration warning."""
+    def samples(self, run: Recording) -> Iterator[Samples | None]:
+        """One run as a model of one world (``batch.roll_worlds``, set up once its kernels are loaded and its steps
+        captured); ``Diverged`` for MuJoCo's acceleration warning."""
         p = prepare(run.scene, run.settings, run.n)
         m = p.structure.model
         plan = block_plan(1, p.nstep, len(run.scene.gap.walls), m.nq + m.nv + m.nsensordata, self.host_bytes)
-        (failure,) = run_block([run], [p], self.device_of(run.settings), plan.chunk)
+        worlds = put_worlds([p], self.device_of(run.settings))
+        done = yield from one_of_block(roll_worlds(worlds, [p], [run], plan.chunk), run)
+        (failure,) = finished([run], done)
         if failure is not None:
             raise failure
 

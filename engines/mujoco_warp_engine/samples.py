@@ -14,12 +14,13 @@
 structure and a timestep share the scene's forcing too (``compiled.structure_key``), so their
 times t0 + k dt go through ``model.controls`` as one array, element by element the numbers
 ``mujoco_common.rollout_controls`` makes for each run alone (then rounded to float32, as
-MuJoCo Warp holds them). ``hand_over`` gives each world's samples to its run as
-``mujoco_common.take`` gives MuJoCo's: the state at each sample (the chunk's first sample is
+MuJoCo Warp holds them). ``hand_over`` makes each world's samples for its run as
+``mujoco_common.take`` makes MuJoCo's: the state at each sample (the chunk's first sample is
 where the last chunk ended), the contact flags and forces from the same sensors, a world whose
 acceleration went past MAXVAL (MuJoCo C's mjWARN_BADQACC, found on the device) cut there; the
-per-world arithmetic is done for all worlds at once, each run then gets its columns
-(``Recording.add``: its own checks, its body 1, its recording).
+per-world arithmetic is done for all worlds at once, each run then gets its columns from the
+base (``wholerun.record_block``, ``batch_recording.add_many``: its own checks, its body 1, its
+recording).
 """
 
 from __future__ import annotations
@@ -28,9 +29,9 @@ from typing import Sequence
 
 import numpy as np
 
-from ..base import Recording
-from ..batch_recording import add_many
+from ..recording import Recording
 from ..mujoco_common import Prepared
+from ..wholerun import BlockSamples
 
 
 def controls_of(ps: Sequence[Prepared], k0: int, k1: int, rows: int) -> tuple[np.ndarray, np.ndarray]:
@@ -71,12 +72,13 @@ class Before:
 
 
 def hand_over(runs: Sequence[Recording], ps: Sequence[Prepared], k0: int, before: Before, qpos: np.ndarray,
-              qvel: np.ndarray, sens: np.ndarray, bad_acc: np.ndarray) -> list[bool]:
-    """Samples k0 .. k0 + c - 1 to each run not yet stopped, from ``before`` (the states at sample k0, then moved on
+              qvel: np.ndarray, sens: np.ndarray, bad_acc: np.ndarray) -> tuple[BlockSamples, list[bool]]:
+    """Samples k0 .. k0 + c - 1 for each run not yet stopped, from ``before`` (the states at sample k0, then moved on
     to k0 + c) and the chunk's ``qpos`` (nworld, c, nq), ``qvel`` (nworld, c, nv) after each step and ``sens``
     (nworld, c, nsensordata) at its start (float32 from the device); ``bad_acc`` (nworld,): the first step whose
     acceleration was past MAXVAL (the states after it are dropped). A run takes the samples up to its own end
-    (``Prepared.nstep``). Returns each world's MuJoCo warning (True: mjWARN_BADQACC in this chunk)."""
+    (``Prepared.nstep``). Returns the samples (for ``batch_recording.add_many``) and each world's MuJoCo warning
+    (True: mjWARN_BADQACC in this chunk)."""
     nw, c = qpos.shape[:2]
     lengths = np.array([p.nstep - k0 for p in ps])  # a run's samples in this chunk: to its own end
     warned = [bool(b < k0 + min(c, n)) and not r.stopped for b, r, n in zip(bad_acc, runs, lengths)]
@@ -97,8 +99,7 @@ def hand_over(runs: Sequence[Recording], ps: Sequence[Prepared], k0: int, before
     t0 = np.array([p.scene.initial.t for p in ps])[:, None]
     dt = np.array([p.settings.dt for p in ps])[:, None]
     t = t0 + dt * np.arange(k0, k0 + c)[None, :]  # = each run's sample_times(scene, dt)[k0:k0 + c]
-    add_many(runs, t, _forces(ps, y, sens), y=y, vy=vy, x1=x1, v1=v1, bad=bad, lengths=lengths)
-    return warned
+    return BlockSamples(t, _forces(ps, y, sens), y=y, vy=vy, x1=x1, v1=v1, bad=bad, lengths=lengths), warned
 
 
 def _forces(ps: Sequence[Prepared], y: np.ndarray, sens: np.ndarray) -> dict[str, np.ndarray]:

@@ -34,7 +34,7 @@ import numpy as np
 
 from chatterbench.reference.scene import Scene
 
-from ..base import EngineAdapter
+from ..api import EngineAdapter
 from .settings import PhysxSettings
 from .world import PhysxWorld, build, sapien
 

@@ -23,7 +23,7 @@ import math
 
 from chatterbench.reference.scene import Scene
 
-from ..base import EngineAdapter
+from ..api import EngineAdapter
 from ..stepping import forces_on
 from .bullet import p
 from .settings import PybulletSettings, settings_snippet

@@ -7,10 +7,10 @@
     ([1.0], -9.81, [{'name': 'lower', 'row': [1.0], 'offset': 0.0}])
 
 The child (``child.py``, run by an interpreter that has Siconos) reads one **request**, a
-JSON object on its stdin, protocol 1:
+JSON object on its stdin, protocol 2:
 
 ==============  ==================================================================================
-``protocol``    1
+``protocol``    2
 ``mass``        the dofs' masses [kg], 1 or 2 (a diagonal mass matrix M)
 ``stiffness``   K, n x n [N/m];  ``damping``: C, n x n [N s/m]
 ``force``       per dof ``{"constant": F0 [N], "harmonics": [[A [N], omega [rad/s], phase [rad]], ...]}``:
@@ -21,15 +21,19 @@ JSON object on its stdin, protocol 1:
 ``t0``, ``dt``  the start time and the step [s]; ``steps``: how many steps
 ``theta``       Moreau-Jean's theta in [0, 1];  ``solver``: the LCP solver (``child.SOLVERS``);
                 ``tolerance``: its tolerance (Siconos's ``SICONOS_DPARAM_TOL``)
-``chunk``       steps per reply frame;  ``bare``: step without replying samples (the benchmark's loop)
+``chunk``       steps per reply frame;  ``bare``: step without replying samples (a child silent to its end)
 ==============  ==================================================================================
 
 The **reply** on its stdout is a sequence of frames, little-endian: an int64 count m, then
 
+- m = 0, first: ready, nothing more: the model is built, stepping starts (what came before is the
+  child's start, which the adapter does not count as stepping);
 - m > 0: m rows of float64, row j the state after the next step: q (n values), v (n values),
   and per wall the LCP's impulse over the step, ``lambda(1)`` [N s] (>= 0: the wall pushes);
-- m = -1: the end: one float64, the seconds the child spent stepping (not starting, not
-  building the model).
+- m = -1: the end, nothing more.
+
+The parent times the frames (``wholerun.py``: the time from the ready frame to the last is the
+run's stepping time); protocol 1's end frame carried the child's own clock.
 
 Then the child exits 0. A request it refuses: one line on stderr, exit 2; a failure of
 Siconos: one line on stderr, exit 1.
@@ -56,7 +60,7 @@ import numpy as np
 from chatterbench.reference.forces import ForceModel, Terms
 from chatterbench.reference.scene import Scene
 
-PROTOCOL = 1
+PROTOCOL = 2
 FORCE_CHECK = 1e-9  # relative agreement of the sent F(t) with ``body_forces`` at the check times [-]
 
 
@@ -140,19 +144,19 @@ def _check_forces(scene: Scene, model: ForceModel, force: list[dict]) -> None:
             raise ValueError(f"siconos request: the forces sent ({got}) are not the scene's ({w})")
 
 
-def read_frames(stream: BinaryIO, width: int) -> Iterator[np.ndarray | float]:
-    """The reply's frames: arrays of shape (m, ``width``) in order, then the stepping seconds (a float) last."""
+def read_frames(stream: BinaryIO, width: int) -> Iterator[np.ndarray]:
+    """The reply's frames in order: arrays of shape (m, ``width``), the ready frame an empty one (m = 0); returns at
+    the end frame. ProtocolError for a reply that ends before it or is not frames."""
     while True:
         head = stream.read(8)
         if len(head) < 8:
             raise ProtocolError(f"the reply ended without its end frame ({len(head)} bytes of a frame header)")
         (m,) = struct.unpack("<q", head)
         if m == -1:
-            tail = stream.read(8)
-            if len(tail) < 8:
-                raise ProtocolError("the end frame is cut short")
-            yield struct.unpack("<d", tail)[0]
             return
+        if m == 0:
+            yield np.empty((0, width))
+            continue
         if m < 1 or m > 1 << 40:
             raise ProtocolError(f"a frame of {m} rows")
         body = stream.read(8 * m * width)

@@ -12,7 +12,8 @@ Siconos is not on the package index: Debian's ``python3-siconos`` serves the sys
 environment variable ``CHATTERBENCH_SICONOS_PYTHON`` (when it is set, only that one), else
 ``/usr/bin/python3``, else the first ``python3`` on PATH that has Siconos (``interpreter``).
 The request and the reply are ``protocol.py``'s. A child costs a fixed start (the interpreter,
-numpy and Siconos's import: 0.11 s measured on 2 quiet cores, README) on top of its steps; ``OPENBLAS_NUM_THREADS`` and
+numpy and Siconos's import: 0.11 s measured on 2 quiet cores, README) on top of its steps, which
+is the adapter's set-up (``samples`` yields None at the child's ready frame), not stepping time; ``OPENBLAS_NUM_THREADS`` and
 ``OMP_NUM_THREADS`` are 1 there where the environment does not set them (``CHILD_THREADS``: one BLAS thread).
 
 Promises: a child that exits non-zero, dies of a signal or sends what is not the protocol
@@ -44,14 +45,14 @@ import tempfile
 import threading
 import time
 from pathlib import Path
+from typing import Iterator
 
 import numpy as np
 
 from chatterbench.reference.scene import Scene
 
-from ..base import Crashed, EngineAdapter, Recording, TimedOut
+from ..api import Crashed, EngineAdapter, Recording, Samples, TimedOut
 from ..isolate import inside, run_limit
-from ..trajectory import Trajectory
 from ..window import CHUNK
 from .protocol import ProtocolError, read_frames, request
 from .settings import SiconosSettings
@@ -233,48 +234,36 @@ class SiconosEngine(EngineAdapter):
     compliant = False
     precision = "float64"
 
-    def simulate(self, run: Recording) -> None:
-        """Run the scene in one child, handing the samples to ``run`` frame by frame (the initial state first)."""
+    def samples(self, run: Recording) -> Iterator[Samples | None]:
+        """Run the scene in one child (set up at its ready frame), yielding its frames as samples (the initial state
+        first)."""
         scene, s = run.scene, run.settings
         req = _request(scene, s, run.n)
         ndof, walls = len(req["mass"]), scene.gap.walls
         width = 2 * ndof + len(walls)
         first = np.array([*req["q0"], *req["v0"], *np.zeros(len(walls))])[None, :]
-        start = time.perf_counter()
-        k, seconds = 0, None
+        k = 0
         with Child(_python(), req) as child:
             try:
                 for frame in read_frames(child.proc.stdout, width):
-                    if isinstance(frame, float):
-                        seconds = frame
-                        break
+                    if not len(frame):  # ready: the child's start is behind it
+                        yield None
+                        continue
                     rows = np.vstack([first, frame]) if k == 0 else frame
                     t = scene.initial.t + s.dt * np.arange(k, k + len(rows))
                     k += len(rows)
                     force = {w: rows[:, 2 * ndof + i] / s.dt for i, w in enumerate(walls)}
                     if ndof == 1:
-                        go_on = run.add(t, force, y=rows[:, 0], vy=rows[:, 1])
+                        chunk = Samples(t, force, y=rows[:, 0], vy=rows[:, 1])
                     else:
-                        go_on = run.add(t, force, x1=rows[:, 0], x2=rows[:, 1], v1=rows[:, 2], v2=rows[:, 3])
-                    if not go_on:
+                        chunk = Samples(t, force, x1=rows[:, 0], x2=rows[:, 1], v1=rows[:, 2], v2=rows[:, 3])
+                    if (yield chunk) is False:
                         break
+                else:  # the end frame: the child exits 0
+                    if child.proc.wait() != 0:
+                        raise child.failure()
             except ProtocolError as exc:
                 raise child.failure(str(exc)) from None
-            if seconds is not None and child.proc.wait() != 0:
-                raise child.failure()
-        run.wall_time += seconds if seconds is not None else time.perf_counter() - start
-
-    def bare_seconds(self, scene: Scene, settings: SiconosSettings, traj: Trajectory) -> float:
-        """The child's own stepping seconds over the run ``traj`` with no samples sent back (``bare``)."""
-        req = _request(scene, settings, len(traj.t) - 1, bare=True)
-        with Child(_python(), req) as child:
-            try:
-                frames = list(read_frames(child.proc.stdout, 0))
-            except ProtocolError as exc:
-                raise child.failure(str(exc)) from None
-            if child.proc.wait() != 0:
-                raise child.failure()
-        return float(frames[-1])
 
     def record(self, scene: Scene, settings: SiconosSettings) -> dict:
         """The interpreter that runs Siconos."""

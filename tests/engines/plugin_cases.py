@@ -48,12 +48,13 @@ README = Path(__file__).resolve().parents[2] / "README.md"
 ENV = "CHATTERBENCH_SICONOS_PYTHON"  # the python that runs Siconos's child (engines/siconos_engine/run.py)
 
 
-def readme_block(first_line: str) -> str:
-    """The README's fenced code block that starts with ``first_line`` (its text, the fences left out)."""
-    for block in re.findall(r"```[a-z]*\n(.*?)```", README.read_text(encoding="utf-8"), flags=re.S):
+def readme_block(first_line: str, source: Path = README) -> str:
+    """The fenced code block of ``source`` (the README, or another Markdown file) that starts with ``first_line`` (its
+    text, the fences left out)."""
+    for block in re.findall(r"```[a-z]*\n(.*?)```", source.read_text(encoding="utf-8"), flags=re.S):
         if block.startswith(first_line):
             return block
-    raise LookupError(f"README.md has no code block starting {first_line!r}")
+    raise LookupError(f"{source.name} has no code block starting {first_line!r}")
 
 
 def _line_engine() -> str:
@@ -64,11 +65,9 @@ def _line_engine() -> str:
 ''', '''    dt: float = 1e-4  # [s] the step, checked when the settings are made
     fault: str = ""  # "", "segfault", "exit" or "hang": what the first step does
 ''')
-    code = code.replace('''unit=" [s]", error=SettingsError)
-''', '''unit=" [s]", error=SettingsError)
-        if self.fault not in ("", "segfault", "exit", "hang"):
+    code = re.sub(r"(    def __post_init__\(self\):\n        check_[a-z]+\([^\n]*\)\n)", r'''\1        if self.fault not in ("", "segfault", "exit", "hang"):
             raise ValueError(f"fault {self.fault!r} is not one this plugin knows")
-''', 1)
+''', code, count=1)  # after its dt check (check_number, or the api's check_dt)
     code = code.replace('''    def step(self, w, forces):
 ''', '''    def tuning_space(self, scene):
         return {"dt": (1e-3, 3e-4), "line.fault": ("", "segfault")}  # tune tries a crashing candidate too
@@ -86,7 +85,7 @@ def _line_engine() -> str:
                 time.sleep(1.0)
 ''')
     code = code.replace("        self.walls = scene.gap.walls\n", "        self.walls, self.fault = scene.gap.walls, settings.fault\n")
-    assert "fault" in code and code.count("LineEngine") == 1, "the README's engine changed: update plugin_cases.py"
+    assert "fault not in" in code and code.count("LineEngine") == 1, "the README's engine changed: update plugin_cases.py"
     return code
 
 
@@ -104,11 +103,12 @@ def _adapter(name: str, settings: str = "Settings", steps: str = _STEPS) -> str:
 
 
 _BACKWARDS = ("class Engine(EngineAdapter):\n    name, package, settings_type = 'backwards', 'cbtest-backwards', Settings\n\n"
-              "    def simulate(self, run):  # a whole-run engine that hands its samples over in the wrong order\n"
+              "    def samples(self, run):  # a whole-run engine that yields its samples in the wrong order\n"
               "        import numpy as np\n"
+              "        from chatterbench.engines.api import Samples\n"
               "        t = run.scene.initial.t + run.settings.dt * np.arange(run.n + 1)[::-1]\n"
               "        zero = np.zeros(run.n + 1)\n"
-              "        run.add(t, {w: zero for w in run.scene.gap.walls}, y=zero + run.scene.initial.y, vy=zero)\n")
+              "        yield Samples(t, {w: zero for w in run.scene.gap.walls}, y=zero + run.scene.initial.y, vy=zero)\n")
 
 # the README's engine (``line``, installed beside it) with one of its reporting methods raising: the run is fine, the
 # report of it is the plugin's own code that fails

@@ -223,8 +223,9 @@ def test_batch_gives_each_run_bit_for_bit_and_groups_by_signature():
     assert [traj.settings.get("batch_size", 1) for traj in batch] == [5] * 5 + [1, 1]
     for (scene, settings), traj in zip(jobs, batch):
         assert _same(traj, run(scene, settings))
-    # each run is charged its share of the batch's stepping time
-    assert len({traj.wall_time for traj in batch[:5]}) == 1
+    # each run is charged the stepping time of its own chunks, as the base timed them (wholerun.record_many);
+    # before: the group's time split evenly, timed by the adapter
+    assert all(traj.wall_time > 0 for traj in batch[:5])
 
 
 def test_export_and_engine_protocol():

@@ -1,8 +1,12 @@
 """Third parties' engines, each in its own package installed with pip into a fresh venv: found, checked and judged.
 
-Two packages: the engine the README's "Write an engine plugin" gives whole (its code block and
-its ``pyproject.toml`` block, written to a temporary folder as a user would copy them: nothing
-else is read) and ``examples/engine_plugin`` (pymunk); beside them, the README's engine with a
+Each passes chatterbench's shipped contract suite, run as its author runs it (``python -m pytest
+--chatterbench-engine NAME`` in an empty folder: the installed package's pytest plugin, no file of
+this repository).
+
+Two packages: the engine the plugin how-to (``docs/how-to/plugin.md``) gives whole (its code
+block and its ``pyproject.toml`` block, written to a temporary folder as a user would copy them:
+nothing else is read) and ``examples/engine_plugin`` (pymunk); beside them, the README's engine with a
 wrong restitution (a known answer the other way), written as pip writes a package
 (``plugin_cases.write_installed``). The venv is made from the running
 interpreter with ``--system-site-packages`` and sees the running environment's packages even
@@ -27,6 +31,7 @@ from plugin_cases import readme_block, write_installed
 pytest.importorskip("pymunk", reason="pymunk is in the test extra: pip install '.[test]'")
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "engine_plugin"
+HOWTO = Path(__file__).resolve().parents[2] / "docs" / "how-to" / "plugin.md"
 
 
 def _run(*args, **kw) -> subprocess.CompletedProcess:
@@ -95,7 +100,7 @@ def euler_wrong() -> str:
 
 @pytest.fixture(scope="module")
 def venv(tmp_path_factory):
-    """A fresh venv with the README's engine (``euler``) and the example's (``pymunk``) installed by pip, and the
+    """A fresh venv with the how-to's engine (``euler``) and the example's (``pymunk``) installed by pip, and the
     README's engine made wrong (``euler_wrong``) written beside them as pip writes a package; its python."""
     root = tmp_path_factory.mktemp("plugins")
     python = fresh_venv(root / "venv")
@@ -103,8 +108,8 @@ def venv(tmp_path_factory):
     assert before.returncode == 2 and "engine 'euler'" in before.stderr  # not there before it is installed
     euler = root / "euler"
     euler.mkdir()
-    (euler / "chatterbench_euler.py").write_text(readme_block("# chatterbench_euler.py"))
-    (euler / "pyproject.toml").write_text(readme_block("# pyproject.toml, beside it"))
+    (euler / "chatterbench_euler.py").write_text(readme_block("# chatterbench_euler.py", HOWTO))
+    (euler / "pyproject.toml").write_text(readme_block("# pyproject.toml, beside it", HOWTO))
     pip_install(python, euler, EXAMPLE, cwd=root)  # one pip, two isolated builds (3 s of CPU each)
     write_installed(site_packages(python), "chatterbench_euler_wrong", euler_wrong(), "chatterbench-euler-wrong",
                     "euler_wrong = chatterbench_euler_wrong:EulerEngine", version="0.1.0")
@@ -112,7 +117,7 @@ def venv(tmp_path_factory):
 
 
 @pytest.mark.slow
-def test_an_engine_written_from_the_readme_is_listed_checked_and_judged_match(venv):
+def test_an_engine_written_from_the_how_to_is_listed_checked_and_judged_match(venv):
     python, root = venv
     listed = cli(python, "engines", "euler", "pymunk", cwd=root)
     assert listed.returncode == 0, listed.stdout + listed.stderr
@@ -124,9 +129,20 @@ def test_an_engine_written_from_the_readme_is_listed_checked_and_judged_match(ve
     judged = cli(python, "compare", "bouncing-ball", "--engines", "euler", cwd=root)
     assert judged.returncode == 0, judged.stderr
     assert summary(judged, "euler", "verdict") == "match"
-    contract = _run(python, "-m", "pytest", "-q", "-p", "no:cacheprovider", Path(__file__).parent / "test_contract.py",
-                    "-k", "euler and not euler_wrong", cwd=root)  # the README's engine (the wrong one is beside it)
-    assert contract.returncode == 0 and re.search(r"\b[1-9]\d* passed", contract.stdout), contract.stdout[-2000:]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("engine", ["euler", "pymunk"])
+def test_the_shipped_contract_suite_passes_from_an_empty_folder(venv, engine):
+    # as a plugin's author runs it: the installed package's pytest plugin, no file of this repository, an empty folder
+    python, root = venv
+    empty = root / f"empty-{engine}"
+    empty.mkdir()
+    done = _run(python, "-m", "pytest", "-v", "-p", "no:cacheprovider", "--chatterbench-engine", engine, cwd=empty)
+    passed = re.search(r"\b(\d+) passed", done.stdout)
+    assert done.returncode == 0 and passed and int(passed[1]) >= 15, done.stdout[-3000:] + done.stderr[-2000:]
+    ran = [ln for ln in done.stdout.splitlines() if ln.startswith("chatterbench.engines.contract_tests::")]
+    assert len(ran) == int(passed[1]) and all(f"[{engine}" in ln and "PASSED" in ln for ln in ran), done.stdout
 
 
 @pytest.mark.slow

@@ -6,14 +6,16 @@
     >>> traj.status, round(float(traj.t[traj.contact["lower"].argmax()]), 2)   # first impact: sqrt(2 / g) = 0.45 s
     ('ok', 0.45)
 
-What an engine writes (the README's "Write an engine plugin" says the rest): a frozen settings
-dataclass with a checked ``dt``, and an ``EngineAdapter`` subclass that names itself, its
-package and its settings and writes ``build`` (the scene as the engine's world, at the scene's
-initial state), ``step`` (one step under the forces the base hands over: the state after it,
-and what each wall pushed body 2 with) and ``drive`` (a prescribed body 1). chatterbench's base
-applies the scene's forces, records the samples, times the run, classifies failures and runs
-the benchmark. ``pyproject.toml`` declares the adapter in the entry-point group
-``chatterbench.engines``.
+What an engine writes (chatterbench's ``docs/how-to/plugin.md`` says the rest), all of it
+imported from ``chatterbench.engines.api``: a frozen settings dataclass with a checked ``dt``
+(``check_dt``), and an ``EngineAdapter`` subclass that names itself, its package and its
+settings and writes ``build`` (the scene as the engine's world, at the scene's initial state),
+``step`` (one step under the forces the base hands over: the state after it, and what each
+wall pushed body 2 with) and ``drive`` (a prescribed body 1); its ``tuning_space`` is the
+optional ``TuningSpace`` capability. chatterbench's base applies the scene's forces, records
+the samples, times the run, classifies failures and runs the benchmark. ``pyproject.toml``
+declares the adapter in the entry-point group ``chatterbench.engines``; ``python -m pytest
+--chatterbench-engine pymunk``, in any folder, runs chatterbench's contract suite against it.
 
 The model: body 2 a circle of radius ``RADIUS`` whose centre is x2, body 1 a body at x1 carrying
 one vertical segment per wall, placed so that the circle touches the lower segment exactly when
@@ -32,9 +34,7 @@ from dataclasses import dataclass
 
 import pymunk
 
-from chatterbench.engines import EngineAdapter
-from chatterbench.engines.settings import SettingsError
-from chatterbench.reference.errors import check_integer, check_number
+from chatterbench.engines.api import EngineAdapter, check_dt, check_integer, check_number
 
 RADIUS = 0.05  # [m] body 2's circle; not physics, the gap is measured from its surface
 
@@ -48,9 +48,9 @@ class PymunkSettings:
     rest_velocity: float = 0.0  # [m/s] impacts slower than this do not bounce, >= 0 (0: every impact gives R)
 
     def __post_init__(self) -> None:
-        check_number("pymunk.dt", self.dt, lo=0.0, lo_open=True, unit=" [s]", error=SettingsError)
-        check_integer("pymunk.iterations", self.iterations, lo=1, error=SettingsError)
-        check_number("pymunk.rest_velocity", self.rest_velocity, lo=0.0, unit=" [m/s]", error=SettingsError)
+        check_dt("pymunk", self.dt)
+        check_integer("pymunk.iterations", self.iterations, lo=1)
+        check_number("pymunk.rest_velocity", self.rest_velocity, lo=0.0, unit=" [m/s]")
 
 
 class World:
@@ -119,5 +119,6 @@ class PymunkEngine(EngineAdapter):
         return state, tuple(push.values())
 
     def tuning_space(self, scene) -> dict[str, tuple]:
-        """What ``chatterbench tune`` searches: dt from coarse to fine, then each setting's values, defaults first."""
+        """What ``chatterbench tune`` searches (``api.TuningSpace``): dt [s] from coarse to fine, then each setting's
+        values in its own unit, defaults first."""
         return {"dt": (1e-3, 3e-4, 1e-4), "pymunk.iterations": (10, 30), "pymunk.rest_velocity": (0.0, 0.1)}
