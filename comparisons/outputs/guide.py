@@ -13,14 +13,14 @@
     True
 
 The answer: whether the asked tolerances have a robust setting and what is reachable
-(``studies.tune_answer.frontier_line``), the recommended candidate (``studies.tune``: the fewest
+(``studies.tune.answer.frontier_line``), the recommended candidate (``studies.tune.choice``: the fewest
 steps per simulated second that pass, ties to the simplest) or, when nothing passes, the best
 reachable one (most matching episodes, then the smallest worst error over its tolerance); the
-robust frontier (``studies.tune_frontier``) as a table and a chart (``frontier_chart``); each check's
+robust frontier (``studies.tune.frontier``) as a table and a chart (``frontier_chart``); each check's
 worst error over its tolerance; every failing candidate no more expensive than it, with the
 check that failed and its measure; the snippet a user pastes (``EngineAdapter.snippet``:
 MJCF attributes for MuJoCo, PyBullet calls); the figures (``guide_figures``: the trade-off of
-every candidate, and from the chosen settings' evidence, ``studies.tune_evidence``, the
+every candidate, and from the chosen settings' evidence, ``studies.tune.evidence``, the
 chatter ladder on the scene and the effective restitution against impact speed); every
 candidate tried. Markdown names the figures by file (``FIGURE_FILES``, written beside it
 by ``chatterbench tune --out``); HTML embeds them.
@@ -37,11 +37,12 @@ from matplotlib.figure import Figure
 
 from chatterbench.comparisons.pipeline.inert_text import md_escape
 from chatterbench.comparisons.pipeline.vocabulary import COLOURS, text_colour
-from chatterbench.comparisons.studies.tune import passing, short_label
-from chatterbench.comparisons.studies.tune_ladder import level_text
-from chatterbench.comparisons.studies.tune_answer import (FRAME_COLUMNS, fragile_beside, frontier_frame, frontier_line,
+from chatterbench.comparisons.studies.tune.choice import passing
+from chatterbench.comparisons.studies.tune.runs import short_label
+from chatterbench.comparisons.studies.tune.ladder import level_text
+from chatterbench.comparisons.studies.tune.answer import (FRAME_COLUMNS, fragile_beside, frontier_frame, frontier_line,
                                                            searched_text, transfer_lines)
-from chatterbench.comparisons.studies.tune_checks import CHECKS, strike_summary
+from chatterbench.comparisons.studies.tune.checks import CHECKS, strike_summary
 from chatterbench.engines.export import export_files_names, measurement
 from chatterbench.engines.registry import engine_snippet
 
@@ -85,7 +86,7 @@ def _fmt(v) -> str:
 
 def snippet(result) -> str:
     """What a user pastes for the chosen candidate: MJCF (MuJoCo) or Python (PyBullet); "" when none ran."""
-    from chatterbench.comparisons.studies.tune_evidence import chosen_settings
+    from chatterbench.comparisons.studies.tune.evidence import chosen_settings
 
     settings = chosen_settings(result)
     return "" if settings is None else engine_snippet(result.engine, result.scene, settings)
@@ -314,7 +315,7 @@ def table_meets_r(table: pd.DataFrame) -> int:
 
 def guide_markdown(result, figures: dict | None = None, ev=None) -> str:
     """The guide as Markdown (module docstring); ``figures``: names of the figure files written beside it; ``ev``: the
-    chosen settings' evidence (``tune_evidence.evidence``), whose strikes and run impacts the restitution claim gives."""
+    chosen settings' evidence (``tune.evidence.evidence``), whose strikes and run impacts the restitution claim gives."""
     x = result.extra
     searched = searched_text(result) if "searched" in x else f"{len(result.table)} candidates"
     lines = [f"# Tuning {md_escape(result.engine)} for {md_escape(result.scene.name)}", "",  # names from a user's file
@@ -357,7 +358,7 @@ def _same_model_heading(check) -> str:
 
 
 def _same_model_frame(check) -> pd.DataFrame:
-    """``tune_conformance``'s rows as the guide shows them: tolerances in percent, one column per engine's verdict."""
+    """``tune.conformance``'s rows as the guide shows them: tolerances in percent, one column per engine's verdict."""
     t = check.table
     return pd.DataFrame({"answer": t["point"], "stick %": 100 * t["stick"], "restitution %": 100 * t["restitution"],
                          "dt": t["dt"], "settings": t["settings"], check.engine: t["verdict"], check.against: t["other_verdict"],

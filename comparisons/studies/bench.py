@@ -282,15 +282,16 @@ def bench_tune(cases=TUNE_CASES, workers: int = 2, max_runs: int | None = None,
     runs), band_passed_min (the least share of a frontier point's band that passed: 1.0 when every point is
     band-robust), points (each frontier point: tolerances, cost, dt and the share of its band runs that passed),
     transfers (the written answer on the scene's family, ``transfer.transfer_sentence``), and answer_line (the answer's first
-    sentence: robust at T or not, then the frontier, ``tune_answer.frontier_line``). ``started(scene, engine,
+    sentence: robust at T or not, then the frontier, ``tune.answer.frontier_line``). ``started(scene, engine,
     tolerance)`` is called as each case begins (the CLI's progress line), ``finished(row)`` as it ends (the CLI prints
     the case's row then: a long benchmark stopped halfway keeps what it measured).
     """
     import pandas as pd
 
     from .transfer import transfer_sentence
-    from .tune import MAX_RUNS, tune
-    from .tune_answer import frontier_line
+    from .limits import MAX_RUNS
+    from .tune import tune
+    from .tune.answer import frontier_line
 
     rows = []
     for scene_name, engine, tol in cases:
@@ -352,8 +353,8 @@ def _extractions(ref, run, points, asked, repeats: int) -> float:
 
 def bench_ladder(cases=LADDER_CASES, repeats: int = 3):
     """CPU seconds of judging one run at every point of ``tune``'s ladder (``Ladder()`` around stick = exit = first
-    impact = 5%, restitution 5%), one point at a time as before (``tune_ladder.reference_levels``) against the
-    prepared run (``tune_ladder.judge_levels``), the asked point already judged as ``tune`` has it; each the best of
+    impact = 5%, restitution 5%), one point at a time as before (``tune.ladder.reference_levels``) against the
+    prepared run (``tune.ladder.judge_levels``), the asked point already judged as ``tune`` has it; each the best of
     ``repeats`` after a warm-up, ``time.process_time`` (the engine's run is not timed).
 
     Returns (figures, table): ``figures`` with ``points`` (ladder points of a run), ``runs_per_cpu_s_before`` and
@@ -373,7 +374,7 @@ def bench_ladder(cases=LADDER_CASES, repeats: int = 3):
     from ..pipeline.compare import judge_run
     from ..pipeline.solution import solve
     from ..pipeline.tolerances import Tolerances
-    from .tune_ladder import Ladder, judge_levels, reference_levels
+    from .tune.ladder import Ladder, judge_levels, reference_levels
 
     asked = Tolerances(stick=0.05, exit=0.05, first_impact=0.05)
     points = Ladder().points(asked)
@@ -427,7 +428,7 @@ ATLAS_FIXED = {"pybullet.restitution_velocity_threshold": 0.1, "pybullet.num_sol
 def bench_atlas(cases=ATLAS_CASES, workers: int = 2, max_runs: int = 40, max_cost: float = 300.0,
                 finished: Callable[[dict], None] | None = None):
     """Each atlas case (``studies.atlas.run_case``) run twice: *serial* (one worker process, the ladder judged one
-    point at a time: ``tune_ladder.reference_levels``, as before the prepared run) and *batched* (``workers``
+    point at a time: ``tune.ladder.reference_levels``, as before the prepared run) and *batched* (``workers``
     processes, the ladder judged from one prepared run: ``judge_levels``). One row per case and way: scene, engine,
     way, runs, judged (ladder judgements: a run at each point it was judged at), wall_s, runs_per_s, judged_per_s,
     and same (the batched case's frontier and answer equal the serial one's, on the batched row). ``finished(row)``
@@ -438,7 +439,7 @@ def bench_atlas(cases=ATLAS_CASES, workers: int = 2, max_runs: int = 40, max_cos
     import pandas as pd
 
     from .atlas import AtlasSpec, run_case
-    from .tune_ladder import Ladder
+    from .tune.ladder import Ladder
 
     rows = []
     for scene, engine in cases:

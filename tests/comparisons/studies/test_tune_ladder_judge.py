@@ -8,7 +8,7 @@ import pytest
 from chatterbench.comparisons.pipeline.compare import judge_run
 from chatterbench.comparisons.pipeline.solution import solve
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
-from chatterbench.comparisons.studies.tune_ladder import Ladder, judge_levels, reference_levels
+from chatterbench.comparisons.studies.tune.ladder import Ladder, judge_levels, reference_levels
 from chatterbench.engines.registry import make_settings
 from chatterbench.reference import load_scene
 
