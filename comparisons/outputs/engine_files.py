@@ -28,7 +28,7 @@ from pathlib import Path
 import math
 
 from chatterbench.comparisons.pipeline.atomic import write_text
-from chatterbench.comparisons.pipeline.extract import ExtractionOptions
+from chatterbench.comparisons.pipeline.extract_options import ExtractionOptions
 from chatterbench.comparisons.pipeline.persistence import reference_rest_windows
 from chatterbench.comparisons.pipeline.solution import ReferenceSolution, solve
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
