@@ -146,7 +146,8 @@ def test_every_package_folder_is_installed():
 # table, and the one-engine facts below, each with its reason; every other list of engines reads the table
 ENGINE_NAME_ALLOWED = {
     "engines/registry.py": "the engine table itself (BUILT_IN)",
-    "comparisons/studies/bench.py": "the benchmark cases: MuJoCo Warp's world-steps against MuJoCo C, and the tune cases",
+    "comparisons/studies/bench.py": "the benchmark cases: MuJoCo Warp's world-steps against MuJoCo C",
+    "comparisons/studies/bench_tune.py": "the tune, ladder and atlas benchmarks' cases",
     "comparisons/cli/bench.py": "`bench sweep --only warp`: MuJoCo Warp's world-steps per second",
     "comparisons/pipeline/cross_check.py": "Siconos is the reference's cross-check (a second nonsmooth reference)",
 }

@@ -171,7 +171,7 @@ def reference_levels(ref: ReferenceSolution, engine: str, settings: Any, traject
     """``judge_levels`` one point at a time, as it was first written: ``judge_run`` where a point's f_min has no
     extraction yet, else ``judge.judge`` on it, each point's tables built and checked (``tune.checks.check_ratios``);
     ``known``'s tables taken as they are. The check of ``judge_levels`` (same arguments, same values) and the
-    baseline of its benchmark (``bench.bench_ladder``).
+    baseline of its benchmark (``bench_tune.bench_ladder``).
     """
     known = dict(known or {})
     wanted = set(range(len(points)) if only is None else only)

@@ -178,7 +178,7 @@ def test_mujoco_feigin_pair_writes_recommended_json_either_way(tmp_path, capsys)
 
 
 def test_bench_tune_reports_runs_and_wall_time_per_case():
-    from chatterbench.comparisons.studies.bench import bench_tune
+    from chatterbench.comparisons.studies.bench_tune import bench_tune
 
     began, ended = [], []
     table = bench_tune(cases=(("bouncing-ball", "pybullet", T),), workers=2, max_runs=20,
