@@ -17,8 +17,8 @@ import sys
 import types
 
 _PUBLIC = {
-    **dict.fromkeys(("Force", "Gap", "Initial", "Prescribed", "Scene", "SceneError", "load_scene", "scene_from_dict"),
-                    "scene"),
+    **dict.fromkeys(("Force", "Gap", "Initial", "Prescribed", "SceneError"), "scene_parts"),
+    **dict.fromkeys(("Scene", "load_scene", "scene_from_dict"), "scene"),
     **dict.fromkeys(("Options", "Result", "simulate"), "simulate"),
 }
 __all__ = list(_PUBLIC)

@@ -29,7 +29,8 @@ Sign conventions (all SI):
   infinite body 1 is fixed.
 
 Promises: a ``Scene`` is frozen and validated on construction; every refusal is a
-``SceneError`` naming the field, the value and what is allowed.
+``SceneError`` naming the field, the value and what is allowed. Its parts (the force terms, the
+prescribed motion, the gap, the initial state) are ``scene_parts``'s.
 """
 
 from __future__ import annotations
@@ -41,154 +42,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
-import numpy as np
-
-from .errors import InputError, check_number, check_speed, check_text, did_you_mean
+from .errors import check_number, check_text, did_you_mean
+from .scene_parts import BODIES, FORCE_KINDS, Force, Gap, Initial, Prescribed, SceneError, finite, positive
 from .tables import TooDeep, loads, printable, read_toml
-
-BODIES = ("body1", "body2", "coupling")
-FORCE_KINDS = ("constant", "harmonic", "spring", "damper")
-
-
-class SceneError(InputError):
-    """A scene field has a value that is not allowed; the message names the field."""
-
-
-def _finite(where: str, value: Any) -> float:
-    return check_number(where, value, error=SceneError)
-
-
-def _positive(where: str, value: Any) -> float:
-    return check_number(where, value, lo=0.0, lo_open=True, error=SceneError)
-
-
-def _non_negative(where: str, value: Any) -> float:
-    return check_number(where, value, lo=0.0, error=SceneError)
-
-
-@dataclass(frozen=True)
-class Force:
-    """One force term (see the module docstring for each kind's formula and sign).
-
-    Only the parameters of its kind are used; the others stay at their defaults.
-    """
-
-    kind: str  # one of FORCE_KINDS
-    on: str  # "body1", "body2" or "coupling"
-    value: float = 0.0  # constant force [N]
-    amplitude: float = 0.0  # harmonic amplitude [N]
-    omega: float = 0.0  # harmonic angular frequency [rad/s], > 0 for harmonic
-    phase: float = 0.0  # harmonic phase [rad]
-    stiffness: float = 0.0  # spring stiffness [N/m], >= 0
-    rest: float = 0.0  # spring rest position [m] (body) or rest separation y [m] (coupling)
-    damping: float = 0.0  # damper coefficient [N s/m], >= 0
-
-    _PARAMS = {
-        "constant": ("value",),
-        "harmonic": ("amplitude", "omega", "phase"),
-        "spring": ("stiffness", "rest"),
-        "damper": ("damping",),
-    }
-
-    def __post_init__(self) -> None:
-        if self.kind not in FORCE_KINDS:
-            raise SceneError(
-                f"force kind = {self.kind!r}: must be one of {', '.join(FORCE_KINDS)}"
-                + did_you_mean(str(self.kind), FORCE_KINDS)
-            )
-        if self.on not in BODIES:
-            raise SceneError(
-                f"force on = {self.on!r}: must be one of {', '.join(BODIES)}"
-                + did_you_mean(str(self.on), BODIES)
-            )
-        for name in ("value", "amplitude", "omega", "phase", "stiffness", "rest", "damping"):
-            object.__setattr__(self, name, _finite(f"{self.kind} force {name}", getattr(self, name)))
-        if self.kind == "harmonic":
-            _positive("harmonic force omega", self.omega)
-        if self.kind == "spring":
-            _non_negative("spring force stiffness", self.stiffness)
-        if self.kind == "damper":
-            _non_negative("damper force damping", self.damping)
-
-    @property
-    def params(self) -> tuple[str, ...]:
-        """Names of the parameters this kind uses."""
-        return self._PARAMS[self.kind]
-
-
-@dataclass(frozen=True)
-class Prescribed:
-    """Prescribed harmonic motion of an infinite body 1: x1 = offset + amplitude sin(omega t + phase)."""
-
-    amplitude: float = 0.0  # [m]
-    omega: float = 1.0  # [rad/s], > 0
-    phase: float = 0.0  # [rad]
-    offset: float = 0.0  # [m]
-
-    def __post_init__(self) -> None:
-        _finite("prescribed.amplitude", self.amplitude)
-        _positive("prescribed.omega", self.omega)
-        _finite("prescribed.phase", self.phase)
-        _finite("prescribed.offset", self.offset)
-
-    def position(self, t):
-        """x1(t) [m]; t may be a float or a numpy array [s]."""
-        return self.offset + self.amplitude * np.sin(self.omega * t + self.phase)
-
-    def velocity(self, t):
-        """x1'(t) [m/s]."""
-        return self.amplitude * self.omega * np.cos(self.omega * t + self.phase)
-
-    def acceleration(self, t):
-        """x1''(t) [m/s^2]."""
-        return -self.amplitude * self.omega**2 * np.sin(self.omega * t + self.phase)
-
-
-@dataclass(frozen=True)
-class Gap:
-    """Limits on y = x2 - x1 [m]: the ``lower`` wall and an optional ``upper`` wall."""
-
-    lower: float = 0.0  # [m]
-    upper: float | None = None  # [m], > lower; None: one-sided gap
-
-    def __post_init__(self) -> None:
-        _finite("gap.lower", self.lower)
-        if self.upper is not None:
-            _finite("gap.upper", self.upper)
-            if not self.upper > self.lower:
-                raise SceneError(
-                    f"gap.upper = {self.upper!r}: must be > gap.lower = {self.lower!r}"
-                )
-
-    @property
-    def walls(self) -> tuple[str, ...]:
-        """Names of the walls present: ``("lower",)`` or ``("lower", "upper")``."""
-        return ("lower",) if self.upper is None else ("lower", "upper")
-
-    def position(self, wall: str) -> float:
-        """y of the named wall [m]."""
-        if wall == "lower":
-            return self.lower
-        if wall == "upper" and self.upper is not None:
-            return self.upper
-        raise SceneError(f"wall = {wall!r}: must be one of {', '.join(self.walls)}")
-
-
-@dataclass(frozen=True)
-class Initial:
-    """Initial state: time [s], body 1 position [m] and velocity [m/s], gap y [m] and vy [m/s]."""
-
-    t: float = 0.0
-    x1: float = 0.0
-    v1: float = 0.0
-    y: float = 0.0
-    vy: float = 0.0
-
-    def __post_init__(self) -> None:
-        for name in ("t", "x1", "v1", "y", "vy"):  # speeds slower than light (``errors.SPEED_OF_LIGHT``)
-            value = _finite(f"initial.{name}", getattr(self, name))
-            _ = check_speed(f"initial.{name}", value, SceneError) if name in ("v1", "vy") else value
-
 
 # a run's duration spans at least this many float spacings at its start and end times (times resolve to 1e-9 of it)
 TIME_RESOLUTION = 1e9
@@ -217,12 +73,12 @@ class Scene:
         if math.isnan(self.mass1) or self.mass1 <= 0:
             raise SceneError(f"mass1 = {self.mass1!r}: must be > 0 (or \"inf\" for a fixed/prescribed body 1)")
         object.__setattr__(self, "mass1", float(self.mass1))
-        object.__setattr__(self, "mass2", _positive("mass2", self.mass2))
-        r = _finite("restitution", self.restitution)
+        object.__setattr__(self, "mass2", positive("mass2", self.mass2))
+        r = finite("restitution", self.restitution)
         if not 0.0 <= r < 1.0:
             raise SceneError(f"restitution = {r!r}: must be in [0, 1)")
         object.__setattr__(self, "restitution", r)
-        object.__setattr__(self, "duration", _positive("duration", self.duration))
+        object.__setattr__(self, "duration", positive("duration", self.duration))
         g = check_number("gravity", self.gravity, unit=" [m/s^2] (along x, < 0 toward -x)", error=SceneError)
         if not math.isfinite(g * (m := max(self.mass2, self.mass1 if math.isfinite(self.mass1) else 0.0))):
             raise SceneError(f"gravity = {g!r}: the weight of the {m:g} kg body overflows; keep |gravity| below {1e308 / m:.3g} m/s^2")

@@ -20,7 +20,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from .scene import Force, Scene
+from .scene import Scene
+from .scene_parts import Force
 
 # key -> (unit, what it means); units in SI
 FIELDS = {

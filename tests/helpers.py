@@ -196,13 +196,14 @@ def needs_engine(*names: str) -> None:
 def band_failures(scene, entry: dict, engine: str) -> tuple[int, list]:
     """A tuned point (a ``recommended.json`` frontier entry or answer: ``dt``, ``settings``, and ``tolerances``
     or ``tol``) checked over its band from outside tune (issue 41): a fresh ``compare`` at every dt of
-    [0.8, 1.25] x dt (``tune_search.band_dts``, both ends included) at each impact phase (``phases.PHASES``: the
+    [0.8, 1.25] x dt (``tune.grid.band_dts``, both ends included) at each impact phase (``phases.PHASES``: the
     scene started phase x dt later on its exact motion), at the point's own tolerances. Returns (the runs, the
     failing (dt, phase, verdicts))."""
     from chatterbench.comparisons.pipeline.compare import compare
     from chatterbench.comparisons.pipeline.tolerances import Tolerances
     from chatterbench.comparisons.studies.phases import PHASES, phase_scene
-    from chatterbench.comparisons.studies.tune_search import agrees, band_dts
+    from chatterbench.comparisons.studies.tune.grid import band_dts
+    from chatterbench.comparisons.studies.tune.passes import agrees
 
     tol = Tolerances(**entry["tolerances"]) if "tolerances" in entry else entry["tol"]
     ref = solve(scene)

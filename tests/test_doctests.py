@@ -60,7 +60,7 @@ def test_test_module_examples_run(path, monkeypatch):
 
 
 # modules outside an adapter package whose examples run an optional engine
-EXAMPLE_ENGINES = {"chatterbench.comparisons.studies.tune_conformance": "mujoco_warp"}  # MuJoCo Warp's tune against MuJoCo C
+EXAMPLE_ENGINES = {"chatterbench.comparisons.studies.tune.conformance": "mujoco_warp"}  # MuJoCo Warp's tune against MuJoCo C
 
 
 def _engine_of(module: str) -> str:

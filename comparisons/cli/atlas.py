@@ -51,7 +51,7 @@ def cmd_atlas(args: argparse.Namespace) -> int:
             raise UsageError(f"--set {item}: atlas --set fixes an engine's knob (ENGINE.KNOB=VALUE) of one of "
                              f"--engines {','.join(engines)}; scene fields belong in a scene file")
         fixed[key] = value
-    from chatterbench.comparisons.studies.tune import engine_space
+    from chatterbench.comparisons.studies.tune.space import engine_space
 
     from .tune import fixed as held
 

@@ -145,7 +145,7 @@ def check_options(args: argparse.Namespace) -> None:
 def cmd_bench(args: argparse.Namespace) -> int:
     check_options(args)
     if args.what == "tune":  # the studies load with the benchmarks that time them: not with --help, a refusal, bench help
-        from chatterbench.comparisons.studies.bench import TUNE_CASES
+        from chatterbench.comparisons.studies.bench_tune import TUNE_CASES
     parts = ([p for p in ("overhead", "refine", "warp") if args.only in (None, p)] if args.what == "sweep" else
              [*COMMANDS, "top"] if args.what == "help" else TUNE_CASES if args.what == "tune" else [args.what])
     with Progress(len(parts), f"bench {args.what}", unit="part") as bar:  # minutes of timing: say what runs
@@ -184,8 +184,8 @@ def _run_bench(args: argparse.Namespace, bar: Progress):
         figures = bench_help(args.repeats, bar)
         print_table(figures.round(3), title="seconds each --help takes in a fresh process (best and median of --repeats):")
         return figures
-    from chatterbench.comparisons.studies.bench import (bench_engines, bench_platemap, bench_reference, bench_refine,
-                                                        bench_sweep, bench_tune)
+    from chatterbench.comparisons.studies.bench import bench_engines, bench_platemap, bench_reference, bench_refine, bench_sweep
+    from chatterbench.comparisons.studies.bench_tune import bench_tune
 
     first = {None: "overhead", "overhead": "overhead", "refine": "refine"}.get(args.only) or _warp_stage()
     if args.what != "tune":  # tune: each case is a stage of its own (bench_tune's ``started``)
@@ -221,7 +221,7 @@ def _run_bench(args: argparse.Namespace, bar: Progress):
             print(f"  frontier points (the share of each one's band runs that passed): {row.points or 'none'}")
             print(f"  the written answer on the scene's family: {row.transfers}")
     elif args.what == "ladder":
-        from chatterbench.comparisons.studies.bench import bench_ladder
+        from chatterbench.comparisons.studies.bench_tune import bench_ladder
 
         figures, cases = bench_ladder(repeats=args.repeats)
         print_table(cases.round({"ms_before": 2, "ms_after": 2, "ms_extract": 2, "speedup": 2}), title="CPU ms of one run judged at every ladder point: one point at a time (before) "
@@ -231,7 +231,7 @@ def _run_bench(args: argparse.Namespace, bar: Progress):
                     title=f"over all cases (outputs hashed: before {figures['hash_before']}, after {figures['hash_after']}):")
         figures = shown
     elif args.what == "atlas":
-        from chatterbench.comparisons.studies.bench import bench_atlas
+        from chatterbench.comparisons.studies.bench_tune import bench_atlas
 
         table = bench_atlas(workers=args.workers, finished=lambda r: bar.write(
             f"{r['scene']} / {r['engine']} {r['way']}: {r['runs']} runs, {r['judged']} judged, {r['wall_s']:.1f} s"))

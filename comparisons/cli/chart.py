@@ -80,8 +80,8 @@ def cmd_chart(args: argparse.Namespace) -> int:
     from chatterbench.comparisons.outputs.sweep_data import check_columns
     from chatterbench.comparisons.studies.sweep.dataset import load_rows
     from chatterbench.comparisons.outputs.stability_map import stability_map_figure, verdict_grid  # draws: loads matplotlib (0.7 s), so only when asked
-    from chatterbench.comparisons.outputs.work_precision import (default_error, panel_metrics, pareto_front,
-                                                                 work_precision_figure, work_precision_points)
+    from chatterbench.comparisons.outputs.work_precision import work_precision_figure
+    from chatterbench.comparisons.outputs.work_precision_points import default_error, panel_metrics, pareto_front, work_precision_points
 
     rows = load_rows(args.dataset)
     rows = _where(rows, args.where or [])

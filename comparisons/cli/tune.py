@@ -5,8 +5,8 @@ ladder of tolerances, and a guide to paste them.
     $ chatterbench tune bouncing-ball --engines mujoco --tolerance stick=0.03 --tolerance restitution=0.2 --max-cost 5000
 
 Each engine's answer leads with whether the asked tolerances have a robust setting and what is reachable
-(``studies.tune_answer.frontier_line``), then its frontier as a table; an engine that steps another's model (MuJoCo
-Warp: MuJoCo's) has each answer rerun in that engine at the same settings (``studies.tune_conformance``). Exit codes:
+(``studies.tune.answer.frontier_line``), then its frontier as a table; an engine that steps another's model (MuJoCo
+Warp: MuJoCo's) has each answer rerun in that engine at the same settings (``studies.tune.conformance``). Exit codes:
 0 every engine has a robust candidate at the asked tolerances (its neighbourhood too), 1 one has none (the guide and
 recommended.json say what is reachable, and the best reachable), 2 bad input.
 """
@@ -43,8 +43,9 @@ def cmd_tune(args: argparse.Namespace) -> int:
     # the search's modules load here, not with the CLI: `tune --help` stays quick
     from chatterbench.comparisons.outputs.tune_files import write_tune_files
     from chatterbench.comparisons.pipeline.solution import solve
-    from chatterbench.comparisons.studies.tune import engine_space, search_space, tune
-    from chatterbench.comparisons.studies.tune_conformance import same_model_check, same_model_of
+    from chatterbench.comparisons.studies.tune import tune
+    from chatterbench.comparisons.studies.tune.space import engine_space, search_space
+    from chatterbench.comparisons.studies.tune.conformance import same_model_check, same_model_of
 
     check_dir("--out", args.out)
     scene_over, engine_over = split_overrides(args.set)
@@ -145,7 +146,7 @@ def fixed(engine: str, space: dict[str, tuple], items: list[str]) -> dict[str, t
 
 def _print_result(result) -> None:
     """One engine's table of checked passes, the search's extent and the answer, as the terminal says them."""
-    from chatterbench.comparisons.studies.tune_answer import frontier_frame, frontier_line, searched_text
+    from chatterbench.comparisons.studies.tune.answer import frontier_frame, frontier_line, searched_text
 
     print(f"{result.engine}: {frontier_line(result)}")
     if result.frontier:
@@ -168,7 +169,7 @@ def _print_result(result) -> None:
 
 def answer_lines(result) -> list[str]:
     """The answer as the terminal says it: the robust setting and its margin, the fragile pass beside it, or none."""
-    from chatterbench.comparisons.studies.tune_answer import fragile_beside, neighbourhood_fails
+    from chatterbench.comparisons.studies.tune.answer import fragile_beside, neighbourhood_fails
 
     c = result.chosen
     if c is None:
@@ -181,7 +182,7 @@ def answer_lines(result) -> list[str]:
                     f"forces {c['scene_restitution_ratio']:.3g})" if math.isfinite(result.margin)
                     else "no error to measure (no episode)")]
     elif result.written is not None:
-        from chatterbench.comparisons.studies.tune_ladder import level_text
+        from chatterbench.comparisons.studies.tune.ladder import level_text
 
         r = result.best_reachable
         lines = [f"nothing is robust at the asked tolerances; written (band-robust at {level_text(result.chosen_tolerance)}, "

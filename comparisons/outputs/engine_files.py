@@ -28,7 +28,7 @@ from pathlib import Path
 import math
 
 from chatterbench.comparisons.pipeline.atomic import write_text
-from chatterbench.comparisons.pipeline.extract import ExtractionOptions
+from chatterbench.comparisons.pipeline.extract_options import ExtractionOptions
 from chatterbench.comparisons.pipeline.persistence import reference_rest_windows
 from chatterbench.comparisons.pipeline.solution import ReferenceSolution, solve
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
@@ -45,9 +45,9 @@ def flight_band(solution: ReferenceSolution, tol: Tolerances) -> float:
 
 def write_frontier_files(result, out: Path) -> list[str]:
     """Each frontier point's files under ``out``: its model and runnable script (``export_files``, judged at the
-    point's own tolerances) and its snippet, in ``tune_answer.point_folder``; the names ``recommended.json`` lists
-    (``tune_answer.point_record``), relative to ``out``."""
-    from chatterbench.comparisons.studies.tune_answer import point_record
+    point's own tolerances) and its snippet, in ``tune.answer.point_folder``; the names ``recommended.json`` lists
+    (``tune.answer.point_record``), relative to ``out``."""
+    from chatterbench.comparisons.studies.tune.answer import point_record
     from chatterbench.engines.registry import make_settings
 
     if not export_files_names(result.engine):
@@ -71,9 +71,9 @@ def write_frontier_files(result, out: Path) -> list[str]:
 def write_engine_files(result, out: Path) -> list[str]:
     """Write the chosen settings' files under ``out / engine``; returns their paths relative to ``out``.
 
-    The settings are ``recommended.json``'s (``tune_evidence.chosen_settings``); the scripts count impacts as the
+    The settings are ``recommended.json``'s (``tune.evidence.chosen_settings``); the scripts count impacts as the
     judge does at the tune's tolerances (``flight_band``)."""
-    from chatterbench.comparisons.studies.tune_evidence import chosen_settings
+    from chatterbench.comparisons.studies.tune.evidence import chosen_settings
 
     settings = chosen_settings(result)
     if settings is None or not export_files_names(result.engine):

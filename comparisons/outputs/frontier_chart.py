@@ -8,7 +8,7 @@
     >>> [ax.get_xlabel().split(" ")[0] for ax in fig.axes], len(fig.axes[0].lines) >= 1
     (['timing', 'restitution'], True)
 
-Input: ``recommended.json``'s ``frontier`` per engine (``studies.tune_frontier``: each entry's
+Input: ``recommended.json``'s ``frontier`` per engine (``studies.tune.frontier``: each entry's
 ``tolerances``, ``cost_steps_per_s``), so a chart can be drawn from the files of several
 ``tune`` runs (``chatterbench report --tune DIR``) as from one. Two panels, one per axis of
 the ladder, since timing and restitution fail for different reasons: x the tolerance reached
@@ -134,7 +134,7 @@ class TunedFrontier:
 
     scene: str
     engine: str
-    frontier: tuple[dict[str, Any], ...]  # studies.tune_frontier.FRONTIER_KEYS each
+    frontier: tuple[dict[str, Any], ...]  # studies.tune.frontier.FRONTIER_KEYS each
     asked: dict[str, float]  # the asked tolerances (recommended.json's ``tolerances``)
     source: str  # the file it came from
 

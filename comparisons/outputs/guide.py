@@ -13,17 +13,17 @@
     True
 
 The answer: whether the asked tolerances have a robust setting and what is reachable
-(``studies.tune_answer.frontier_line``), the recommended candidate (``studies.tune``: the fewest
+(``studies.tune.answer.frontier_line``), the recommended candidate (``studies.tune.choice``: the fewest
 steps per simulated second that pass, ties to the simplest) or, when nothing passes, the best
 reachable one (most matching episodes, then the smallest worst error over its tolerance); the
-robust frontier (``studies.tune_frontier``) as a table and a chart (``frontier_chart``); each check's
+robust frontier (``studies.tune.frontier``) as a table and a chart (``frontier_chart``); each check's
 worst error over its tolerance; every failing candidate no more expensive than it, with the
 check that failed and its measure; the snippet a user pastes (``EngineAdapter.snippet``:
 MJCF attributes for MuJoCo, PyBullet calls); the figures (``guide_figures``: the trade-off of
-every candidate, and from the chosen settings' evidence, ``studies.tune_evidence``, the
+every candidate, and from the chosen settings' evidence, ``studies.tune.evidence``, the
 chatter ladder on the scene and the effective restitution against impact speed); every
 candidate tried. Markdown names the figures by file (``FIGURE_FILES``, written beside it
-by ``chatterbench tune --out``); HTML embeds them.
+by ``chatterbench tune --out``); HTML embeds them. The answer's sentences are ``guide_answer``'s.
 """
 
 from __future__ import annotations
@@ -37,16 +37,14 @@ from matplotlib.figure import Figure
 
 from chatterbench.comparisons.pipeline.inert_text import md_escape
 from chatterbench.comparisons.pipeline.vocabulary import COLOURS, text_colour
-from chatterbench.comparisons.studies.tune import passing, short_label
-from chatterbench.comparisons.studies.tune_ladder import level_text
-from chatterbench.comparisons.studies.tune_answer import (FRAME_COLUMNS, fragile_beside, frontier_frame, frontier_line,
-                                                           searched_text, transfer_lines)
-from chatterbench.comparisons.studies.tune_checks import CHECKS, strike_summary
+from chatterbench.comparisons.studies.tune.answer import FRAME_COLUMNS, frontier_frame, searched_text, transfer_lines
+from chatterbench.comparisons.studies.tune.runs import short_label
 from chatterbench.engines.export import export_files_names, measurement
 from chatterbench.engines.registry import engine_snippet
 
 from .figures import figure_bytes
 from .frontier_chart import frontier_figure
+from .guide_answer import TRANSFER_NOTE, answer_sentences, fmt, frontier_note
 from .ladder import ladder_figure
 from .style import PAGE_CSS  # the report page's style sheet: the guide reads like the report
 from .restitution_curve import restitution_curve_figure
@@ -77,15 +75,9 @@ CANDIDATE_COLUMNS = {"stage": "stage", "settings": "settings (dt; what differs f
                      "cost_repeats": "timed runs"}
 
 
-def _fmt(v) -> str:
-    if isinstance(v, float):
-        return "inf" if math.isinf(v) else ("nan" if math.isnan(v) else f"{v:.3g}")
-    return str(v)
-
-
 def snippet(result) -> str:
     """What a user pastes for the chosen candidate: MJCF (MuJoCo) or Python (PyBullet); "" when none ran."""
-    from chatterbench.comparisons.studies.tune_evidence import chosen_settings
+    from chatterbench.comparisons.studies.tune.evidence import chosen_settings
 
     settings = chosen_settings(result)
     return "" if settings is None else engine_snippet(result.engine, result.scene, settings)
@@ -150,80 +142,9 @@ def _candidates(frame: pd.DataFrame, defaults: dict) -> pd.DataFrame:
     return out[list(CANDIDATE_COLUMNS)]
 
 
-def _answer(result, ev=None) -> list[str]:
-    """The answer's sentences (Markdown; the HTML page converts the code spans)."""
-    c = result.chosen
-    if c is None:
-        return ["No candidate ran: every one was refused (see the table)."]
-    cost = (f"{_fmt(c['steps_per_sim_s'])} steps per simulated second, {_fmt(c['cost_per_sim_s'])} s of wall clock "
-            f"per simulated second (the least of {int(c['cost_repeats'])} timed run{'s' if c['cost_repeats'] != 1 else ''})")
-    band = result.extra["searched"].get("band") or {}
-    rule = band.get("rule", "dt x 0.8 and x 1.25 and the knobs' neighbours")
-    if result.best is not None:
-        head = [f"**Recommended (band-robust):** `{c['settings']}`: {_episodes_pass(c['n_episodes'])} ({c['verdict']}), "
-                f"and so does every run of its band: {rule} (the map's knob: its adjacent searched values; every other "
-                "real-valued knob: half-way to its adjacent searched values); "
-                f"margin {_fmt(result.margin)} (its worst measured error over its tolerance among the judge's checks); "
-                f"cost {cost}."]
-        if result.frontier:
-            head.append(f"{_sentence(result)}.")
-        n_fragile = len(result.cheaper(fragile=True))
-        if n_fragile:
-            head.append(f"{n_fragile} cheaper or as cheap candidates pass but are fragile (a neighbour fails): see the "
-                        "table of every candidate, column \"neighbours that fail\".")
-    elif result.written is not None:
-        r = result.best_reachable
-        head = [f"**No robust setting passes these tolerances in the searched space.** {_sentence(result)}.",
-                f"**Written (band-robust at {level_text(result.chosen_tolerance)}, the tightest robust frontier point):** "
-                f"`{c['settings']}`, robust there: {rule}; margin {_fmt(result.margin)} at those tolerances; cost "
-                f"{cost}. The model, script and snippet below are this setting's."]
-        if r is not None:
-            why = (f"its neighbours fail: {r['neighbourhood']}" if r.get("neighbourhood") else f"it fails: {r['failed']}")
-            head.append(f"Best reachable at the asked tolerances (fragile, never written): `{r['settings']}`, "
-                        f"{r['n_match']} of {r['n_episodes']} episodes match; {why}.")
-    else:
-        why = (f"its neighbours fail: {c['neighbourhood']}" if c.get("neighbourhood") else f"it fails: {c['failed']}")
-        head = [f"**No robust setting passes these tolerances in the searched space.** {_sentence(result)}.",
-                f"Best reachable: `{c['settings']}`, {c['n_match']} of {c['n_episodes']} episodes match, verdict "
-                f"{c['verdict']}; {why}; cost {cost}."]
-    if (beside := fragile_beside(result)) is not None:
-        f, than = beside
-        head.append(f"**Fragile ({than}, but an isolated pass):** `{f['settings']}` passes at "
-                    f"{_fmt(f['steps_per_sim_s'])} steps per simulated second (the {'answer' if result.best is not None else 'best reachable'}: "
-                    f"{_fmt(c['steps_per_sim_s'])}), but its neighbours fail ({f['neighbourhood']}): "
-                    "a small change of the model can land on a failure.")
-    return head + [_ratios_sentence(c)] + _restitution_claim(result, ev)
-
-
-def _episodes_pass(n: int) -> str:
-    """"all 3 episodes pass", "its one episode passes", or what passing means with none (the answer's words)."""
-    n = int(n)
-    if n == 0:
-        return "no episode to judge, none in the reference either"
-    return "its one episode passes" if n == 1 else f"all {n} episodes pass"
-
-
-def _ratios_sentence(c: dict) -> str:
-    """Each check's worst error over its tolerance, and the checks with nothing to measure named as such."""
-    ratios = {short: c.get(f"{name}_ratio", math.nan) for name, (*_, short) in CHECKS.items()}
-    measured = [f"{short} {_fmt(r)}" for short, r in ratios.items() if not (isinstance(r, float) and math.isnan(r))]
-    unmeasured = [short for short, r in ratios.items() if isinstance(r, float) and math.isnan(r)]
-    text = f"Each check's worst error over its tolerance (1 = at the tolerance): {', '.join(measured) or 'none measured'}"
-    if unmeasured:
-        text += (f"; nothing to measure for {', '.join(unmeasured)} (no such event in the run's episodes, or none the "
-                 "step measures to its tolerance: e.g. no exit when nothing slides off, the restitution section below)")
-    return text + "."
-
-
-def _sentence(result) -> str:
-    """The frontier's sentence with a capital, for the guide."""
-    line = frontier_line(result)
-    return line[:1].upper() + line[1:]
-
-
 def _frontier_markdown(result, figures: list[str]) -> list[str]:
     """The frontier's section: its sentence, its table and its chart (Markdown)."""
-    lines = ["## Robust frontier", "", _frontier_note(result), ""]
+    lines = ["## Robust frontier", "", frontier_note(result), ""]
     frame = frontier_frame(result)
     if len(frame):
         lines += [_plain_md_table(frame[FRAME_COLUMNS]), ""]
@@ -235,97 +156,20 @@ def _frontier_markdown(result, figures: list[str]) -> list[str]:
     return lines
 
 
-TRANSFER_NOTE = ("Each setting rerun, at its own tolerances, on the scene's family: the initial energy x 0.25, x 0.5 "
-                 "and x 2 (drop height, forcing amplitude or initial speed) and the masses x 0.2 and x 5, each for at "
-                 "least 10 s where the scene has no forcing period; it holds where every episode agrees (persistence "
-                 "included).")
-
-
-def _frontier_note(result) -> str:
-    """What the frontier is, and the tightest levels reached (one paragraph)."""
-    reach = result.extra.get("tightest", {})
-    pct = lambda v: "none" if v is None else f"{100 * v:.3g}%"  # noqa: E731
-    rule = (result.extra["searched"].get("band") or {}).get("rule", "dt x 0.8 and x 1.25 and the knobs' neighbours")
-    return ("Each row is the cheapest band-robust setting at its tolerances (it and every run of its band "
-            f"pass there: {rule}; `band passed` counts them), judged at those tolerances, with its contact after each "
-            "stick (`open after stick`: the share of the rest it is open, `onsets/s`: contact onsets per second), so "
-            "`compare` with "
-            "them and the row's settings says `match`; a level another row reaches as tightly and as cheaply is left "
-            f"out. Tightest reached robustly: stick {pct(reach.get('stick'))}, restitution {pct(reach.get('restitution'))} "
-            "(each at any level of the other; exit and first impact move with stick in the asked proportions).")
-
-
-def _restitution_claim(result, ev=None) -> list[str]:
-    """Where the chosen settings give R under the scene's own forces at every place in a step, with the numbers where
-    they miss, and the run's own impacts as the judge measures them (Markdown; ``ev``: the evidence, whose strikes
-    cover every resolved impact, else the chosen row's, the check's)."""
-    c = result.chosen
-    tol = result.tolerance
-    r = strike_summary(ev.strikes, tol) if ev is not None and ev.strikes is not None else c
-    runs = _run_impacts(result, ev)
-    if not isinstance(r.get("r_struck"), str) or not r["r_struck"]:
-        return runs
-    holds, held = r["r_holds_from"], r["r_held_from"]
-    where = (f"Struck under the scene's own forces from the reference's state before each impact the judge resolves "
-             f"({r['r_struck']}), these settings give")
-    if holds == 0.0:
-        return [f"**Restitution under the scene's forces:** {where} e within {100 * tol.restitution:g}% of R = "
-                f"{result.scene.restitution:g} at every one, wherever in a step it falls."] + runs
-    span = (f"at {holds:.3g} m/s and faster, wherever in a step the impact falls; slower, they miss at some place in "
-            f"the step (e over its places): {r['r_misses']}" if math.isfinite(holds)
-            else f"at none of them wherever in a step the impact falls (e over the step's places): {r['r_misses']}")
-    held_text = (f"The judge holds a time-stepper at dt = {c['dt']:g} s to R at {held:.3g} m/s and faster (there its "
-                 "sampling uncertainty is within the tolerance)")
-    if not math.isfinite(held):
-        counted = (f"At dt = {c['dt']:g} s the judge's sampling uncertainty exceeds the tolerance at every one of these "
-                   "impacts, so none counts against a candidate.")
-    elif c.get("scene_restitution_ratio", math.nan) > 1.0:
-        n_ok = table_meets_r(result.table)
-        counted = (f"{held_text}, and there these settings miss: that counts against a candidate, and "
-                   + (f"{n_ok} passing candidates tried meet R there." if n_ok else
-                      "none of the passing candidates tried meets R there."))
-    else:
-        counted = f"{held_text}, and there these settings meet R; the misses are at slower impacts."
-    return [f"**Restitution under the scene's forces:** {where} e within {100 * tol.restitution:g}% of R = "
-            f"{result.scene.restitution:g} {span}. {counted}"] + runs
-
-
-RUN_IMPACTS_LISTED = 12  # the run's first resolved impacts the guide lists (and its worst, when later)
-
-
-def _run_impacts(result, ev) -> list[str]:
-    """The run's resolved impacts as the judge measures them, which the exported scripts print too (Markdown)."""
-    if ev is None or not len(ev.impacts):
-        return []
-    rows = ev.impacts[(ev.impacts["impact"] <= RUN_IMPACTS_LISTED) | ev.impacts["worst"]]
-    listed = "; ".join(f"#{int(row.impact)} at t = {row.t:.4f} s, {row.speed:.3g} m/s: e = {row.restitution_effective:.4f}"
-                       + (" (the report's restitution error)" if row.worst else "") for row in rows.itertuples())
-    files = export_files_names(result.engine)
-    printed = f" (`{result.engine}/{files[-1]}` prints each of them, the same e)" if files else ""
-    more = len(ev.impacts) - len(rows)
-    return [f"**The run's impacts:** its resolved impacts as the judge measures them{printed}: {listed}"
-            + (f"; and {more} more." if more > 0 else ".")]
-
-
-def table_meets_r(table: pd.DataFrame) -> int:
-    """How many passing candidates of a tune table also meet R under the scene's forces where the judge holds them."""
-    return int((passing(table["verdict"]) & ~(table["scene_restitution_ratio"] > 1.0)).sum())
-
-
 def guide_markdown(result, figures: dict | None = None, ev=None) -> str:
     """The guide as Markdown (module docstring); ``figures``: names of the figure files written beside it; ``ev``: the
-    chosen settings' evidence (``tune_evidence.evidence``), whose strikes and run impacts the restitution claim gives."""
+    chosen settings' evidence (``tune.evidence.evidence``), whose strikes and run impacts the restitution claim gives."""
     x = result.extra
     searched = searched_text(result) if "searched" in x else f"{len(result.table)} candidates"
     lines = [f"# Tuning {md_escape(result.engine)} for {md_escape(result.scene.name)}", "",  # names from a user's file
              f"Tolerances: {result.tolerance.describe()}; every episode must pass.", "",
-             f"Searched: {searched}; the search took {_fmt(x.get('wall_time_s', math.nan))} s (reference, runs and "
+             f"Searched: {searched}; the search took {fmt(x.get('wall_time_s', math.nan))} s (reference, runs and "
              "timing). The answer is the cheapest robust "
              "setting among these runs, not beyond them. Cost is "
              f"steps per simulated second (1 / dt); steps within {100 * x.get('tie_band', 0.1):g}% are a tie, broken by the "
              "fewest settings away from the engine's defaults, then the larger dt, then the wall-clock time (reported, "
              "never deciding by itself: on a busy machine it follows the load).", "", "## Answer", ""]
-    lines += [line + "\n" for line in _answer(result, ev)]
+    lines += [line + "\n" for line in answer_sentences(result, ev)]
     lines += _frontier_markdown(result, list(figures or ()))
     if (check := result.extra.get("same_model")) is not None:
         lines += [f"## {_same_model_heading(check)}", "", check.sentence() + ".", "", _plain_md_table(_same_model_frame(check)),
@@ -357,7 +201,7 @@ def _same_model_heading(check) -> str:
 
 
 def _same_model_frame(check) -> pd.DataFrame:
-    """``tune_conformance``'s rows as the guide shows them: tolerances in percent, one column per engine's verdict."""
+    """``tune.conformance``'s rows as the guide shows them: tolerances in percent, one column per engine's verdict."""
     t = check.table
     return pd.DataFrame({"answer": t["point"], "stick %": 100 * t["stick"], "restitution %": 100 * t["restitution"],
                          "dt": t["dt"], "settings": t["settings"], check.engine: t["verdict"], check.against: t["other_verdict"],
@@ -378,7 +222,7 @@ def _cell(column: str, v) -> str:
         return f"`{v}`"
     if column == "steps_per_sim_s" and isinstance(v, float) and math.isfinite(v):
         return f"{v:,.0f}"
-    return _fmt(v)
+    return fmt(v)
 
 
 def _plain_md_table(frame: pd.DataFrame) -> str:
@@ -390,7 +234,7 @@ def _plain_md_table(frame: pd.DataFrame) -> str:
 def _md_table(frame: pd.DataFrame) -> str:
     head = "| " + " | ".join(CANDIDATE_COLUMNS[c] for c in frame.columns) + " |"
     rule = "| " + " | ".join("---" for _ in frame.columns) + " |"
-    body = ["| " + " | ".join(f"`{v}`" if c == "settings" else _fmt(v) for c, v in row.items()) + " |"
+    body = ["| " + " | ".join(f"`{v}`" if c == "settings" else fmt(v) for c, v in row.items()) + " |"
             for _, row in frame.iterrows()]
     return "\n".join([head, rule, *body])
 
@@ -408,7 +252,7 @@ def _html_table(frame: pd.DataFrame) -> str:
             elif c == "settings":
                 cells.append(f'<td class="text"><code>{html.escape(str(v))}</code></td>')
             else:
-                cells.append(f'<td class="{"text" if c in text else "num"}">{html.escape(_fmt(v))}</td>')
+                cells.append(f'<td class="{"text" if c in text else "num"}">{html.escape(fmt(v))}</td>')
         rows.append("<tr>" + "".join(cells) + "</tr>")
     return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(rows)}</tbody></table>"
 
@@ -417,7 +261,7 @@ def _plain_html_table(frame: pd.DataFrame) -> str:
     """A table of plain cells (the frontier's), numbers right-aligned, settings as code."""
     head = "".join(f'<th class="{"text" if c == "settings" else "num"}">{html.escape(c)}</th>' for c in frame.columns)
     rows = ["<tr>" + "".join(f'<td class="text"><code>{html.escape(str(v))}</code></td>' if c == "settings"
-                             else f'<td class="num">{html.escape(_fmt(v))}</td>' for c, v in row.items()) + "</tr>"
+                             else f'<td class="num">{html.escape(fmt(v))}</td>' for c, v in row.items()) + "</tr>"
             for _, row in frame.iterrows()]
     return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(rows)}</tbody></table>"
 
@@ -442,9 +286,9 @@ def guide_section_html(result, figures: dict[str, Figure] | None = None, ev=None
     if "searched" in result.extra:
         parts.append(f'<p class="note">Searched: {esc(searched_text(result))}; the answer is the cheapest robust setting '
                      "among these runs, not beyond them.</p>")
-    parts += [f"<p>{_inline(s)}</p>" for s in _answer(result, ev)]
+    parts += [f"<p>{_inline(s)}</p>" for s in answer_sentences(result, ev)]
     figures = figures if figures is not None else {"tradeoff": tradeoff_figure(result)}
-    parts += ["<h3>Robust frontier</h3>", f"<p>{_inline(_frontier_note(result))}</p>"]
+    parts += ["<h3>Robust frontier</h3>", f"<p>{_inline(frontier_note(result))}</p>"]
     if result.frontier:
         parts.append(_plain_html_table(frontier_frame(result)))
 

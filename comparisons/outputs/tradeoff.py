@@ -11,7 +11,7 @@
     (1, True)
 
 One panel per slice (a combination of the settings other than dt and the main knob:
-``tune_search.Grid``); x: dt on the search's lattice, coarse (cheap, 1 / dt steps per simulated
+``tune.grid.Grid``); x: dt on the search's lattice, coarse (cheap, 1 / dt steps per simulated
 second) on the left, fine on the right, ticks at the coarse grid's values; y: the main knob's
 lattice, ticks at its coarse values. Both axes are the lattice's index (equal cells, as the
 sweep's adaptive maps are drawn): a run of refinement level k owns the cell of its level's
@@ -32,7 +32,7 @@ from matplotlib.patches import Rectangle
 
 from chatterbench.comparisons.pipeline.vocabulary import COLOURS, rank
 
-from chatterbench.comparisons.studies.tune import short_label
+from chatterbench.comparisons.studies.tune.runs import short_label
 
 REFUSED_COLOUR = "#bdbdbd"  # a candidate whose settings the scene cannot run (not a verdict)
 MAX_PANELS = 12  # slices drawn at most (the rest are in the table)

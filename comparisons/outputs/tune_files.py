@@ -12,7 +12,7 @@
     >>> written[:3], "frontier.png/.svg" in written
     (['recommended.json', 'guide.md', 'guide.html'], True)
 
-One engine: ``DIR/recommended.json`` (``studies.tune_answer.recommended``, its ``frontier``
+One engine: ``DIR/recommended.json`` (``studies.tune.answer.recommended``, its ``frontier``
 included), ``guide.md``, ``guide.html`` and ``guide_section.html`` (``guide.py``; the last for
 ``chatterbench report --tune DIR``), ``candidates.csv`` (every run, ``TUNE_COLUMNS`` with the
 ladder points each passes at, is robust at and was not judged at as ``stick%/restitution%``
@@ -38,8 +38,8 @@ import pandas as pd
 
 from chatterbench.comparisons.pipeline.atomic import write_frame, write_text
 from chatterbench.comparisons.pipeline.inert_text import md_escape
-from chatterbench.comparisons.studies.tune_answer import frontier_line, recommended
-from chatterbench.comparisons.studies.tune_evidence import evidence
+from chatterbench.comparisons.studies.tune.answer import frontier_line, recommended
+from chatterbench.comparisons.studies.tune.evidence import evidence
 
 from .engine_files import write_engine_files, write_frontier_files
 from .figures import figure_files, write_figure

@@ -44,7 +44,8 @@ from chatterbench.reference.scene import Scene
 from chatterbench.reference.simulate import Result
 
 from .budget import Budget, check_comparison
-from .extract import Extraction, ExtractionOptions, extract
+from .extract import Extraction, extract
+from .extract_options import ExtractionOptions
 from .judge import IMPACT_PAIR_COLUMNS, TABLE_COLUMNS, judge
 from .solution import ReferenceSolution, solve
 from .summary import SUMMARY_COLUMNS, summarize  # summary imports only the vocabulary: no cycle

@@ -11,7 +11,7 @@
     >>> [prepared.verdicts(Tolerances(stick=s, restitution=0.02)).verdicts for s in (0.01, 0.05)]
     [('match',), ('match',)]
 
-``tune`` judges each run at every point of its tolerance ladder (``studies.tune_ladder``): some 25
+``tune`` judges each run at every point of its tolerance ladder (``studies.tune.ladder``): some 25
 tolerances for one trajectory and one extraction. ``judge.judge`` at each would pair the episodes,
 find each visit's impacts, measure the penetration and build its tables again every time. Here that is
 done once per run and extraction (``PreparedRun``), and at each tolerance only what the tolerance moves:

@@ -39,7 +39,7 @@ the criterion ``unresolved`` unless the error is beyond the tolerance even so).
   later than that is a bounce after the rest (a buzz), not the ladder's last.
 - **Exit**: the release of the stretch's last contact; bound the step it lies in (half a
   step at its middle), or where the force decays smoothly, how far a quadratic through the
-  last three force samples puts the zero from the linear one (``extract._release_times``).
+  last three force samples puts the zero from the linear one (``wall_impacts._release_times``).
 
 Times in seconds throughout; the bound is symmetric (the true time within t +- bound).
 """

@@ -49,7 +49,8 @@ from chatterbench.reference.errors import InputError
 from chatterbench.reference.scene import Scene, load_scene
 
 from .compare import COLUMNS, Comparison, EngineRun
-from .extract import ExtractionOptions, extract, free_relative_acceleration
+from .extract import extract, free_relative_acceleration
+from .extract_options import ExtractionOptions
 from .gap_contact import PRECISIONS, ROUNDING, infer_precision, on_wall, resting_offsets, rounding
 from .judge import judge
 from .solution import ReferenceSolution, solve

@@ -10,7 +10,7 @@ sets the sticking, exit and first-impact tolerances at once, as ``tune --toleran
 ladder of timing x restitution levels, the band-robust rule (every dt of [0.8, 1.25] x dt at 4
 impact phases and the knob neighbours), the contact's persistence after each stick, no transfer
 recheck (``tune`` itself does that, for the one answer a user writes). A case's outcome is
-``recommended.json`` as ``tune --out`` writes it (``tune_answer.recommended``) with the case's
+``recommended.json`` as ``tune --out`` writes it (``tune.answer.recommended``) with the case's
 wall time [s], its runs, the engine's version and the code that ran it (a resumed atlas may hold cases of
 several commits: the report names them); a case that cannot run (the engine refuses
 the scene, or crashes outside a run) is kept as a ``failed`` case with the message, and the
@@ -244,7 +244,7 @@ def run_case(spec: AtlasSpec, scene_name: str, engine: str, executor=None, worke
     from chatterbench.reference.scene import load_scene
 
     from .tune import tune
-    from .tune_answer import recommended
+    from .tune.answer import recommended
 
     start = time.perf_counter()
     scene = load_scene(scene_name)
@@ -253,7 +253,7 @@ def run_case(spec: AtlasSpec, scene_name: str, engine: str, executor=None, worke
         space = None
         own = {k: v for k, v in spec.fixed.items() if k.split(".", 1)[0] == engine}
         if own:
-            from .tune import search_space
+            from .tune.space import search_space
 
             space = search_space(engine, scene, spec.tolerances())
             for key, value in own.items():

@@ -5,7 +5,7 @@
     ('log', 'linear', 'category')
 
 A refined sweep splits a cell in its axes' scale (``sweep/refine.py``), tune steps its knobs in it
-(``tune_search``) and the stability map draws its axes in it (``outputs/stability_map.py``): the
+(``tune.search``) and the stability map draws its axes in it (``outputs/stability_map.py``): the
 rule lives here, in the lowest stage that needs it, so that none of them imports a stage above.
 """
 

@@ -32,7 +32,8 @@ import numpy as np
 
 from chatterbench.reference.dense import sample_states
 from chatterbench.reference.errors import check_number
-from chatterbench.reference.scene import Initial, Scene, SceneError
+from chatterbench.reference.scene import Scene, SceneError
+from chatterbench.reference.scene_parts import Initial
 
 from ..pipeline.solution import ReferenceSolution, solve
 

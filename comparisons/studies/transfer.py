@@ -163,7 +163,7 @@ def attach_transfer(result, executor=None) -> None:
     """Recheck the written answer and each frontier point on the scene's family (``transfer.transfer_rows``), each at
     its own tolerances: ``result.extra["transfer"]`` (the written answer's rows) and each frontier entry's
     ``transfer`` (in place)."""
-    from .tune_frontier import json_value
+    from .tune.frontier import json_value
 
     keys = [k for k in result.extra["space"] if k != "dt"]
     started = time.perf_counter()

@@ -15,7 +15,7 @@ from chatterbench.engines.dart_engine import BOUNCE_THRESHOLD, DartEngine, DartS
 
 run = DartEngine().run  # one run, as the registry's adapter runs it
 from chatterbench.engines.dart_engine.world import BALL  # noqa: E402
-from chatterbench.engines.registry import make_settings  # noqa: E402
+from chatterbench.engines.registry import settings_for, make_settings  # noqa: E402
 from chatterbench.engines.settings import SettingsError  # noqa: E402
 from chatterbench.reference.scene import load_scene, scene_from_dict  # noqa: E402
 
@@ -95,11 +95,12 @@ def test_bouncing_ball_rests_before_the_zeno_point():
     # a 2 % tolerance calls it early, where PyBullet with a bounce threshold of 5 mm/s (5 g dt: it drops the
     # g dt bounces that its default 0 keeps forever, `buzz`), at rest 1.4 ms after the Zeno point, still matches
     scene = load_scene("bouncing-ball", ["duration=1.6"])
-    default = compare(scene, ["dart"], 1e-4)
+    default = compare(scene, settings=settings_for(("dart",), dt=1e-4))
     row = default.table.iloc[0]
     assert row["verdict"] == "rebound" and row["stick_error_zeno"] == pytest.approx(-0.0274, abs=1e-3)
     assert (row["resolved_impacts"], row["ref_resolved_impacts"]) == (5, 9)
-    tight = compare(scene, ["dart", "pybullet"], 1e-4, ["pybullet.restitution_velocity_threshold=0.005"],
+    tight = compare(scene, settings=settings_for(("dart", "pybullet"), dt=1e-4,
+                                                 overrides=["pybullet.restitution_velocity_threshold=0.005"]),
                     tol=tolerances_from_items(["stick=0.02"]), solution=default.solution)
     assert tight.table.set_index("engine")["verdict"].to_dict() == {"dart": "early", "pybullet": "match"}
 

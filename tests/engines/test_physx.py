@@ -14,7 +14,7 @@ from chatterbench.engines.physx_engine import PhysxEngine, PhysxSettings  # noqa
 
 run = PhysxEngine().run  # one run, as the registry's adapter runs it
 from chatterbench.engines.physx_engine.world import build, physx  # noqa: E402
-from chatterbench.engines.registry import make_settings  # noqa: E402
+from chatterbench.engines.registry import settings_for, make_settings  # noqa: E402
 from chatterbench.engines.settings import SettingsError  # noqa: E402
 from chatterbench.reference.scene import load_scene, scene_from_dict  # noqa: E402
 
@@ -79,9 +79,9 @@ def test_each_scene_keeps_the_settings_it_was_made_with():
 def test_bouncing_ball_early_at_physx_threshold_and_within_tolerance_at_the_adapters():
     # PhysX's own 2 m/s: the third impact (1.1 m/s) is plastic, the ball rests at 1.129 s instead of 1.355 s
     scene = load_scene("bouncing-ball", ["duration=1.6"])
-    own = compare(scene, ["physx"], 1e-3, ["physx.bounce_threshold=2.0"])
+    own = compare(scene, settings=settings_for(("physx",), dt=1e-3, overrides=["physx.bounce_threshold=2.0"]))
     assert own.table["verdict"].tolist() == ["early"]
-    adapter = compare(scene, ["physx"], 1e-3, solution=own.solution)
+    adapter = compare(scene, settings=settings_for(("physx",), dt=1e-3), solution=own.solution)
     assert adapter.table["verdict"].tolist()[0] in ("match", "rebound")
 
 
@@ -89,7 +89,8 @@ def test_pgs_never_lets_the_ball_rest():
     # PGS with a small threshold: the ball resting on the floor keeps making micro-bounces (endless, measured
     # 281 impacts in 2 s at dt = 1e-3), where TGS rests at the Zeno point (match, above)
     scene = load_scene("bouncing-ball")
-    verdict = compare(scene, ["physx"], 1e-3, ["physx.enable_tgs=false"]).table["verdict"].tolist()
+    pgs = settings_for(("physx",), dt=1e-3, overrides=["physx.enable_tgs=false"])
+    verdict = compare(scene, settings=pgs).table["verdict"].tolist()
     assert verdict == ["endless"]
 
 
@@ -154,7 +155,8 @@ def test_one_position_iteration_keeps_a_resting_pair_at_rest():
     # threshold: feigin-pair's second episode ends early with spurious bounces after it (measured, 2 periods
     # at dt = 1e-3); the adapter's 1 matches both episodes
     scene = load_scene("feigin-pair", ["duration=6.5"])
-    ours = compare(scene, ["physx"], 1e-3)
-    sapiens = compare(scene, ["physx"], 1e-3, ["physx.solver_position_iterations=10"], solution=ours.solution)
+    ours = compare(scene, settings=settings_for(("physx",), dt=1e-3))
+    sapiens = compare(scene, settings=settings_for(("physx",), dt=1e-3, overrides=["physx.solver_position_iterations=10"]),
+                      solution=ours.solution)
     assert ours.table["verdict"].tolist() == ["match", "match"]
     assert sapiens.table["verdict"].tolist()[:2] == ["match", "early"] and "spurious" in sapiens.table["verdict"].tolist()

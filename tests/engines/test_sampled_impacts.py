@@ -9,7 +9,8 @@ import pytest
 
 from chatterbench.comparisons import reference_trajectory
 from chatterbench.comparisons.outputs.engine_files import flight_band
-from chatterbench.comparisons.pipeline.extract import ExtractionOptions, extract, free_relative_acceleration
+from chatterbench.comparisons.pipeline.extract import extract, free_relative_acceleration
+from chatterbench.comparisons.pipeline.extract_options import ExtractionOptions
 from chatterbench.comparisons.pipeline.solution import solve
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
 from chatterbench.engines import sampled_impacts

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import dataclasses
 
-from chatterbench.reference.scene import Gap, Initial, load_scene
+from chatterbench.reference.scene import load_scene
+from chatterbench.reference.scene_parts import Gap, Initial
 from chatterbench.reference.simulate import Options, simulate
 
 

@@ -11,9 +11,9 @@ from chatterbench.comparisons.cli import tune as tune_cli
 from chatterbench.comparisons.cli.main import SUBCOMMANDS, build_parser, main
 from chatterbench.comparisons.outputs.report import SUMMARY_COLUMNS as REPORT_COLUMNS
 from chatterbench.comparisons.pipeline.summary import ROW_COLUMNS
-from chatterbench.comparisons.studies.tune import TUNE_COLUMNS
-from chatterbench.comparisons.studies.tune_checks import RATIO_COLUMNS, STRIKE_COLUMNS
-from chatterbench.comparisons.studies.tune_search import SEARCH_COLUMNS
+from chatterbench.comparisons.studies.tune.rows import TUNE_COLUMNS
+from chatterbench.comparisons.studies.tune.checks import RATIO_COLUMNS, STRIKE_COLUMNS
+from chatterbench.comparisons.studies.tune.search import SEARCH_COLUMNS
 
 # what each shared option means, and the subcommands that take it
 SHARED = {"--engines": "engines", "--dt": "timestep", "--set": "override", "--tolerance": "tolerance", "--out": "write",

@@ -18,8 +18,8 @@ from chatterbench.comparisons.pipeline.summary import ROW_COLUMNS, summarize
 from chatterbench.comparisons.pipeline.vocabulary import combine as point_verdict
 from chatterbench.comparisons.outputs.stability_map import stability_map_figure, verdict_grid
 from chatterbench.comparisons.outputs.sweep_data import PASSING, VERDICT_ABBREV, VERDICT_COLOURS, ChartError
-from chatterbench.comparisons.outputs.work_precision import (default_error, panel_metrics, pareto_front,
-                                                             work_precision_figure, work_precision_points)
+from chatterbench.comparisons.outputs.work_precision import work_precision_figure
+from chatterbench.comparisons.outputs.work_precision_points import default_error, panel_metrics, pareto_front, work_precision_points
 from chatterbench.reference import load_scene
 from helpers import needs_engine
 

@@ -27,7 +27,8 @@ from chatterbench.comparisons.pipeline.extract import free_relative_acceleration
 from chatterbench.comparisons.pipeline.sampling import reference_trajectory
 from chatterbench.engines.trajectory import Trajectory
 from chatterbench.reference.log import episodes, log_frame
-from chatterbench.reference.scene import Initial, Scene
+from chatterbench.reference.scene import Scene
+from chatterbench.reference.scene_parts import Initial
 from chatterbench.reference.simulate import Options, Result, simulate
 
 SCENES = Path(__file__).parent / "scenes"

@@ -9,9 +9,11 @@ import math
 import numpy as np
 import pytest
 
-from chatterbench.comparisons.pipeline.extract import ExtractionOptions, contact_runs, extract
+from chatterbench.comparisons.pipeline.extract import extract
+from chatterbench.comparisons.pipeline.extract_options import ExtractionOptions
 from chatterbench.comparisons.pipeline.sampling import reference_trajectory, sample_grid
 from chatterbench.comparisons.pipeline.tolerances import Tolerances, ToleranceError
+from chatterbench.comparisons.pipeline.wall_impacts import contact_runs
 from chatterbench.engines.trajectory import Trajectory
 from chatterbench.reference.dense import sample
 from chatterbench.reference.log import EPISODE_COLUMNS, LOG_COLUMNS

@@ -16,7 +16,7 @@ from chatterbench.engines.registry import settings_for
 from chatterbench.comparisons import Tolerances, compare, reference_trajectory
 from chatterbench.comparisons.ci.checks import run_check
 from chatterbench.comparisons.ci.gate import limits_from_keywords, make_check
-from chatterbench.comparisons.pipeline.extract import ExtractionOptions
+from chatterbench.comparisons.pipeline.extract_options import ExtractionOptions
 from chatterbench.comparisons.pipeline.judge import ERROR_COLUMNS
 from chatterbench.comparisons.pipeline.solution import solve
 from chatterbench.comparisons.pipeline.vocabulary import combine

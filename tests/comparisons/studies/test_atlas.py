@@ -19,7 +19,7 @@ import pytest
 from chatterbench.comparisons.cli.main import main
 from chatterbench.comparisons.outputs.atlas_files import atlas_frame, atlas_table_markdown, frontier_frame
 from chatterbench.comparisons.outputs.atlas_section import packaged_atlas, read_atlas, version_notes
-from chatterbench.comparisons.studies.bench import ATLAS_FIXED
+from chatterbench.comparisons.studies.bench_tune import ATLAS_FIXED
 from helpers import wait_until
 
 # bench atlas's small atlas (its knobs held, dt capped at 300 steps/s): seconds a case

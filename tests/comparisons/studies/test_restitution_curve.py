@@ -268,7 +268,7 @@ def test_a_users_own_model_with_the_pasted_snippet_stays_inside_the_guides_band(
 
     from chatterbench.comparisons.outputs.guide import guide_markdown
     from chatterbench.comparisons.studies.tune import tune
-    from chatterbench.comparisons.studies.tune_evidence import evidence
+    from chatterbench.comparisons.studies.tune.evidence import evidence
 
     dt = 2.13e-4 if "impedance" in over[-1] else 3e-4  # the tune answer; the README's bouncing-ball guide
     space = {"dt": (dt,), **{k: (float(v),) for k, v in (o.split("=") for o in over)}}

@@ -11,8 +11,9 @@ from chatterbench.comparisons.outputs.restitution_curve import restitution_curve
 from chatterbench.comparisons.pipeline.solution import solve
 from chatterbench.comparisons.studies.restitution_curve import STRIKES, restitution_band, restitution_curve
 from chatterbench.comparisons.studies.scene_restitution import miss_summary, scene_restitution
-from chatterbench.comparisons.studies.tune import choose, tune
-from chatterbench.comparisons.studies.tune_evidence import evidence
+from chatterbench.comparisons.studies.tune import tune
+from chatterbench.comparisons.studies.tune.choice import choose
+from chatterbench.comparisons.studies.tune.evidence import evidence
 from chatterbench.engines.registry import make_settings
 from chatterbench.reference import load_scene
 
@@ -121,7 +122,7 @@ def test_guide_html_shows_the_restitution_figure_at_full_width():
     import re
 
     from chatterbench.comparisons.outputs.guide import guide_figures, guide_html
-    from chatterbench.comparisons.studies.tune_evidence import evidence
+    from chatterbench.comparisons.studies.tune.evidence import evidence
 
     result = tune(BALL.scene, "pybullet", 0.2, space={"dt": (1e-3,)}, workers=1, refine_steps=0)
     page = guide_html(result, guide_figures(result, evidence(result, speeds=[0.5, 4.0])))

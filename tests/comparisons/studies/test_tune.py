@@ -10,8 +10,10 @@ from chatterbench.comparisons.outputs.guide import guide_html, guide_markdown
 from chatterbench.comparisons import reference_trajectory
 from chatterbench.comparisons.pipeline.compare import judge_run
 from chatterbench.comparisons.pipeline.solution import solve
-from chatterbench.comparisons.studies.tune import choose, engine_space, reachable, tune
-from chatterbench.comparisons.studies.tune_checks import check_ratios, describe_failures
+from chatterbench.comparisons.studies.tune import tune
+from chatterbench.comparisons.studies.tune.checks import check_ratios, describe_failures
+from chatterbench.comparisons.studies.tune.choice import choose, reachable
+from chatterbench.comparisons.studies.tune.space import engine_space
 from chatterbench.engines.mujoco_engine import MujocoSettings, stability_limit
 from chatterbench.engines.registry import make_settings, settings_for
 from chatterbench.comparisons.pipeline.tolerances import Tolerances

@@ -17,7 +17,7 @@ from chatterbench.comparisons.pipeline.extract import extract
 from chatterbench.comparisons.outputs.guide import guide_markdown
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
 from chatterbench.comparisons.studies.tune import tune
-from chatterbench.comparisons.studies.tune_evidence import chosen_settings, evidence
+from chatterbench.comparisons.studies.tune.evidence import chosen_settings, evidence
 from chatterbench.engines.registry import run_engine
 from chatterbench.reference import load_scene
 

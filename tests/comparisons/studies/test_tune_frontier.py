@@ -18,10 +18,10 @@ from chatterbench.comparisons.pipeline.compare import compare, judge_run
 from chatterbench.comparisons.pipeline.solution import solve
 from chatterbench.comparisons.pipeline.tolerances import Tolerances, tolerances_from_items
 from chatterbench.comparisons.studies.tune import tune
-from chatterbench.comparisons.studies.tune_answer import searched_text
-from chatterbench.comparisons.studies.tune_checks import check_ratios, judged_margin
-from chatterbench.comparisons.studies.tune_ladder import Ladder, at_level, judge_levels, tolerance_items
-from chatterbench.comparisons.studies.tune_search import agrees
+from chatterbench.comparisons.studies.tune.answer import searched_text
+from chatterbench.comparisons.studies.tune.checks import check_ratios, judged_margin
+from chatterbench.comparisons.studies.tune.ladder import Ladder, at_level, judge_levels, tolerance_items
+from chatterbench.comparisons.studies.tune.passes import agrees
 from chatterbench.engines.registry import make_settings, settings_for
 from chatterbench.reference import load_scene
 

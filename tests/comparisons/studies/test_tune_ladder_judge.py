@@ -8,7 +8,7 @@ import pytest
 from chatterbench.comparisons.pipeline.compare import judge_run
 from chatterbench.comparisons.pipeline.solution import solve
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
-from chatterbench.comparisons.studies.tune_ladder import Ladder, judge_levels, reference_levels
+from chatterbench.comparisons.studies.tune.ladder import Ladder, judge_levels, reference_levels
 from chatterbench.engines.registry import make_settings
 from chatterbench.reference import load_scene
 
@@ -54,7 +54,7 @@ def test_the_ladder_judge_equals_judging_each_point_on_its_own(engine, scene, dt
 
 def test_bench_ladder_hashes_the_same_outputs_before_and_after():
     # the benchmark's own check (no timing asserted): both paths hashed, equal on a passing run
-    from chatterbench.comparisons.studies.bench import LADDER_CASES, bench_ladder
+    from chatterbench.comparisons.studies.bench_tune import LADDER_CASES, bench_ladder
 
     figures, table = bench_ladder(cases=LADDER_CASES[:1], repeats=1)
     assert figures["same"] == 1.0 and figures["hash_before"] == figures["hash_after"]

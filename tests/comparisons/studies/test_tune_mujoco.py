@@ -24,9 +24,9 @@ from chatterbench.comparisons.pipeline.compare import compare, judge_run
 from chatterbench.comparisons.pipeline.solution import solve
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
 from chatterbench.comparisons.studies.tune import tune
-from chatterbench.comparisons.studies.tune_answer import recommended
-from chatterbench.comparisons.studies.tune_checks import check_ratios, describe_failures
-from chatterbench.comparisons.studies.tune_search import agrees
+from chatterbench.comparisons.studies.tune.answer import recommended
+from chatterbench.comparisons.studies.tune.checks import check_ratios, describe_failures
+from chatterbench.comparisons.studies.tune.passes import agrees
 from chatterbench.engines.registry import make_settings, settings_for
 from chatterbench.reference import load_scene
 

@@ -14,9 +14,10 @@ from chatterbench.comparisons.cli.main import main
 from chatterbench.comparisons.pipeline.compare import compare
 from chatterbench.comparisons.pipeline.solution import solve
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
-from chatterbench.comparisons.studies.tune import dt_range, tune
-from chatterbench.comparisons.studies.tune_answer import recommended
-from chatterbench.comparisons.studies.tune_search import Grid, agrees
+from chatterbench.comparisons.studies.tune import tune
+from chatterbench.comparisons.studies.tune.answer import recommended
+from chatterbench.comparisons.studies.tune.grid import Grid, dt_range
+from chatterbench.comparisons.studies.tune.passes import agrees
 from chatterbench.reference import load_scene
 
 TWO_PERIODS = [f"duration={4 * math.pi}"]  # feigin-pair's first two forcing periods: four visits with chatter
@@ -177,7 +178,7 @@ def test_mujoco_feigin_pair_writes_recommended_json_either_way(tmp_path, capsys)
 
 
 def test_bench_tune_reports_runs_and_wall_time_per_case():
-    from chatterbench.comparisons.studies.bench import bench_tune
+    from chatterbench.comparisons.studies.bench_tune import bench_tune
 
     began, ended = [], []
     table = bench_tune(cases=(("bouncing-ball", "pybullet", T),), workers=2, max_runs=20,
@@ -194,7 +195,7 @@ def test_bench_tune_reports_runs_and_wall_time_per_case():
 def test_a_pass_left_unchecked_by_the_budget_says_so():
     # before: a best reachable pass whose neighbourhood the budget left unrun went into recommended.json with
     # "failed": "" and "neighbourhood_fails": "": robust false, and no reason
-    from chatterbench.comparisons.studies.tune_answer import UNCHECKED, neighbourhood_fails
+    from chatterbench.comparisons.studies.tune.answer import UNCHECKED, neighbourhood_fails
 
     assert neighbourhood_fails({"verdict": "match", "robust": None, "neighbourhood": ""}) == UNCHECKED
     # the other ways: a fragile pass names its failing neighbours, a failing candidate and a robust pass nothing,
@@ -211,7 +212,8 @@ def test_the_reserve_is_handed_back_when_no_unchecked_pass_remains():
     # 484 of 600 on bouncing-ball, MuJoCo), with cells still to split. A stand-in judge, so that only the search runs
     import math
 
-    from chatterbench.comparisons.studies.tune_search import Grid, search
+    from chatterbench.comparisons.studies.tune.grid import Grid
+    from chatterbench.comparisons.studies.tune.search import search
 
     space = {"dt": (1e-1, 1e-2, 1e-3, 1e-4), "e.w": (0.0, 0.25, 0.5, 0.75, 1.0)}
     grid = Grid.make(space, 2)

@@ -11,7 +11,7 @@ from chatterbench.comparisons.outputs.guide import guide_markdown, snippet
 from chatterbench.comparisons.pipeline.compare import judge_run
 from chatterbench.comparisons.pipeline.solution import solve
 from chatterbench.comparisons.studies.tune import tune
-from chatterbench.comparisons.studies.tune_evidence import chosen_settings
+from chatterbench.comparisons.studies.tune.evidence import chosen_settings
 from chatterbench.comparisons.pipeline.tolerances import Tolerances
 from chatterbench.engines.mujoco_engine import MujocoSettings
 from chatterbench.engines.mujoco_engine.snippet import contact_law, mjcf_snippet

@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 from chatterbench.comparisons.studies.tune import Tolerances, tune
-from chatterbench.comparisons.studies.tune_conformance import same_model_check
+from chatterbench.comparisons.studies.tune.conformance import same_model_check
 from chatterbench.reference.scene import load_scene
 
 from helpers import needs_engine

@@ -1,7 +1,7 @@
 """How far a judged run is from each of the judge's checks: every error over its tolerance, and which checks failed.
 
     >>> from chatterbench.reference.scene import load_scene
-    >>> from chatterbench.comparisons.studies.tune_checks import check_ratios, Tolerances, describe_failures
+    >>> from chatterbench.comparisons.studies.tune.checks import check_ratios, Tolerances, describe_failures
     >>> from chatterbench.comparisons.pipeline.compare import judge_run
     >>> from chatterbench.comparisons.pipeline.solution import solve
     >>> from chatterbench.engines.registry import make_settings
@@ -38,11 +38,11 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from ..pipeline.solution import ReferenceSolution
-from ..pipeline.tolerances import Tolerances
-from ..pipeline.vocabulary import UNDETERMINED, VERDICTS
-from .restitution_curve import pinned_settings
-from .scene_restitution import miss_summary, scene_restitution
+from ...pipeline.solution import ReferenceSolution
+from ...pipeline.tolerances import Tolerances
+from ...pipeline.vocabulary import UNDETERMINED, VERDICTS
+from ..restitution_curve import pinned_settings
+from ..scene_restitution import miss_summary, scene_restitution
 
 # check -> (the Tolerances field, how the guide names the measure, the scale it is a fraction of, a short name)
 CHECKS = {

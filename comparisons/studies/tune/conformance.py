@@ -2,7 +2,7 @@
 
     >>> from chatterbench.reference.scene import load_scene
     >>> from chatterbench.comparisons.studies.tune import Tolerances, tune
-    >>> from chatterbench.comparisons.studies.tune_conformance import same_model_check
+    >>> from chatterbench.comparisons.studies.tune.conformance import same_model_check
     >>> tol = Tolerances(stick=0.2, exit=0.2, first_impact=0.2, restitution=0.2)
     >>> space = {"dt": (1e-3,), "mujoco_warp.w0_dt": (0.228,), "mujoco_warp.impedance": (0.95,)}  # d = 0.99 flickers (buzz)
     >>> result = tune(load_scene("bouncing-ball"), "mujoco_warp", tol, space=space, workers=1, refine_steps=0, ladder=None,
@@ -43,11 +43,11 @@ import pandas as pd
 
 from chatterbench.engines.registry import adapter, make_settings, unavailable_reason
 
-from ..pipeline.compare import compare
-from ..pipeline.conformance import conformance, describe
-from ..pipeline.tolerances import Tolerances
-from .tune_frontier import json_value
-from .tune_search import agrees
+from ...pipeline.compare import compare
+from ...pipeline.conformance import conformance, describe
+from ...pipeline.tolerances import Tolerances
+from .frontier import json_value
+from .passes import agrees
 
 CHECK_COLUMNS = ["point", "stick", "restitution", "dt", "settings", "verdict", "other_verdict", "passes", "other_passes",
                  "episodes", "disagree", "stick_difference_max", "exit_difference_max", "impact_count_difference_max",
@@ -86,7 +86,7 @@ class SameModelCheck:
         return "; ".join(parts)
 
     def records(self) -> list[dict[str, Any]]:
-        """The rows for ``recommended.json`` (``tune_frontier.json_value``: NaN as None)."""
+        """The rows for ``recommended.json`` (``tune.frontier.json_value``: NaN as None)."""
         return [{k: json_value(v) for k, v in row.items()} for row in self.table.to_dict("records")]
 
 

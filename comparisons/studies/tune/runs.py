@@ -1,7 +1,7 @@
-"""A tune candidate's runs: its settings object and label, its runs alone or with a search pass's others as one batch of
-the engine, its cost in steps, and its timed reruns.
+"""A tune candidate's runs: its settings object and labels, its runs alone or with a search pass's others as one batch of
+the engine, its cost in steps and of the budget, and its timed reruns.
 
-    >>> from chatterbench.comparisons.studies.tune_runs import candidate_settings, settings_label
+    >>> from chatterbench.comparisons.studies.tune.runs import candidate_settings, settings_label
     >>> params = {"dt": 1e-3, "mujoco.w0_dt": 0.1}
     >>> settings_label(params), candidate_settings("mujoco", params).w0_dt
     ('dt=0.001, mujoco.w0_dt=0.1', 0.1)
@@ -23,10 +23,12 @@ from chatterbench.engines.registry import adapter, can_batch, make_settings, run
 from chatterbench.reference.errors import InputError
 from chatterbench.reference.scene import Scene
 
-from ..pipeline.solution import ReferenceSolution
-from ..pipeline.tolerances import Tolerances
-from .phases import phase_solution
-from .tune_checks import scene_strikes
+from ...pipeline.solution import ReferenceSolution
+from ...pipeline.tolerances import Tolerances
+from ..phases import phase_solution
+from .checks import scene_strikes
+
+UNIT_STEPS = 100_000  # a run of more steps counts as steps / UNIT_STEPS runs of the budget (its work)
 
 
 def candidate_settings(engine: str, params: dict[str, Any]) -> Any:
@@ -41,6 +43,12 @@ def settings_label(params: dict[str, Any]) -> str:
     return ", ".join(f"{k}={v}" for k, v in params.items())
 
 
+def short_label(row: dict[str, Any], defaults: dict[str, Any]) -> str:
+    """A candidate as dt and the settings it changes from the engine's defaults, without the engine prefix."""
+    changed = [f"{k.split('.', 1)[-1]}={row[k]}" for k, v in defaults.items() if k in row and row[k] != v]
+    return ", ".join([f"dt={row['dt']:g}", *changed])
+
+
 def steps_per_sim_s(engine: str, settings: Any, run) -> float:
     """Engine steps per simulated second: the steps the engine says it took (``settings["steps_taken"]`` of
     its trajectory), else 1 / dt for a fixed-step engine (``cost_lever`` "dt"); NaN when unknown (an
@@ -51,6 +59,11 @@ def steps_per_sim_s(engine: str, settings: Any, run) -> float:
     if taken is not None and sim > 0:
         return float(taken) / sim
     return 1.0 / settings.dt if adapter(engine).cost_lever(settings) == "dt" else math.nan
+
+
+def run_weight(scene: Scene, dt: float) -> float:
+    """What one run at ``dt`` [s] costs of the budget: its steps / ``UNIT_STEPS``, at least one run."""
+    return max(1.0, scene.duration / dt / UNIT_STEPS)
 
 
 def batch_runs(ref: ReferenceSolution, engine: str, batch: list[dict], tol: Tolerances) -> list[tuple | InputError]:
@@ -90,7 +103,7 @@ def run_and_strike(ref: ReferenceSolution, engine: str, settings: Any, tol: Tole
 
 
 def strikes_of(ref: ReferenceSolution, engine: str, settings: Any, tol: Tolerances, traj) -> Any:
-    """The settings struck under the scene's forces (``tune_checks.scene_strikes``), meeting the contact the run
+    """The settings struck under the scene's forces (``tune.checks.scene_strikes``), meeting the contact the run
     ``traj`` had; None for a run that failed."""
     return scene_strikes(engine, settings, ref, tol, traj.settings) if traj.status == "ok" else None
 

@@ -1,7 +1,7 @@
 """The evidence behind a tuning answer: the chosen settings rerun on the scene, and their restitution against impact speed.
 
     >>> from chatterbench.reference.scene import load_scene
-    >>> from chatterbench.comparisons.studies.tune_evidence import evidence
+    >>> from chatterbench.comparisons.studies.tune.evidence import evidence
     >>> from chatterbench.comparisons.studies.tune import tune
     >>> space = {"dt": (1e-3,), "pybullet.restitution_velocity_threshold": (0.1,)}
     >>> result = tune(load_scene("bouncing-ball"), "pybullet", 0.05, space=space, workers=1, refine_steps=0,
@@ -36,10 +36,10 @@ import pandas as pd
 from chatterbench.engines.registry import make_settings
 from chatterbench.reference.errors import InputError
 
-from ..pipeline.compare import Comparison, compare
-from .restitution_curve import default_speeds, impact_restitutions, pinned_settings, restitution_curve
-from .tune_checks import scene_strikes
-from .tune_answer import recommended
+from ...pipeline.compare import Comparison, compare
+from ..restitution_curve import default_speeds, impact_restitutions, pinned_settings, restitution_curve
+from .checks import scene_strikes
+from .answer import recommended
 
 
 @dataclass(frozen=True)
@@ -53,7 +53,7 @@ class Evidence:
 
 
 def chosen_settings(result):
-    """The engine's settings dataclass for ``result.chosen``, made from ``recommended.json``'s content (``tune.recommended``:
+    """The engine's settings dataclass for ``result.chosen``, made from ``recommended.json``'s content (``tune.answer.recommended``:
     what the guide's snippet and files show is what the JSON says); None when no candidate ran."""
     rec = recommended(result)
     return None if rec is None else settings_of(rec)

@@ -1,7 +1,7 @@
 """The tolerance ladder of ``tune``'s frontier: timing and restitution levels, and each run judged at every level.
 
     >>> from chatterbench.comparisons.pipeline.tolerances import Tolerances
-    >>> from chatterbench.comparisons.studies.tune_ladder import Ladder, level_text
+    >>> from chatterbench.comparisons.studies.tune.ladder import Ladder, level_text
     >>> points = Ladder(timing=(0.02, 0.05), restitution=(0.1,)).points(Tolerances(stick=0.05, exit=0.02))
     >>> [level_text(p) for p in points]       # the asked tolerances are a point of the ladder
     ['stick 2% (exit 0.8%, first impact 2%), restitution 5%', 'stick 2% (exit 0.8%, first impact 2%), restitution 10%', \
@@ -43,14 +43,14 @@ from typing import Any
 
 import numpy as np
 
-from ..pipeline.compare import judge_run
-from ..pipeline.extract import extract, flight_floor
-from ..pipeline.judge import judge
-from ..pipeline.prepared import PreparedRun
-from ..pipeline.solution import ReferenceSolution
-from ..pipeline.tolerances import Tolerances
-from ..pipeline.vocabulary import VERDICTS
-from .tune_checks import CHECK_COLUMNS, check_ratios, margin_and_check, ratios_of, values_of
+from ...pipeline.compare import judge_run
+from ...pipeline.extract import extract, flight_floor
+from ...pipeline.judge import judge
+from ...pipeline.prepared import PreparedRun
+from ...pipeline.solution import ReferenceSolution
+from ...pipeline.tolerances import Tolerances
+from ...pipeline.vocabulary import VERDICTS
+from .checks import CHECK_COLUMNS, check_ratios, margin_and_check, ratios_of, values_of
 
 TIMING_LEVELS = (0.01, 0.02, 0.05, 0.1, 0.2)  # [-] sticking tolerances (fractions of the chatter)
 RESTITUTION_LEVELS = (0.02, 0.05, 0.1, 0.2, 0.3)  # [-] |e / R - 1|
@@ -128,9 +128,9 @@ def judge_levels(ref: ReferenceSolution, engine: str, settings: Any, trajectory,
     judged at each point from that (what the point's tolerances move: the rest window, the impacts' pairing, the
     verdicts), with no table built. Returns ``passes``, the indices of the points where every episode agrees
     (``match`` or ``none``), and at each of them ``margins``, the judged checks' worst measured error over tolerance
-    (``tune_checks.judged_margin``), ``limits``, the check that sets it, and ``rests``, the contact's largest open
+    (``tune.checks.judged_margin``), ``limits``, the check that sets it, and ``rests``, the contact's largest open
     share after a stick and its onsets per second (``persistence``); and ``unjudged``, the points left out: not in
-    ``only`` (the points where the run can still matter: ``tune_search.need``; None: all). ``shortcut`` False judges
+    ``only`` (the points where the run can still matter: ``tune.passes.need``; None: all). ``shortcut`` False judges
     every point (the shortcut's check). The same, value for value, as ``reference_levels`` (``judge_run`` at each
     point: ``tests/comparisons/studies/test_tune_ladder_judge.py``).
     """
@@ -169,9 +169,9 @@ def judge_levels(ref: ReferenceSolution, engine: str, settings: Any, trajectory,
 def reference_levels(ref: ReferenceSolution, engine: str, settings: Any, trajectory, points: tuple[Tolerances, ...],
                      known: dict[int, tuple] | None = None, shortcut: bool = True, only=None) -> dict[str, Any]:
     """``judge_levels`` one point at a time, as it was first written: ``judge_run`` where a point's f_min has no
-    extraction yet, else ``judge.judge`` on it, each point's tables built and checked (``tune_checks.check_ratios``);
+    extraction yet, else ``judge.judge`` on it, each point's tables built and checked (``tune.checks.check_ratios``);
     ``known``'s tables taken as they are. The check of ``judge_levels`` (same arguments, same values) and the
-    baseline of its benchmark (``bench.bench_ladder``).
+    baseline of its benchmark (``bench_tune.bench_ladder``).
     """
     known = dict(known or {})
     wanted = set(range(len(points)) if only is None else only)

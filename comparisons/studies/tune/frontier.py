@@ -2,7 +2,7 @@
 
     >>> from chatterbench.reference.scene import load_scene
     >>> from chatterbench.comparisons.studies.tune import tune
-    >>> from chatterbench.comparisons.studies.tune_ladder import Ladder
+    >>> from chatterbench.comparisons.studies.tune.ladder import Ladder
     >>> space = {"dt": (0.0118, 0.00485, 0.00388), "pybullet.restitution_velocity_threshold": (0.1,)}
     >>> result = tune(load_scene("bouncing-ball"), "pybullet", 0.02, space=space, workers=1, refine_steps=0,
     ...               ladder=Ladder(timing=(0.1,), restitution=(0.1,)), phases=(), transfer=False)
@@ -11,19 +11,19 @@
     >>> result.best is None                   # nothing robust at the asked 2%
     True
 
-Each ladder point (``tune_ladder``: a timing level x a restitution level) has an *answer*:
+Each ladder point (``tune.ladder``: a timing level x a restitution level) has an *answer*:
 among the candidates on the search's lattice that are robust there (the candidate and every
-neighbour of its neighbourhood pass, judged at that point's tolerances: ``tune_search``),
+neighbour of its neighbourhood pass, judged at that point's tolerances: ``tune.search``),
 the fewest steps per simulated second (``steps_per_sim_s``), within ``--max-cost``; equal
 steps go to the simplest: fewest settings away from the engine's defaults, then the settings'
 text (so that the answer never depends on a timing). No tie band, no wall time and no
 restitution under the scene's forces (which the judge does not check) decide here:
-``tune.choose`` weighs all three for the recommendation at the asked tolerances, which may
+``tune.choice.choose`` weighs all three for the recommendation at the asked tolerances, which may
 therefore be a simpler setting up to the tie band dearer than the frontier's point there. The *frontier* is the answers no other answer beats on all three at once:
 a point is left out when another is as tight in timing and in restitution and as cheap.
 ``tightest`` is the tightest level reached robustly on each axis (at any level of the other).
 
-Because the judge's measurements depend on the tolerances (``tune_ladder``), a setting robust
+Because the judge's measurements depend on the tolerances (``tune.ladder``), a setting robust
 at one point is not promised to be robust at a looser one; each point's answer was judged at
 that point, so ``compare --tolerance`` with its tolerances gives ``match`` there.
 """
@@ -35,8 +35,8 @@ from typing import Any
 
 import pandas as pd
 
-from ..pipeline.tolerances import Tolerances
-from .tune_ladder import at_point, level_text, margin_at
+from ...pipeline.tolerances import Tolerances
+from .ladder import at_point, level_text, margin_at
 
 # recommended.json's frontier entries
 FRONTIER_KEYS = ("tolerances", "dt", "settings", "cost_steps_per_s", "margin", "margin_check", "checked", "persistence")
@@ -83,7 +83,7 @@ def frontier_entries(found: dict[int, dict[str, Any]], points: tuple[Tolerances,
 
 
 def checked(row: dict[str, Any], point: int) -> dict[str, Any] | None:
-    """What the robustness of ``row`` at ladder point ``point`` rests on (``tune_search``'s ``band``): the band's dts
+    """What the robustness of ``row`` at ladder point ``point`` rests on (``tune.search``'s ``band``): the band's dts
     (``dts``: their range, ``n_dts``: how many, ends and its own included), the impact ``phases`` (fractions of a
     step), its knob neighbours, the runs, and the share of them that passed there; None where nothing was checked."""
     band = row.get("band")

@@ -2,8 +2,8 @@
 
     >>> from chatterbench.reference.scene import load_scene
     >>> from chatterbench.comparisons.studies.tune import tune
-    >>> from chatterbench.comparisons.studies.tune_answer import recommended, frontier_line
-    >>> from chatterbench.comparisons.studies.tune_ladder import Ladder
+    >>> from chatterbench.comparisons.studies.tune.answer import recommended, frontier_line
+    >>> from chatterbench.comparisons.studies.tune.ladder import Ladder
     >>> space = {"dt": (4e-3, 2e-3), "pybullet.restitution_velocity_threshold": (0.1,)}
     >>> result = tune(load_scene("bouncing-ball"), "pybullet", 0.01, space=space, workers=1, refine_steps=0,
     ...               ladder=Ladder(timing=(0.05,), restitution=(0.05,)), phases=(), transfer=False)
@@ -27,14 +27,14 @@ tolerances; where there is none, the tightest band-robust frontier point (``writ
 ``margin`` and ``margin_check`` (the check it is nearest failing), ``checked`` (its band: the
 dts, phases, knob neighbours, runs and the share that passed), ``persistence`` (the contact
 after each stick: open share and onsets per second), ``transfer`` (``studies.transfer``: the
-scene's family, holds or not per variant). ``frontier`` (``tune_frontier.frontier_entries``:
+scene's family, holds or not per variant). ``frontier`` (``tune.frontier.frontier_entries``:
 ``tolerances``, ``dt``, ``settings``, ``cost_steps_per_s``, ``margin``, ``margin_check``,
 ``checked``, ``persistence``, ``transfer`` per point, cheapest first, each with its ``snippet``,
 every value a user types, and the ``files`` written for it: ``point_record``), ``tightest``
 (the tightest sticking and restitution tolerance reached robustly), ``ladder`` (the levels
 searched) and ``searched`` (runs, ranges, whether the whole lattice ran, what was skipped, the
 band rule), and ``same_model``: for an engine that steps another's model (MuJoCo Warp:
-MuJoCo's), each answer rerun in that engine at the same settings (``tune_conformance``:
+MuJoCo's), each answer rerun in that engine at the same settings (``tune.conformance``:
 ``against``, ``holds``, ``sentence``, ``answers``, one row per answer), else null.
 """
 
@@ -45,10 +45,12 @@ from typing import Any
 
 import pandas as pd
 
-from .tune import UNIT_STEPS, TuneResult
-from .tune_frontier import checked, frontier_sentence, json_value, persistence
-from .tune_ladder import at_point, level_text
-from .tune_search import DT_RATIO, Grid, agrees
+from .frontier import checked, frontier_sentence, json_value, persistence
+from .grid import DT_RATIO, Grid
+from .ladder import at_point, level_text
+from .result import TuneResult
+from .runs import UNIT_STEPS
+from .passes import agrees
 
 FRAME_COLUMNS = ["stick %", "exit %", "first_impact %", "restitution %", "dt", "settings", "steps_per_sim_s", "margin",
                  "margin_check", "band passed", "open after stick", "onsets/s", "transfers"]
@@ -83,7 +85,7 @@ def ladder_text(result: TuneResult) -> str:
 
 
 def frontier_line(result: TuneResult) -> str:
-    """The answer's first sentence (``tune_frontier.frontier_sentence``)."""
+    """The answer's first sentence (``tune.frontier.frontier_sentence``)."""
     return frontier_sentence(result.tolerance, result.best is not None, result.frontier, result.extra.get("defaults", {}),
                              ladder_text(result))
 
@@ -196,8 +198,8 @@ def transfer_count(rows) -> str:
 def transfer_lines(result: TuneResult) -> list[str]:
     """What transfers, one line per setting checked (``studies.transfer``): the written answer, then each frontier
     point, each with every variant of the scene's family, holds or not, with the numbers (the guide)."""
-    from .transfer import transfer_sentence
-    from .tune_frontier import entry_text
+    from ..transfer import transfer_sentence
+    from .frontier import entry_text
 
     defaults = result.extra.get("defaults", {})
     lines = []

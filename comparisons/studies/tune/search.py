@@ -1,6 +1,7 @@
 """The order in which ``tune`` tries candidates: a joint grid over dt and every knob, refined, and each pass's neighbourhood.
 
-    >>> from chatterbench.comparisons.studies.tune_search import Grid, search
+    >>> from chatterbench.comparisons.studies.tune.grid import Grid
+    >>> from chatterbench.comparisons.studies.tune.search import search
     >>> def run_batch(batch, stage, bounds):      # a stand-in judge: passes for dt in [1e-4, 6e-4] whatever w
     ...     return [{**p, "verdict": "match" if 1e-4 <= p["dt"] <= 6e-4 else "late"} for p in batch]
     >>> grid = Grid.make({"dt": (1e-3, 1e-4), "e.w": (1.0, 2.0)}, depth=1)
@@ -50,7 +51,7 @@ Promises (``search``):
   ``neighbourhood`` names the neighbours that fail. At the
   end of a range only the neighbour inside it is taken; integer and named settings (solver
   iterations, an integrator) are choices, not neighbourhoods.
-- **Judged where it can matter** (``need``): a run is judged at the asked point and at every
+- **Judged where it can matter** (``tune.passes.need``): a run is judged at the asked point and at every
   ladder point whose bound, when it was asked for, reaches its cost over ``DT_RATIO`` (bounds
   only fall, so the points left out never matter to it: ``unjudged`` lists them).
 - ``budget`` at most, each run counting ``weight(params)`` (one by default; ``tune`` counts a
@@ -66,55 +67,17 @@ import math
 from dataclasses import dataclass
 from typing import Any, Callable
 
-from .limits import ROBUST_FRACTION  # [-] the share of a candidate's neighbourhood that must pass where it is robust
-from ..pipeline.vocabulary import VERDICTS
-from .sweep.refine import split_points
-from .tune_grid import BAND, BAND_RATIO, DT_RATIO, Grid, band_dts, round_dt  # noqa: F401  (tune's names: here too)
+from ..limits import ROBUST_FRACTION  # [-] the share of a candidate's neighbourhood that must pass where it is robust
+from ..sweep.refine import split_points
+from .grid import Grid, band_dts
+from .passes import cost, params_key, passes, reach_key
 
 AROUND = 3  # the best candidates whose lattice neighbours each refinement level adds
 COARSE_SHARE = 0.6  # [-] of the budget the coarse grid may take before refining (finer rows cost more)
 CHECK_SHARE = 0.4  # [-] of the budget the refinement leaves for the neighbourhoods of the passes it found
-NEED_SLACK = 1.01  # [-] a run's cost may differ from 1 / dt by its step count's rounding; this covers it
 PER_STAGE = 4  # passes whose neighbourhood is run after each stage (after the last: until the budget is spent)
 MOST_NAMED = 4  # failing neighbours named in a candidate's ``neighbourhood`` (the rest counted)
 SEARCH_COLUMNS = ["level", "robust", "neighbourhood", "neighbourhood_worst_ratio", "band"]
-
-
-def agrees(verdict: str) -> bool:
-    """Whether a verdict passes: the engine does what the reference does (``match``, or ``none`` for both)."""
-    return verdict in VERDICTS and VERDICTS[verdict].group == "agree"
-
-
-def _key(params: dict[str, Any]) -> tuple:
-    return tuple(sorted(params.items()))
-
-
-def cost(row: dict[str, Any]) -> float:
-    """A row's steps per simulated second (1 / dt where the engine reported none)."""
-    c = row.get("steps_per_sim_s", math.nan)
-    return 1.0 / row["dt"] if c is None or (isinstance(c, float) and math.isnan(c)) else float(c)
-
-
-def _reach_key(row: dict[str, Any]) -> tuple:
-    worst = row.get("worst_ratio", math.inf)
-    return (-row.get("n_match", 0), math.inf if worst is None or math.isnan(worst) else worst, cost(row))
-
-
-def need(c: float, bounds: list[float], asked: int) -> list[int]:
-    """The ladder points where a run of cost ``c`` (steps per simulated second) can still matter, given the search's
-    ``bounds`` when it was asked for: the asked point, and every point whose bound reaches ``c`` / ``DT_RATIO`` (the
-    cheapest candidate it can be the dt x 0.8 neighbour of; ``NEED_SLACK`` over it for rounding). Bounds only fall,
-    so a point left out never matters to it later: neither as a candidate (dearer than the point's answer, or than
-    that of a tighter point) nor as a neighbour (its candidates are dearer still)."""
-    return [p for p, b in enumerate(bounds) if p == asked or c <= b * DT_RATIO * NEED_SLACK]
-
-
-def passes(row: dict[str, Any], asked: int = 0) -> tuple[int, ...]:
-    """The ladder points a row passes at (its ``passes``; without one, the asked point when its verdict agrees)."""
-    p = row.get("passes")
-    if p is not None and not (isinstance(p, float) and math.isnan(p)):
-        return tuple(p)
-    return (asked,) if agrees(row["verdict"]) else ()
 
 
 @dataclass(frozen=True)
@@ -145,7 +108,7 @@ class _Search:
         self.inferred: dict[int, dict] = {s: {} for s in range(len(grid.slices))}
 
     def run(self, batch: list[dict], stage: str, level: int | None, force: bool = False, keep: float = 0.0) -> None:
-        new = list({_key(p): p for p in batch if _key(p) not in self.seen}.values())
+        new = list({params_key(p): p for p in batch if params_key(p) not in self.seen}.values())
         if not force:
             cum = list(itertools.accumulate(self.cost_of(p) for p in new))
             new = [p for p, c in zip(new, cum) if c <= self.left - keep or c == cum[0] and self.left > keep]
@@ -157,7 +120,7 @@ class _Search:
                    if where is not None else math.nan,
                    "robust": None, "robust_at": None, "neighbourhood": "", "neighbourhood_worst_ratio": math.nan,
                    "band": None}
-            self.seen[_key(params)] = row
+            self.seen[params_key(params)] = row
             self.rows.append(row)
         self.left -= sum(self.cost_of(p) for p in new)
 
@@ -185,10 +148,10 @@ class _Search:
         return self.grid.place(self.params(row)) is not None
 
     def rank(self, row: dict) -> tuple:
-        """A candidate's place among equally good ones, as ``tune_frontier.answers`` chooses: fewest steps, fewest
+        """A candidate's place among equally good ones, as ``tune.frontier.answers`` chooses: fewest steps, fewest
         settings away from the defaults, the larger dt, the settings' text."""
         nnd = sum(1 for k, v in self.grid.defaults.items() if row.get(k) != v)
-        return cost(row), nnd, -row["dt"], str(row.get("settings", _key(self.params(row))))
+        return cost(row), nnd, -row["dt"], str(row.get("settings", params_key(self.params(row))))
 
     def answers(self) -> list[tuple | None]:
         """Per ladder point, the rank of its answer so far (the best-ranked robust candidate there), None if none."""
@@ -201,7 +164,7 @@ class _Search:
 
     def bounds(self, found: list[tuple | None] | None = None) -> list[float]:
         """Per ladder point, the largest cost at which a candidate could still be its answer *and* on the frontier:
-        at most its answer's cost (the asked point: plus the tie band, for ``tune.choose``), and below the cost of
+        at most its answer's cost (the asked point: plus the tie band, for ``tune.choice.choose``), and below the cost of
         the answer of every point as tight on both axes (which beats it)."""
         found = self.answers() if found is None else found
         known = [math.inf if a is None else a[0] for a in found]
@@ -240,7 +203,7 @@ class _Search:
         """The points ``row`` passes at where the neighbours of ``near`` run so far fail no more often than the robust
         fraction allows of all of them (every one passes, at the default fraction 1)."""
         allowed = math.floor((1.0 - self.fraction) * len(near) + 1e-9)
-        ran = [self.passes(self.seen[_key(n)]) for n in near if _key(n) in self.seen]
+        ran = [self.passes(self.seen[params_key(n)]) for n in near if params_key(n) in self.seen]
         return {p for p in self.passes(row) if sum(1 for q in ran if p not in q) <= allowed}
 
     def neighbourhoods(self, most: int | None = PER_STAGE) -> None:
@@ -270,7 +233,7 @@ class _Search:
         """A candidate's robust points, what its band checked and passed at each (``band``), and at the asked point its
         verdict: robust, or the neighbours that fail."""
         r["robust_at"] = tuple(sorted(self.surviving(r, near)))
-        ran = [self.seen[_key(n)] for n in near if _key(n) in self.seen]
+        ran = [self.seen[params_key(n)] for n in near if params_key(n) in self.seen]
         r["band"] = self.band_record(r, near, ran)
         if self.asked not in self.passes(r):
             return
@@ -314,11 +277,11 @@ class _Search:
         while True:
             todo = [(r, {p for p, a in self.answer_rows().items() if a is r}) for r in
                     {id(a): a for a in self.answer_rows().values()}.values() if self.on_lattice(r)]
-            todo = [(r, points) for r, points in todo if _key(self.params(r)) not in done]
+            todo = [(r, points) for r, points in todo if params_key(self.params(r)) not in done]
             if not todo:
                 return
             r, points = min(todo, key=lambda item: self.rank(item[0]))
-            done.add(_key(self.params(r)))
+            done.add(params_key(self.params(r)))
             i = self.grid.dt.index(r["dt"])
             if i == 0:
                 continue
@@ -331,7 +294,7 @@ class _Search:
                     hi = mid
                     continue
                 self.run([params], "bisect", None, force=True)
-                trial = self.seen[_key(params)]
+                trial = self.seen[params_key(params)]
                 if trial["robust_at"] is None and points & set(self.passes(trial)):
                     self.check([trial])
                 lo, hi = (mid, hi) if points & set(trial["robust_at"] or ()) else (lo, mid)
@@ -356,12 +319,12 @@ class _Search:
                 cheapest.setdefault(p, r)
         count = {id(r): sum(1 for c in cheapest.values() if c is r) for r in cheapest.values()}
         front = sorted({id(r): r for r in cheapest.values()}.values(), key=lambda r: (-count[id(r)], cost(r)))
-        out = (ok or sorted(on, key=_reach_key))[:AROUND] + front[:2 * AROUND]
+        out = (ok or sorted(on, key=reach_key))[:AROUND] + front[:2 * AROUND]
         return list({id(r): r for r in out}.values())
 
     def promise(self, r: dict) -> tuple:
         """How close a run is to an answer: passes at the asked point, then at the most points, then the nearest."""
-        return (0 if self.asked in self.passes(r) else 1, -len(self.passes(r)), *_reach_key(r))
+        return (0 if self.asked in self.passes(r) else 1, -len(self.passes(r)), *reach_key(r))
 
     def refine(self, level: int, keep: float = 0.0) -> None:
         g, half = self.grid, 2 ** (self.grid.depth - level)
@@ -412,7 +375,7 @@ class _Search:
 
     def outcome(self, exhaustive: bool) -> Searched:
         lattice = self.lattice()
-        unrun = [p for p in lattice if _key(p) not in self.seen]
+        unrun = [p for p in lattice if params_key(p) not in self.seen]
         top = max(self.bounds())
         g = self.grid
         capped = len(g.dt) * len(g.slices) * len(g.knob_values) - len(lattice)
@@ -434,7 +397,7 @@ def search(run_batch: Callable[[list[dict], str, list[float]], list[dict]], grid
            levels: list[tuple[float, float]] | None = None, asked: int = 0, max_cost: float = math.inf,
            phases: tuple[float, ...] = (), fraction: float = ROBUST_FRACTION) -> Searched:
     """Every candidate row the search ran (module docstring); ``run_batch(params, stage, bounds)`` judges a batch in
-    order, ``bounds`` per ladder point the cost above which a run cannot matter there (``need``).
+    order, ``bounds`` per ladder point the cost above which a run cannot matter there (``tune.passes.need``).
 
     ``params`` holds ``dt`` and every searched setting; a row is its params plus at least
     ``verdict`` (and ``passes``, the indices of the ladder points it passes at: ``levels``, each

@@ -1,6 +1,6 @@
 """The searched lattice of a tune and a candidate's neighbourhood: dt and knob values, the band of dts, the knobs' neighbours.
 
-    >>> from chatterbench.comparisons.studies.tune_grid import Grid, band_dts
+    >>> from chatterbench.comparisons.studies.tune.grid import Grid, band_dts
     >>> grid = Grid.make({"dt": (4e-3, 1e-3), "pybullet.restitution_velocity_threshold": (0.0, 0.1)}, depth=1)
     >>> grid.dt, grid.knob_values
     ((0.004, 0.002, 0.001), (0.0, 0.05, 0.1))
@@ -30,12 +30,13 @@ from typing import Any
 
 import pandas as pd
 
-from .axes import axis_scale
-from .sweep.refine import lattice
+from ..axes import axis_scale
+from ..sweep.refine import lattice
 
 SIG_DIGITS = 3  # a dt is rounded to this many significant digits (it is printed and pasted)
 KNOB_DIGITS = 4  # and a knob value between two searched ones to this many
 DT_RATIO = 1.25  # [-] adjacent dt of the finest lattice: the neighbourhood's dt x 0.8 and x 1.25
+DEPTH = 2  # refinement levels: the finest dt lattice is DT_RATIO apart, the coarse grid DT_RATIO ** 4
 BAND = (0.8, 1.25)  # [-] a band-robust setting passes at every checked dt of [0.8, 1.25] x its dt
 FINEST = 1e-3  # [-] the finest dt searched, as a fraction of the coarsest (the tightest timing tolerance in s)
 FLIGHT_STEPS = 4  # the coarsest dt takes at least this many steps across the gap at the fastest strike
@@ -180,7 +181,7 @@ def band_rule(phases: tuple[float, ...], fraction: float) -> dict[str, Any]:
 
 
 def dt_range(solution: ReferenceSolution, tol: Tolerances) -> tuple[float, float]:
-    """The coarsest dt worth trying and the finest needed [s], from the scene's own scales (``tune``'s module docstring).
+    """The coarsest dt worth trying and the finest needed [s], from the scene's own scales (``tune.space``'s module docstring).
 
     The tightest timing tolerance in seconds: each episode's sticking and first-impact tolerance
     (fractions of its chatter duration, or of its sliding for a visit that starts in contact) and

@@ -1,0 +1,115 @@
+"""A tune candidate's row (run, judged at the asked tolerances and the ladder, or refused) and the rows as one table.
+
+    >>> from chatterbench.comparisons.studies.tune.rows import table_of
+    >>> rows = [{"dt": 1e-3, "verdict": "match", "steps_per_sim_s": 1000.0, "cost_per_sim_s": 0.1, "robust": True,
+    ...          "e.w": 2.0}, {"dt": 2e-3, "verdict": "refused", "robust": None, "e.w": 1.0}]
+    >>> table_of(rows, {"dt": (2e-3,), "e.w": (1.0, 2.0)})[["dt", "steps_per_sim_s", "n_non_default"]].values.tolist()
+    [[0.002, 500.0, 0.0], [0.001, 1000.0, 1.0]]
+
+Every candidate is judged by the one judge (``pipeline.compare.judge_run``) against one reference
+solution, condensed to the summary row (``pipeline.summary.metrics``) plus each check's error over
+its tolerance (``tune.checks``): ``failed`` names the checks that failed with their measures, and
+the ladder points it passes at (``tune.ladder``) beside them. Settings the scene cannot run (past
+the stability limit, say) give a row of verdict ``refused``. The rows run in worker processes
+(``evaluator``), in order.
+"""
+
+from __future__ import annotations
+
+import math
+from concurrent.futures import Executor
+from typing import Any
+
+import pandas as pd
+
+from chatterbench.engines.registry import adapter
+from chatterbench.reference.errors import InputError
+
+from ...pipeline.compare import judge_run
+from ...pipeline.solution import ReferenceSolution
+from ...pipeline.summary import METRIC_COLUMNS, metrics
+from ...pipeline.tolerances import Tolerances
+from .. import waits
+from ..phases import phase_solution
+from .checks import RATIO_COLUMNS, STRIKE_COLUMNS, check_ratios, describe_failures, strike_summary
+from .ladder import judge_levels, reference_levels
+from .runs import batch_runs, candidate_settings, run_and_strike, settings_label, steps_per_sim_s
+from .passes import need
+from .search import SEARCH_COLUMNS
+
+TUNE_COLUMNS = ["stage", "dt", "phase", "settings", "verdict", "n_episodes", "n_match", "failed", *SEARCH_COLUMNS, "passes",
+                "robust_at", "margins", "limits", "rests", "unjudged", *RATIO_COLUMNS,
+                *STRIKE_COLUMNS,
+                *METRIC_COLUMNS, "steps_per_sim_s", "cost_per_sim_s", "cost_repeats", "n_non_default", "status", "message"]
+
+
+def evaluate(ref: ReferenceSolution, engine: str, params: dict, points: tuple[Tolerances, ...], asked: int,
+             bounds: list[float] | None = None, ran: tuple | None = None, per_point: bool = False) -> dict[str, Any]:
+    """Run one candidate, judge it at the asked tolerances ``points[asked]`` and at every ladder point where it can
+    still matter (``tune.passes.need`` of the search's ``bounds``; all of them for an engine whose steps are not
+    1 / dt); in a worker process. ``ran``: its (trajectory, strikes) already made (``batch_runs``); ``per_point``: the
+    ladder judged one point at a time (``tune.ladder.reference_levels``, the same values: ``bench atlas``'s baseline)."""
+    tol = points[asked]
+    settings = candidate_settings(engine, params)
+    band = "phase" in params  # a band run (``tune.grid.Grid.neighbourhood``): the scene started phase x dt later
+    ref = phase_solution(ref, params["dt"], params["phase"]) if band else ref
+    trajectory, strikes = ran if ran is not None else run_and_strike(ref, engine, settings, tol, not band)
+    run, table, impacts = judge_run(ref, engine, settings, tol, trajectory=trajectory)
+    ratios = check_ratios(table, impacts, tol, tol.penetration * ref.length_scale, strikes)
+    steps = steps_per_sim_s(engine, settings, run)
+    fixed = adapter(engine).cost_lever(settings) == "dt" and math.isfinite(steps)
+    judged = need(steps, bounds, asked) if bounds is not None and fixed else range(len(points))
+    levels = (reference_levels if per_point else judge_levels)(ref, engine, settings, run.trajectory, points,
+                                                               known={asked: (run, table, impacts)}, only=judged)
+    return {**params, "settings": settings_label(params), **metrics(table), **ratios, **strike_summary(strikes, tol), **levels,
+            "failed": describe_failures(table, ratios, tol), "steps_per_sim_s": steps,
+            "cost_per_sim_s": run.cost_per_sim_s, "cost_repeats": 1, "status": run.status, "message": run.trajectory.message}
+
+
+def refused(params: dict, exc: Exception) -> dict[str, Any]:
+    """The row of a candidate whose settings the scene cannot run (e.g. past the stability limit)."""
+    return {**params, "settings": settings_label(params), "verdict": "refused", "n_episodes": 0, "n_match": 0,
+            "failed": f"refused: {exc}", **{c: math.nan for c in [*RATIO_COLUMNS, *METRIC_COLUMNS]}, "passes": (), "margins": (),
+            "limits": (), "rests": (), "unjudged": (),
+            "worst_ratio": math.inf, "cost_per_sim_s": math.nan, "cost_repeats": 0, "status": "refused", "message": str(exc)}
+
+
+def evaluator(executor: Executor, ref: ReferenceSolution, engine: str, points: tuple[Tolerances, ...], asked: int,
+              batched: bool = False, per_point: bool = False):
+    """A function running a batch of candidates in parallel, one row each, in order; ``batched``: the candidates'
+    runs and strikes made here as one batch of the engine (``batch_runs``), only their judging in parallel."""
+    def run_batch(batch: list[dict], stage: str, bounds: list[float] | None = None) -> list[dict]:
+        ran = batch_runs(ref, engine, batch, points[asked]) if batched else [None] * len(batch)
+        futures = [r if isinstance(r, InputError) else executor.submit(evaluate, ref, engine, p, points, asked, bounds, r,
+                                                                             per_point)
+                   for p, r in zip(batch, ran)]  # a refusal of the batch's own checks stands in for its future
+        return [{**_row(fut, params), "stage": stage} for fut, params in zip(futures, batch)]
+    return run_batch
+
+
+def _row(fut, params: dict) -> dict[str, Any]:
+    """A candidate's row from its future, or the row of its refused settings."""
+    try:
+        if isinstance(fut, InputError):
+            return refused(params, fut)
+        return waits.result(fut)  # in slices: a Ctrl-C is acted on while the workers run
+    except InputError as exc:
+        return refused(params, exc)
+
+
+def table_of(rows: list[dict], space: dict[str, tuple]) -> pd.DataFrame:
+    """The candidates as a table (``TUNE_COLUMNS`` plus one column per searched setting), cheapest (fewest steps)
+    first."""
+    table = pd.DataFrame(rows)
+    table["dt"] = table["dt"].astype(float)
+    if "steps_per_sim_s" not in table:  # every candidate refused
+        table["steps_per_sim_s"] = math.nan
+    table["steps_per_sim_s"] = table["steps_per_sim_s"].astype(float).fillna(1.0 / table["dt"].where(
+        table["verdict"] == "refused"))
+    defaults = {k: v[0] for k, v in space.items() if k != "dt"}
+    table["n_non_default"] = (table[list(defaults)] != pd.Series(defaults)).sum(axis=1) if defaults else 0
+    table["robust"] = table["robust"].astype(object).where(table["robust"].notna(), None)
+    cols = TUNE_COLUMNS + list(defaults)
+    return (table[[c for c in cols if c in table.columns]]
+            .sort_values(["steps_per_sim_s", "n_non_default", "cost_per_sim_s"], na_position="last")
+            .reset_index(drop=True))
