@@ -44,7 +44,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import NamedTuple
 
-README = Path(__file__).resolve().parents[2] / "README.md"
+README = Path(__file__).resolve().parents[2] / "docs" / "how-to" / "plugin.md"  # the plugin how-to page (was the README's section)
 ENV = "CHATTERBENCH_SICONOS_PYTHON"  # the python that runs Siconos's child (engines/siconos_engine/run.py)
 
 
@@ -53,7 +53,7 @@ def readme_block(first_line: str) -> str:
     for block in re.findall(r"```[a-z]*\n(.*?)```", README.read_text(encoding="utf-8"), flags=re.S):
         if block.startswith(first_line):
             return block
-    raise LookupError(f"README.md has no code block starting {first_line!r}")
+    raise LookupError(f"{README.name} has no code block starting {first_line!r}")
 
 
 def _line_engine() -> str:
