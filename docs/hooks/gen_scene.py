@@ -41,7 +41,11 @@ def _comments(cls: type) -> dict[str, str]:
 
 
 def _type(f: dataclasses.Field) -> str:
-    return str(f.type).replace("tuple[Force, ...]", "array of tables").replace(" | None", " or absent")
+    """The field's type as a file spells it: a table for a dataclass, an array of tables for the forces."""
+    text = str(f.type).replace("tuple[Force, ...]", "array of tables").replace(" | None", " or absent")
+    for name in ("Gap", "Initial", "Prescribed"):
+        text = text.replace(name, "table")
+    return text
 
 
 # the top-level keys that are tables of their own, described in the table of their name
