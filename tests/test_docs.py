@@ -89,7 +89,7 @@ def test_the_tour_names_every_module():
             if not re.search(rf"(?<![\w/]){parts[-1]}(?![\w/])", text):
                 missing.append(info.name)
         assert top + "/" in sections or any(k.startswith(top + "/") for k in sections)
-    assert not missing, f"modules the tour (docs/explanation/architecture.md) does not name (one line each under their folder): {missing}"
+    assert not missing, f"modules the tour ({TOUR.name}) does not name (one line each under their folder): {missing}"
 
 
 def test_one_spelling_of_colour_in_the_codes_own_names():

@@ -61,7 +61,8 @@ def _sections(page: Path) -> dict[str, str]:
 
 def test_the_site_builds_strict_with_every_page_of_the_nav(site):
     for page in ("index.html", "tutorial/index.html", "how-to/plugin/index.html", "reference/cli/index.html",
-                 "reference/scene/index.html", "reference/recommended-json/index.html", "reference/gate-file/index.html",
+                 "reference/scene/index.html", "reference/recommended-json/index.html",
+                 "reference/gate-file/index.html",
                  "verdicts/index.html", "bad-inputs/index.html", "explanation/judge/index.html",
                  "explanation/architecture/index.html"):
         assert (site / page).is_file(), page

@@ -97,18 +97,19 @@ def _meaning(cls: type, name: str, fields: dict) -> str:
     else:
         comment = _comments(cls).get(name)
         if not comment:
-            raise DocsError(f"{cls.__name__}.{name}: no unit or meaning in scene_toml.FIELDS nor a comment on the field")
+            raise DocsError(f"{cls.__name__}.{name}: no unit or meaning in scene_toml.FIELDS, no comment on the field")
         return cell(comment)
     return cell(f"[{unit}] {text}")
 
 
 def _rows(cls: type, keys: tuple[str, ...], prefix: str = "", top=None) -> list[list[str]]:
-    """One row per TOML key of ``cls``; every key must be a field (``top``: the reader's defaults, for the top level)."""
+    """One row per TOML key of ``cls``; every key must be a field (``top``: the reader's defaults, top level only)."""
     fields = {f.name: f for f in dataclasses.fields(cls)}
     missing = [k for k in keys if k not in fields]
     if missing:
         raise DocsError(f"{cls.__name__}: the scene reader accepts {missing}, which are not its fields")
-    return [[code(prefix + k), cell(_type(fields[k])), _default(fields[k], top), _meaning(cls, k, FIELDS)] for k in keys]
+    return [[code(prefix + k), cell(_type(fields[k])), _default(fields[k], top), _meaning(cls, k, FIELDS)]
+            for k in keys]
 
 
 def scene_markdown() -> str:
