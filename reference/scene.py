@@ -54,7 +54,7 @@ TIME_RESOLUTION = 1e9
 class Scene:
     """A validated two-mass scene (see the module docstring for the model and signs)."""
 
-    name: str
+    name: str  # shown in tables, reports and file names
     mass1: float  # [kg], > 0; math.inf: body 1 fixed or prescribed
     mass2: float  # [kg], > 0 and finite
     restitution: float  # Newton's R, 0 <= R < 1
@@ -64,7 +64,7 @@ class Scene:
     prescribed: Prescribed | None = None  # only with mass1 = inf
     initial: Initial = field(default_factory=Initial)
     duration: float = 1.0  # [s], > 0
-    description: str = ""
+    description: str = ""  # one line: what the scene is (the head of scenes --toml's file)
     notes: tuple[str, ...] = field(default=(), compare=False)  # how a file was read (weight.py), not compared
 
     def __post_init__(self) -> None:

@@ -735,7 +735,7 @@ def plugin_rows(shared: Path | None = None) -> list[str]:
     out = ["", "## Engine plugins and engines' own processes", "",
            "From `tests/engines/plugin_cases.py` (checked by `tests/engines/test_plugin_faults.py`): every command runs",
            "in its own process with all of that module's test plugins installed at once (`cbtest-NAME`: broken ones, and",
-           "`line`, the README's engine with a `fault` setting), and, for Siconos, a python that answers the probe and",
+           "`line`, the plugin page's engine (docs/how-to/plugin.md) with a `fault` setting), and, for Siconos, a python that answers the probe and",
            "then misbehaves (`CHATTERBENCH_SICONOS_PYTHON`). A broken plugin is one line only where it is named; a",
            "fault inside a run is that run's status, and the engines beside it are judged as ever.", "",
            "| case | what is wrong | command | what chatterbench says (exit code) |", "|---|---|---|---|"]

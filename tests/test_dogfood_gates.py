@@ -33,7 +33,7 @@ def test_default_gate_passes(tmp_path, capsys, monkeypatch, tmp_path_factory):
 
 def test_chatter_gate_fixture(chatter_gate, monkeypatch, tmp_path_factory):
     share_compares_runs(monkeypatch, tmp_path_factory)  # the gate's run of MuJoCo on the pair
-    # the README's example: MuJoCo's defaults stick and let go on time on Feigin's pair (every
+    # the gate page's example (docs/how-to/gate.md): MuJoCo's defaults stick and let go on time on Feigin's pair (every
     # sticking start within 5% of its chatter, every exit within 2 steps of the reference), while
     # their slow bounces lose more than R says: timing right, impacts off (rebound)
     result = chatter_gate.check("feigin-pair", engine="mujoco", dt=1e-4, verdict=["match", "rebound"],

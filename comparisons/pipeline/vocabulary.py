@@ -7,7 +7,7 @@
     ('timing', ('unresolved', 'unmeasured'))
 
 Every consumer (compare's summary, sweep rows, the report, the gate, stability maps, the
-tuning guide, the README and the docs) takes names, order, colours and meanings from here,
+tuning guide and the docs) takes names, order, colours and meanings from here,
 and combines the verdicts of several episodes into one with ``combine``: the most severe
 verdict present wins (``SEVERITY``, worst first); ``none`` is what nothing judged gives.
 
@@ -75,7 +75,7 @@ ABBREVIATIONS: dict[str, str] = {v.name: v.abbrev for v in _ALL}
 MEANINGS: dict[str, str] = {v.name: v.meaning for v in _ALL}
 UNDETERMINED: tuple[str, ...] = tuple(v.name for v in _ALL if not v.determined)  # a finer step may pass or fail them
 
-# The words the verdicts, the tables and the docs use, one spelling per thing (docs/verdicts.md, the README).
+# The words the verdicts, the tables and the docs use, one spelling per thing (docs/verdicts.md, docs/explanation/judge.md).
 GLOSSARY: tuple[tuple[str, str], ...] = (
     ("impact", "body 2 reaches a wall and rebounds by Newton's law y'+ = -R y'- (Feigin (1.3)); the event ``impact``"),
     ("strike", "an impact's incoming state (time, wall, y'-), before the law acts: what Feigin's plate and the plate "
@@ -129,7 +129,7 @@ def check_verdict(name: str) -> str:
 
 
 def markdown_table() -> str:
-    """The vocabulary as a Markdown table (README, docs/verdicts.md), best first."""
+    """The vocabulary as a Markdown table (docs/explanation/judge.md, docs/verdicts.md), best first."""
     lines = ["| verdict | group | meaning |", "| --- | --- | --- |"]
     lines += [f"| `{VERDICTS[n].name}` | {VERDICTS[n].group} | {VERDICTS[n].meaning} |" for n in NAMES]
     return "\n".join(lines)
@@ -143,7 +143,7 @@ def text_colour(verdict: str) -> str:
 
 
 def glossary_markdown() -> str:
-    """The glossary as a Markdown list (README, docs/verdicts.md)."""
+    """The glossary as a Markdown list (docs/explanation/judge.md, docs/verdicts.md)."""
     return "\n".join(f"- **{word}**: {meaning.replace('``', '`')}." for word, meaning in GLOSSARY)
 
 
@@ -154,7 +154,7 @@ def document() -> str:
         "# Verdicts",
         "",
         "Generated from `comparisons/pipeline/vocabulary.py` (`python -m chatterbench.comparisons.pipeline.vocabulary"
-        " > docs/verdicts.md`); the README, the report's legend, the gate and the stability maps use the same names,"
+        " > docs/verdicts.md`); the docs, the report's legend, the gate and the stability maps use the same names,"
         " meanings and colours.",
         "",
         "Each episode (a visit to a wall that ends in sticking, in the reference or in the engine) gets one verdict;"

@@ -14,7 +14,7 @@ exactly as it finds installed ones. ``CASES`` are commands run in such a python,
 own process (``run_case``), with what they must do; ``tests/engines/test_plugin_faults.py``
 checks them and ``tests/test_bad_inputs.py`` lists them in ``docs/bad-inputs.md``.
 
-The plugins: ``line`` (the README's from-scratch engine with a ``fault`` setting: ``segfault``,
+The plugins: ``line`` (the plugin how-to's from-scratch engine with a ``fault`` setting: ``segfault``,
 ``exit`` (``os._exit(0)``), ``hang`` in its step, anything else refused with a ValueError); the
 five broken at load: ``broken_import`` (imports a module that is not there), ``nodt`` (settings
 without ``dt``), ``plain`` (settings not a dataclass), ``nostep`` (``build`` without ``step``) and
@@ -44,13 +44,13 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import NamedTuple
 
-README = Path(__file__).resolve().parents[2] / "README.md"
+PLUGIN_PAGE = Path(__file__).resolve().parents[2] / "docs" / "how-to" / "plugin.md"  # the plugin how-to page
 ENV = "CHATTERBENCH_SICONOS_PYTHON"  # the python that runs Siconos's child (engines/siconos_engine/run.py)
 
 
-def readme_block(first_line: str, source: Path = README) -> str:
-    """The fenced code block of ``source`` (the README, or another Markdown file) that starts with ``first_line`` (its
-    text, the fences left out)."""
+def readme_block(first_line: str, source: Path = PLUGIN_PAGE) -> str:
+    """The fenced code block of ``source`` (the plugin how-to page, or another Markdown file) that starts with
+    ``first_line`` (its text, the fences left out)."""
     for block in re.findall(r"```[a-z]*\n(.*?)```", source.read_text(encoding="utf-8"), flags=re.S):
         if block.startswith(first_line):
             return block
@@ -58,7 +58,7 @@ def readme_block(first_line: str, source: Path = README) -> str:
 
 
 def _line_engine() -> str:
-    """The README's engine, renamed ``line``, with a ``fault`` setting its step obeys (module docstring)."""
+    """The plugin how-to's engine, renamed ``line``, with a ``fault`` setting its step obeys (module docstring)."""
     code = readme_block("# chatterbench_euler.py").replace('"euler', '"line').replace("EulerSettings", "LineSettings")
     code = code.replace("EulerEngine", "LineEngine").replace('"chatterbench-euler"', '"cbtest-line"')
     code = code.replace('''    dt: float = 1e-4  # [s] the step, checked when the settings are made
@@ -85,7 +85,7 @@ def _line_engine() -> str:
                 time.sleep(1.0)
 ''')
     code = code.replace("        self.walls = scene.gap.walls\n", "        self.walls, self.fault = scene.gap.walls, settings.fault\n")
-    assert "fault not in" in code and code.count("LineEngine") == 1, "the README's engine changed: update plugin_cases.py"
+    assert "fault not in" in code and code.count("LineEngine") == 1, "the plugin how-to's engine changed: update plugin_cases.py"
     return code
 
 
@@ -110,7 +110,7 @@ _BACKWARDS = ("class Engine(EngineAdapter):\n    name, package, settings_type = 
               "        zero = np.zeros(run.n + 1)\n"
               "        yield Samples(t, {w: zero for w in run.scene.gap.walls}, y=zero + run.scene.initial.y, vy=zero)\n")
 
-# the README's engine (``line``, installed beside it) with one of its reporting methods raising: the run is fine, the
+# the plugin how-to's engine (``line``, installed beside it) with one of its reporting methods raising: the run is fine, the
 # report of it is the plugin's own code that fails
 _LINE_CHILD = ("from cbtest_line import LineEngine\n\n\nclass Engine(LineEngine):\n"
                "    name, package = {name!r}, 'cbtest-{name}'\n\n"
@@ -118,7 +118,7 @@ _LINE_CHILD = ("from cbtest_line import LineEngine\n\n\nclass Engine(LineEngine)
                "    def {method}:\n        raise RuntimeError('this plugin cannot say')\n")
 
 PLUGINS = {  # engine name -> module source (the module is cbtest_NAME, the class Engine; None: no module written)
-    "line": "",  # the README's engine (_line_engine), written when installed; its class is LineEngine
+    "line": "",  # the plugin how-to's engine (_line_engine), written when installed; its class is LineEngine
     "broken_import": "import chatterbench_no_such_dependency  # noqa: F401\n" + _HEAD + _SETTINGS + _adapter("broken_import"),
     "nodt": _HEAD + "@dataclass(frozen=True)\nclass Settings:\n    step: float = 1e-3\n\n\n" + _adapter("nodt"),
     "plain": _HEAD + "class Settings:\n    dt = 1e-3\n\n\n" + _adapter("plain"),

@@ -98,21 +98,21 @@ def test_a_segfault_fault_kills_the_process_running_the_engine():
 
 
 # -- the contract checked when an adapter is registered (engines/contract.py), known answers both ways ----------
-def _readme_engine():
-    """The README's plugin engine (``EulerEngine``, ``EulerSettings``), loaded from its code block."""
+def _howto_engine():
+    """The plugin how-to's engine (``EulerEngine``, ``EulerSettings``), loaded from its code block."""
     import types
 
     from plugin_cases import readme_block
 
     module = types.ModuleType("chatterbench_euler")
     sys.modules[module.__name__] = module
-    exec(compile(readme_block("# chatterbench_euler.py"), "README.md", "exec"), module.__dict__)
+    exec(compile(readme_block("# chatterbench_euler.py"), "docs/how-to/plugin.md", "exec"), module.__dict__)
     return module
 
 
 def _broken(kind: str):
-    """The README's engine with one thing of the contract broken (``kind``)."""
-    euler = _readme_engine()
+    """The plugin how-to's engine with one thing of the contract broken (``kind``)."""
+    euler = _howto_engine()
     base = euler.EulerEngine
     settings = {
         "not frozen": dataclasses.dataclass(type("S", (), {"__annotations__": {"dt": float}, "dt": 1e-3})),
@@ -155,7 +155,7 @@ def _broken(kind: str):
 def test_the_contract_names_what_an_adapter_is_missing(kind, words):
     from chatterbench.engines.contract import problem
 
-    assert problem(_readme_engine().EulerEngine, "euler") == ""  # the README's engine keeps it
+    assert problem(_howto_engine().EulerEngine, "euler") == ""  # the plugin how-to's engine keeps it
     found = problem(_broken(kind), "euler")
     assert words in found and "\n" not in found, found
 

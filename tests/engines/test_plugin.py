@@ -6,7 +6,7 @@ this repository).
 
 Two packages: the engine the plugin how-to (``docs/how-to/plugin.md``) gives whole (its code
 block and its ``pyproject.toml`` block, written to a temporary folder as a user would copy them:
-nothing else is read) and ``examples/engine_plugin`` (pymunk); beside them, the README's engine with a
+nothing else is read) and ``examples/engine_plugin`` (pymunk); beside them, the plugin how-to's engine with a
 wrong restitution (a known answer the other way), written as pip writes a package
 (``plugin_cases.write_installed``). The venv is made from the running
 interpreter with ``--system-site-packages`` and sees the running environment's packages even
@@ -89,7 +89,7 @@ def summary(done: subprocess.CompletedProcess, engine: str, column: str) -> str:
 
 
 def euler_wrong() -> str:
-    """Known answer the other way: the README's engine with every impact at 0.8 R, as engine ``euler_wrong`` of
+    """Known answer the other way: the plugin how-to's engine with every impact at 0.8 R, as engine ``euler_wrong`` of
     package ``chatterbench-euler-wrong`` (its module's source)."""
     code = readme_block("# chatterbench_euler.py").replace("self.R, self.dt = scene.mass1, scene.mass2, scene.restitution",
                                                            "self.R, self.dt = scene.mass1, scene.mass2, 0.8 * scene.restitution")
@@ -101,7 +101,7 @@ def euler_wrong() -> str:
 @pytest.fixture(scope="module")
 def venv(tmp_path_factory):
     """A fresh venv with the how-to's engine (``euler``) and the example's (``pymunk``) installed by pip, and the
-    README's engine made wrong (``euler_wrong``) written beside them as pip writes a package; its python."""
+    plugin how-to's engine made wrong (``euler_wrong``) written beside them as pip writes a package; its python."""
     root = tmp_path_factory.mktemp("plugins")
     python = fresh_venv(root / "venv")
     before = cli(python, "compare", "bouncing-ball", "--engines", "euler", cwd=root)
@@ -148,7 +148,7 @@ def test_the_shipped_contract_suite_passes_from_an_empty_folder(venv, engine):
 @pytest.mark.slow
 def test_the_readme_engine_with_a_wrong_restitution_is_not_match(venv):
     python, root = venv
-    # known answer the other way: the README's engine with every impact at 0.8 R, installed as its own plugin
+    # known answer the other way: the plugin how-to's engine with every impact at 0.8 R, installed as its own plugin
     judged = cli(python, "compare", "bouncing-ball", "--engines", "euler_wrong", cwd=root)
     assert judged.returncode == 0, judged.stderr
     assert summary(judged, "euler_wrong", "verdict") != "match"

@@ -50,9 +50,9 @@ def test_a_single_impact_gives_R_and_theta_moves_its_time(mass1):
 
 
 def test_bouncing_ball_theta_one_lifts_off_late():
-    # the README's departure at dt 1e-4: last lift-off 1.3534 s (theta 0.5) against 1.3561 s (theta 1), Zeno
-    # 1.3546 s: theta 0.5 lands each impact step half a step of motion sooner and comes to rest 12 steps early,
-    # theta 1 moves each impact step with the rebound speed and keeps bouncing 15 steps past Zeno
+    # the engines page's departure (docs/explanation/engines.md) at dt 1e-4: last lift-off 1.3534 s (theta 0.5)
+    # against 1.3561 s (theta 1), Zeno 1.3546 s: theta 0.5 lands each impact step half a step of motion sooner and
+    # comes to rest 12 steps early, theta 1 moves each impact step with the rebound speed and keeps bouncing 15 steps past Zeno
     scene = load_scene("bouncing-ball", ["duration=1.5"])
     last = {}
     for theta in (0.5, 1.0):

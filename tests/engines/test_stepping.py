@@ -1,6 +1,6 @@
-"""The base's step loop (``engines/stepping.py``) and an isolated adapter's runs, on the README's engine (a real one).
+"""The base's step loop (``engines/stepping.py``) and an isolated adapter's runs, on the plugin how-to's engine.
 
-The engine is the README's "Write an engine plugin" code block (semi-implicit Euler, Newton's law
+The engine is the code block of ``docs/how-to/plugin.md`` (a real one: semi-implicit Euler, Newton's law
 at each impact), loaded as its own module: what a plugin author writes, run by the base.
 """
 
@@ -25,7 +25,7 @@ from plugin_cases import readme_block
 def _readme_engine() -> types.ModuleType:
     module = types.ModuleType("chatterbench_euler")
     sys.modules[module.__name__] = module  # the dataclass decorator looks its module up
-    exec(compile(readme_block("# chatterbench_euler.py"), "README.md", "exec"), module.__dict__)
+    exec(compile(readme_block("# chatterbench_euler.py"), "docs/how-to/plugin.md", "exec"), module.__dict__)
     return module
 
 
@@ -33,7 +33,7 @@ EULER = _readme_engine()
 
 
 class Listening(EULER.EulerEngine):
-    """The README's engine, keeping the forces the base handed over and what it did with its world."""
+    """The plugin how-to's engine, keeping the forces the base handed over and what it did with its world."""
 
     def __init__(self, fail_at: int | None = None, nan_at: int | None = None) -> None:
         self.forces, self.states, self.closed, self.fail_at, self.nan_at = [], [], 0, fail_at, nan_at

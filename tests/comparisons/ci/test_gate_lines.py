@@ -89,15 +89,15 @@ def test_a_bare_keyword_on_a_signed_column_is_refused():
     assert str(limits_from_keywords(stick_error_worst=(">=", -0.01))[0]) == "stick_error_worst >= -0.01"
 
 
-def test_the_readmes_gate_file_format_reads_as_written(tmp_path):
-    # the README documents the format (before: only a docstring did); its example is a valid gate file, lines and all
+def test_the_gate_pages_file_format_reads_as_written(tmp_path):
+    # the docs document the format (before: only a docstring did); the how-to's example is a valid gate file, lines
+    # and all (the reference page, docs/reference/gate-file.md, is written from gate.py's docstring at build time)
     from pathlib import Path
 
     from chatterbench.comparisons.ci.gate import load_gate
 
-    readme = (Path(__file__).resolve().parents[3] / "README.md").read_text(encoding="utf-8")
-    section = readme.split("## Gates in your CI", 1)[1]
-    example = section.split("```toml\n", 1)[1].split("```", 1)[0]
+    page = (Path(__file__).resolve().parents[3] / "docs" / "how-to" / "gate.md").read_text(encoding="utf-8")
+    example = page.split("```toml\n", 1)[1].split("```", 1)[0]
     (tmp_path / "example.toml").write_text(example)
     gate = load_gate(tmp_path / "example.toml")
     check = gate.checks[0]

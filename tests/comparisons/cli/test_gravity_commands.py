@@ -47,8 +47,9 @@ def test_the_reference_ball_falls_at_g_whatever_its_mass(tmp_path, mass2):
     assert t == pytest.approx(T1, abs=1e-12) and "note" not in err
 
 
-# PhysX's speculative contact acts on a body that would reach the wall just after the step's end (README, PhysX's
-# TGS against PGS): its impact can come a step before the crossing's step, 1.24 steps early here (0.4514 s)
+# PhysX's speculative contact acts on a body that would reach the wall just after the step's end
+# (docs/explanation/engines.md, PhysX's TGS against PGS): its impact can come a step before the crossing's step,
+# 1.24 steps early here (0.4514 s)
 STEPS = {"physx": 2.0}
 
 

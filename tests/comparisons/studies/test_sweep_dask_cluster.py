@@ -1,8 +1,8 @@
 """A sweep on a real Dask cluster, as a user runs one: `dask scheduler` and two `dask worker` processes on
 127.0.0.1, `chatterbench sweep --dask tcp://...` in a process of its own, one worker killed mid-sweep.
 
-The README's "A Dask cluster of your own" shows the same commands. Every row must come back, identical to a local
-sweep's: a worker's death loses its runs in flight, which the scheduler hands to the other worker.
+docs/how-to/sweeps.md ("A Dask cluster of your own") shows the same commands. Every row must come back, identical
+to a local sweep's: a worker's death loses its runs in flight, which the scheduler hands to the other worker.
 """
 
 from __future__ import annotations
