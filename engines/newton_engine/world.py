@@ -160,7 +160,7 @@ class World:
         else:
             self.solver = newton.solvers.SolverSemiImplicit(model, angular_damping=0.0)
         self.a, self.b, self.control = model.state(), model.state(), model.control()
-        qd = self.a.body_qd.numpy()
+        qd = self.a.body_qd.numpy().copy()  # a copy: on the CPU device numpy() is a view, which the warm-up step moves
         if self.finite1:
             qd[self.i1, 0] = ini.v1
         qd[self.i2, 0] = ini.v1 + ini.vy
