@@ -75,6 +75,21 @@ class _Newton(EngineAdapter):
         return {"solver": self.solver, "precision": self.precision, "device": device, "warp_version": wp.__version__,
                 "warmup_s": load.seconds, "kernels": "compiled" if load.compiled else "cached"}
 
+    exports = ("scene.py",)  # a complete Newton script
+    export_kind = "a Python script"
+
+    def snippet(self, scene: Scene, settings: Any = None) -> str:
+        """The shape settings and the solver these settings make, as Newton code (``export.snippet``)."""
+        from .export import snippet
+
+        return snippet(scene, self.settings(settings), self.solver)
+
+    def export(self, scene: Scene, settings: Any, command: str | None = None) -> dict[str, str]:
+        """``scene.py``: the scene built and stepped with Newton alone (``export.scene_script``)."""
+        from .export import scene_script
+
+        return {self.exports[0]: scene_script(scene, self.settings(settings), self.solver)}
+
     def forks(self, settings: Any) -> bool:
         """On the CPU device a run may be forked; on cuda not (a CUDA context does not survive a fork)."""
         return device_name(settings.device) != "cuda"

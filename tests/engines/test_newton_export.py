@@ -1,0 +1,53 @@
+"""Newton's exported script (``run --export-model scene.py``): run in a fresh process with newton alone, it prints the
+run's impacts as chatterbench's judge measures them."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+
+import pytest
+
+pytest.importorskip("newton", reason="the newton extra is not installed: pip install \".[newton]\"")
+
+from chatterbench.comparisons.pipeline.extract import extract  # noqa: E402
+from chatterbench.comparisons.pipeline.solution import solve  # noqa: E402
+from chatterbench.comparisons.pipeline.tolerances import Tolerances  # noqa: E402
+from chatterbench.engines.registry import make_settings, run_engine  # noqa: E402
+from chatterbench.reference import load_scene  # noqa: E402
+
+from helpers import cli as cli_here  # noqa: E402
+
+# the script must not need chatterbench: it runs in a fresh interpreter where importing chatterbench fails
+NO_CHATTERBENCH = "import sys; sys.modules['chatterbench'] = None; exec(open(sys.argv[1]).read())"
+
+
+def _printed(stdout: str) -> list[tuple[float, float, float, float]]:
+    """(t, v_in, v_out, e) of each ``impact`` line the script printed, after its ``# impact:`` header."""
+    header, *lines = stdout.splitlines()
+    assert header.startswith("# impact: ")
+    return [tuple(float(w.split("=")[1]) for w in line.split()[1:]) for line in lines if line.startswith("impact ")]
+
+
+@pytest.mark.parametrize("engine", ["newton_xpbd", "newton_semi"])
+def test_the_exported_script_prints_the_runs_impacts(tmp_path, engine):
+    over = "duration=1.3"  # six bounces and the start of the chatter: the script's run is a few seconds
+    done = cli_here(["run", "bouncing-ball", "--engines", engine, "--set", over, "--export-model",
+                     str(tmp_path / "scene.py")])
+    assert done.code == 0, done.err
+    counted = int(re.search(r"(\d+) impacts", done.out).group(1))
+    out = subprocess.run([sys.executable, "-c", NO_CHATTERBENCH, str(tmp_path / "scene.py")], capture_output=True,
+                         text=True, cwd=tmp_path, timeout=600)
+    assert out.returncode == 0, out.stderr
+    printed = _printed(out.stdout)
+    scene = load_scene("bouncing-ball", [over])
+    found = extract(run_engine(engine, scene, make_settings(engine)), scene, solve(scene).stick_tolerance(Tolerances().stick))
+    judged = found.log[found.log["kind"] == "impact"]
+    assert len(printed) == counted == len(judged) >= 5
+    for (t, v_in, v_out, e), row in zip(printed, judged.itertuples()):
+        # the same engine, model, forces and sampling in float32: the judge's impacts to its printed digits
+        assert t == pytest.approx(row.t, abs=1e-6) and v_in == pytest.approx(row.v_minus, rel=1e-5)
+        assert e == pytest.approx(-row.v_plus / row.v_minus, rel=1e-5, nan_ok=True)
+    first = printed[0]
+    assert first[3] == pytest.approx(0.5, abs=0.02)  # the ball bounces with R (semi: within its phase error)
