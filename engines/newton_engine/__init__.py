@@ -27,8 +27,9 @@ and time scale), ``world`` (the model, the captured step, the kernels' loading),
 adapters), ``export`` (the scene as a script for Newton alone). Both step in float32, on cuda
 where warp finds a GPU and on warp's CPU device otherwise; each step is one launch of a warp
 graph captured when the world is built. The first run on a machine compiles Newton's kernels
-(about 25 s for XPBD and 10 s for semi-implicit on an idle 2-core machine, minutes when it is
-loaded; warp caches them), before the run's clock starts: the record's ``warmup_s`` and ``kernels``.
+(measured with an empty warp cache on this 2-core machine, one other job running: 27.9 s for
+XPBD with the collision pipeline, then 7.4 s more for semi-implicit; from the cache 0.6 s and
+0.1 s), before the run's clock starts: the record's ``warmup_s`` and ``kernels``.
 Prescribed body 1 (a moved wall) is not written yet: such a scene is refused in one line.
 """
 

@@ -41,8 +41,8 @@ from .world import World, build, device_name, load_kernels
 IMPULSE_RELATIVE_TOLERANCE = 1e-5
 IMPULSE_ABSOLUTE_TOLERANCE = 1e-7  # [m/s]
 
-FIRST_RUN = ("the first run on a machine compiles Newton's {solver} kernels for warp's device (about 3 minutes on a "
-             "loaded 2-core CPU; cached by warp under ~/.cache/warp, then loaded in seconds)")
+FIRST_RUN = ("the first run on a machine compiles Newton's {solver} kernels for warp's device ({cold} on a 2-core CPU, "
+             "minutes when it is loaded; cached by warp under ~/.cache/warp, then loaded in under a second)")
 
 
 class _Newton(EngineAdapter):
@@ -101,7 +101,7 @@ class NewtonXpbdEngine(_Newton):
     name = "newton_xpbd"
     settings_type = XpbdSettings
     solver = "xpbd"
-    first_run_note = FIRST_RUN.format(solver="XPBD")
+    first_run_note = FIRST_RUN.format(solver="XPBD", cold="about 30 s")
 
     def step(self, w: World, forces: tuple[float, float]) -> tuple[tuple, tuple[float, ...]]:
         """One captured step; the walls' push from body 2's momentum (module docstring)."""
@@ -138,7 +138,7 @@ class NewtonSemiEngine(_Newton):
     settings_type = SemiSettings
     solver = "semi"
     compliant = True
-    first_run_note = FIRST_RUN.format(solver="semi-implicit")
+    first_run_note = FIRST_RUN.format(solver="semi-implicit", cold="about 10 s")
 
     def validate(self, scene: Scene, settings: SemiSettings) -> None:
         """The explicit damper overshoots past zeta w0 dt = 1 (R small, ``kd_scale`` large): refused."""
