@@ -24,10 +24,11 @@ from typing import Any
 from chatterbench.reference.scene import Scene
 
 from ..base import n_steps
-from ..impact_lines import acceleration_line, docstring, flight_band, force_lines, record_lines, report_lines, setup_lines
+from ..impact_lines import (acceleration_line, docstring, flight_band, force_lines, loop_start_lines, record_lines,
+                            report_lines, setup_lines)
 from .penalty import ke_kd, relative_mass
-from .run import IMPULSE_ABSOLUTE_TOLERANCE, IMPULSE_RELATIVE_TOLERANCE
-from .world import BODY2_HALF, DETECT_GAP, INERTIA, WALL_HALF, WALL_SIDE
+from .world import (BODY2_HALF, DETECT_GAP, IMPULSE_ABSOLUTE_TOLERANCE, IMPULSE_RELATIVE_TOLERANCE, INERTIA, WALL_HALF,
+                    WALL_SIDE)
 
 
 def _num(v: float) -> str:
@@ -159,13 +160,7 @@ def scene_script(scene: Scene, settings: Any, solver: str) -> str:
         "",
         "",
         "body_f = np.zeros((model.body_count, 6), np.float32)  # the forces of the next step [N]",
-        f"x1, v1 = {_num(ini.x1)}, {_num(ini.v1)}",
-        f"x2, v2 = {_num(ini.x1 + ini.y)}, {_num(ini.v1 + ini.vy)}",
-        "for wall in WALLS:  # sample 0: no step has ended there, no wall has pushed",
-        "    forces[wall].append(0.0)",
-        "for k in range(STEPS + 1):  # sample k, then the step from it",
-        "    t = T0 + k * DT",
-        "    y, vy = x2 - x1, v2 - v1  # the sample as the adapter records it",
+        *loop_start_lines(scene),
         *force_lines(scene, "    "),
         acceleration_line(scene, "    "),
         *record_lines("    "),

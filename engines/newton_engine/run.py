@@ -33,13 +33,8 @@ from chatterbench.reference.scene import Scene
 from ..api import EngineAdapter, SettingsError
 from .penalty import contact_duration, ke_kd, relative_mass
 from .settings import SemiSettings, XpbdSettings
-from .world import World, build, device_name, load_kernels
+from .world import IMPULSE_ABSOLUTE_TOLERANCE, IMPULSE_RELATIVE_TOLERANCE, World, build, device_name, load_kernels
 
-# A step's velocity change of body 2 beyond what its forces give above which a wall pushed (XPBD): relative to
-# |v2| + |f2 dt / m2| [-], plus a floor [m/s]. Newton steps in float32 (rounding 6e-8 relative); a push below these
-# moves v2 by less than 1e-5 of its size and is reported as none.
-IMPULSE_RELATIVE_TOLERANCE = 1e-5
-IMPULSE_ABSOLUTE_TOLERANCE = 1e-7  # [m/s]
 
 FIRST_RUN = ("the first run on a machine compiles Newton's {solver} kernels for warp's device ({cold} on a 2-core CPU, "
              "minutes when it is loaded; cached by warp under ~/.cache/warp, then loaded in under a second)")

@@ -43,6 +43,11 @@ WALL_HALF = 0.5  # [m] half thickness of each wall along x: deeper than a soft c
 WALL_SIDE = 0.5  # [m] half extent of each wall across x: the nearest face stays the +x one
 DETECT_GAP = 0.01  # [m] contact detection distance (Newton's shape ``gap``): contacts found this far ahead
 INERTIA = 1e-3  # [kg m^2] each moving body's (diagonal) inertia: never used along x, only inverted
+# A step's velocity change of body 2 beyond what its forces give above which a wall pushed (XPBD): relative to
+# |v2| + |f2 dt / m2| [-], plus a floor [m/s]. Newton steps in float32 (rounding 6e-8 relative); a push below these
+# moves v2 by less than 1e-5 of its size and is reported as none.
+IMPULSE_RELATIVE_TOLERANCE = 1e-5
+IMPULSE_ABSOLUTE_TOLERANCE = 1e-7  # [m/s]
 
 
 @functools.cache
