@@ -28,6 +28,7 @@ from __future__ import annotations
 import functools
 import math
 import os
+import sys
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -52,11 +53,27 @@ IMPULSE_ABSOLUTE_TOLERANCE = 1e-7  # [m/s]
 
 @functools.cache
 def modules() -> tuple[Any, Any]:
-    """``(warp, newton)`` imported once, warp's per-module load lines silenced (the engine layer prints nothing)."""
+    """``(warp, newton)`` imported once, quietly: warp's banner and per-module load lines off, and its initialisation
+    run with file descriptor 2 on /dev/null (without a CUDA driver warp's C code writes a warning there, a second line
+    under every one-line message of the command line); the engine layer prints nothing."""
     import warp as wp
 
     wp.config.quiet = True
     wp.config.log_level = max(wp.config.log_level, wp.LOG_WARNING)
+    try:
+        sys.stderr.flush()
+        saved = os.dup(2)
+    except (OSError, ValueError):  # no usable fd 2: nothing to protect
+        wp.init()
+    else:
+        try:
+            null = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(null, 2)
+            os.close(null)
+            wp.init()
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
     import newton
 
     return wp, newton
