@@ -33,7 +33,7 @@ from chatterbench.reference.scene import Scene
 from ..api import EngineAdapter, SettingsError
 from .penalty import contact_duration, ke_kd, relative_mass
 from .settings import SemiSettings, XpbdSettings
-from .world import IMPULSE_ABSOLUTE_TOLERANCE, IMPULSE_RELATIVE_TOLERANCE, World, build, device_name, load_kernels
+from .world import IMPULSE_ABSOLUTE_TOLERANCE, IMPULSE_RELATIVE_TOLERANCE, World, build, device_name, load_kernels, modules
 
 
 FIRST_RUN = ("the first run on a machine compiles Newton's {solver} kernels for warp's device ({cold} on a 2-core CPU, "
@@ -66,7 +66,7 @@ class _Newton(EngineAdapter):
 
     def record(self, scene: Scene, settings: Any) -> dict[str, Any]:
         """The device, the precision, the versions, and the kernels' loading (done here, before the run's clock)."""
-        wp = __import__("warp")
+        wp, _ = modules()
         device = device_name(settings.device)
         load = load_kernels(self.solver, device)
         return {"solver": self.solver, "precision": self.precision, "device": device, "warp_version": wp.__version__,
