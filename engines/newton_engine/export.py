@@ -43,9 +43,11 @@ def snippet(scene: Scene, settings: Any, solver: str) -> str:
                        f"rigid_contact_relaxation={_num(s.rigid_contact_relaxation)}, "
                        f"rigid_contact_restitution_iterations={s.restitution_iterations}, angular_damping=0.0)")
         cfg = (f"cfg = newton.ModelBuilder.ShapeConfig(restitution={_num(scene.restitution)}, mu=0.0, kf=0.0, "
-               f"density=0.0, gap={_num(DETECT_GAP)})  # every shape: XPBD averages the two shapes' restitution")
+               f"density=0.0, gap={_num(DETECT_GAP * s.length_unit)})  # every shape: XPBD averages the two shapes' "
+               "restitution")
         note = (f"# XPBD's restitution acts on approach speeds above 2 |g| dt = {_num(s.threshold(scene.gravity))} m/s "
-                "(g in the model); slower impacts are plastic")
+                f"(g in the model); slower impacts are plastic; lengths in units of 1 / {_num(s.length_unit)} m (XPBD "
+                "sets speeds below 1e-4 units/s to 0)")
     else:
         ke, kd = ke_kd(settings.w0, settings.zeta(scene.restitution), relative_mass(scene.mass1, scene.mass2))
         solver_line = "solver = newton.solvers.SolverSemiImplicit(model, angular_damping=0.0)"
@@ -63,19 +65,20 @@ def scene_script(scene: Scene, settings: Any, solver: str) -> str:
     ini, gap = scene.initial, scene.gap
     finite1 = not scene.body1_infinite
     g = scene.gravity if s.gravity_in_model else 0.0
+    L = getattr(s, "length_unit", 1.0)  # model length units per metre (XPBD's ``length_unit``)
     faces = [gap.lower - BODY2_HALF - WALL_HALF] + ([gap.upper + BODY2_HALF + WALL_HALF] if gap.upper is not None else [])
     i1, i2 = (0, 1) if finite1 else (None, 0)
     pasted = snippet(scene, s, solver).replace("import newton\n", "").rstrip().splitlines()
     solver_line, pasted = pasted[-1], "\n".join(line for line in pasted[:-1] if not line.startswith("# ..."))
     walls_box = (f"    builder.add_shape_box({{body}}, xform=wp.transform(wp.vec3({{x}}, 0.0, 0.0), wp.quat_identity()), "
-                 f"hx={_num(WALL_HALF)}, hy={_num(WALL_SIDE)}, hz={_num(WALL_SIDE)}, cfg=cfg)")
+                 f"hx={_num(L * WALL_HALF)}, hy={_num(L * WALL_SIDE)}, hz={_num(L * WALL_SIDE)}, cfg=cfg)")
     if finite1:
-        body1 = [f"body1 = builder.add_link(xform=wp.transform(wp.vec3({_num(ini.x1)}, 0.0, 0.0), wp.quat_identity()), "
+        body1 = [f"body1 = builder.add_link(xform=wp.transform(wp.vec3({_num(L * ini.x1)}, 0.0, 0.0), wp.quat_identity()), "
                  f"mass={_num(scene.mass1)}, inertia=inertia)",
-                 f"for x in {faces!r}:", walls_box.format(body="body1", x="x"),
+                 f"for x in {[L * f for f in faces]!r}:", walls_box.format(body="body1", x="x"),
                  "joints.append(builder.add_joint_prismatic(-1, body1, axis=newton.Axis.X))"]
     else:
-        body1 = [f"for x in {[ini.x1 + f for f in faces]!r}:  # a fixed body 1: static shapes",
+        body1 = [f"for x in {[L * (ini.x1 + f) for f in faces]!r}:  # a fixed body 1: static shapes",
                  walls_box.format(body="-1", x="x")]
     if solver == "xpbd":
         push = ["    v_free = v2 + f2 * DT / M2",
@@ -118,13 +121,14 @@ def scene_script(scene: Scene, settings: Any, solver: str) -> str:
         pasted.rstrip(),
         "",
         f"M2, G = {_num(scene.mass2)}, {_num(g)}  # body 2's mass [kg]; the gravity in Newton's model [m/s^2] along x",
-        "builder = newton.ModelBuilder(up_axis=newton.Axis.X, gravity=(G, 0.0, 0.0))",
+        f"L = {_num(L)}  # Newton's length units per metre: lengths, speeds and forces to the model x L, back / L",
+        "builder = newton.ModelBuilder(up_axis=newton.Axis.X, gravity=(G * L, 0.0, 0.0))",
         f"inertia = wp.mat33(np.eye(3) * {_num(INERTIA)})  # never used along x, only inverted",
         "joints = []",
         *body1,
-        f"ball = builder.add_link(xform=wp.transform(wp.vec3({_num(ini.x1 + ini.y)}, 0.0, 0.0), wp.quat_identity()), "
+        f"ball = builder.add_link(xform=wp.transform(wp.vec3({_num(L * (ini.x1 + ini.y))}, 0.0, 0.0), wp.quat_identity()), "
         f"mass=M2, inertia=inertia)",
-        f"builder.add_shape_sphere(ball, radius={_num(BODY2_HALF)}, cfg=cfg)",
+        f"builder.add_shape_sphere(ball, radius={_num(L * BODY2_HALF)}, cfg=cfg)",
         "joints.append(builder.add_joint_prismatic(-1, ball, axis=newton.Axis.X))",
         "for j in joints:",
         "    builder.add_articulation([j])",
@@ -132,8 +136,8 @@ def scene_script(scene: Scene, settings: Any, solver: str) -> str:
         solver_line,
         "s0, s1, control = model.state(), model.state(), model.control()  # the step goes s0 -> s1, copied back",
         "qd0 = s0.body_qd.numpy().copy()",
-        *([f"qd0[{i1}, 0] = {_num(ini.v1)}"] if finite1 else []),
-        f"qd0[{i2}, 0] = {_num(ini.v1 + ini.vy)}",
+        *([f"qd0[{i1}, 0] = L * {_num(ini.v1)}"] if finite1 else []),
+        f"qd0[{i2}, 0] = L * {_num(ini.v1 + ini.vy)}",
         "s0.body_qd.assign(qd0)",
         "pipeline = newton.CollisionPipeline(model)",
         "contacts = pipeline.contacts()",
@@ -166,8 +170,9 @@ def scene_script(scene: Scene, settings: Any, solver: str) -> str:
         *record_lines("    "),
         "    if k == STEPS:",
         "        break",
-        *([f"    body_f[{i1}, 0] = f1 - {_num(scene.mass1)} * G  # Newton adds the weight itself"] if finite1 else []),
-        f"    body_f[{i2}, 0] = f2 - M2 * G",
+        *([f"    body_f[{i1}, 0] = (f1 - {_num(scene.mass1)} * G) * L  # Newton adds the weight itself"] if finite1
+          else []),
+        "    body_f[%d, 0] = (f2 - M2 * G) * L" % i2,
         "    pushed = {wall: 0.0 for wall in WALLS}",
         *push,
         "    for wall in WALLS:",
@@ -181,5 +186,5 @@ def _read(finite1: bool, i1: int | None, i2: int) -> list[str]:
     """Lines reading the state after a step (body 1 stays where it is when fixed)."""
     lines = ["    q, qd = s0.body_q.numpy(), s0.body_qd.numpy()"]
     if finite1:
-        lines.append(f"    x1, v1 = float(q[{i1}, 0]), float(qd[{i1}, 0])")
-    return lines + [f"    x2, v2 = float(q[{i2}, 0]), float(qd[{i2}, 0])"]
+        lines.append(f"    x1, v1 = float(q[{i1}, 0]) / L, float(qd[{i1}, 0]) / L")
+    return lines + [f"    x2, v2 = float(q[{i2}, 0]) / L, float(qd[{i2}, 0]) / L"]

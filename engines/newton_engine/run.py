@@ -120,12 +120,14 @@ class NewtonXpbdEngine(_Newton):
 
     def tuning_space(self, scene: Scene) -> dict[str, tuple]:
         """dt from 1 ms to 10 us (the restitution threshold 2 |g| dt falls with it); the iterations, the contact
-        relaxation, gravity in the model or as a force (the threshold on or off). Defaults first."""
+        relaxation, gravity in the model or as a force (the threshold on or off), metres or millimetres (XPBD's speed
+        floor 1e-4 model units/s). Defaults first."""
         base = XpbdSettings()
         return {"dt": (1e-3, 3e-4, 1e-4, 3e-5, 1e-5),
                 "newton_xpbd.iterations": (base.iterations, 1, 4, 8),
                 "newton_xpbd.rigid_contact_relaxation": (base.rigid_contact_relaxation, 0.5, 1.0),
-                "newton_xpbd.gravity_in_model": (base.gravity_in_model, not base.gravity_in_model)}
+                "newton_xpbd.gravity_in_model": (base.gravity_in_model, not base.gravity_in_model),
+                "newton_xpbd.length_unit": (base.length_unit, 1000.0)}
 
 
 class NewtonSemiEngine(_Newton):

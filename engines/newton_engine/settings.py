@@ -44,9 +44,14 @@ class XpbdSettings:
     # slower impacts are plastic, so the chatter ends early. False: gravity applied as a force, no threshold.
     gravity_in_model: bool = True
     device: str = "auto"  # warp device: "auto" (cuda where present, else cpu), "cpu" or "cuda"
+    # Newton model length units per metre, >= 1: 1 a model in metres, 1000 in millimetres (masses in kg either way).
+    # XPBD sets every body's speed below 1e-4 model units/s to 0 (``kernels.apply_body_deltas``): 1e-4 m/s in metres,
+    # 1e-7 m/s in millimetres. The same physics otherwise (float32 keeps the same relative precision).
+    length_unit: float = 1.0
 
     def __post_init__(self) -> None:
         check_dt("newton_xpbd", self.dt)
+        check_number("newton_xpbd.length_unit", self.length_unit, lo=1.0, hi=1e6)
         check_integer("newton_xpbd.iterations", self.iterations, lo=1, hi=1000)
         check_number("newton_xpbd.rigid_contact_relaxation", self.rigid_contact_relaxation, lo=0.0, hi=1.0, lo_open=True)
         check_integer("newton_xpbd.restitution_iterations", self.restitution_iterations, lo=1, hi=100)

@@ -146,29 +146,32 @@ class World:
         # the weights [N] Newton's model adds (gravity in it): taken off the forces the base hands over
         self.weight1 = scene.mass1 * g if self.finite1 else 0.0
         self.weight2 = scene.mass2 * g
-        builder = newton.ModelBuilder(up_axis=newton.Axis.X, gravity=(g, 0.0, 0.0))
+        # model length units per metre (``length_unit``): lengths, speeds, accelerations and forces x L, masses as they are
+        self.L = L = float(getattr(settings, "length_unit", 1.0))
+        builder = newton.ModelBuilder(up_axis=newton.Axis.X, gravity=(g * L, 0.0, 0.0))
         cfg = shape_config(newton, scene, settings, solver)
         ini = scene.initial
         identity = wp.quat_identity()
-        faces = [("lower", scene.gap.lower - BODY2_HALF - WALL_HALF)]
+        faces = [("lower", L * (scene.gap.lower - BODY2_HALF - WALL_HALF))]
         if scene.gap.upper is not None:
-            faces.append(("upper", scene.gap.upper + BODY2_HALF + WALL_HALF))
+            faces.append(("upper", L * (scene.gap.upper + BODY2_HALF + WALL_HALF)))
+        half, side = L * WALL_HALF, L * WALL_SIDE
         inertia = wp.mat33(np.eye(3) * INERTIA)
         joints = []
         if self.finite1:
-            body1 = builder.add_link(xform=wp.transform(wp.vec3(ini.x1, 0.0, 0.0), identity), mass=scene.mass1,
+            body1 = builder.add_link(xform=wp.transform(wp.vec3(L * ini.x1, 0.0, 0.0), identity), mass=scene.mass1,
                                      inertia=inertia, label="body1")
             for _, centre in faces:
-                builder.add_shape_box(body1, xform=wp.transform(wp.vec3(centre, 0.0, 0.0), identity), hx=WALL_HALF,
-                                      hy=WALL_SIDE, hz=WALL_SIDE, cfg=cfg)
+                builder.add_shape_box(body1, xform=wp.transform(wp.vec3(centre, 0.0, 0.0), identity), hx=half, hy=side,
+                                      hz=side, cfg=cfg)
             joints.append(builder.add_joint_prismatic(-1, body1, axis=newton.Axis.X))
         else:
             for _, centre in faces:
-                builder.add_shape_box(-1, xform=wp.transform(wp.vec3(ini.x1 + centre, 0.0, 0.0), identity),
-                                      hx=WALL_HALF, hy=WALL_SIDE, hz=WALL_SIDE, cfg=cfg)
-        body2 = builder.add_link(xform=wp.transform(wp.vec3(ini.x1 + ini.y, 0.0, 0.0), identity), mass=scene.mass2,
+                builder.add_shape_box(-1, xform=wp.transform(wp.vec3(L * ini.x1 + centre, 0.0, 0.0), identity),
+                                      hx=half, hy=side, hz=side, cfg=cfg)
+        body2 = builder.add_link(xform=wp.transform(wp.vec3(L * (ini.x1 + ini.y), 0.0, 0.0), identity), mass=scene.mass2,
                                  inertia=inertia, label="body2")
-        builder.add_shape_sphere(body2, radius=BODY2_HALF, cfg=cfg)
+        builder.add_shape_sphere(body2, radius=L * BODY2_HALF, cfg=cfg)
         joints.append(builder.add_joint_prismatic(-1, body2, axis=newton.Axis.X))
         for j in joints:
             builder.add_articulation([j])
@@ -184,8 +187,8 @@ class World:
         self.a, self.b, self.control = model.state(), model.state(), model.control()
         qd = self.a.body_qd.numpy().copy()  # a copy: on the CPU device numpy() is a view, which the warm-up step moves
         if self.finite1:
-            qd[self.i1, 0] = ini.v1
-        qd[self.i2, 0] = ini.v1 + ini.vy
+            qd[self.i1, 0] = L * ini.v1
+        qd[self.i2, 0] = L * (ini.v1 + ini.vy)
         self.a.body_qd.assign(qd)
         self.pipeline = newton.CollisionPipeline(model)
         self.contacts = self.pipeline.contacts()
@@ -219,8 +222,8 @@ class World:
     def push(self, f1: float, f2: float) -> None:
         """The forces [N] along x on body 1 and body 2 for the next step, the model's gravity taken off (it adds it)."""
         if self.finite1:
-            self.f[self.i1, 0] = f1 - self.weight1
-        self.f[self.i2, 0] = f2 - self.weight2
+            self.f[self.i1, 0] = (f1 - self.weight1) * self.L
+        self.f[self.i2, 0] = (f2 - self.weight2) * self.L
         if not self.views:
             self.a.body_f.assign(self.f)
 
@@ -228,10 +231,10 @@ class World:
         """(x1, v1, x2, v2) [m, m/s] after the last step (x1, v1 nan for an infinite body 1)."""
         if not self.views:
             self.q, self.qd = self.a.body_q.numpy(), self.a.body_qd.numpy()
-        q, qd = self.q, self.qd
+        q, qd, L = self.q, self.qd, self.L
         if self.finite1:
-            return float(q[0, 0]), float(qd[0, 0]), float(q[1, 0]), float(qd[1, 0])
-        return math.nan, math.nan, float(q[0, 0]), float(qd[0, 0])
+            return float(q[0, 0]) / L, float(qd[0, 0]) / L, float(q[1, 0]) / L, float(qd[1, 0]) / L
+        return math.nan, math.nan, float(q[0, 0]) / L, float(qd[0, 0]) / L
 
 
 def shape_config(newton: Any, scene: Scene, settings: Any, solver: str) -> Any:
@@ -243,7 +246,8 @@ def shape_config(newton: Any, scene: Scene, settings: Any, solver: str) -> Any:
 
         ke, kd = ke_kd(settings.w0, settings.zeta(scene.restitution), relative_mass(scene.mass1, scene.mass2))
     return newton.ModelBuilder.ShapeConfig(density=0.0, mu=0.0, kf=0.0, ka=0.0, restitution=scene.restitution,
-                                           ke=ke, kd=kd, gap=DETECT_GAP, margin=0.0)
+                                           ke=ke, kd=kd, gap=DETECT_GAP * getattr(settings, "length_unit", 1.0),
+                                           margin=0.0)
 
 
 def build(scene: Scene, settings: Any, solver: str, capture: bool = True) -> World:

@@ -207,6 +207,15 @@ def test_xpbd_floors_speeds_below_1e_4_to_zero():
     assert fast.vy[-1] == pytest.approx(2.0 * 0.01, rel=1e-4)
     semi = pushed(SEMI, SemiSettings(), 0.5)
     assert semi.vy[-1] == pytest.approx(0.5 * 0.01, rel=1e-4)
+    # the floor is in model units: a model in millimetres (length_unit 1000) floors 1e-7 m/s, and the push accelerates
+    mm = pushed(XPBD, XpbdSettings(length_unit=1000.0), 0.5)
+    assert mm.vy[-1] == pytest.approx(0.5 * 0.01, rel=1e-4)
+
+
+def test_xpbd_in_millimetres_is_the_same_bounce():
+    # length_unit scales lengths, speeds and forces into the model and back: one impact gives R as in metres
+    for v in SPEEDS:
+        assert _e(XPBD.run(_impact(v, 0.3, after=20), XpbdSettings(length_unit=1000.0))) == pytest.approx(0.5, abs=1e-6)
 
 
 def test_the_captured_step_is_the_launched_step():

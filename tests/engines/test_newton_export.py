@@ -30,11 +30,12 @@ def _printed(stdout: str) -> list[tuple[float, float, float, float]]:
     return [tuple(float(w.split("=")[1]) for w in line.split()[1:]) for line in lines if line.startswith("impact ")]
 
 
-@pytest.mark.parametrize("engine", ["newton_xpbd", "newton_semi"])
-def test_the_exported_script_prints_the_runs_impacts(tmp_path, engine):
+@pytest.mark.parametrize("engine, sets", [("newton_xpbd", []), ("newton_semi", []),
+                                          ("newton_xpbd", ["newton_xpbd.length_unit=1000"])])
+def test_the_exported_script_prints_the_runs_impacts(tmp_path, engine, sets):
     over = "duration=1.3"  # six bounces and the start of the chatter: the script's run is a few seconds
-    done = cli_here(["run", "bouncing-ball", "--engines", engine, "--set", over, "--export-model",
-                     str(tmp_path / "scene.py")])
+    done = cli_here(["run", "bouncing-ball", "--engines", engine, "--set", over, *[w for o in sets for w in ("--set", o)],
+                     "--export-model", str(tmp_path / "scene.py")])
     assert done.code == 0, done.err
     counted = int(re.search(r"(\d+) impacts", done.out).group(1))
     out = subprocess.run([sys.executable, "-c", NO_CHATTERBENCH, str(tmp_path / "scene.py")], capture_output=True,
@@ -42,7 +43,8 @@ def test_the_exported_script_prints_the_runs_impacts(tmp_path, engine):
     assert out.returncode == 0, out.stderr
     printed = _printed(out.stdout)
     scene = load_scene("bouncing-ball", [over])
-    found = extract(run_engine(engine, scene, make_settings(engine)), scene, solve(scene).stick_tolerance(Tolerances().stick))
+    settings = make_settings(engine, overrides=sets)
+    found = extract(run_engine(engine, scene, settings), scene, solve(scene).stick_tolerance(Tolerances().stick))
     judged = found.log[found.log["kind"] == "impact"]
     assert len(printed) == counted == len(judged) >= 5
     for (t, v_in, v_out, e), row in zip(printed, judged.itertuples()):
