@@ -190,7 +190,7 @@ def _as_dict(scene) -> dict:
 
 def test_xpbd_floors_speeds_below_1e_4_to_zero():
     # Newton 1.8's XPBD zeroes every body's velocity below 1e-4 m/s whenever it applies constraint deltas (kernels.
-    # apply_body_deltas, "this improves gradient stability"; the prismatic joints make that every step). Known answer
+    # apply_body_deltas, "this improves gradient stability"; the contact and joint solves do, every step). Known answer
     # both ways: a body pushed from rest by 0.5 N on 1 kg (5e-5 m/s a step at dt = 1e-4) keeps speed 0 and creeps by
     # f dt^2 / m a step; 2 N (2e-4 m/s a step) accelerates as Newton's second law says. The semi-implicit solver has no
     # floor. This is why feigin-pair's body 1, pushed by sin(t) from rest, never starts in XPBD (docs: engines.md).
