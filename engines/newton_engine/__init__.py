@@ -30,7 +30,7 @@ graph captured when the world is built. The first run on a machine compiles Newt
 (measured with an empty warp cache on this 2-core machine, one other job running: 27.9 s for
 XPBD with the collision pipeline, then 7.4 s more for semi-implicit; from the cache 0.6 s and
 0.1 s), before the run's clock starts: the record's ``warmup_s`` and ``kernels``.
-Prescribed body 1 (a moved wall) is not written yet: such a scene is refused in one line.
+A prescribed body 1 is a kinematic link put on its path before each step (``drive``).
 """
 
 from __future__ import annotations

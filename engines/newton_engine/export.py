@@ -67,14 +67,16 @@ def scene_script(scene: Scene, settings: Any, solver: str) -> str:
     g = scene.gravity if s.gravity_in_model else 0.0
     L = getattr(s, "length_unit", 1.0)  # model length units per metre (XPBD's ``length_unit``)
     faces = [gap.lower - BODY2_HALF - WALL_HALF] + ([gap.upper + BODY2_HALF + WALL_HALF] if gap.upper is not None else [])
-    i1, i2 = (0, 1) if finite1 else (None, 0)
+    pr = scene.prescribed
+    i1, i2 = (0, 1) if finite1 or pr is not None else (None, 0)
     pasted = snippet(scene, s, solver).replace("import newton\n", "").rstrip().splitlines()
     solver_line, pasted = pasted[-1], "\n".join(line for line in pasted[:-1] if not line.startswith("# ..."))
     walls_box = (f"    builder.add_shape_box({{body}}, xform=wp.transform(wp.vec3({{x}}, 0.0, 0.0), wp.quat_identity()), "
                  f"hx={_num(L * WALL_HALF)}, hy={_num(L * WALL_SIDE)}, hz={_num(L * WALL_SIDE)}, cfg=cfg)")
-    if finite1:
+    if i1 is not None:
+        mass1 = "1.0, is_kinematic=True" if pr is not None else _num(scene.mass1)  # prescribed: moved each step
         body1 = [f"body1 = builder.add_link(xform=wp.transform(wp.vec3({_num(L * ini.x1)}, 0.0, 0.0), wp.quat_identity()), "
-                 f"mass={_num(scene.mass1)}, inertia=inertia)",
+                 f"mass={mass1}, inertia=inertia)",
                  f"for x in {[L * f for f in faces]!r}:", walls_box.format(body="body1", x="x"),
                  "joints.append(builder.add_joint_prismatic(-1, body1, axis=newton.Axis.X))"]
     else:
@@ -136,7 +138,7 @@ def scene_script(scene: Scene, settings: Any, solver: str) -> str:
         solver_line,
         "s0, s1, control = model.state(), model.state(), model.control()  # the step goes s0 -> s1, copied back",
         "qd0 = s0.body_qd.numpy().copy()",
-        *([f"qd0[{i1}, 0] = L * {_num(ini.v1)}"] if finite1 else []),
+        *([f"qd0[{i1}, 0] = L * {_num(ini.v1)}"] if i1 is not None else []),
         f"qd0[{i2}, 0] = L * {_num(ini.v1 + ini.vy)}",
         "s0.body_qd.assign(qd0)",
         "pipeline = newton.CollisionPipeline(model)",
@@ -165,6 +167,14 @@ def scene_script(scene: Scene, settings: Any, solver: str) -> str:
         "",
         "body_f = np.zeros((model.body_count, 6), np.float32)  # the forces of the next step [N]",
         *loop_start_lines(scene),
+        *([] if pr is None else [
+            f"    x1 = {_num(pr.offset)} + {_num(pr.amplitude)} * math.sin({_num(pr.omega)} * t + {_num(pr.phase)})",
+            f"    v1 = {_num(pr.amplitude * pr.omega)} * math.cos({_num(pr.omega)} * t + {_num(pr.phase)})",
+            "    y, vy = x2 - x1, v2 - v1  # body 1's prescribed motion",
+            "    q, qd = s0.body_q.numpy(), s0.body_qd.numpy()",
+            f"    q[{i1}, 0], qd[{i1}, 0] = L * x1, L * v1  # the kinematic body 1 put on its path",
+            "    s0.body_q.assign(q)",
+            "    s0.body_qd.assign(qd)"]),
         *force_lines(scene, "    "),
         acceleration_line(scene, "    "),
         *record_lines("    "),

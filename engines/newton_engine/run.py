@@ -56,9 +56,14 @@ class _Newton(EngineAdapter):
         w.m2, w.lower = scene.mass2, scene.gap.lower
         w.upper = scene.gap.upper if scene.gap.upper is not None else math.inf
         w.two = scene.gap.upper is not None
-        w.x1 = scene.initial.x1  # an infinite body 1 stays there
+        w.x1, w.v1 = scene.initial.x1, scene.initial.v1  # an infinite body 1: at rest there, or moved by ``drive``
         w.last = w.state()
         return w
+
+    def drive(self, w: World, x1: float, v1: float, x1_end: float) -> None:
+        """The prescribed body 1 (a kinematic link) set to its path's state at the step's start."""
+        w.drive(x1, v1)
+        w.x1, w.v1 = x1, v1
 
     def validate(self, scene: Scene, settings: Any) -> None:
         """A device warp does not find is refused."""
@@ -155,7 +160,7 @@ class NewtonSemiEngine(_Newton):
     def step(self, w: World, forces: tuple[float, float]) -> tuple[tuple, tuple[float, ...]]:
         """One captured step; each wall's penalty force from the state at the step's start (module docstring)."""
         x1, v1, x2, v2 = w.last
-        y, vy = (x2 - x1, v2 - v1) if w.finite1 else (x2 - w.x1, v2)
+        y, vy = (x2 - x1, v2 - v1) if w.finite1 else (x2 - w.x1, v2 - w.v1)
         pushes = ()
         d = y - w.lower
         if d < 0.0:

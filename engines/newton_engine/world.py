@@ -12,7 +12,8 @@ gravity, when in the model (``gravity_in_model``), is the vector (g, 0, 0). Body
 radius ``BODY2_HALF`` on a prismatic joint along world x. Body 1 carries one box per gap limit,
 its face where the sphere touches it exactly when y = x2 - x1 reaches ``gap.lower`` (``upper``):
 on a prismatic joint when its mass is finite, static shapes of the world (body -1, exactly
-infinite mass) when it is infinite. No friction (``mu = 0``, ``kf = 0``), no adhesion, no angular
+infinite mass) when it is infinite and at rest, a kinematic link on the joint put on its path
+before each step (``drive``) when it is prescribed. No friction (``mu = 0``, ``kf = 0``), no adhesion, no angular
 damping; shapes have no density (the masses are the scene's, exactly), inertia only so that the
 solvers can invert it (nothing turns: every force is along x through the centres).
 
@@ -158,9 +159,12 @@ class World:
         half, side = L * WALL_HALF, L * WALL_SIDE
         inertia = wp.mat33(np.eye(3) * INERTIA)
         joints = []
-        if self.finite1:
-            body1 = builder.add_link(xform=wp.transform(wp.vec3(L * ini.x1, 0.0, 0.0), identity), mass=scene.mass1,
-                                     inertia=inertia, label="body1")
+        # a prescribed body 1 is a kinematic link, moved by ``drive`` (its mass 1 kg is never used)
+        self.kinematic = scene.prescribed is not None
+        if self.finite1 or self.kinematic:
+            body1 = builder.add_link(xform=wp.transform(wp.vec3(L * ini.x1, 0.0, 0.0), identity),
+                                     mass=1.0 if self.kinematic else scene.mass1, inertia=inertia, label="body1",
+                                     is_kinematic=self.kinematic)
             for _, centre in faces:
                 builder.add_shape_box(body1, xform=wp.transform(wp.vec3(centre, 0.0, 0.0), identity), hx=half, hy=side,
                                       hz=side, cfg=cfg)
@@ -176,7 +180,7 @@ class World:
         for j in joints:
             builder.add_articulation([j])
         self.model = model = builder.finalize(device=self.device)
-        self.i1, self.i2 = (0, 1) if self.finite1 else (None, 0)
+        self.i1, self.i2 = (0, 1) if self.finite1 or self.kinematic else (None, 0)
         if solver == "xpbd":
             self.solver = newton.solvers.SolverXPBD(
                 model, iterations=settings.iterations, rigid_contact_relaxation=settings.rigid_contact_relaxation,
@@ -186,7 +190,7 @@ class World:
             self.solver = newton.solvers.SolverSemiImplicit(model, angular_damping=0.0)
         self.a, self.b, self.control = model.state(), model.state(), model.control()
         qd = self.a.body_qd.numpy().copy()  # a copy: on the CPU device numpy() is a view, which the warm-up step moves
-        if self.finite1:
+        if self.i1 is not None:
             qd[self.i1, 0] = L * ini.v1
         qd[self.i2, 0] = L * (ini.v1 + ini.vy)
         self.a.body_qd.assign(qd)
@@ -227,14 +231,23 @@ class World:
         if not self.views:
             self.a.body_f.assign(self.f)
 
+    def drive(self, x1: float, v1: float) -> None:
+        """Body 1, kinematic, put at ``x1`` [m] with velocity ``v1`` [m/s] for the next step (its path's state at the
+        step's start)."""
+        self.q[self.i1, 0], self.qd[self.i1, 0] = x1 * self.L, v1 * self.L
+        if not self.views:
+            self.a.body_q.assign(self.q)
+            self.a.body_qd.assign(self.qd)
+
     def state(self) -> tuple[float, float, float, float]:
         """(x1, v1, x2, v2) [m, m/s] after the last step (x1, v1 nan for an infinite body 1)."""
         if not self.views:
             self.q, self.qd = self.a.body_q.numpy(), self.a.body_qd.numpy()
         q, qd, L = self.q, self.qd, self.L
+        i2 = self.i2
         if self.finite1:
-            return float(q[0, 0]) / L, float(qd[0, 0]) / L, float(q[1, 0]) / L, float(qd[1, 0]) / L
-        return math.nan, math.nan, float(q[0, 0]) / L, float(qd[0, 0]) / L
+            return float(q[0, 0]) / L, float(qd[0, 0]) / L, float(q[i2, 0]) / L, float(qd[i2, 0]) / L
+        return math.nan, math.nan, float(q[i2, 0]) / L, float(qd[i2, 0]) / L
 
 
 def shape_config(newton: Any, scene: Scene, settings: Any, solver: str) -> Any:

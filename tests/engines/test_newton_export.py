@@ -53,3 +53,35 @@ def test_the_exported_script_prints_the_runs_impacts(tmp_path, engine, sets):
         assert e == pytest.approx(-row.v_plus / row.v_minus, rel=1e-5, nan_ok=True)
     first = printed[0]
     assert first[3] == pytest.approx(0.5, abs=0.02)  # the ball bounces with R (semi: within its phase error)
+
+
+SHAKER = """name = "shaker"
+mass1 = "inf"
+mass2 = 1.0
+restitution = 0.5
+duration = 6.5
+[gap]
+lower = -0.1
+upper = 0.1
+[prescribed]
+amplitude = 1.0
+omega = 1.0
+[initial]
+x1 = 0.0
+v1 = 1.0
+"""
+
+
+@pytest.mark.parametrize("engine", ["newton_xpbd", "newton_semi"])
+def test_the_exported_script_moves_a_prescribed_body_1(tmp_path, engine):
+    # a box moved as x1 = sin t (a kinematic link in the script too): the script's impacts are the run's
+    (tmp_path / "shaker.toml").write_text(SHAKER)
+    done = cli_here(["run", str(tmp_path / "shaker.toml"), "--engines", engine, "--dt", "1e-3", "--export-model",
+                     str(tmp_path / "scene.py")])
+    assert done.code == 0, done.err
+    counted = int(re.search(r"(\d+) impacts", done.out).group(1))
+    out = subprocess.run([sys.executable, "-c", NO_CHATTERBENCH, str(tmp_path / "scene.py")], capture_output=True,
+                         text=True, cwd=tmp_path, timeout=600)
+    assert out.returncode == 0, out.stderr
+    printed = _printed(out.stdout)
+    assert len(printed) == counted >= 5
