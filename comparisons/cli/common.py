@@ -29,7 +29,7 @@ from chatterbench.comparisons.pipeline.budget import GIB, MAX_MEMORY, MAX_STEPS,
 from chatterbench.comparisons.pipeline.inert_text import log_text
 from chatterbench.comparisons.pipeline.tolerances import Tolerances, tolerances_from_items
 from chatterbench.engines.isolate import set_run_limit
-from chatterbench.engines.registry import DEFAULT_ENGINES, ENGINE_NAMES, check_engine, make_settings
+from chatterbench.engines.registry import DEFAULT_ENGINES, ENGINE_NAMES, check_engine, settings_for
 from chatterbench.reference.errors import InputError, did_you_mean
 from chatterbench.reference.scene import Scene, load_scene, split_assignment
 
@@ -231,8 +231,7 @@ def split_overrides(items: list[str] | None) -> tuple[list[str], list[str]]:
 def settings_of(engines: Sequence[str], dt: float | None, items: Sequence[str]) -> dict[str, Any]:
     """Each engine's settings object from ``--dt`` [s] and the ``--set ENGINE.KEY=VALUE`` items (``split_overrides``'
     engine part): the text is parsed here, once, and the objects go down to ``compare`` and the engines."""
-    values = dict(split_assignment(item) for item in items)
-    return {name: make_settings(name, dt, values) for name in engines}
+    return settings_for(engines, dt, dict(split_assignment(item) for item in items))
 
 
 def engine_list(text: str) -> tuple[str, ...]:
