@@ -121,7 +121,7 @@ class Recording:
         elif status is Status.OK and self.recorder.count < self.n + 1:
             status, message = Status.ERROR, f"{self.engine} stopped at sample {self.recorder.count} of {self.n + 1}"
         fields = dict(settings=self.record, status=status, message=message, contact_time=self.contact_time,
-                      contact_frequency=self.contact_frequency)
+                      contact_frequency=self.contact_frequency, step=self.settings.dt)  # dt carried, not re-derived
         if not self.recorder.count:  # failed before its first sample: the initial state stands for it
             return dataclasses.replace(failed_trajectory(self.engine, self.scene, status, message), **fields,
                                        wall_time=self.wall_time)

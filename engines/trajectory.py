@@ -14,8 +14,12 @@ class (``"diverged"``, ``"error"``, ``"timeout"``, ``"crashed"``: ``base.Status`
 message table); a failed run keeps every sample it finished.
 
 A long run comes *compact* (``window.py``): only the samples the judge needs, ``index[i]``
-the step number of sample i (``t[i] = t0 + index[i] dt``) and ``step`` the median spacing of
-the run's samples [s]; ``index`` None (the default) is a full trajectory, sample k after k steps.
+the step number of sample i (``t[i] = t0 + index[i] dt``); ``index`` None (the default) is a full
+trajectory, sample k after k steps.
+
+``step`` is the run's timestep dt [s], carried with the run, never re-derived: an engine run's is its settings'
+dt, recorded by the base (``recording.Recording``); samples from elsewhere (a trajectory file, the reference sampled)
+give none, and their median sample spacing is taken once, when the trajectory is made.
 """
 
 from __future__ import annotations
@@ -46,7 +50,11 @@ class Trajectory:
     contact_time: float = 0.0  # [s] duration of one bounce of the engine's contact law at these settings (0: rigid)
     contact_frequency: float = math.inf  # [rad/s] natural frequency of a compliant contact (inf: rigid)
     index: np.ndarray | None = None  # step number of each sample (compact); None: every sample, 0..n
-    step: float = math.nan  # [s] median spacing of the full run's samples (set with ``index``)
+    step: float = math.nan  # [s] the run's timestep dt (module docstring); NaN given: the median sample spacing
+
+    def __post_init__(self) -> None:
+        if math.isnan(self.step) and self.index is None and len(self.t) > 1:  # samples from elsewhere: derived once
+            object.__setattr__(self, "step", float(np.median(np.diff(self.t))))
 
     @property
     def compact(self) -> bool:
@@ -65,11 +73,9 @@ class Trajectory:
 
     @property
     def dt(self) -> float:
-        """Sampling step [s] (the engine timestep; a compact trajectory keeps samples 0 and 1)."""
-        return float(self.t[1] - self.t[0]) if len(self.t) > 1 else float("nan")
+        """The run's timestep [s], ``step`` (module docstring); NaN for one sample from elsewhere."""
+        return self.step
 
     def sampling_step(self) -> float:
-        """The median spacing of the run's samples [s] (what the extraction takes as dt); NaN below 2 samples."""
-        if self.compact:
-            return self.step
-        return float(np.median(np.diff(self.t))) if len(self.t) > 1 else math.nan
+        """The run's timestep [s] (what the extraction takes as dt): ``step``, recorded with the run."""
+        return self.step

@@ -292,7 +292,8 @@ class Recorder:
             if cols is None:  # nothing was added
                 cols = {**{k: np.empty(0, bool if k.startswith("contact") else float) for k in self.names},
                         "index": np.empty(0, np.int64)}
-            fields.update(index=cols["index"], step=step)
+            fields["index"] = cols["index"]
+            fields.setdefault("step", step)  # the run's dt when the caller records it (``recording.Recording``)
         else:
             cols = {k: v[:self.count] for k, v in self._full.items()}
         return Trajectory(engine=engine, t=cols["t"], x1=cols["x1"], x2=cols["x2"], v1=cols["v1"], v2=cols["v2"],
@@ -310,6 +311,6 @@ def compact(traj: Trajectory, scene: Scene, above: float | None = None, chunk: i
         part = slice(k0, k0 + chunk)
         recorder.add(*(getattr(traj, k)[part] for k in _STATE), {w: traj.contact[w][part] for w in recorder.walls},
                      {w: traj.normal_force[w][part] for w in recorder.walls})
-    skip = {"engine", "wall_time", "t", "x1", "x2", "v1", "v2", "contact", "normal_force", "index", "step"}
+    skip = {"engine", "wall_time", "t", "x1", "x2", "v1", "v2", "contact", "normal_force", "index"}  # step: kept
     return recorder.trajectory(traj.engine, traj.wall_time,
                                **{f.name: getattr(traj, f.name) for f in dataclasses.fields(traj) if f.name not in skip})

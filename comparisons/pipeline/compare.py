@@ -230,7 +230,8 @@ def compare(
         say(name)
         run, table, impacts = judge_run(ref, name, settings[name], tol, (trajectories or {}).get(name), options, timeout)
         runs[name] = run
-        step = run.trajectory.dt if len(run.trajectory.t) > 1 else getattr(settings[name], "dt", math.nan)
+        step = run.trajectory.dt  # the run's dt, recorded with it (engines/trajectory.py)
+        step = getattr(settings[name], "dt", math.nan) if math.isnan(step) else step
         table.insert(0, "dt", step)
         table.insert(0, "engine", name)
         table["status"] = run.status

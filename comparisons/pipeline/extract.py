@@ -203,7 +203,7 @@ def extract(traj: Trajectory, scene: Scene, stick_tolerance: float = math.nan,
     if len(t) < 2:
         return Extraction(pd.DataFrame(columns=IMPACT_COLUMNS), log_frame([]), episodes(log_frame([])), math.nan,
                           stick_frame([]), dict(offsets or {}))
-    dt = traj.sampling_step()  # the median spacing; a compact trajectory's is the full run's
+    dt = traj.sampling_step()  # the run's dt as recorded (a file's samples: their median spacing)
     R = scene.restitution
     f_min = flight_floor(dt, R, stick_tolerance, options)
     y, vy = traj.y, traj.vy  # each a new array per read: read once
