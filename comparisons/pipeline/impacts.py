@@ -52,6 +52,8 @@ from typing import Mapping
 import numpy as np
 import pandas as pd
 
+from .sample_grid import at_least_steps
+
 PAIR_COLUMNS = ["k", "ref_t", "t", "ref_v_minus", "v_minus", "ref_restitution", "restitution", "restitution_error",
                 "restitution_uncertainty", "measurable", "excess"]
 
@@ -107,10 +109,9 @@ def pair_impacts(ref_impacts: pd.DataFrame | Mapping, ref_flights: np.ndarray, e
     tolerance : float
         The restitution tolerance [-]: the allowance, and the largest uncertainty an impact may have to be measured.
     """
-    need = resolved_steps * dt
-    ref_kept = np.asarray(ref_flights) >= need
+    ref_kept = at_least_steps(ref_flights, resolved_steps, dt)  # exactly resolved_steps steps, rounded: resolved
     flights = np.asarray(eng_impacts["flight_seen"], dtype=float)
-    eng_kept = np.nan_to_num(flights, nan=-1.0) >= need
+    eng_kept = at_least_steps(np.nan_to_num(flights, nan=-1.0), resolved_steps, dt)
     n_ref, n_eng = int(ref_kept.sum()), int(eng_kept.sum())
     n = min(n_ref, n_eng)
     rows = []

@@ -42,6 +42,8 @@ the criterion ``unresolved`` unless the error is beyond the tolerance even so).
   last three force samples puts the zero from the linear one (``wall_impacts._release_times``).
 
 Times in seconds throughout; the bound is symmetric (the true time within t +- bound).
+
+Where the flights shrank by more than a step is judged on the step grid (``sample_grid.more_than_a_step``).
 """
 
 from __future__ import annotations
@@ -51,6 +53,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
+
+from .sample_grid import more_than_a_step
 
 STICK_COLUMNS = ["wall", "t_stick", "stick_bound", "stick_from", "t_exit", "exit_bound"]
 
@@ -115,7 +119,7 @@ def sticking_start(imp: dict, i: int, j: int, restitution: float, dt: float) -> 
     bounce = imp["t_release"] - imp["t"] <= flight  # a contact as long as the flight after it is a rest, not a bounce
     while k < j and np.isfinite(flight[k + 1]) and 0.0 < flight[k + 1] < flight[k] and bounce[k + 1]:
         k += 1
-    if k > i and np.isfinite(flight[i]) and flight[i] - flight[k] > dt:
+    if k > i and np.isfinite(flight[i]) and more_than_a_step(flight[i] - flight[k], dt):
         # the last flight the samples see may span bounces too short to see: no longer than its rebound implies
         a_k, v_k = float(imp["a_release"][k]), float(imp["v_plus"][k])
         f_k = min(float(flight[k]), 2.0 * v_k / -a_k) if a_k < 0 and v_k > 0 else float(flight[k])
