@@ -43,7 +43,8 @@ the criterion ``unresolved`` unless the error is beyond the tolerance even so).
 
 Times in seconds throughout; the bound is symmetric (the true time within t +- bound).
 
-Where the flights shrank by more than a step is judged on the step grid (``sample_grid.more_than_a_step``).
+Whether a flight is shorter than the one before, and the flights shrank by more than a step, are judged on the step
+grid (``sample_grid``: two flights of the same steps are equal, a shrink of one step is not more than one).
 """
 
 from __future__ import annotations
@@ -54,7 +55,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from .sample_grid import more_than_a_step
+from .sample_grid import more_than_a_step, shorter
 
 STICK_COLUMNS = ["wall", "t_stick", "stick_bound", "stick_from", "t_exit", "exit_bound"]
 
@@ -117,7 +118,8 @@ def sticking_start(imp: dict, i: int, j: int, restitution: float, dt: float) -> 
     flight = imp["flight"]
     k = i
     bounce = imp["t_release"] - imp["t"] <= flight  # a contact as long as the flight after it is a rest, not a bounce
-    while k < j and np.isfinite(flight[k + 1]) and 0.0 < flight[k + 1] < flight[k] and bounce[k + 1]:
+    while k < j and np.isfinite(flight[k + 1]) and 0.0 < flight[k + 1] and shorter(flight[k + 1], flight[k], dt) \
+            and bounce[k + 1]:
         k += 1
     if k > i and np.isfinite(flight[i]) and more_than_a_step(flight[i] - flight[k], dt):
         # the last flight the samples see may span bounces too short to see: no longer than its rebound implies

@@ -79,3 +79,15 @@ def test_a_flight_of_exactly_the_resolved_steps_read_from_sample_times_is_resolv
     tol = Tolerances(stick=0.01, exit=0.01, first_impact=0.01)
     _, table, impacts = judge_run(ref, "mujoco", make_settings("mujoco", 1e-3, ["mujoco.w0_dt=0.1"]), tol)
     assert (table["resolved_impacts"] - table["ref_resolved_impacts"]).abs().max() <= tol.impact_count
+
+
+def test_two_flights_of_the_same_steps_are_equal_not_a_shrinking_ladder():
+    # PyBullet at dt 0.00472236 s, started a quarter step late (tune's band): after the onset two flights of 2.5 steps
+    # read 0.011805900000000147 and 0.011805899999999925 s, then 1.5 steps; the rounding alone made a "shrinking"
+    # ladder of a one-step shrink, extrapolated past the rest (the code before: ``rest``, 1.4509 s, 10.7% late, with
+    # the median spacing 0.004722359999999981 s as the step) where Feigin's ladder gives 1.4058 s
+    equal = _ladder([0.011805900000000147, 0.011805899999999925, 0.007083539999999999])
+    assert sticking_start(equal, 0, 2, 0.5, 0.00472236).source == "feigin"
+    # the other way: the same flights with a real shrink between the first two are the engine's own ladder
+    shrinking = _ladder([0.0165283, 0.0118059, 0.00708354])
+    assert sticking_start(shrinking, 0, 2, 0.5, 0.00472236).source == "ladder"
