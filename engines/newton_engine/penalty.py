@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import math
 
-from ..restitution import _phase_over_s, damping_ratio_from_restitution
+from ..restitution import contact_phase, damping_ratio_from_restitution
 
 
 def restitution_of(zeta: float) -> float:
@@ -43,7 +43,7 @@ def restitution_of(zeta: float) -> float:
         return 0.0
     if not zeta >= 0.0:
         raise ValueError(f"zeta = {zeta!r}: damping ratio must be a number >= 0")
-    return math.exp(-0.5 * zeta * _phase_over_s(zeta))
+    return math.exp(-0.5 * zeta * contact_phase(zeta))
 
 
 def damping_ratio_for(restitution: float) -> float:
@@ -55,7 +55,7 @@ def contact_duration(zeta: float, w0: float) -> float:
     """One bounce [s]: compression b / (w0 sin b) (cos b = zeta, continued past 1) and a quarter period pi / (2 w0)."""
     if not (w0 > 0.0 and math.isfinite(w0)):
         raise ValueError(f"w0 = {w0!r}: natural frequency must be a finite number > 0 [rad/s]")
-    return (0.5 * _phase_over_s(zeta) + 0.5 * math.pi) / w0 if math.isfinite(zeta) else math.inf
+    return (0.5 * contact_phase(zeta) + 0.5 * math.pi) / w0 if math.isfinite(zeta) else math.inf
 
 
 def relative_mass(mass1: float, mass2: float) -> float:

@@ -26,6 +26,8 @@ state is read from ``state.body_q`` / ``body_qd`` through numpy views (no copy o
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import functools
 import math
 import os
@@ -61,6 +63,9 @@ def modules() -> tuple[Any, Any]:
 
     wp.config.quiet = True
     wp.config.log_level = max(wp.config.log_level, wp.LOG_WARNING)
+    # nothing here differentiates a run: warp builds the forward kernels only (a cold compile of XPBD's took 12.6 s
+    # instead of 26.7 s, semi-implicit's 9.7 s instead of 14.8 s on this 2-core machine; the kernels run the same)
+    wp.config.enable_backward = False
     try:
         sys.stderr.flush()
         saved = os.dup(2)
@@ -115,23 +120,50 @@ def _cache_entries(path: str) -> int:
         return 0
 
 
+@contextlib.contextmanager
+def _compile_lock(cache: str):
+    """Held while this process loads Newton's kernels: one process compiles into warp's cache at a time, the others
+    wait and then read what it compiled (two test workers or two sweep workers on a cold cache compile once)."""
+    try:
+        os.makedirs(cache, exist_ok=True)
+        handle = open(os.path.join(cache, "chatterbench-newton.lock"), "a+")
+    except OSError:  # a cache warp cannot share (read-only, no cache): each process on its own
+        yield
+        return
+    with handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
 @functools.cache
 def load_kernels(solver: str, device: str) -> KernelLoad:
     """Build a one-ball world of ``solver`` on ``device`` and step it once, timed: every module a run's step uses is
-    loaded (compiled the first time on a machine, then read from warp's cache); once per process."""
+    loaded (compiled the first time on a machine, then read from warp's cache); once per process, under a lock on
+    warp's cache shared by every process (``_compile_lock``; the time includes any wait for another's compile)."""
     from chatterbench.reference.scene import load_scene
 
     from .settings import SemiSettings, XpbdSettings
 
     wp, _ = modules()
     cache = str(wp.config.kernel_cache_dir or "")
-    before = _cache_entries(cache)
     start = time.perf_counter()
-    settings = XpbdSettings(device=device) if solver == "xpbd" else SemiSettings(device=device)
-    world = build(load_scene("feigin-pair", ["duration=0.001"]), settings, solver, capture=False)
-    world.launch()
-    wp.synchronize()
-    return KernelLoad(solver, device, time.perf_counter() - start, _cache_entries(cache) > before, cache)
+    with _compile_lock(cache) if cache else contextlib.nullcontext():
+        before = _cache_entries(cache)
+        settings = XpbdSettings(device=device) if solver == "xpbd" else SemiSettings(device=device)
+        world = build(load_scene("feigin-pair", ["duration=0.001"]), settings, solver, capture=False)
+        world.launch()
+        wp.synchronize()
+        compiled = _cache_entries(cache) > before
+    return KernelLoad(solver, device, time.perf_counter() - start, compiled, cache)
+
+
+def warm(solvers: tuple[str, ...] = ("xpbd", "semi"), device: str = "cpu") -> list[KernelLoad]:
+    """Load (compile, on a cold cache) the kernels of ``solvers`` on ``device``: what a test run or a sweep does once
+    before its workers start (``python -m chatterbench.engines.newton_engine.warm``)."""
+    return [load_kernels(solver, device) for solver in solvers]
 
 
 class World:
