@@ -33,9 +33,20 @@ W0_DTS = (0.03, 0.1)
 PYBULLET = {"pybullet.restitution_velocity_threshold": 0.002}
 
 
+# [s] wall-clock seconds per step the rows are given in place of the measured cost (module's charts place labels by
+# cost: a measured one moves them with the machine's load, and two MuJoCo settings of one dt swapped places run to run)
+STEP_COST = {"mujoco": 2e-6, "pybullet": 5e-6}
+
+
+def _cost(engine: str, dt: float, w0_dt: float = 0.0) -> float:
+    """A fixed cost_per_sim_s [s/s] of the run: STEP_COST steps of dt, a stiffer MuJoCo contact a little dearer."""
+    return STEP_COST[engine] / dt * (1.0 + w0_dt)
+
+
 def _sweep(scene: str, fixed: list[str], grid: dict[str, tuple], dts=DTS, w0_dts=W0_DTS) -> pd.DataFrame:
     """Rows as a sweep writes them: one compare per (point, engine), summarized; each point's reference solved once
-    and handed to its runs' compares (``solution=``: the same solution a compare would solve itself)."""
+    and handed to its runs' compares (``solution=``: the same solution a compare would solve itself). The cost is
+    ``_cost``'s, not the clock's, so the charts are the same on any machine."""
     rows = []
     names = list(grid)
     for values in [dict(zip(names, combo)) for combo in itertools.product(*grid.values())]:
@@ -44,9 +55,10 @@ def _sweep(scene: str, fixed: list[str], grid: dict[str, tuple], dts=DTS, w0_dts
         for dt in dts:
             for w in w0_dts:
                 c = compare(sc, settings=settings_for(("mujoco",), dt, [f"mujoco.w0_dt={w}"]), solution=ref)
-                rows.append(summarize(c, "mujoco", {"dt": dt, **values, "mujoco.w0_dt": w}))
+                rows.append({**summarize(c, "mujoco", {"dt": dt, **values, "mujoco.w0_dt": w}),
+                             "cost_per_sim_s": _cost("mujoco", dt, w)})
             c = compare(sc, settings=settings_for(("pybullet",), dt, [f"{k}={v}" for k, v in PYBULLET.items()]), solution=ref)
-            rows.append(summarize(c, "pybullet", {"dt": dt, **values, **PYBULLET}))
+            rows.append({**summarize(c, "pybullet", {"dt": dt, **values, **PYBULLET}), "cost_per_sim_s": _cost("pybullet", dt)})
     return pd.DataFrame(rows)
 
 
