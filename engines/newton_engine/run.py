@@ -103,7 +103,7 @@ class NewtonXpbdEngine(_Newton):
     name = "newton_xpbd"
     settings_type = XpbdSettings
     solver = "xpbd"
-    first_run_note = FIRST_RUN.format(solver="XPBD", cold="about 30 s")
+    first_run_note = FIRST_RUN.format(solver="XPBD", cold="about 15 s")
 
     def step(self, w: World, forces: tuple[float, float]) -> tuple[tuple, tuple[float, ...]]:
         """One captured step; the walls' push from body 2's momentum (module docstring)."""
