@@ -152,6 +152,19 @@ def setup_lines(walls: dict[str, float], restitution: float, flight_band: float,
             "forces = {wall: [] for wall in WALLS}  # per sample: each wall's normal force on body 2 [N]"]
 
 
+def loop_start_lines(scene: Scene) -> list[str]:
+    """The state at the start (``x1, v1, x2, v2`` [m, m/s]), sample 0's wall forces (none) and the head of the loop
+    over the samples: ``t`` and the sample's ``y``, ``vy`` as the adapters record it; the step follows in the loop."""
+    ini = scene.initial
+    return [f"x1, v1 = {_num(ini.x1)}, {_num(ini.v1)}",
+            f"x2, v2 = {_num(ini.x1 + ini.y)}, {_num(ini.v1 + ini.vy)}",
+            "for wall in WALLS:  # sample 0: no step has ended there, no wall has pushed",
+            "    forces[wall].append(0.0)",
+            "for k in range(STEPS + 1):  # sample k, then the step from it",
+            "    t = T0 + k * DT",
+            "    y, vy = x2 - x1, v2 - v1  # the sample as the adapter records it"]
+
+
 def record_lines(indent: str) -> list[str]:
     """Record sample k: ``y``, ``vy`` and ``a`` (the script appends each wall's force itself)."""
     return [f"{indent}ys.append(y)", f"{indent}vys.append(vy)", f"{indent}accs.append(a)", f"{indent}x1s.append(x1)",

@@ -63,6 +63,8 @@ BUILT_IN = (
     Engine("mujoco_warp", "chatterbench.engines.mujoco_warp_engine:MujocoWarpEngine", extra="warp", module="mujoco_warp"),
     Engine("physx", "chatterbench.engines.physx_engine:PhysxEngine", extra="physx", module="sapien"),
     Engine("dart", "chatterbench.engines.dart_engine:DartEngine", extra="dart", module="dartpy"),
+    Engine("newton_xpbd", "chatterbench.engines.newton_engine:NewtonXpbdEngine", extra="newton", module="newton"),
+    Engine("newton_semi", "chatterbench.engines.newton_engine:NewtonSemiEngine", extra="newton", module="newton"),
     Engine("siconos", "chatterbench.engines.siconos_engine:SiconosEngine",
            probe="chatterbench.engines.siconos_engine.run:unavailable"),
 )

@@ -43,8 +43,10 @@ ZETA_TOLERANCE = 1e-12  # absolute tolerance of the inverse in zeta [-]
 _NEAR_CRITICAL = 1e-6  # |zeta - 1| below which the series form is used [-]
 
 
-def _phase_over_s(zeta: float) -> float:
-    """w0 t_c = (pi - 2 arcsin zeta) / sqrt(1 - zeta^2), continued to zeta >= 1.
+def contact_phase(zeta: float) -> float:
+    """The contact's duration in units of 1 / w0 [-]: w0 t_c = (pi - 2 arcsin zeta) / sqrt(1 - zeta^2) for a
+    spring-damper whose damping acts in both directions, continued to zeta >= 1 (the Newton penalty law, damped
+    only while compressing, builds its own from it: ``newton_engine.penalty``).
 
     Near zeta = 1 both forms are 0/0: with e = 1 - zeta, 2b / sin b where cos b = zeta
     expands as 2 + 2e/3 + ... (b^2 = 2e + e^2/3 + ...), used for |e| < 1e-6 (error ~ e^2).
@@ -74,7 +76,7 @@ def restitution_from_damping_ratio(zeta: float) -> float:
     zeta = _check_zeta(zeta)
     if math.isinf(zeta):
         return 0.0
-    return math.exp(-zeta * _phase_over_s(zeta))
+    return math.exp(-zeta * contact_phase(zeta))
 
 
 def damping_ratio_from_restitution(restitution: float) -> float:
@@ -112,7 +114,7 @@ def contact_duration(zeta: float, w0: float) -> float:
         raise ValueError(f"w0 = {w0!r}: natural frequency must be a finite number > 0 [rad/s]")
     if math.isinf(zeta):
         return math.inf
-    return _phase_over_s(zeta) / w0
+    return contact_phase(zeta) / w0
 
 
 def exit_penetration(zeta: float, restitution: float, v0: float, w0: float) -> float:

@@ -17,13 +17,20 @@ runners) has SIGINT ignored, and every command a test starts inherits that, so a
 SIGINT would never reach the command under test. The suite restores Python's own handler
 (``_ctrl_c_as_a_terminal_sends_it``): the commands it starts then get SIGINT as a user's terminal
 delivers it, whichever way the suite was started.
+
+Newton's kernels (the ``newton`` extra) compile once per machine into warp's cache: the controller process starts
+``python -m chatterbench.engines.newton_engine.warm`` in the background before the workers start
+(``_warm_newton_kernels``), the workers run other tests meanwhile, and a worker that reaches a Newton run waits on
+the cache's lock (``newton_engine.world._compile_lock``) instead of compiling the same kernels again.
 """
 
 from __future__ import annotations
 
 import functools
+import importlib.util
 import os
 import signal
+import subprocess
 import sys
 
 import pytest
@@ -103,3 +110,21 @@ def engine_runs(monkeypatch, tmp_path_factory):
             if method in vars(cls):
                 monkeypatch.setattr(cls, method, spy(method, vars(cls)[method]))
     return lambda: log.read_text(encoding="utf-8").splitlines()
+
+
+_WARMING: list[subprocess.Popen] = []
+
+
+def pytest_configure(config) -> None:
+    """Newton's kernels warmed in the background, once, by the controller (module docstring)."""
+    if hasattr(config, "workerinput") or importlib.util.find_spec("newton") is None:
+        return  # a worker (the controller warms), or no Newton: nothing to compile
+    _WARMING.append(subprocess.Popen([sys.executable, "-m", "chatterbench.engines.newton_engine.warm"],
+                                     stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+
+
+def pytest_unconfigure(config) -> None:
+    for process in _WARMING:  # done long before the suite ends; a suite stopped early does not leave it behind
+        if process.poll() is None:
+            process.terminate()
+        process.wait()

@@ -45,3 +45,16 @@ def test_plugin_is_registered_through_its_entry_point(pytestconfig):
     if not _REGISTERED:
         pytest.skip("chatterbench is installed without its pytest11 entry point; reinstall: pip install -e .")
     assert pytestconfig.pluginmanager.get_plugin("chatterbench") is not None
+
+
+@pytest.mark.slow
+def test_newton_gate_passes(tmp_path, capsys):
+    # the default gate's cases for the Newton engines (gates/newton.toml says why they are in a file of their own)
+    pytest.importorskip("newton", reason="the newton extra is not installed: pip install \".[newton]\"")
+    junit = tmp_path / "newton-gate.xml"
+    code = main(["gate", str(GATES.with_name("newton.toml")), "--junit", str(junit)])
+    out = capsys.readouterr().out
+    assert code == 0, out
+    suite = ET.parse(junit).getroot().find("testsuite")
+    assert suite.get("failures") == "0" and int(suite.get("tests")) == 4
+    assert {case.get("name").split("/")[-1] for case in suite.iter("testcase")} >= {"newton_xpbd", "newton_semi"}

@@ -1,11 +1,14 @@
-"""``chatterbench compare``: the reference and the engines on one scene, episode by episode, with verdicts.
+"""``chatterbench compare``: the reference and the engines on one scene or several, episode by episode, with verdicts.
 
     $ chatterbench compare feigin-pair --engines mujoco,pybullet --dt 1e-4 --out out/fp
     $ chatterbench compare bouncing-ball --tolerance stick=0.02
+    $ chatterbench compare bouncing-ball feigin-pair impact-damper spring-pair --engines newton_xpbd,newton_semi
 
-Prints the episode table and the summary (the columns ``report``, ``tune``, ``sweep`` and
-``gate`` use: ``pipeline/summary.py``); ``--out`` writes the files of
-``outputs/comparison_files.py``. A progress bar on stderr (on a terminal) says which run is going.
+Prints, for each scene in the order given, the episode table and the summary (the columns ``report``, ``tune``,
+``sweep`` and ``gate`` use: ``pipeline/summary.py``); ``--out`` writes the files of ``outputs/comparison_files.py``
+(for several scenes, one folder per scene under it, named for the scene). Every scene is loaded and checked before
+the first run: a scene that does not load is refused with nothing run. A progress bar on stderr (on a terminal)
+says which run is going.
 """
 
 from __future__ import annotations
@@ -16,7 +19,7 @@ from pathlib import Path
 
 
 from .commands import COMMANDS
-from .common import add_judging, add_out, add_scene, budget_of, engine_list, load_noted, parse_tolerances, \
+from .common import UsageError, add_judging, add_out, budget_of, engine_list, load_noted, parse_tolerances, \
     print_table, settings_of, split_overrides
 from .paths import check_dir, writing
 from .progress import Progress
@@ -34,10 +37,22 @@ CONFORMANCE_SHOW = ["wall", "ref_t_first_impact", "verdict", "other_verdict", "s
 def cmd_compare(args: argparse.Namespace) -> int:
     check_dir("--out", args.out)
     scene_over, engine_over = split_overrides(args.set)
-    scene = load_noted(args.scene, scene_over)
+    scenes = [load_noted(name, scene_over) for name in args.scene]  # all checked before any run
+    names = [scene.name for scene in scenes]
+    if args.out and len(set(names)) < len(names):
+        repeated = next(n for n in names if names.count(n) > 1)
+        raise UsageError(f"scene {repeated}: given more than once with --out (each scene writes one folder)")
     tol = parse_tolerances(args.tolerance)
     engines = engine_list(args.engines)
     settings = settings_of(engines, args.dt, engine_over)  # a plugin that does not load is refused here
+    for scene in scenes:
+        out = args.out if len(scenes) == 1 or not args.out else Path(args.out) / scene.name
+        _compare_one(scene, engines, settings, tol, args, out)
+    return 0
+
+
+def _compare_one(scene, engines, settings, tol, args: argparse.Namespace, out) -> None:
+    """One scene: run, print its tables, write its files under ``out`` (None: none)."""
     # the work's modules (pandas, numba: 0.5 s) once the input is checked: a refusal is one line without them
     from chatterbench.comparisons.pipeline.compare import compare
     from chatterbench.comparisons.pipeline.conformance import conformance, describe, same_model_pairs
@@ -55,20 +70,21 @@ def cmd_compare(args: argparse.Namespace) -> int:
         print(describe(result, engine, other))
     for name, run in result.runs.items():  # a failed run says why
         if run.status != "ok":
-            print(f"{name}: {run.status}: {run.trajectory.message}", file=sys.stderr)
-    if args.out:
+            where = f"{scene.name}: " if len(args.scene) > 1 else ""
+            print(f"{where}{name}: {run.status}: {run.trajectory.message}", file=sys.stderr)
+    if out:
         from chatterbench.comparisons.outputs.comparison_files import write_comparison  # draws: loads matplotlib (0.7 s), so only when asked
 
-        with writing("--out", args.out, together=True) as stage:  # every file, or none (Ctrl-C, a full disk)
+        with writing("--out", out, together=True) as stage:  # every file, or none (Ctrl-C, a full disk)
             paths = write_comparison(result, stage, figures=not args.no_figures)
-        print(f"wrote {len(paths)} files under {args.out}")
-    return 0
+        print(f"wrote {len(paths)} files under {out}")
 
 
 def register(sub, formatter) -> None:
     """Add ``compare`` to the ``chatterbench`` subparsers."""
     p = sub.add_parser("compare", help=COMMANDS["compare"], formatter_class=formatter)
-    add_scene(p)
+    p.add_argument("scene", nargs="+", help="built-in scene names (chatterbench scenes) or paths to scene TOML files; "
+                                            "several: one after another, each with its tables")
     add_judging(p)
     add_out(p, what="write tables (CSV, Parquet), event logs, impacts, provenance and figures under DIR")
     p.add_argument("--no-figures", action="store_true", help="skip the figures under --out")

@@ -25,7 +25,8 @@ import math
 from chatterbench.reference.scene import Scene
 
 from ..base import n_steps
-from ..impact_lines import acceleration_line, docstring, flight_band, force_lines, record_lines, report_lines, setup_lines
+from ..impact_lines import (acceleration_line, docstring, flight_band, force_lines, loop_start_lines, record_lines,
+                            report_lines, setup_lines)
 from .settings import PybulletSettings, settings_snippet
 from .world import BODY2_HALF, WALL_HALF, WALL_SIDE
 
@@ -101,13 +102,7 @@ def scene_script(scene: Scene, settings: PybulletSettings | None = None) -> str:
         "# the guide's settings: its snippet, the placeholders filled with this script's bodies",
         pasted.rstrip(),
         "",
-        f"x1, v1 = {_num(ini.x1)}, {_num(ini.v1)}",
-        f"x2, v2 = {_num(ini.x1 + ini.y)}, {_num(ini.v1 + ini.vy)}",
-        "for wall in WALLS:  # sample 0: no step has ended there, no wall has pushed",
-        "    forces[wall].append(0.0)",
-        "for k in range(STEPS + 1):  # sample k, then the step from it",
-        "    t = T0 + k * DT",
-        "    y, vy = x2 - x1, v2 - v1  # the sample as the adapter records it",
+        *loop_start_lines(scene),
         *prescribe,
         *force_lines(scene, "    "),
         acceleration_line(scene, "    "),
