@@ -18,10 +18,10 @@ SIGINT would never reach the command under test. The suite restores Python's own
 (``_ctrl_c_as_a_terminal_sends_it``): the commands it starts then get SIGINT as a user's terminal
 delivers it, whichever way the suite was started.
 
-Newton's kernels (the ``newton`` extra) compile once per machine into warp's cache: the controller process starts
-``python -m chatterbench.engines.newton_engine.warm`` in the background before the workers start
-(``_warm_newton_kernels``), the workers run other tests meanwhile, and a worker that reaches a Newton run waits on
-the cache's lock (``newton_engine.world._compile_lock``) instead of compiling the same kernels again.
+The engines on warp (MuJoCo Warp, Newton) compile their kernels once per machine into warp's cache: the controller
+process starts ``python -m chatterbench.engines.warm`` in the background before the workers start, one process per
+family of kernels (``pytest_configure``), the workers run other tests meanwhile, and a worker that reaches a run of
+those engines waits on the cache's lock (``engines/warp_cache.py``) instead of compiling the same kernels again.
 """
 
 from __future__ import annotations
@@ -116,11 +116,14 @@ _WARMING: list[subprocess.Popen] = []
 
 
 def pytest_configure(config) -> None:
-    """Newton's kernels warmed in the background, once, by the controller (module docstring)."""
-    if hasattr(config, "workerinput") or importlib.util.find_spec("newton") is None:
-        return  # a worker (the controller warms), or no Newton: nothing to compile
-    _WARMING.append(subprocess.Popen([sys.executable, "-m", "chatterbench.engines.newton_engine.warm"],
-                                     stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+    """The warp engines' kernels warmed in the background, once, by the controller (module docstring)."""
+    if hasattr(config, "workerinput"):
+        return  # a worker: the controller warms
+    families = {"mujoco_warp": ["mujoco_warp"], "newton": ["newton_xpbd", "newton_semi"]}
+    for package, engines in families.items():
+        if importlib.util.find_spec(package) is not None:
+            _WARMING.append(subprocess.Popen([sys.executable, "-m", "chatterbench.engines.warm", *engines],
+                                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
 
 
 def pytest_unconfigure(config) -> None:

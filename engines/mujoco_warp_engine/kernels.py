@@ -34,6 +34,7 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 from ..recording import MAXVAL
+from ..warp_cache import compile_lock
 from .worlds import warp_modules
 
 STEPS_PER_GRAPH = 16  # [steps] captured in one graph: 16 x ~90 kernel nodes; a chunk is a multiple of it
@@ -123,16 +124,18 @@ def _cache_entries(path: str) -> int:
 
 def load_kernels(model: Any, data: Any, device: str) -> KernelLoad:
     """Load the kernels of one step of ``model`` on ``data`` (a one-world ``mujoco_warp.Data`` it may advance) and
-    the recording's, timed; a compile is told to ``listeners``."""
+    the recording's, timed (any wait for another process's compile included: ``warp_cache.compile_lock``); a compile
+    is told to ``listeners``."""
     wp, mjw = warp_modules()
     cache = str(wp.config.kernel_cache_dir or "")
-    before = _cache_entries(cache)
     start = time.perf_counter()
-    with wp.ScopedDevice(device):
+    with compile_lock(cache, "mujoco_warp"), wp.ScopedDevice(device):  # one process compiles at a time; the others then load
+        before = _cache_entries(cache)
         mjw.step(model, data)
         wp.launch(record_kernels()[1], dim=1, inputs=[wp.zeros(1, dtype=wp.int32)])  # loads the recording's module
         wp.synchronize()
-    load = KernelLoad(device, time.perf_counter() - start, _cache_entries(cache) > before, cache)
+        compiled = _cache_entries(cache) > before
+    load = KernelLoad(device, time.perf_counter() - start, compiled, cache)
     if load.compiled:
         for listener in listeners:
             listener(load)

@@ -114,6 +114,7 @@ def scene_script(scene: Scene, settings: Any, solver: str) -> str:
         "",
         "wp.config.quiet = True",
         "wp.config.log_level = max(wp.config.log_level, wp.LOG_WARNING)",
+        "wp.config.enable_backward = False  # forward kernels only, as chatterbench builds them: half the compile",
         "import newton  # noqa: E402",
         "",
         *setup_lines({w: scene.gap.position(w) for w in scene.gap.walls}, scene.restitution, flight_band(), ini.t,

@@ -1,8 +1,8 @@
 """``python -m chatterbench.engines.newton_engine.warm [SOLVER ...]``: load Newton's kernels once, before workers do.
 
 Compiles (on a cold warp cache) or loads the kernels of the named solvers (default: xpbd and semi) on warp's CPU
-device and prints one line per solver (``world.KernelLoad.describe``). The test suite starts it from the controller
-process before its workers, which wait on the cache's lock (``world._compile_lock``) instead of compiling again.
+device and prints one line per solver (``world.KernelLoad.describe``). Another process that loads them meanwhile
+waits on the cache's lock (``warp_cache.compile_lock``), then loads them from the cache.
 """
 
 from __future__ import annotations

@@ -26,8 +26,6 @@ state is read from ``state.body_q`` / ``body_qd`` through numpy views (no copy o
 
 from __future__ import annotations
 
-import contextlib
-import fcntl
 import functools
 import math
 import os
@@ -41,6 +39,7 @@ import numpy as np
 from chatterbench.reference.scene import Scene
 
 from ..api import SettingsError
+from ..warp_cache import compile_lock
 
 BODY2_HALF = 0.05  # [m] radius of body 2 (geometry only: the walls are placed around it)
 WALL_HALF = 0.5  # [m] half thickness of each wall along x: deeper than a soft contact sinks (semi-implicit)
@@ -120,29 +119,12 @@ def _cache_entries(path: str) -> int:
         return 0
 
 
-@contextlib.contextmanager
-def _compile_lock(cache: str):
-    """Held while this process loads Newton's kernels: one process compiles into warp's cache at a time, the others
-    wait and then read what it compiled (two test workers or two sweep workers on a cold cache compile once)."""
-    try:
-        os.makedirs(cache, exist_ok=True)
-        handle = open(os.path.join(cache, "chatterbench-newton.lock"), "a+")
-    except OSError:  # a cache warp cannot share (read-only, no cache): each process on its own
-        yield
-        return
-    with handle:
-        fcntl.flock(handle, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(handle, fcntl.LOCK_UN)
-
-
 @functools.cache
 def load_kernels(solver: str, device: str) -> KernelLoad:
     """Build a one-ball world of ``solver`` on ``device`` and step it once, timed: every module a run's step uses is
     loaded (compiled the first time on a machine, then read from warp's cache); once per process, under a lock on
-    warp's cache shared by every process (``_compile_lock``; the time includes any wait for another's compile)."""
+    warp's cache shared by every process (``warp_cache.compile_lock``; the time includes any wait for another's
+    compile)."""
     from chatterbench.reference.scene import load_scene
 
     from .settings import SemiSettings, XpbdSettings
@@ -150,7 +132,7 @@ def load_kernels(solver: str, device: str) -> KernelLoad:
     wp, _ = modules()
     cache = str(wp.config.kernel_cache_dir or "")
     start = time.perf_counter()
-    with _compile_lock(cache) if cache else contextlib.nullcontext():
+    with compile_lock(cache, "newton"):
         before = _cache_entries(cache)
         settings = XpbdSettings(device=device) if solver == "xpbd" else SemiSettings(device=device)
         world = build(load_scene("feigin-pair", ["duration=0.001"]), settings, solver, capture=False)
