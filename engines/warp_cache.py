@@ -20,7 +20,8 @@ from __future__ import annotations
 import contextlib
 import fcntl
 import os
-from typing import Iterator
+from dataclasses import dataclass
+from typing import ClassVar, Iterator
 
 
 def lock_name(family: str) -> str:
@@ -47,3 +48,28 @@ def compile_lock(cache: str, family: str) -> Iterator[None]:
             yield
         finally:
             fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+@dataclass(frozen=True)
+class KernelLoad:
+    """The loading of an engine's kernels on a device: how long [s], and whether warp compiled them (not cached).
+    An engine's subclass names itself (``engine``)."""
+
+    device: str
+    seconds: float
+    compiled: bool
+    cache: str  # warp's kernel cache directory
+    engine: ClassVar[str] = "warp"
+
+    def describe(self) -> str:
+        """One line: ``MuJoCo Warp compiled its kernels for device cuda in 84.2 s (cache: ...)``."""
+        what = "compiled its kernels" if self.compiled else "loaded its kernels from warp's cache"
+        return f"{self.engine} {what} for device {self.device} in {self.seconds:.1f} s (cache: {self.cache})"
+
+
+def cache_entries(path: str) -> int:
+    """How many entries warp's cache folder ``path`` holds (0 when it cannot be read): more after a load, a compile."""
+    try:
+        return len(os.listdir(path))
+    except OSError:
+        return 0

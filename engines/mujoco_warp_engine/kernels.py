@@ -28,31 +28,21 @@ from __future__ import annotations
 
 import functools
 import math
-import os
 import time
-from dataclasses import dataclass
 from typing import Any, Callable
 
+from .. import warp_cache
 from ..recording import MAXVAL
-from ..warp_cache import compile_lock
+from ..warp_cache import cache_entries, compile_lock
 from .worlds import warp_modules
 
 STEPS_PER_GRAPH = 16  # [steps] captured in one graph: 16 x ~90 kernel nodes; a chunk is a multiple of it
 
 
-@dataclass(frozen=True)
-class KernelLoad:
-    """The loading of a model's kernels on a device: how long [s], and whether warp compiled them (not cached)."""
+class KernelLoad(warp_cache.KernelLoad):
+    """The loading of a model's kernels on a device (``warp_cache.KernelLoad``)."""
 
-    device: str
-    seconds: float
-    compiled: bool
-    cache: str  # warp's kernel cache directory
-
-    def describe(self) -> str:
-        """One line: ``MuJoCo Warp compiled its kernels for device cuda in 84.2 s (cached under ...)``."""
-        what = "compiled its kernels" if self.compiled else "loaded its kernels from warp's cache"
-        return f"MuJoCo Warp {what} for device {self.device} in {self.seconds:.1f} s (cache: {self.cache})"
+    engine = "MuJoCo Warp"
 
 
 listeners: list[Callable[[KernelLoad], None]] = []  # called with every load that compiled (not cached)
@@ -115,13 +105,6 @@ def graphs(device: str) -> bool:
         return False
 
 
-def _cache_entries(path: str) -> int:
-    try:
-        return len(os.listdir(path))
-    except OSError:
-        return 0
-
-
 def load_kernels(model: Any, data: Any, device: str) -> KernelLoad:
     """Load the kernels of one step of ``model`` on ``data`` (a one-world ``mujoco_warp.Data`` it may advance) and
     the recording's, timed (any wait for another process's compile included: ``warp_cache.compile_lock``); a compile
@@ -130,11 +113,11 @@ def load_kernels(model: Any, data: Any, device: str) -> KernelLoad:
     cache = str(wp.config.kernel_cache_dir or "")
     start = time.perf_counter()
     with compile_lock(cache, "mujoco_warp"), wp.ScopedDevice(device):  # one process compiles at a time; the others then load
-        before = _cache_entries(cache)
+        before = cache_entries(cache)
         mjw.step(model, data)
         wp.launch(record_kernels()[1], dim=1, inputs=[wp.zeros(1, dtype=wp.int32)])  # loads the recording's module
         wp.synchronize()
-        compiled = _cache_entries(cache) > before
+        compiled = cache_entries(cache) > before
     load = KernelLoad(device, time.perf_counter() - start, compiled, cache)
     if load.compiled:
         for listener in listeners:

@@ -38,8 +38,9 @@ import numpy as np
 
 from chatterbench.reference.scene import Scene
 
+from .. import warp_cache
 from ..api import SettingsError
-from ..warp_cache import compile_lock
+from ..warp_cache import cache_entries, compile_lock
 
 BODY2_HALF = 0.05  # [m] radius of body 2 (geometry only: the walls are placed around it)
 WALL_HALF = 0.5  # [m] half thickness of each wall along x: deeper than a soft contact sinks (semi-implicit)
@@ -97,26 +98,15 @@ def device_name(device: str) -> str:
 
 
 @dataclass(frozen=True)
-class KernelLoad:
-    """Newton's kernels for one solver on a device: how long the first step took [s], and whether warp compiled."""
+class KernelLoad(warp_cache.KernelLoad):
+    """Newton's kernels for one solver on a device (``warp_cache.KernelLoad``): ``Newton (xpbd) compiled its kernels
+    for device cpu in 14.3 s (cache: ...)``."""
 
-    solver: str
-    device: str
-    seconds: float
-    compiled: bool
-    cache: str  # warp's kernel cache directory
+    solver: str = ""
 
-    def describe(self) -> str:
-        """One line: ``Newton (xpbd) compiled its kernels for device cpu in 184.0 s (cache: ...)``."""
-        what = "compiled its kernels" if self.compiled else "loaded its kernels from warp's cache"
-        return f"Newton ({self.solver}) {what} for device {self.device} in {self.seconds:.1f} s (cache: {self.cache})"
-
-
-def _cache_entries(path: str) -> int:
-    try:
-        return len(os.listdir(path))
-    except OSError:
-        return 0
+    @property
+    def engine(self) -> str:  # type: ignore[override]
+        return f"Newton ({self.solver})"
 
 
 @functools.cache
@@ -133,13 +123,13 @@ def load_kernels(solver: str, device: str) -> KernelLoad:
     cache = str(wp.config.kernel_cache_dir or "")
     start = time.perf_counter()
     with compile_lock(cache, "newton"):
-        before = _cache_entries(cache)
+        before = cache_entries(cache)
         settings = XpbdSettings(device=device) if solver == "xpbd" else SemiSettings(device=device)
         world = build(load_scene("feigin-pair", ["duration=0.001"]), settings, solver, capture=False)
         world.launch()
         wp.synchronize()
-        compiled = _cache_entries(cache) > before
-    return KernelLoad(solver, device, time.perf_counter() - start, compiled, cache)
+        compiled = cache_entries(cache) > before
+    return KernelLoad(device, time.perf_counter() - start, compiled, cache, solver=solver)
 
 
 def warm(solvers: tuple[str, ...] = ("xpbd", "semi"), device: str = "cpu") -> list[KernelLoad]:

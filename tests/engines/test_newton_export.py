@@ -30,18 +30,24 @@ def _printed(stdout: str) -> list[tuple[float, float, float, float]]:
     return [tuple(float(w.split("=")[1]) for w in line.split()[1:]) for line in lines if line.startswith("impact ")]
 
 
-@pytest.mark.parametrize("engine, sets", [("newton_xpbd", []), ("newton_semi", []),
-                                          ("newton_xpbd", ["newton_xpbd.length_unit=1000"])])
-def test_the_exported_script_prints_the_runs_impacts(tmp_path, engine, sets):
-    over = "duration=1.3"  # six bounces and the start of the chatter: the script's run is a few seconds
-    done = cli_here(["run", "bouncing-ball", "--engines", engine, "--set", over, *[w for o in sets for w in ("--set", o)],
-                     "--export-model", str(tmp_path / "scene.py")])
+def _exported_and_run(tmp_path, run_args: list[str]) -> tuple[int, list[tuple[float, float, float, float]]]:
+    """``chatterbench run RUN_ARGS --export-model scene.py``, then the script in a fresh process without chatterbench:
+    the impacts the run counted, and the (t, v_in, v_out, e) lines the script printed."""
+    done = cli_here(["run", *run_args, "--export-model", str(tmp_path / "scene.py")])
     assert done.code == 0, done.err
     counted = int(re.search(r"(\d+) impacts", done.out).group(1))
     out = subprocess.run([sys.executable, "-c", NO_CHATTERBENCH, str(tmp_path / "scene.py")], capture_output=True,
                          text=True, cwd=tmp_path, timeout=600)
     assert out.returncode == 0, out.stderr
-    printed = _printed(out.stdout)
+    return counted, _printed(out.stdout)
+
+
+@pytest.mark.parametrize("engine, sets", [("newton_xpbd", []), ("newton_semi", []),
+                                          ("newton_xpbd", ["newton_xpbd.length_unit=1000"])])
+def test_the_exported_script_prints_the_runs_impacts(tmp_path, engine, sets):
+    over = "duration=1.3"  # six bounces and the start of the chatter: the script's run is a few seconds
+    counted, printed = _exported_and_run(
+        tmp_path, ["bouncing-ball", "--engines", engine, "--set", over, *[w for o in sets for w in ("--set", o)]])
     scene = load_scene("bouncing-ball", [over])
     settings = make_settings(engine, overrides=sets)
     found = extract(run_engine(engine, scene, settings), scene, solve(scene).stick_tolerance(Tolerances().stick))
@@ -76,12 +82,5 @@ v1 = 1.0
 def test_the_exported_script_moves_a_prescribed_body_1(tmp_path, engine):
     # a box moved as x1 = sin t (a kinematic link in the script too): the script's impacts are the run's
     (tmp_path / "shaker.toml").write_text(SHAKER)
-    done = cli_here(["run", str(tmp_path / "shaker.toml"), "--engines", engine, "--dt", "1e-3", "--export-model",
-                     str(tmp_path / "scene.py")])
-    assert done.code == 0, done.err
-    counted = int(re.search(r"(\d+) impacts", done.out).group(1))
-    out = subprocess.run([sys.executable, "-c", NO_CHATTERBENCH, str(tmp_path / "scene.py")], capture_output=True,
-                         text=True, cwd=tmp_path, timeout=600)
-    assert out.returncode == 0, out.stderr
-    printed = _printed(out.stdout)
+    counted, printed = _exported_and_run(tmp_path, [str(tmp_path / "shaker.toml"), "--engines", engine, "--dt", "1e-3"])
     assert len(printed) == counted >= 5
