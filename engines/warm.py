@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import sys
 
+
 def main(argv: list[str]) -> int:
     from chatterbench.reference.scene import load_scene
 

@@ -28,9 +28,10 @@ adapters), ``export`` (the scene as a script for Newton alone). Both step in flo
 where warp finds a GPU and on warp's CPU device otherwise; each step is one launch of a warp
 graph captured when the world is built. The first run on a machine compiles Newton's kernels,
 forward only (``world.modules``; measured with an empty warp cache on this 2-core machine, quiet, by
-``python -m chatterbench.engines.newton_engine.warm``: 14.3 s for XPBD with the collision pipeline, then 2.4 s
-more for semi-implicit, 9.7 s for semi-implicit alone; from the cache 0.1 s), one process at a time (a lock on
-warp's cache: others wait, then load), before the run's clock starts: the record's ``warmup_s`` and ``kernels``.
+``python -m chatterbench.engines.warm newton_xpbd newton_semi`` (``engines/warm.py``): 16.7 s for XPBD with the
+collision pipeline, then 3.0 s more for semi-implicit; ``world.load_kernels`` alone: 9.7 s for semi-implicit on
+its own; from the cache 0.1 s), one process at a time (a lock on warp's cache: others wait, then load), before the
+run's clock starts: the record's ``warmup_s`` and ``kernels``.
 A prescribed body 1 is a kinematic link put on its path before each step (``drive``).
 """
 

@@ -132,12 +132,6 @@ def load_kernels(solver: str, device: str) -> KernelLoad:
     return KernelLoad(device, time.perf_counter() - start, compiled, cache, solver=solver)
 
 
-def warm(solvers: tuple[str, ...] = ("xpbd", "semi"), device: str = "cpu") -> list[KernelLoad]:
-    """Load (compile, on a cold cache) the kernels of ``solvers`` on ``device``: what a test run or a sweep does once
-    before its workers start (``python -m chatterbench.engines.newton_engine.warm``)."""
-    return [load_kernels(solver, device) for solver in solvers]
-
-
 class World:
     """A scene's Newton model, solver and states, and its step (module docstring)."""
 

@@ -1,7 +1,8 @@
 """Warp kernels (Newton's, MuJoCo Warp's) compile once across processes: ``warp_cache.compile_lock`` holds an exclusive
 lock on a file in warp's kernel cache while a process loads them, so a second process (a test worker, a sweep worker)
-waits and then reads what the first compiled. (By hand, two ``python -m chatterbench.engines.newton_engine.warm semi`` on one empty cache:
-one "compiled its kernels ... in 11.9 s", the other "loaded its kernels from warp's cache ... in 12.3 s".)"""
+waits and then reads what the first compiled. (By hand, two processes loading Newton's semi-implicit kernels on one
+empty cache, the warm command before it was folded into ``engines/warm.py``: one "compiled its kernels ... in
+11.9 s", the other "loaded its kernels from warp's cache ... in 12.3 s".)"""
 
 from __future__ import annotations
 
