@@ -75,7 +75,3 @@ class Trajectory:
     def dt(self) -> float:
         """The run's timestep [s], ``step`` (module docstring); NaN for one sample from elsewhere."""
         return self.step
-
-    def sampling_step(self) -> float:
-        """The run's timestep [s] (what the extraction takes as dt): ``step``, recorded with the run."""
-        return self.step

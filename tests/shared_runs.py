@@ -46,3 +46,36 @@ def made_once(folder: Path | None, name: str, make: Callable[[], Any]) -> Any:
             (folder / f"{name}.tmp").write_text(json.dumps(make()))
             os.replace(folder / f"{name}.tmp", path)
         return json.loads(path.read_text())
+
+
+_MADE: dict[str, Any] = {}  # what ``folder_made_once`` made in this process, when no worker shares a folder with it
+
+
+def folder_made_once(tmp_path_factory, name: str, make: Callable[[Path], Any]) -> tuple[Path, Any]:
+    """``make(out)``, which writes the folder ``out`` and returns a value JSON holds, made once in this test session:
+    every caller (every pytest-xdist worker: ``session_folder``, ``made_once``) gets the same ``out`` and what the
+    first call returned. Tests read ``out``; one that writes copies it first."""
+    shared = session_folder(tmp_path_factory)
+    out = (shared if shared is not None else tmp_path_factory.getbasetemp()) / name
+    if shared is not None:
+        return out, made_once(shared, name, lambda: make(out))
+    if name not in _MADE:
+        _MADE[name] = make(out)
+    return out, _MADE[name]
+
+
+# PyBullet's default tune of the ball, as a user types it: tune's default search (tolerances, budget), which is the
+# kept atlas's search too (comparisons/atlas_data/atlas.json); about 70 CPU s, so two test modules share one
+PYBULLET_BALL_TUNE = ["tune", "bouncing-ball", "--engines", "pybullet", "--workers", "2"]
+
+
+def pybullet_ball_tune(tmp_path_factory) -> tuple[Path, dict]:
+    """``chatterbench tune bouncing-ball --engines pybullet --workers 2 --out DIR`` run once this session: (DIR,
+    {"code": its exit code, "err": the end of its stderr})."""
+    from helpers import cli
+
+    def make(out: Path) -> dict:
+        done = cli([*PYBULLET_BALL_TUNE, "--out", str(out)])
+        return {"code": done.code, "err": done.err[-2000:]}
+
+    return folder_made_once(tmp_path_factory, "pybullet-ball-tune", make)

@@ -203,7 +203,7 @@ def extract(traj: Trajectory, scene: Scene, stick_tolerance: float = math.nan,
     if len(t) < 2:
         return Extraction(pd.DataFrame(columns=IMPACT_COLUMNS), log_frame([]), episodes(log_frame([])), math.nan,
                           stick_frame([]), dict(offsets or {}))
-    dt = traj.sampling_step()  # the run's dt as recorded (a file's samples: their median spacing)
+    dt = traj.dt  # the run's dt as recorded (a file's samples: their median spacing)
     R = scene.restitution
     f_min = flight_floor(dt, R, stick_tolerance, options)
     y, vy = traj.y, traj.vy  # each a new array per read: read once
@@ -257,14 +257,28 @@ def extract(traj: Trajectory, scene: Scene, stick_tolerance: float = math.nan,
                 rows.append((end, "exit", wall, float(vy[kk]), float(vy[kk]), float(x1[kk]), float(v1[kk]), ""))
     rows.sort(key=lambda r: (r[0], _KIND_ORDER[r[1]]))
     log = log_frame(rows)
-    columns = {c: np.concatenate([w[c] for w in impact_rows]) for c in IMPACT_COLUMNS} if impact_rows else {}
-    impacts = pd.DataFrame(columns if columns and len(columns["t"]) else [], columns=IMPACT_COLUMNS)
-    impacts = impacts.sort_values("t", kind="stable").reset_index(drop=True)
-    # a flight that ends on the other wall, or that an exit starts, is no bounce's flight
-    crossing = impacts["wall"].ne(impacts["wall"].shift(-1)) & impacts.index.to_series().lt(len(impacts) - 1)
-    impacts.loc[crossing | impacts["exits"], ["flight", "flight_seen"]] = np.nan
+    impacts = impact_table(impact_rows)
     return Extraction(impacts=impacts, log=log, episodes=episodes(log), flight_min=f_min, sticks=stick_frame(sticks),
                       offsets=dict(offsets or {}))
+
+
+def impact_table(walls: list[dict[str, np.ndarray]]) -> pd.DataFrame:
+    """The impacts of every wall (``IMPACT_COLUMNS``, one dict of columns per wall) as one table by time (stable:
+    a tie keeps the walls' order), with no bounce's flight where a flight ends on the other wall or an exit starts it.
+    Built as arrays and made a DataFrame once (a ladder extracts a run at each f_min: pandas' sort and masked
+    assignment cost more than the rest of the table)."""
+    n = sum(len(w["t"]) for w in walls)
+    if not n:
+        return pd.DataFrame([], columns=IMPACT_COLUMNS).reset_index(drop=True)
+    order = np.argsort(np.concatenate([w["t"] for w in walls]), kind="stable")
+    columns = {c: np.concatenate([w[c] for w in walls])[order] for c in IMPACT_COLUMNS}
+    wall = columns["wall"]
+    crossing = np.zeros(n, dtype=bool)
+    crossing[:-1] = wall[:-1] != wall[1:]
+    no_flight = crossing | columns["exits"].astype(bool)
+    for c in ("flight", "flight_seen"):
+        columns[c] = np.where(no_flight, np.nan, columns[c].astype(float))
+    return pd.DataFrame(columns, columns=IMPACT_COLUMNS)
 
 
 def extract_events(traj: Trajectory, scene: Scene, stick_tolerance: float = math.nan,

@@ -246,7 +246,7 @@ def judge(ref: ReferenceSolution, found: Extraction, traj: Trajectory, tol: Tole
     tol = tol or Tolerances()
     scene = ref.scene
     t = np.asarray(traj.t, dtype=float)
-    dt = traj.sampling_step()
+    dt = traj.dt
     t_end = float(t[-1]) if len(t) else -math.inf
     ref_eps, eng_eps, imps = ref.episodes, found.episodes, _Found(found)
     eng_rows = list(rows_of(eng_eps))

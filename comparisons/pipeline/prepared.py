@@ -116,7 +116,7 @@ class PreparedRun:
         self.memo = {} if memo is None else memo
         scene = ref.scene
         self.t = np.asarray(traj.t, dtype=float)
-        self.dt = traj.sampling_step()
+        self.dt = traj.dt
         self.t_end = float(self.t[-1]) if len(self.t) else -math.inf
         self.imps = _Found(found)
         self.eng_rows = list(rows_of(found.episodes))

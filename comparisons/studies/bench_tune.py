@@ -105,7 +105,7 @@ def _extractions(ref, run, points, asked, repeats: int) -> float:
     work before and after (``bench_ladder``), the best of ``repeats``."""
     from ..pipeline.extract import extract, flight_floor
 
-    dt = run.trajectory.sampling_step()
+    dt = run.trajectory.dt
     floors = {flight_floor(dt, ref.scene.restitution, ref.stick_tolerance(p.stick)): p.stick for p in points}
     floors.pop(flight_floor(dt, ref.scene.restitution, ref.stick_tolerance(asked.stick)), None)
     best = math.inf

@@ -2,7 +2,7 @@
 re-derived from the sample times; samples from elsewhere take their median spacing once.
 
 Before: ``Trajectory.dt`` was ``t[1] - t[0]`` and ``sampling_step()`` the median of ``diff(t)``, two derivations that
-differ from the dt asked for in the last bits (t = t0 + k dt rounded), and from each other.
+differ from the dt asked for in the last bits (t = t0 + k dt rounded), and from each other. Now one name, ``dt``.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ DT = 3e-4  # not a power of two: t = k dt is rounded, so a spacing read off the 
 
 def test_an_engine_runs_trajectory_carries_the_dt_it_was_run_at():
     traj = run_engine("pybullet", BALL, make_settings("pybullet", dt=DT))
-    assert traj.step == DT and traj.dt == DT and traj.sampling_step() == DT
+    assert traj.step == DT and traj.dt == DT
     spacings = np.diff(traj.t)
     assert (spacings != DT).any()  # the samples' own spacing is not dt bit for bit: what the old code read
 
@@ -44,4 +44,4 @@ def test_samples_from_elsewhere_take_their_median_spacing_once():
     assert ref.step == float(np.median(np.diff(ref.t)))
     # known answer the other way: a trajectory whose step was given keeps it, whatever its samples say
     given = dataclasses.replace(ref, step=2 * DT)
-    assert given.dt == 2 * DT and given.sampling_step() == 2 * DT
+    assert given.dt == 2 * DT

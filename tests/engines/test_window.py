@@ -68,7 +68,7 @@ def test_the_judge_says_the_same_on_the_compact_form(name, engine, tmp_path_fact
     # the samples kept are the run's own, with the first two and the last
     np.testing.assert_array_equal(small.t, full.t[small.index])
     assert small.index[:2].tolist() == [0, 1] and small.index[-1] == len(full.t) - 1
-    assert small.dt == full.dt and small.sampling_step() == full.sampling_step()
+    assert small.dt == full.dt
 
 
 # the scenes of the wrong-R test: the ball whole; Feigin's pair over its first 8 s, one sliding episode on each wall

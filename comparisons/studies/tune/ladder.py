@@ -136,7 +136,7 @@ def judge_levels(ref: ReferenceSolution, engine: str, settings: Any, trajectory,
     """
     wanted = set(range(len(points)) if only is None else only)
     passes, margins, limits, rests, failed_timing = [], [], [], [], set()
-    dt = trajectory.sampling_step()
+    dt = trajectory.dt
 
     def floor(tol: Tolerances) -> float:  # what the extraction reads of a timing level: levels of one f_min share it
         return flight_floor(dt, ref.scene.restitution, ref.stick_tolerance(tol.stick))
@@ -176,7 +176,7 @@ def reference_levels(ref: ReferenceSolution, engine: str, settings: Any, traject
     known = dict(known or {})
     wanted = set(range(len(points)) if only is None else only)
     passes, margins, limits, rests, failed_timing = [], [], [], [], set()
-    dt = trajectory.sampling_step()
+    dt = trajectory.dt
 
     def floor(tol: Tolerances) -> float:  # what the extraction reads of a timing level: levels of one f_min share it
         return flight_floor(dt, ref.scene.restitution, ref.stick_tolerance(tol.stick))

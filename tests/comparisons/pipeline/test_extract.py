@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from chatterbench.comparisons.pipeline.extract import extract
+from chatterbench.comparisons.pipeline.extract import IMPACT_COLUMNS, extract, impact_table
 from chatterbench.comparisons.pipeline.extract_options import ExtractionOptions
 from chatterbench.comparisons.pipeline.sampling import reference_trajectory, sample_grid
 from chatterbench.comparisons.pipeline.tolerances import Tolerances, ToleranceError
@@ -202,3 +202,28 @@ def test_mujoco_exit_on_feigin_pair_is_where_the_force_lets_go(tmp_path_factory)
     phase = np.where(eps["wall"] == "lower", math.pi, 0.0)
     off = np.mod(eps["t_exit"] - phase + math.pi, 2 * math.pi) - math.pi
     assert np.abs(off).max() <= 2 * dt
+
+
+def _wall(wall: str, t: list[float], flight: list[float], exits: list[bool]) -> dict:
+    n = len(t)
+    cols = {c: np.arange(n, dtype=float) for c in IMPACT_COLUMNS}
+    cols.update(t=np.array(t), wall=np.full(n, wall, dtype=object), flight=np.array(flight),
+                flight_seen=np.array(flight), exits=np.array(exits), slow=np.zeros(n, bool), stuck=np.zeros(n, bool),
+                onset=np.zeros(n, bool))
+    return cols
+
+
+def test_the_impact_table_is_by_time_and_drops_the_flights_no_bounce_made():
+    # two walls interleaved: a flight that ends on the other wall, or that an exit starts, is no bounce's flight; the
+    # last impact keeps its own; a tie in time keeps the walls' order (lower first, as extract lists them)
+    lower = _wall("lower", [0.1, 0.2, 0.5], [0.1, 0.3, 0.4], [False, True, False])
+    upper = _wall("upper", [0.3, 0.5, 0.6], [0.2, 0.1, 0.7], [False, False, False])
+    table = impact_table([lower, upper])
+    assert table["t"].tolist() == [0.1, 0.2, 0.3, 0.5, 0.5, 0.6]
+    assert table["wall"].tolist() == ["lower", "lower", "upper", "lower", "upper", "upper"]
+    flight = table["flight"].tolist()
+    assert flight[0] == 0.1 and flight[4] == 0.1 and flight[5] == 0.7  # bounces on one wall, and the last impact
+    assert all(math.isnan(f) for f in (flight[1], flight[2], flight[3]))  # an exit's; two that end on the other wall
+    assert table["flight_seen"].isna().tolist() == table["flight"].isna().tolist()
+    assert list(table.columns) == IMPACT_COLUMNS and table.index.tolist() == list(range(6))
+    assert impact_table([]).empty and list(impact_table([]).columns) == IMPACT_COLUMNS

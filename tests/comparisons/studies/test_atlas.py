@@ -4,6 +4,7 @@ the tables' known answers both ways."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import re
@@ -21,6 +22,7 @@ from chatterbench.comparisons.outputs.atlas_files import atlas_frame, atlas_tabl
 from chatterbench.comparisons.outputs.atlas_section import packaged_atlas, read_atlas, version_notes
 from chatterbench.comparisons.studies.bench_tune import ATLAS_FIXED
 from helpers import wait_until
+from shared_runs import pybullet_ball_tune
 
 # bench atlas's small atlas (its knobs held, dt capped at 300 steps/s): seconds a case
 SMALL = ["bouncing-ball", "feigin-pair", "--engines", "pybullet,mujoco", "--max-runs", "40", "--max-cost", "300",
@@ -220,25 +222,28 @@ def test_the_packaged_atlas_has_its_provenance():
 
 
 @pytest.mark.slow
-def test_a_cell_of_the_packaged_atlas_recomputed_from_scratch_gives_its_answer():
+def test_a_cell_of_the_packaged_atlas_recomputed_from_scratch_gives_its_answer(tmp_path_factory):
     # the report's atlas is data kept in the repository: one of its cells, tuned again here with the atlas's own
-    # search, reaches the same frontier (tolerances, dt, settings, cost); fixed-step costs, no timing decides it
-    from chatterbench.comparisons.studies.atlas import AtlasSpec, run_case
+    # search, reaches the same frontier (tolerances, dt, settings, cost); fixed-step costs, no timing decides it. The
+    # kept atlas searched with tune's defaults, so its case is `tune bouncing-ball --engines pybullet` (the user's
+    # command, made once a session: test_tune_rest_clients.py checks its answer in fresh PyBullet processes)
     from chatterbench.comparisons.pipeline.tolerances import Tolerances
+    from chatterbench.comparisons.studies.limits import MAX_RUNS, ROBUST_FRACTION
 
     section = packaged_atlas()
     (kept,) = [c for c in section.cases if (c["scene"], c["engine"]) == ("bouncing-ball", "pybullet")]
     search = section.provenance["search"]
-    spec = AtlasSpec(scenes=("bouncing-ball",), engines=("pybullet",), tolerance=Tolerances(**search["tolerances"]),
-                     max_runs=search["max_runs"], robust_fraction=search["robust_fraction"], fixed=search["fixed"])
-    again, _ = run_case(spec, "bouncing-ball", "pybullet", workers=2)
+    assert search == {"tolerances": dataclasses.asdict(Tolerances()), "max_runs": MAX_RUNS, "robust_fraction": ROBUST_FRACTION,
+                      "fixed": {}, "max_cost": None}, "the kept atlas no longer searched with tune's defaults"
+    out, done = pybullet_ball_tune(tmp_path_factory)
+    assert done["code"] == 0, done["err"]
+    again = json.loads((out / "recommended.json").read_text())
 
-    def answer(case):
-        rec = case["recommended"]
+    def answer(rec):
         return ([(e["tolerances"]["stick"], e["tolerances"]["restitution"], e["dt"], e["settings"], e["cost_steps_per_s"])
                  for e in rec["frontier"]], rec["tightest"], rec["robust"])
 
-    assert json.loads(json.dumps(answer(again))) == json.loads(json.dumps(answer(kept)))
+    assert json.loads(json.dumps(answer(again))) == json.loads(json.dumps(answer(kept["recommended"])))
     assert kept["recommended"]["frontier"], "the cell checked must have a frontier to compare"
 
 

@@ -1,6 +1,7 @@
-"""The top-level answer of `tune bouncing-ball --tolerance 0.05` for PyBullet, rebuilt from scratch as users rebuilt it
-(issue 41; the clients: tests/rest_clients.py), dropped from 0.5, 1 and 2 m for 10 s: the guide's persistence and
-restitution claims hold at each height it says the answer transfers to. MuJoCo's: test_tune_frontier.py, on its
+"""The top-level answer of `tune bouncing-ball --engines pybullet` (the default tolerances: stick 5%, restitution 5%),
+rebuilt from scratch as users rebuilt it (issue 41; the clients: tests/rest_clients.py), dropped from 0.5, 1 and 2 m
+for 10 s: the guide's persistence and restitution claims hold at each height it says the answer transfers to. The tune
+is made once a session (shared_runs.pybullet_ball_tune): test_atlas.py compares it with the kept atlas's cell. MuJoCo's: test_tune_frontier.py, on its
 tune (one search, shared). The other way: the client finds PyBullet's old answer flickering.
 """
 
@@ -10,16 +11,14 @@ import json
 
 import pytest
 
-from helpers import cli
 from rest_clients import check_rest_claims, run_client
+from shared_runs import pybullet_ball_tune
 
 
-@pytest.mark.slow  # PyBullet's default tune (about a minute) and three 10 s runs in fresh processes
-def test_pybullets_top_level_answer_rests_at_every_height_the_guide_claims(tmp_path):
-    out = tmp_path / "tune"
-    done = cli(["tune", "bouncing-ball", "--engines", "pybullet", "--tolerance", "0.05", "--workers", "2",
-                "--out", str(out)])
-    assert done.code == 0, done.err[-2000:]  # robust at 5%
+@pytest.mark.slow  # PyBullet's default tune (about a minute, shared) and three 10 s runs in fresh processes
+def test_pybullets_top_level_answer_rests_at_every_height_the_guide_claims(tmp_path, tmp_path_factory):
+    out, done = pybullet_ball_tune(tmp_path_factory)
+    assert done["code"] == 0, done["err"]  # robust at 5%
     assert check_rest_claims("pybullet", out / "recommended.json", tmp_path) >= 2
 
 
