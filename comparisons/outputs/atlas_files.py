@@ -263,3 +263,32 @@ def write_atlas_files(out: Path, cases: Sequence[dict[str, Any]], provenance: di
         figures.append(f"figures/frontier-{scene}.png")
     write_text(out / "atlas.md", atlas_file_markdown(atlas, cases, provenance, figures))
     return written + ["atlas.md"] + [f.replace(".png", ".png/.svg") for f in figures]
+
+
+def grid_markdown(cases: Iterable[dict[str, Any]], scenes: Sequence[str], engines: Sequence[str],
+                  asked: str = "5%/5%") -> str:
+    """The atlas as one Markdown grid, a row per scene and a column per engine (the README's table). A cell is the
+    case's tightest band-robust point, ``stick / restitution`` tolerance, then the steps per simulated second of its
+    written setting: ``ASKED at N`` where it is robust at the asked tolerances, ``written at N`` where the written
+    setting is the tightest robust point instead; ``none`` where nothing is robust, ``failed`` where the case failed,
+    ``not run`` where the atlas has no such case. Every cell escaped."""
+    by = {(c["scene"], c["engine"]): c for c in cases}
+
+    def cell(scene: str, engine: str) -> str:
+        c = by.get((scene, engine))
+        if c is None:
+            return "not run"
+        if c.get("status") != "ok":
+            return "failed"
+        rec = c.get("recommended") or {}
+        tight = rec.get("tightest") or {}
+        if tight.get("stick") is None:
+            return "none"
+        where = asked if rec.get("robust") else "written"
+        return (f"{_pct(tight['stick'])} / {_pct(tight['restitution'])}; "
+                f"{where} at {_cost(_num(rec.get('cost_steps_per_s')))}")
+
+    lines = ["| scene | " + " | ".join(md_escape(e) for e in engines) + " |",
+             "|---|" + "---|" * len(engines)]
+    lines += [f"| {md_escape(s)} | " + " | ".join(md_escape(cell(s, e)) for e in engines) + " |" for s in scenes]
+    return "\n".join(lines)

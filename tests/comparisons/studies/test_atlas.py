@@ -18,7 +18,7 @@ import pandas as pd
 import pytest
 
 from chatterbench.comparisons.cli.main import main
-from chatterbench.comparisons.outputs.atlas_files import atlas_frame, atlas_table_markdown, frontier_frame
+from chatterbench.comparisons.outputs.atlas_files import atlas_frame, atlas_table_markdown, frontier_frame, grid_markdown
 from chatterbench.comparisons.outputs.atlas_section import packaged_atlas, read_atlas, version_notes
 from chatterbench.comparisons.studies.bench_tune import ATLAS_FIXED
 from helpers import wait_until
@@ -85,6 +85,29 @@ def test_names_from_a_case_are_escaped_in_the_markdown():
     hostile = _case("<img src=http://198.51.100.7/b.png>\n## INJ", "pybullet", True, [_point(0.05, 0.05, 500.0)])
     text = atlas_table_markdown(atlas_frame([hostile]))
     assert re.search(r"(?<!\\)<", text) is None and "\n## INJ" not in text and "\\<img" in text
+
+
+def test_the_grid_names_each_cells_tightest_point_and_what_it_costs():
+    robust = _case("bouncing-ball", "pybullet", True, [_point(0.05, 0.05, 500.0), _point(0.01, 0.02, 900.0)])
+    written = _case("bouncing-ball", "mujoco", False, [_point(0.1, 0.3, 1919.0)])
+    written["recommended"]["cost_steps_per_s"] = 1919.0
+    nothing = _case("feigin-pair", "mujoco", False, [])
+    failed = _case("feigin-pair", "pybullet", False, status="failed")
+    grid = grid_markdown([robust, written, nothing, failed], ["bouncing-ball", "feigin-pair", "spring-pair"],
+                         ["mujoco", "pybullet"]).splitlines()
+    assert grid[2] == "| bouncing-ball | 10% / 30%; written at 1,919 | 1% / 2%; 5%/5% at 500 |"
+    assert grid[3] == "| feigin-pair | none | failed |"
+    assert grid[4] == "| spring-pair | not run | not run |"
+    hostile = grid_markdown([], ["<img src=x>\n## INJ"], ["a|b"])
+    assert "\\<img" in hostile and "\n## INJ" not in hostile and "a\\|b" in hostile
+
+
+def test_the_readme_shows_the_kept_atlas_as_it_is():
+    # the README's grid is the kept dataset's, cell for cell (renewing comparisons/atlas_data renews it)
+    readme = (Path(__file__).resolve().parents[3] / "README.md").read_text()
+    grid = grid_markdown(packaged_atlas().cases, ["bouncing-ball", "feigin-pair", "impact-damper", "spring-pair"],
+                         ["mujoco", "pybullet", "dart", "physx", "drake", "mujoco_warp", "siconos"])
+    assert grid in readme, "README.md's atlas grid is not the kept atlas's:\n" + grid
 
 
 # -- the command ----------------------------------------------------------------------------------------------------
