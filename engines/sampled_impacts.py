@@ -114,22 +114,44 @@ def onset(t, d, u, a, contact, force, start, stop):
             "first": start, "begin": stop if stop < n else n, "contact": True}
 
 
+def jump(t, d, u, a, contact, k):
+    """The impact between free samples k and k + 1 (a velocity jump the free motion cannot make, near the wall), or
+    None."""
+    h = t[k + 1] - t[k]
+    a_max = max(abs(a[k]), abs(a[k + 1]))
+    if contact[k] or contact[k + 1] or min(d[k], d[k + 1]) > max(abs(u[k]), abs(u[k + 1])) * h + a_max * h * h:
+        return None
+    if u[k + 1] - u[k] - 0.5 * (a[k] + a[k + 1]) * h <= max(JUMP_ATOL, min(JUMP_FACTOR, FLOOR_STEPS) * a_max * h):
+        return None
+    s_fwd = first_root(d[k], u[k], a[k], h)
+    s_bwd = first_root(d[k + 1], -u[k + 1], a[k + 1], h)
+    t_j = t[k] + s_fwd if not math.isnan(s_fwd) else (t[k + 1] - s_bwd if not math.isnan(s_bwd) else t[k + 1])
+    return {"t": t_j, "v_minus": u[k] + a[k] * (t_j - t[k]), "v_plus": u[k + 1] - a[k + 1] * (t[k + 1] - t_j),
+            "t_release": t_j, "first": k + 1, "begin": k + 1, "contact": False}
+
+
 def jumps(t, d, u, a, contact):
     """The impacts between two free samples: velocity jumps the free motion cannot make, near the wall."""
-    out = []
-    for k in range(len(t) - 1):
-        h = t[k + 1] - t[k]
-        a_max = max(abs(a[k]), abs(a[k + 1]))
-        if contact[k] or contact[k + 1] or min(d[k], d[k + 1]) > max(abs(u[k]), abs(u[k + 1])) * h + a_max * h * h:
-            continue
-        if u[k + 1] - u[k] - 0.5 * (a[k] + a[k + 1]) * h <= max(JUMP_ATOL, min(JUMP_FACTOR, FLOOR_STEPS) * a_max * h):
-            continue
-        s_fwd = first_root(d[k], u[k], a[k], h)
-        s_bwd = first_root(d[k + 1], -u[k + 1], a[k + 1], h)
-        t_j = t[k] + s_fwd if not math.isnan(s_fwd) else (t[k + 1] - s_bwd if not math.isnan(s_bwd) else t[k + 1])
-        out.append({"t": t_j, "v_minus": u[k] + a[k] * (t_j - t[k]), "v_plus": u[k + 1] - a[k + 1] * (t[k + 1] - t_j),
-                    "t_release": t_j, "first": k + 1, "begin": k + 1, "contact": False})
-    return out
+    found = (jump(t, d, u, a, contact, k) for k in range(len(t) - 1))
+    return [imp for imp in found if imp is not None]
+
+
+def first_impact(t, d, u, a, contact, force):
+    """The first impact on one wall, by first sample: ``wall_impacts(...)[0]`` without the flight after it (no
+    ``next_first``, ``apex``, ``a_release``, ``a_onset``, ``flight``), read only up to it; None when there is none.
+
+    A jump's first sample k + 1 is free and a contact run's is not, so the first impact is the first jump before the
+    first contact run, else that run's onset, else (no contact at all) the first jump."""
+    n = len(t)
+    start = next((k for k in range(n) if contact[k]), n)
+    for k in range(min(start, n - 1)):
+        imp = jump(t, d, u, a, contact, k)
+        if imp is not None:
+            return imp
+    if start == n:
+        return None
+    stop = next((k for k in range(start, n) if not contact[k]), n)
+    return onset(t, d, u, a, contact, force, start, stop)
 
 
 def wall_impacts(t, d, u, a, contact, force):

@@ -47,6 +47,62 @@ def _segments(scene: Scene, log: pd.DataFrame):
     return starts
 
 
+class Motion:
+    """The exact motion of ``scene`` from its event log, ready to be sampled many times: its segments (the state after
+    every event), system and flows made once (``sample_states`` makes them at each call; a caller sampling a few
+    times at a time, as strikes do before each impact, keeps one: ``ReferenceSolution.motion``)."""
+
+    def __init__(self, scene: Scene, log: pd.DataFrame) -> None:
+        self.scene = scene
+        self.system = LinearSystem.from_scene(scene)
+        horizon = scene.time_scale / 4.0
+        self.flows = {False: shared_flow(self.system.free, horizon), True: shared_flow(self.system.stuck, horizon)}
+        self.starts = _segments(scene, log)
+        self.t_starts = np.array([s[0] for s in self.starts])
+
+    def states(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Exact (x1, v1, y, vy) at non-decreasing ``times`` [s], shape (n, 4), and the wall y of the kinematic
+        constraint at each time (NaN while the masses move freely), shape (n,) (``sample_states``)."""
+        times = np.asarray(times, dtype=float)
+        system, starts = self.system, self.starts
+        # an event shares its time with the ones logged right after it: take the last of them
+        idx = np.clip(np.searchsorted(self.t_starts, times, side="right") - 1, 0, len(starts) - 1)
+        out = np.empty((len(times), 4))
+        stuck_y = np.full(len(times), np.nan)
+        cuts = np.searchsorted(idx, np.arange(len(starts) + 1))  # idx is sorted: segment j is cuts[j]:cuts[j+1]
+        for j in np.flatnonzero(np.diff(cuts)):
+            lo, hi = cuts[j], cuts[j + 1]
+            t0, x1, v1, y, vy, stuck = starts[j]
+            flow = self.flows[stuck]
+            s = system.state(t0, x1, v1, y, vy)
+            h = np.maximum(times[lo:hi] - t0, 0.0)
+            # as Flow.advance: whole steps while h > step, then the remainder in (0, step]
+            whole = np.maximum(np.ceil(h / flow.step) - 1.0, 0.0).astype(np.int64)
+            done = 0
+            for m in np.unique(whole):
+                while done < m:
+                    s = flow.step_matrix @ s
+                    done += 1
+                sel = np.flatnonzero(whole == m)
+                r = h[sel] - m * flow.step
+                coeffs = flow.taylor(s)  # (order + 1, n_state)
+                vals = np.broadcast_to(coeffs[-1], (len(sel), coeffs.shape[1])).copy()
+                for c in coeffs[-2::-1]:
+                    vals = vals * r[:, None] + c
+                out[lo + sel] = vals[:, [X1, V1, Y, VY]]
+            if stuck:
+                stuck_y[lo:hi] = y
+        return out, stuck_y
+
+    def at(self, times) -> np.ndarray:
+        """Exact (x1, v1, y, vy) at ``times`` [s] in any order (inside the run), shape (n, 4)."""
+        times = np.asarray(times, dtype=float)
+        order = np.argsort(times, kind="stable")
+        out = np.empty((len(times), 4))
+        out[order] = self.states(times[order])[0]
+        return out
+
+
 def sample_states(scene: Scene, log: pd.DataFrame, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Exact (x1, v1, y, vy) at non-decreasing ``times`` [s], shape (n, 4), and the wall y of
     the kinematic constraint at each time (NaN while the masses move freely), shape (n,).
@@ -54,40 +110,7 @@ def sample_states(scene: Scene, log: pd.DataFrame, times: np.ndarray) -> tuple[n
     Each segment's Taylor polynomial is evaluated by Horner's rule over all of its samples
     at once (whole flow steps first), so 1e6 samples take about a second.
     """
-    times = np.asarray(times, dtype=float)
-    system = LinearSystem.from_scene(scene)
-    horizon = scene.time_scale / 4.0
-    flows = {False: shared_flow(system.free, horizon), True: shared_flow(system.stuck, horizon)}
-    starts = _segments(scene, log)
-    t_starts = np.array([s[0] for s in starts])
-    # an event shares its time with the ones logged right after it: take the last of them
-    idx = np.clip(np.searchsorted(t_starts, times, side="right") - 1, 0, len(starts) - 1)
-    out = np.empty((len(times), 4))
-    stuck_y = np.full(len(times), np.nan)
-    cuts = np.searchsorted(idx, np.arange(len(starts) + 1))  # idx is sorted: segment j is cuts[j]:cuts[j+1]
-    for j in np.flatnonzero(np.diff(cuts)):
-        lo, hi = cuts[j], cuts[j + 1]
-        t0, x1, v1, y, vy, stuck = starts[j]
-        flow = flows[stuck]
-        s = system.state(t0, x1, v1, y, vy)
-        h = np.maximum(times[lo:hi] - t0, 0.0)
-        # as Flow.advance: whole steps while h > step, then the remainder in (0, step]
-        whole = np.maximum(np.ceil(h / flow.step) - 1.0, 0.0).astype(np.int64)
-        done = 0
-        for m in np.unique(whole):
-            while done < m:
-                s = flow.step_matrix @ s
-                done += 1
-            sel = np.flatnonzero(whole == m)
-            r = h[sel] - m * flow.step
-            coeffs = flow.taylor(s)  # (order + 1, n_state)
-            vals = np.broadcast_to(coeffs[-1], (len(sel), coeffs.shape[1])).copy()
-            for c in coeffs[-2::-1]:
-                vals = vals * r[:, None] + c
-            out[lo + sel] = vals[:, [X1, V1, Y, VY]]
-        if stuck:
-            stuck_y[lo:hi] = y
-    return out, stuck_y
+    return Motion(scene, log).states(times)
 
 
 def sample(scene: Scene, log: pd.DataFrame, times) -> pd.DataFrame:
@@ -99,10 +122,6 @@ def sample(scene: Scene, log: pd.DataFrame, times) -> pd.DataFrame:
         One row per time, columns ``DENSE_COLUMNS``.
     """
     times = np.asarray(times, dtype=float)
-    order = np.argsort(times, kind="stable")
-    state, _ = sample_states(scene, log, times[order])
-    out = np.empty((len(times), 4))
-    out[order] = state
-    x1, v1, y, vy = out.T
+    x1, v1, y, vy = Motion(scene, log).at(times).T
     return pd.DataFrame({"t": times, "x1": x1, "x2": x1 + y, "v1": v1, "v2": v1 + vy, "y": y, "vy": vy},
                         columns=DENSE_COLUMNS)

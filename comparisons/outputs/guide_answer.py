@@ -13,7 +13,7 @@ import math
 import pandas as pd
 
 from chatterbench.comparisons.studies.tune.answer import fragile_beside, frontier_line
-from chatterbench.comparisons.studies.tune.checks import CHECKS, strike_summary
+from chatterbench.comparisons.studies.tune.checks import CHECKS, misses_of, strike_summary
 from chatterbench.comparisons.studies.tune.choice import passing
 from chatterbench.comparisons.studies.tune.ladder import level_text
 from chatterbench.engines.export import export_files_names
@@ -123,7 +123,7 @@ def _restitution_claim(result, ev=None) -> list[str]:
     cover every resolved impact, else the chosen row's, the check's)."""
     c = result.chosen
     tol = result.tolerance
-    r = strike_summary(ev.strikes, tol) if ev is not None and ev.strikes is not None else c
+    r = strike_summary(misses_of(ev.strikes, tol)) if ev is not None and ev.strikes is not None else c
     runs = _run_impacts(result, ev)
     if not isinstance(r.get("r_struck"), str) or not r["r_struck"]:
         return runs

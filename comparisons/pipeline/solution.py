@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from chatterbench.reference.dense import sample
+from chatterbench.reference.dense import Motion, sample
 from chatterbench.reference.push import fastest_push
 from chatterbench.reference.errors import SPEED_OF_LIGHT
 from chatterbench.reference.scene import Scene, SceneError
@@ -64,6 +64,11 @@ class ReferenceSolution:
     length_scale: float  # [m] gap width, or the largest distance from a one-sided gap's wall
     wall_time: float  # [s] both runs
     feigin_wall_time: float  # [s] Feigin's model alone: the reference's own cost
+
+    @functools.cached_property
+    def motion(self) -> Motion:
+        """The exhaustive run's exact motion, ready to sample at any times (``reference.dense.Motion``); made once."""
+        return Motion(self.scene, self.exhaustive.log)
 
     @functools.cached_property
     def impacts(self) -> pd.DataFrame:

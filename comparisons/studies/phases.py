@@ -15,7 +15,7 @@ fixed by the start: a setting can pass with the first impact 0.1 step after a sa
 with it 0.6 step after (issue 41: PyBullet's 0.00606 s is ``match``, 0.006063 s ``late``). To
 check a setting at other places in a step, the scene is started ``phase`` x dt later on its
 own exact trajectory: the initial state becomes the reference's at t0 + phase dt
-(``reference.dense.sample_states``, exact: the closed-form flow from the last event), the end
+(``ReferenceSolution.motion``, exact: the closed-form flow from the last event), the end
 time stays, and everything the samples meet afterwards is the same motion on a grid moved by
 ``phase`` of a step. ``phase`` in [0, 1); 0 is the scene itself. The moved scene gets its own
 reference solution (exact, and cheap: 16-29 ms for a built-in scene), so the judge compares
@@ -30,7 +30,6 @@ import math
 
 import numpy as np
 
-from chatterbench.reference.dense import sample_states
 from chatterbench.reference.errors import check_number
 from chatterbench.reference.scene import Scene, SceneError
 from chatterbench.reference.scene_parts import Initial
@@ -50,7 +49,7 @@ def phase_scene(ref: ReferenceSolution, dt: float, phase: float) -> Scene:
     if not shift < scene.duration:
         raise SceneError(f"phase {phase:g} of dt = {dt:g} s: moves the start past the scene's end")
     t = scene.initial.t + shift
-    states, _ = sample_states(scene, ref.exhaustive.log, np.array([t]))
+    states, _ = ref.motion.states(np.array([t]))
     x1, v1, y, vy = (float(v) for v in states[0])
     if scene.body1_infinite:
         x1, v1 = scene.body1_motion(t)  # exactly what the scene's check of a fixed or prescribed body 1 asks

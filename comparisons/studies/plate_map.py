@@ -18,7 +18,7 @@ For a grid of strikes (time t within one forcing period, incoming speed |y'|) on
   (the exact reference flight carried back by ``lead`` seconds) sticks on that wall,
   per the extraction's stick definition, before the run ends; the strikes go to the engine
   ``STRIKES_PER_BATCH`` at a time (MuJoCo Warp: the worlds of one model; MuJoCo: its
-  compatible runs in one rollout; each run as it is alone).
+  compatible runs rolled out together; each run as it is alone).
 
 Columns: t [s], phase [rad] (omega t mod 2 pi), speed [m/s] (|y'| at the strike),
 reference, feigin, and each engine (bool).

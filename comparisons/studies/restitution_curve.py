@@ -94,7 +94,7 @@ import numpy as np
 import pandas as pd
 
 from chatterbench.engines.registry import run_engine_batch
-from chatterbench.engines.sampled_impacts import first_root, surface_velocity, wall_impacts
+from chatterbench.engines.sampled_impacts import first_impact, first_root, surface_velocity
 from chatterbench.engines.trajectory import Trajectory
 from chatterbench.reference.errors import InputError, check_integer, check_number, is_number
 from chatterbench.reference.scene import Scene, load_scene, scene_from_dict
@@ -248,7 +248,7 @@ class Rebound:
 
 def wall_rebound(traj: Trajectory, scene: Scene, wall: str, speed: float) -> Rebound:
     """The first strike of ``traj`` on ``wall``, measured by the judge's rule: its first impact on that wall
-    (``pipeline/extract.py``'s, as ``engines/sampled_impacts.wall_impacts`` finds it, to the last bit, without
+    (``pipeline/extract.py``'s, as ``engines/sampled_impacts.first_impact`` finds it, to the last bit, without
     the event log a strike does not need), e = -v+ / v- with the speeds where the body crosses the wall's surface on
     its way in and out (``pipeline/surface.py``): what a run's impacts are judged by too.
 
@@ -266,20 +266,20 @@ def wall_rebound(traj: Trajectory, scene: Scene, wall: str, speed: float) -> Reb
     contact = np.asarray(flag, dtype=bool) if flag is not None and len(flag) == len(t) else d <= 0.0
     force = traj.normal_force.get(wall) if traj.normal_force else None
     force = np.asarray(force, dtype=float) if force is not None and len(force) == len(t) else np.zeros(len(t))
-    impacts = wall_impacts(t.tolist(), d.tolist(), u.tolist(), a.tolist(), contact.tolist(), force.tolist())
-    if not impacts or impacts[0]["first"] == 0:
+    first = first_impact(t.tolist(), d.tolist(), u.tolist(), a.tolist(), contact.tolist(), force.tolist())
+    if first is None or first["first"] == 0:
         return Rebound(math.nan, math.nan, math.nan, False, "no impact")
-    v_minus, v_plus = impacts[0]["v_minus"], impacts[0]["v_plus"]
-    above = np.flatnonzero(d[:impacts[0]["first"]] > 0.0)  # the free flight's last sample above the surface
+    v_minus, v_plus = first["v_minus"], first["v_plus"]
+    above = np.flatnonzero(d[:first["first"]] > 0.0)  # the free flight's last sample above the surface
     k = int(above[-1]) if len(above) else -1
     # where that flight meets the surface [s]: its parabola through the positions of k - 1 and k (a semi-implicit
     # step's sampled velocity is half a step off the positions' parabola, enough to miss a crossing just before k + 1)
     v_k = surface_velocity(t.tolist(), d.tolist(), u.tolist(), a.tolist(), k, k - 1) if k >= 1 else math.nan
     s_in = first_root(d[k], v_k, a[k], 2.0 * (t[k + 1] - t[k])) if 1 <= k < len(t) - 1 else math.nan
-    t_hit = t[k] + s_in if math.isfinite(s_in) else impacts[0]["t"]
+    t_hit = t[k] + s_in if math.isfinite(s_in) else first["t"]
     if math.isfinite(v_plus):
         return Rebound(v_minus, v_plus, v_plus / -v_minus, bool(v_plus > REST_FRACTION * speed), t=t_hit)
-    tail = np.abs(u[impacts[0]["first"]:][-max(2, (len(u) - impacts[0]["first"]) // 4):])
+    tail = np.abs(u[first["first"]:][-max(2, (len(u) - first["first"]) // 4):])
     if tail.max() <= REST_FRACTION * speed:  # held, at rest: no rebound
         return Rebound(v_minus, 0.0, 0.0, False, t=t_hit)
     return Rebound(v_minus, math.nan, math.nan, False, "unfinished", t=t_hit)

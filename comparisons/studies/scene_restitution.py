@@ -19,7 +19,7 @@ different force at each impact. ``scene_restitution`` measures e there:
 
 - **the scene itself, restarted from the reference** (``strike_scene``): every force and
   body 1's prescribed motion as the scene has them, from the exact reference state
-  (``reference.dense.sample``) a few steps before the reference's impact k (``APPROACH_STEPS``
+  (``ReferenceSolution.motion``, exact) a few steps before the reference's impact k (``APPROACH_STEPS``
   steps and a fraction of a step, the strike that fraction of a step after a sample; at most
   ``APPROACH_SHARE`` of the flight before it, so that the body is on its way to the wall), so
   the engine strikes at the reference's speed, time and forces, with none of the run's drift;
@@ -55,7 +55,6 @@ from typing import Any, Callable
 import numpy as np
 import pandas as pd
 
-from chatterbench.reference.dense import sample
 from chatterbench.reference.scene import Scene, scene_from_dict
 
 from ..pipeline.extract import free_relative_acceleration
@@ -115,18 +114,19 @@ def strike_starts(solution: ReferenceSolution, t_impact: float, t_before: float,
     states sampled once for all phases."""
     scene = solution.scene
     t_a = {phase: approach_time(dt, phase, APPROACH_SHARE * (t_impact - t_before)) for phase in phases}
-    states = sample(scene, solution.exhaustive.log, [t_impact - t_a[phase] for phase in phases])
+    states = solution.motion.at([t_impact - t_a[phase] for phase in phases])  # (x1, v1, y, vy) per phase
 
-    def start(phase: float, state: pd.Series) -> Callable[[int], Scene]:
+    def start(phase: float, state: np.ndarray) -> Callable[[int], Scene]:
+        x1, v1, y, vy = (float(v) for v in state)
+
         def make(after_steps: int) -> Scene:
             data = scene.to_dict()
             data.update(name=name or f"{scene.name}-strike", duration=t_a[phase] + after_steps * dt,
-                        initial={"t": t_impact - t_a[phase], "x1": float(state["x1"]), "v1": float(state["v1"]),
-                                 "y": float(state["y"]), "vy": float(state["vy"])})
+                        initial={"t": t_impact - t_a[phase], "x1": x1, "v1": v1, "y": y, "vy": vy})
             return scene_from_dict(data)
         return make
 
-    return {phase: start(phase, states.iloc[i]) for i, phase in enumerate(phases)}
+    return {phase: start(phase, states[i]) for i, phase in enumerate(phases)}
 
 
 def scene_restitution(engine: str, settings: Any, solution: ReferenceSolution, resolved_steps: float = 10.0,

@@ -76,3 +76,49 @@ def test_the_scripts_constants_are_the_extractions():
     options = ExtractionOptions()
     assert (sampled_impacts.FLOOR_STEPS, sampled_impacts.JUMP_FACTOR, sampled_impacts.JUMP_ATOL) == \
         (options.floor_steps, options.jump_factor, options.jump_atol)
+
+
+def _wall_view(traj, scene, wall: str) -> tuple[list, ...]:
+    """One wall's normal coordinates of a run as ``wall_impacts`` takes them: t, d, u, a, contact, force."""
+    n = 1.0 if wall == "lower" else -1.0
+    a = n * free_relative_acceleration(scene, traj.t, traj.x1, traj.v1, traj.y, traj.vy)
+    force = np.asarray(traj.normal_force[wall], dtype=float)
+    return (traj.t.tolist(), (n * (traj.y - scene.gap.position(wall))).tolist(), (n * traj.vy).tolist(), a.tolist(),
+            (force > 0.0).tolist(), force.tolist())
+
+
+@pytest.mark.parametrize("name, over, engine, dt, settings", RUNS, ids=[f"{r[0]}-{r[2]}" for r in RUNS])
+def test_the_first_impact_read_up_to_it_is_the_first_of_all(name, over, engine, dt, settings):
+    """``first_impact`` (a strike's, read only up to it) is ``wall_impacts``' first, field for field, on every wall
+    of real runs, from every start: those where a contact run comes first and those where a jump does."""
+    scene = load_scene(name, over)
+    traj = run_engine(engine, scene, make_settings(engine, dt, settings))
+    kinds = set()
+    for wall in scene.gap.walls:
+        view = _wall_view(traj, scene, wall)
+        every = sampled_impacts.wall_impacts(*view)
+        for start in sorted({0, *(imp["first"] - 1 for imp in every[:40])}):
+            cut = [c[max(start, 0):] for c in view]
+            full = sampled_impacts.wall_impacts(*cut)
+            first = sampled_impacts.first_impact(*cut)
+            assert (first is None) == (not full)
+            if first is not None:
+                assert first == {k: full[0][k] for k in first}
+                kinds.add(first["contact"])
+    assert True in kinds  # a contact run's onset was a first impact somewhere
+
+
+def test_a_jump_before_the_contact_comes_first_and_no_impact_is_none():
+    """Known answers both ways: a velocity jump between free samples before the first contact run is the first impact
+    (its first sample is the jump's second), and motion with neither gives None."""
+    t = [0.0, 1e-3, 2e-3, 3e-3, 4e-3]
+    d = [1e-4, 1e-5, 2e-5, 0.0, 0.0]
+    u = [-0.1, -0.1, 0.1, 0.0, 0.0]  # +0.2 m/s in one free step near the wall: a jump at k = 1
+    a = [-9.81] * 5
+    contact = [False, False, False, True, True]
+    first = sampled_impacts.first_impact(t, d, u, a, contact, [0.0, 0.0, 0.0, 1.0, 1.0])
+    assert first["first"] == 2 and first["contact"] is False
+    every = sampled_impacts.wall_impacts(t, d, u, a, contact, [0.0, 0.0, 0.0, 1.0, 1.0])
+    assert [imp["contact"] for imp in every] == [False, True] and first == {k: every[0][k] for k in first}
+    flight = [0.1 - 0.5 * 9.81 * s * s for s in t]
+    assert sampled_impacts.first_impact(t, flight, [-9.81 * s for s in t], a, [False] * 5, [0.0] * 5) is None

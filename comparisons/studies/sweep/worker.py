@@ -134,7 +134,7 @@ def run_task(task: RunTask) -> RunResult:
 
 
 def _compute_batch_rows(tasks: Sequence[RunTask]) -> list[dict[str, Any]]:
-    """The rows of runs of one engine, in one isolated child (MuJoCo: compatible runs in one rollout call)."""
+    """The rows of runs of one engine, in one isolated child (MuJoCo: compatible runs rolled out together, a chunk of each in turn)."""
     scenes = [load_scene(t.scene, t.scene_overrides()) for t in tasks]
     settings = [task_settings(t) for t in tasks]
     trajectories = run_engine_batch(tasks[0].engine, list(zip(scenes, settings)))

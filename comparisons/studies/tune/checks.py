@@ -42,7 +42,7 @@ from ...pipeline.solution import ReferenceSolution
 from ...pipeline.tolerances import Tolerances
 from ...pipeline.vocabulary import UNDETERMINED, VERDICTS
 from ..restitution_curve import pinned_settings
-from ..scene_restitution import miss_summary, scene_restitution
+from ..scene_restitution import Misses, miss_summary, scene_restitution
 
 # check -> (the Tolerances field, how the guide names the measure, the scale it is a fraction of, a short name)
 CHECKS = {
@@ -82,19 +82,25 @@ def _ratio(value: float, limit: float) -> float:
 
 
 def check_values(table: pd.DataFrame, impacts: pd.DataFrame, allowance: float,
-                 strikes: pd.DataFrame | None = None, restitution_tol: float = math.nan) -> dict[str, float]:
+                 misses: Misses | None = None) -> dict[str, float]:
     """Each check's worst measure over the episodes (signed for the timing errors: + late, - early).
 
     ``table``: the judged episodes (``judge.TABLE_COLUMNS``); ``impacts``: the paired impacts
     (``judge.IMPACT_PAIR_COLUMNS``, column ``excess`` = |e / R - 1| of a measurable impact, NaN otherwise);
     ``allowance``: the penetration allowance [m] (tolerance x the scene's length scale);
-    ``strikes``: the run's settings struck under the scene's forces (``scene_restitution``), whose
-    worst signed e / R - 1 among the strikes the judge holds to R (sampling uncertainty at most
-    ``restitution_tol``) is ``scene_restitution``, at ``scene_restitution_speed`` [m/s].
+    ``misses``: the run's settings struck under the scene's forces, summed up against the restitution tolerance
+    (``misses_of``), whose worst signed e / R - 1 among the strikes the judge holds to R is ``scene_restitution``,
+    at ``scene_restitution_speed`` [m/s].
     """
     columns = {c: table[c].to_numpy() for c in CHECK_COLUMNS if c in table}
     excess = impacts["excess"].to_numpy() if "excess" in impacts else np.empty(0)
-    return values_of(columns, excess, allowance, strikes, restitution_tol)
+    return values_of(columns, excess, allowance, misses)
+
+
+def misses_of(strikes: pd.DataFrame | None, tol: Tolerances) -> Misses | None:
+    """The strikes ``strikes`` (``scene_strikes``) against the restitution tolerance (``miss_summary``), made once for
+    the checks (``check_ratios``) and the row's words (``strike_summary``); None without strikes."""
+    return miss_summary(strikes, tol.restitution) if strikes is not None and len(strikes) else None
 
 
 # the judged table's columns the checks read (``values_of``)
@@ -120,11 +126,10 @@ def _worst_signed(values) -> float:
 
 
 def values_of(columns: dict[str, np.ndarray], excess: np.ndarray, allowance: float,
-              strikes: pd.DataFrame | None = None, restitution_tol: float = math.nan) -> dict[str, float]:
+              misses: Misses | None = None) -> dict[str, float]:
     """``check_values`` from the judged table's ``CHECK_COLUMNS`` as arrays (shape (n_rows,), in the table's order;
     ``wall``, ``open_fraction`` may be absent) and the paired impacts' ``excess`` (shape (n_pairs,)): what a ladder
     judge (``pipeline.prepared``) gives without a table."""
-    misses = miss_summary(strikes, restitution_tol) if strikes is not None else None
     n_rows = len(columns["penetration_max"])
     keep = columns["wall"] != "" if "wall" in columns else np.ones(n_rows, dtype=bool)
     eps = {c: np.asarray(v)[keep] for c, v in columns.items()}
@@ -154,11 +159,10 @@ def scene_strikes(engine: str, settings: Any, solution: ReferenceSolution, tol: 
                              most_uncertain=tol.restitution if held_only else math.inf)
 
 
-def strike_summary(strikes: pd.DataFrame | None, tol: Tolerances) -> dict[str, Any]:
-    """``STRIKE_COLUMNS`` of ``strikes`` (``scene_strikes``) against the restitution tolerance."""
-    if strikes is None or not len(strikes):
+def strike_summary(m: Misses | None) -> dict[str, Any]:
+    """``STRIKE_COLUMNS`` of the strikes against the restitution tolerance (``misses_of``; None: no strikes)."""
+    if m is None:
         return {"r_holds_from": math.nan, "r_held_from": math.nan, "r_struck": "", "r_misses": ""}
-    m = miss_summary(strikes, tol.restitution)
     v = m.strikes["speed"]
     impacts, phases = m.strikes.groupby(["impact", "speed"]).ngroups, m.strikes.groupby(["impact", "speed"]).size().max()
     return {"r_holds_from": m.holds_from, "r_held_from": m.held_from,
@@ -167,9 +171,10 @@ def strike_summary(strikes: pd.DataFrame | None, tol: Tolerances) -> dict[str, A
 
 
 def check_ratios(table: pd.DataFrame, impacts: pd.DataFrame, tol: Tolerances, allowance: float,
-                 strikes: pd.DataFrame | None = None) -> dict[str, float]:
-    """``<check>_ratio``: each check's worst measure over its tolerance (> 1: failed), and ``worst_ratio``."""
-    return ratios_of(check_values(table, impacts, allowance, strikes, tol.restitution), tol, table["verdict"])
+                 misses: Misses | None = None) -> dict[str, float]:
+    """``<check>_ratio``: each check's worst measure over its tolerance (> 1: failed), and ``worst_ratio``;
+    ``misses``: the strikes under the scene's forces against ``tol.restitution`` (``misses_of``)."""
+    return ratios_of(check_values(table, impacts, allowance, misses), tol, table["verdict"])
 
 
 def ratios_of(values: dict[str, float], tol: Tolerances, verdicts) -> dict[str, float]:

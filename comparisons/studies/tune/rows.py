@@ -31,7 +31,7 @@ from ...pipeline.summary import METRIC_COLUMNS, metrics
 from ...pipeline.tolerances import Tolerances
 from .. import waits
 from ..phases import phase_solution
-from .checks import RATIO_COLUMNS, STRIKE_COLUMNS, check_ratios, describe_failures, strike_summary
+from .checks import RATIO_COLUMNS, STRIKE_COLUMNS, check_ratios, describe_failures, misses_of, strike_summary
 from .ladder import judge_levels, reference_levels
 from .runs import batch_runs, candidate_settings, run_and_strike, settings_label, steps_per_sim_s
 from .passes import need
@@ -55,13 +55,14 @@ def evaluate(ref: ReferenceSolution, engine: str, params: dict, points: tuple[To
     ref = phase_solution(ref, params["dt"], params["phase"]) if band else ref
     trajectory, strikes = ran if ran is not None else run_and_strike(ref, engine, settings, tol, not band)
     run, table, impacts = judge_run(ref, engine, settings, tol, trajectory=trajectory)
-    ratios = check_ratios(table, impacts, tol, tol.penetration * ref.length_scale, strikes)
+    misses = misses_of(strikes, tol)  # once, for the check and the row's words
+    ratios = check_ratios(table, impacts, tol, tol.penetration * ref.length_scale, misses)
     steps = steps_per_sim_s(engine, settings, run)
     fixed = adapter(engine).cost_lever(settings) == "dt" and math.isfinite(steps)
     judged = need(steps, bounds, asked) if bounds is not None and fixed else range(len(points))
     levels = (reference_levels if per_point else judge_levels)(ref, engine, settings, run.trajectory, points,
                                                                known={asked: (run, table, impacts)}, only=judged)
-    return {**params, "settings": settings_label(params), **metrics(table), **ratios, **strike_summary(strikes, tol), **levels,
+    return {**params, "settings": settings_label(params), **metrics(table), **ratios, **strike_summary(misses), **levels,
             "failed": describe_failures(table, ratios, tol), "steps_per_sim_s": steps,
             "cost_per_sim_s": run.cost_per_sim_s, "cost_repeats": 1, "status": run.status, "message": run.trajectory.message}
 
