@@ -74,6 +74,13 @@ def read_atlas(folder: str | Path, source: str | None = None) -> AtlasSection:
         provenance["code"] = f"cases made by {', '.join(codes)}" + (
             f" (and {provenance['code']})" if provenance.get("code") and provenance["code"] not in codes
             and any(not c.get("code") for c in cases) else "")
+    machines: dict[str, int] = {}  # a case without its machine (written before cases named theirs): the atlas's
+    for case in cases:
+        where = str(case.get("machine") or provenance.get("machine", "?"))
+        machines[where] = machines.get(where, 0) + 1
+    if len(machines) > 1:  # a resumed atlas: say where each share of its cases ran (their wall times differ there)
+        most_first = sorted(machines.items(), key=lambda kv: (-kv[1], kv[0]))
+        provenance["machine"] = "; ".join(f"{m} ({n} case{'s' * (n != 1)})" for m, n in most_first)
     return AtlasSection(source=source or str(folder), provenance=provenance, cases=cases,
                         version_notes=tuple(version_notes(provenance, {c["engine"] for c in cases})))
 

@@ -11,8 +11,8 @@ ladder of timing x restitution levels, the band-robust rule (every dt of [0.8, 1
 impact phases and the knob neighbours), the contact's persistence after each stick, no transfer
 recheck (``tune`` itself does that, for the one answer a user writes). A case's outcome is
 ``recommended.json`` as ``tune --out`` writes it (``tune.answer.recommended``) with the case's
-wall time [s], its runs, the engine's version and the code that ran it (a resumed atlas may hold cases of
-several commits: the report names them); a case that cannot run (the engine refuses
+wall time [s], its runs, the engine's version, the code that ran it and the machine (a resumed atlas may hold
+cases of several commits and machines: the report names them); a case that cannot run (the engine refuses
 the scene, or crashes outside a run) is kept as a ``failed`` case with the message, and the
 atlas goes on.
 
@@ -148,8 +148,13 @@ def provenance(spec: AtlasSpec, command: str) -> dict[str, Any]:
     return {"scenes": list(spec.scenes), "engines": list(spec.engines), "search": spec.search_key(),
             "versions": {e: engine_version(e) for e in spec.engines} | {"numpy": np.__version__,
                                                                          "python": platform.python_version()},
-            "machine": f"{platform.machine()}, {_cpu_name()}, {_cores()} cores", "command": command, "code": code_version(),
+            "machine": machine_name(), "command": command, "code": code_version(),
             "started": time.strftime("%Y-%m-%d %H:%M:%S %Z")}
+
+
+def machine_name() -> str:
+    """The machine a case runs on, in words: "x86_64, AMD EPYC, 2 cores" (its architecture, CPU and cores)."""
+    return f"{platform.machine()}, {_cpu_name()}, {_cores()} cores"
 
 
 def code_version() -> str:
@@ -248,7 +253,8 @@ def run_case(spec: AtlasSpec, scene_name: str, engine: str, executor=None, worke
 
     start = time.perf_counter()
     scene = load_scene(scene_name)
-    base = {"scene": scene.name, "engine": engine, "engine_version": engine_version(engine), "code": code_version()}
+    base = {"scene": scene.name, "engine": engine, "engine_version": engine_version(engine), "code": code_version(),
+            "machine": machine_name()}
     try:
         space = None
         own = {k: v for k, v in spec.fixed.items() if k.split(".", 1)[0] == engine}

@@ -282,3 +282,31 @@ def test_a_resumed_atlas_names_every_commit_its_cases_ran_on(tmp_path):
     (atlas / "cases" / "bouncing-ball" / "mujoco" / "case.json").write_text(
         json.dumps({**_case("bouncing-ball", "mujoco", False), "code": "git aaa"}))
     assert read_atlas(atlas).provenance["code"] == "git aaa"  # one commit: as the atlas says
+
+
+def test_a_resumed_atlas_names_every_machine_its_cases_ran_on(tmp_path):
+    """A case names the machine it ran on; cases from before that field are the atlas's machine's. One machine: as the
+    atlas says; several: each with its count of cases, most first (the wall times are each machine's)."""
+    atlas = tmp_path / "atlas"
+    atlas.mkdir()
+    (atlas / "atlas.json").write_text(json.dumps({"versions": {}, "machine": "x86_64, AMD EPYC, 2 cores",
+                                                  "command": "chatterbench atlas"}))
+    for engine, machine in (("pybullet", None), ("mujoco", None), ("dart", "x86_64, Intel Xeon, 2 cores")):
+        (atlas / "cases" / "bouncing-ball" / engine).mkdir(parents=True)
+        case = {**_case("bouncing-ball", engine, False), **({"machine": machine} if machine else {})}
+        (atlas / "cases" / "bouncing-ball" / engine / "case.json").write_text(json.dumps(case))
+    assert read_atlas(atlas).provenance["machine"] == ("x86_64, AMD EPYC, 2 cores (2 cases); "
+                                                       "x86_64, Intel Xeon, 2 cores (1 case)")
+    (atlas / "cases" / "bouncing-ball" / "dart" / "case.json").write_text(
+        json.dumps({**_case("bouncing-ball", "dart", False), "machine": "x86_64, AMD EPYC, 2 cores"}))
+    assert read_atlas(atlas).provenance["machine"] == "x86_64, AMD EPYC, 2 cores"  # one machine: as the atlas says
+
+
+def test_a_case_names_the_machine_and_code_it_ran_on(tmp_path):
+    """``run_case`` writes where it ran: this machine in the provenance's words, and the code."""
+    from chatterbench.comparisons.studies.atlas import AtlasSpec, code_version, machine_name, run_case
+
+    spec = AtlasSpec(scenes=("bouncing-ball",), engines=("pybullet",), fixed={"pybullet.no_such_knob": 1})
+    case, _ = run_case(spec, "bouncing-ball", "pybullet")  # refused at once: a failed case, still saying where
+    assert case["status"] == "failed" and "no_such_knob" in case["message"] and case["machine"] == machine_name() and case["code"] == code_version()
+    assert machine_name().endswith(" cores") and machine_name().count(", ") == 2
