@@ -107,9 +107,8 @@ def _command_line(args: argparse.Namespace) -> str:
 
 def _run(out: Path, spec, command: str, client, workers: int | None, budget):
     """Every case not done, each through a pool of its own (or the Dask cluster), with a progress line per case."""
-    from concurrent.futures import ProcessPoolExecutor
-
     from chatterbench.comparisons.studies.atlas import run_atlas
+    from chatterbench.comparisons.studies.pools import process_pool
 
     state = {}
 
@@ -125,7 +124,7 @@ def _run(out: Path, spec, command: str, client, workers: int | None, budget):
             return run_atlas(out, spec, command, executor=CountingExecutor(client.get_executor(), bar),
                              started=lambda *a: (started(*a), bar.stage(state["case"])), finished=finished)
     with Progress(None, "atlas", unit="candidate") as bar, \
-            ProcessPoolExecutor(max_workers=local_workers(workers, budget.max_memory)) as pool:
+            process_pool(local_workers(workers, budget.max_memory)) as pool:
         return run_atlas(out, spec, command, executor=CountingExecutor(pool, bar),
                          started=lambda *a: (started(*a), bar.stage(state["case"])), finished=finished)
 

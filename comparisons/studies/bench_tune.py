@@ -200,7 +200,7 @@ def bench_atlas(cases=ATLAS_CASES, workers: int = 2, max_runs: int = 40, max_cos
     and same (the batched case's frontier and answer equal the serial one's, on the batched row). ``finished(row)``
     as each row is made.
     """
-    from concurrent.futures import ProcessPoolExecutor
+    from .pools import process_pool
 
     import pandas as pd
 
@@ -213,7 +213,7 @@ def bench_atlas(cases=ATLAS_CASES, workers: int = 2, max_runs: int = 40, max_cos
                          fixed={k: v for k, v in ATLAS_FIXED.items() if k.startswith(engine + ".")})
         answers = {}
         for way, n, per_point in (("serial", 1, True), ("batched", workers, False)):
-            with ProcessPoolExecutor(max_workers=n) as pool:
+            with process_pool(n) as pool:
                 start = time.perf_counter()
                 case, table = run_case(spec, scene, engine, executor=pool, per_point=per_point)
                 wall = time.perf_counter() - start

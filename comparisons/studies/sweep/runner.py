@@ -50,6 +50,7 @@ from .directory import OutLock, clean_temps, refuse_links
 from .spec import FAILED, MAX_TIMEOUT, SpecError, Sweep, load_sweep, sweep_runs
 from .worker import run_batch_task, work_units
 from ..limits import NO_WORKER_WAIT, NO_WORKERS  # shown by `sweep --help` without loading this module
+from ..pools import stop_pool
 from ..waits import POLL_S
 
 _SHOWN_ASIDE = 3  # set-aside parts named per reason; more are counted
@@ -60,7 +61,7 @@ class NoWorkersError(InputError):
 
 
 def _worker_start(sweep: int) -> None:
-    """A local pool worker's start: it dies with the sweep (process ``sweep``) and leaves Ctrl-C to it (``_stop_pool``
+    """A local pool worker's start: it dies with the sweep (process ``sweep``) and leaves Ctrl-C to it (``pools.stop_pool``
     ends it); a sweep gone before the worker could ask for that is not outlived."""
     die_with_parent(sweep)
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the runs it forks inherit this
@@ -69,7 +70,7 @@ def _worker_start(sweep: int) -> None:
 
 def _local_pool(workers: int | None, started: list) -> ProcessPoolExecutor:
     """A process pool whose workers are all started now, with Ctrl-C held back while they fork; appended to
-    ``started`` before any worker exists, so that the caller stops it (``_stop_pool``) whatever ends the sweep, a
+    ``started`` before any worker exists, so that the caller stops it (``pools.stop_pool``) whatever ends the sweep, a
     Ctrl-C while the pool starts or before its caller holds it included (an unstopped pool, whose workers ignore
     Ctrl-C, kept the interrupted sweep from exiting: seen under load).
 
@@ -89,14 +90,6 @@ def _local_pool(workers: int | None, started: list) -> ProcessPoolExecutor:
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
     return pool
-
-
-def _stop_pool(pool: ProcessPoolExecutor, interrupted: bool) -> None:
-    """Shut a local pool down: after its last run, or at once (its workers killed) when the sweep was interrupted."""
-    if interrupted:
-        for process in list((getattr(pool, "_processes", None) or {}).values()):
-            process.kill()  # their isolated runs die with them (die_with_parent)
-    pool.shutdown(wait=not interrupted, cancel_futures=True)
 
 
 def _note(text: str) -> None:
@@ -309,7 +302,7 @@ def _run_levels(sweep: Sweep, levels: Levels, out: Path, runs: list, have: pd.Da
         interrupted = False
     finally:
         for pool in owned:
-            _stop_pool(pool, interrupted)
+            stop_pool(pool, interrupted)
     return total, every
 
 
@@ -406,7 +399,7 @@ def _run(sweep: Sweep, out: Path, runs: list, have: pd.DataFrame, executor: Any,
             if bar is not None:
                 bar.close()
             for pool in owned:
-                _stop_pool(pool, interrupted)
+                stop_pool(pool, interrupted)
     stats["wall_s"] = time.perf_counter() - start
     return stats
 
