@@ -108,6 +108,9 @@ def test_the_readme_shows_the_kept_atlas_as_it_is():
     grid = grid_markdown(packaged_atlas().cases, ["bouncing-ball", "feigin-pair", "impact-damper", "spring-pair"],
                          ["mujoco", "pybullet", "dart", "physx", "drake", "mujoco_warp", "siconos"])
     assert grid in readme, "README.md's atlas grid is not the kept atlas's:\n" + grid
+    cases = packaged_atlas().cases
+    minutes = sum(c["wall_s"] for c in cases) / 60
+    assert f"has {len(cases)} of the 28 cases" in readme and f"{minutes:.1f} min of case wall time" in readme
 
 
 # -- the command ----------------------------------------------------------------------------------------------------
