@@ -4,12 +4,14 @@ cancelled CI job, ``kill``) and SIGINT (Ctrl-C), their workers killed, not waite
 Before: the pool's shutdown waited for every candidate already handed to it, so a killed atlas of Drake's spring pair
 ran on for minutes (seen: still running 50 s after SIGTERM, the main thread in ``ProcessPoolExecutor.shutdown``).
 The signal is sent by the command's own process just before it reads the first row of a pass of 20 candidates or
-more (all of the pass handed out to the pool), so the moment is the same on every machine; each candidate here
-runs 400 simulated seconds (about 2 s), so a pass run out takes a minute or more, an interrupted one a second.
+more (all of the pass handed out to the pool), so the moment is the same on every machine, and each judged candidate
+writes a line after it: at most the two the workers were running may finish once the signal is sent. Each candidate
+runs 400 simulated seconds (about 2 s), so a pass run out took a minute or more (65-71 s), an interrupted one a second.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import signal
 import subprocess
 import sys
@@ -18,11 +20,19 @@ from pathlib import Path
 
 import pytest
 
+from chatterbench.reference.scene import load_scene
+from chatterbench.reference.scene_toml import scene_toml
+
 HOOK = """
 import os, signal, sys
 sys.argv[0] = "chatterbench"  # as the console script: the command's own signal handling
 from chatterbench.comparisons.studies.tune import rows, runner
-sig, real_evaluator, real_row, handed = int(sys.argv[1]), rows.evaluator, rows._row, []
+sig, log, handed = int(sys.argv[1]), sys.argv[2], []
+real_evaluator, real_row, real_evaluate = runner.evaluator, rows._row, rows.evaluate
+
+def note(word):  # one line a write, appended: whole lines from every process
+    with open(log, "a") as f:
+        f.write(word + "\\n")
 
 def evaluator(*args, **kwargs):
     run_batch = real_evaluator(*args, **kwargs)
@@ -34,33 +44,19 @@ def evaluator(*args, **kwargs):
 def signal_first(*args, **kwargs):  # a row waited for once a pass of 20 candidates or more is all handed out
     if handed and handed[-1] >= 20:
         handed.clear()
+        note("signal")
         os.kill(os.getpid(), sig)  # delivered at once, as a user's Ctrl-C or a CI job's kill would be
     return real_row(*args, **kwargs)
 
-runner.evaluator, rows._row = evaluator, signal_first  # tune's search calls runner's name
+def evaluate(*args, **kwargs):  # in a worker (forked from here): a candidate judged
+    row = real_evaluate(*args, **kwargs)
+    note("candidate")
+    return row
+
+runner.evaluator, rows._row, rows.evaluate = evaluator, signal_first, evaluate  # tune's search calls runner's name
 from chatterbench.comparisons.cli.main import main
-sys.exit(main(sys.argv[2:]))
+sys.exit(main(sys.argv[3:]))
 """
-
-LONG_BALL = """name = "long-ball"
-description = "the built-in ball, run for 400 s: a candidate takes seconds"
-mass1 = "inf"
-mass2 = 1.0
-restitution = 0.5
-duration = 400.0
-
-[gap]
-lower = 0.0
-
-[initial]
-y = 1.0
-
-[[forces]]
-kind = "constant"
-on = "body2"
-value = -9.81
-"""
-
 
 def _left_running(marker: str) -> list[int]:
     """Processes whose command line names ``marker`` (the command's own folder): its workers, if any outlived it."""
@@ -78,16 +74,22 @@ def _left_running(marker: str) -> list[int]:
 @pytest.mark.parametrize("sig, code", [(signal.SIGTERM, 143), (signal.SIGINT, 130)], ids=["SIGTERM", "SIGINT"])
 @pytest.mark.parametrize("command", ["tune", "atlas"])
 def test_a_search_interrupted_mid_pass_stops_without_running_the_pass_out(tmp_path, command, sig, code):
-    scene = tmp_path / "long-ball.toml"
-    scene.write_text(LONG_BALL)
-    out = tmp_path / f"{command}-out"
+    scene = tmp_path / "long-ball.toml"  # the built-in ball run for 400 s, as a scene file (the atlas takes no --set)
+    ball = dataclasses.replace(load_scene("bouncing-ball", ["duration=400"]), name="long-ball")
+    scene.write_text(scene_toml(ball, "the built-in ball, run for 400 s: a candidate takes seconds"))
+    out, log = tmp_path / f"{command}-out", tmp_path / "events.txt"
     argv = [command, str(scene), "--engines", "pybullet", "--workers", "2", "--out", str(out)]
     try:
-        done = subprocess.run([sys.executable, "-c", HOOK, str(int(sig)), *argv], capture_output=True, text=True,
-                              timeout=240)
+        done = subprocess.run([sys.executable, "-c", HOOK, str(int(sig)), str(log), *argv], capture_output=True,
+                              text=True, timeout=240)
     except subprocess.TimeoutExpired:
         pytest.fail(f"{command} ran the interrupted pass out: still running 240 s after the signal")
     assert done.returncode == code, done.stdout + done.stderr
+    events = log.read_text().split()
+    after = events[events.index("signal") + 1:]
+    # at most the two candidates the workers were running finish in the moment before they are killed; before, the
+    # rest of the pass ran: 18 or more candidates after the signal
+    assert len(after) <= 2, f"{command} ran {len(after)} candidates after the signal"
     for _ in range(50):  # a killed worker is reaped by the system a moment after its parent's exit
         left = _left_running(str(out))
         if not left:
