@@ -53,7 +53,6 @@ class Motion:
     times at a time, as strikes do before each impact, keeps one: ``ReferenceSolution.motion``)."""
 
     def __init__(self, scene: Scene, log: pd.DataFrame) -> None:
-        self.scene = scene
         self.system = LinearSystem.from_scene(scene)
         horizon = scene.time_scale / 4.0
         self.flows = {False: shared_flow(self.system.free, horizon), True: shared_flow(self.system.stuck, horizon)}

@@ -31,7 +31,8 @@ from __future__ import annotations
 
 import math
 import time
-from concurrent.futures import Executor, ProcessPoolExecutor
+from concurrent.futures import Executor
+from contextlib import nullcontext
 from dataclasses import dataclass
 from typing import Sequence
 
@@ -44,7 +45,7 @@ from ..limits import MAX_RUNS, ROBUST_FRACTION  # the budget's default, shown by
 from ...pipeline.solution import ReferenceSolution, solve
 from ...pipeline.tolerances import Tolerances
 from ..phases import PHASES
-from ..pools import stop_pool
+from ..pools import process_pool
 from ..transfer import attach_transfer
 from .choice import TIE_BAND, choose, cost_key, fragile, passing, reachable, tied
 from .frontier import answers, frontier_entries, json_value, tightest, tightest_point
@@ -148,10 +149,7 @@ def tune(
     grid = _grid(space, limits)
     points = ladder.points(tol) if ladder is not None else (tol,)
     asked = points.index(tol)
-    own = executor is None
-    executor = executor or ProcessPoolExecutor(max_workers=workers)
-    ended = False
-    try:
+    with nullcontext(executor) if executor is not None else process_pool(workers) as executor:
         batched = batches_on_device(engine) if batched is None else batched
         done = search(evaluator(executor, ref, engine, points, asked, batched, per_point), grid, max_runs, tie_band,
                       check_robust, weight=lambda p: run_weight(scene, p["dt"]),
@@ -160,11 +158,7 @@ def tune(
         result = _result(scene, engine, tol, ref, done, space, grid, points, ladder, batched, started, limits)
         if transfer and check_robust:
             attach_transfer(result, executor)
-        ended = True
         return result
-    finally:
-        if own:  # interrupted: its workers killed, the pass they were given not run out (``pools``)
-            stop_pool(executor, interrupted=not ended)
 
 
 def _grid(space: dict[str, tuple], limits: Limits) -> Grid:
