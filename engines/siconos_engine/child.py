@@ -1,4 +1,4 @@
-"""The Siconos side of the ``siconos`` engine: read one request (JSON) on stdin, step it, write frames on stdout.
+"""The Siconos side of the ``siconos`` engine: read requests (JSON) on stdin, step each, write its frames on stdout.
 
 Run by an interpreter that has Siconos (Debian's ``python3-siconos`` for ``/usr/bin/python3``),
 never imported by chatterbench: it imports only the standard library, numpy and
@@ -6,6 +6,12 @@ never imported by chatterbench: it imports only the standard library, numpy and
 documents the request and the reply; this file implements them, by hand::
 
     /usr/bin/python3 child.py < request.json > frames.bin
+
+Requests come one after another on stdin (the adapter writes each on one line and keeps the
+child for the next run of its process: a child's start, 0.11 s, is paid once, not per strike);
+each is answered in full (ready, rows, end frame) before the next is read, each with a model
+of its own, and the child exits 0 when stdin ends. A request may span lines (a file written by
+hand): lines are read until they make one JSON text.
 
 The model (``protocol.py``): one ``LagrangianLinearTIDS`` of 1 or 2 dofs,
 M q'' + C q' + K q = F(t) + contact, one ``LagrangianLinearTIR`` relation per wall
@@ -16,7 +22,7 @@ step t_k -> t_k + dt the child sets fExt = (1 - theta) F(t_k) + theta F(t_k + dt
 the theta-weighted force a time-dependent ``fExt`` plugin would give
 (``MoreauJeanOSI::computeResidu``).
 
-Exit codes: 0 after the end frame; 2 for a request it refuses (one line on stderr, naming the
+Exit codes: 0 when stdin ends; 2 for a request it refuses (one line on stderr, naming the
 field); 1 for a failure of Siconos (one line on stderr). Anything Siconos prints goes to
 stderr: the data stream is a private copy of the original stdout.
 """
@@ -210,22 +216,43 @@ def die_with_parent():
             os._exit(1)
 
 
+def requests(stream):
+    """Each request's text (bytes) on the binary ``stream``, in order: lines are read until they make one JSON text
+    (the adapter's are one line each); what is left at the end that makes none is yielded for ``parse`` to refuse."""
+    text = b""
+    for line in iter(stream.readline, b""):
+        text += line
+        if not text.strip():
+            text = b""
+            continue
+        try:
+            json.loads(text)
+        except ValueError:  # not a whole JSON text yet (or never: the end of stdin says)
+            continue
+        yield text
+        text = b""
+    if text.strip():
+        yield text
+
+
 def main():
     die_with_parent()
     data = os.fdopen(os.dup(1), "wb")  # the frames' own copy of stdout
     os.dup2(2, 1)  # whatever Siconos prints goes to stderr
-    try:
-        req = parse(sys.stdin.read())
-    except BadRequest as exc:
-        sys.stderr.write(f"siconos child: bad request: {exc}\n")
-        return 2
-    try:
-        step(req, data)
-    except BrokenPipeError:  # the parent stopped reading (a blow-up it cut): not a failure of Siconos
-        return 0
-    except Exception as exc:  # noqa: BLE001  a Siconos failure is reported in one line
-        sys.stderr.write(f"siconos child: {type(exc).__name__}: {str(exc).strip().splitlines()[0] if str(exc).strip() else ''}\n")
-        return 1
+    for text in requests(sys.stdin.buffer):
+        try:
+            req = parse(text)
+        except BadRequest as exc:
+            sys.stderr.write(f"siconos child: bad request: {exc}\n")
+            return 2
+        try:
+            step(req, data)
+        except BrokenPipeError:  # the parent stopped reading (a blow-up it cut): not a failure of Siconos
+            return 0
+        except Exception as exc:  # noqa: BLE001  a Siconos failure is reported in one line
+            sys.stderr.write(f"siconos child: {type(exc).__name__}: "
+                             f"{str(exc).strip().splitlines()[0] if str(exc).strip() else ''}\n")
+            return 1
     return 0
 
 

@@ -7,13 +7,15 @@
     True
 
 Siconos is not on the package index: Debian's ``python3-siconos`` serves the system Python
-(``/usr/bin/python3``), not a venv or pyenv interpreter. So each run starts one child process,
+(``/usr/bin/python3``), not a venv or pyenv interpreter. So runs go to a child process,
 ``child.py`` under an interpreter that can ``import siconos.kernel``: the one named by the
 environment variable ``CHATTERBENCH_SICONOS_PYTHON`` (when it is set, only that one), else
 ``/usr/bin/python3``, else the first ``python3`` on PATH that has Siconos (``interpreter``).
 The request and the reply are ``protocol.py``'s. A child costs a fixed start (the interpreter,
-numpy and Siconos's import: 0.11 s measured on 2 quiet cores, README) on top of its steps, which
-is the adapter's set-up (``samples`` yields None at the child's ready frame), not stepping time; ``OPENBLAS_NUM_THREADS`` and
+numpy and Siconos's import: 0.11 s measured on 2 quiet cores, README), paid once: a child that
+answered its run is kept for the next run of its process and thread (``kept``; a strike batch
+is 20 to 120 short runs), each run a model of its own, built after the request (``samples``
+yields None at the child's ready frame: set-up, not stepping time); ``OPENBLAS_NUM_THREADS`` and
 ``OMP_NUM_THREADS`` are 1 there where the environment does not set them (``CHILD_THREADS``: one BLAS thread).
 
 Promises: a child that exits non-zero, dies of a signal or sends what is not the protocol
@@ -24,7 +26,7 @@ otherwise block on a full pipe that nobody reads); a child still running at the 
 limit (``isolate.run_limit``: the command's ``--timeout``) is killed, with every process it
 started (its own session), and the run is ``timeout`` (``SiconosTimeout``; inside an isolated run
 the isolation's own limit does it, and the child dies with its parent); a run cut short by
-the base (a blow-up) or by an exception kills its child. An interpreter whose answer to the
+the base (a blow-up) or by an exception kills its child (the next run starts another). An interpreter whose answer to the
 probe is not a version (bytes that are not UTF-8, say) is no Siconos, said in one line.
 Sample k is the state after k steps; the contact force of a wall at sample k is the LCP's
 impulse of that step over dt [N] (> 0: the wall pushed).
@@ -32,6 +34,7 @@ impulse of that step over dt [N] (> 0: the wall pushed).
 
 from __future__ import annotations
 
+import atexit
 import dataclasses
 import functools
 import json
@@ -142,27 +145,46 @@ def unavailable() -> str:
 
 
 class Child:
-    """One ``child.py`` process under ``python`` answering ``request``, in a session of its own, killed with every
-    process it started when the run's time limit ``limit`` [s] passes (default ``isolate.run_limit``; none inside
-    an isolated run, whose own limit kills its process and so the child, ``child.die_with_parent``); a context
-    manager that kills it on exit."""
+    """One ``child.py`` process under ``python`` answering requests, in a session of its own; each request's run is
+    held to the run's time limit ``limit`` [s] (default ``isolate.run_limit``; none inside an isolated run, whose own
+    limit kills its process and so the child, ``child.die_with_parent``): when it passes, the child is killed with
+    every process it started. ``request``: a one-shot child, sent that request and its stdin closed; without it, a
+    child kept for the requests of ``ask`` (``kept``). A context manager that kills it on exit."""
 
-    def __init__(self, python: str, request: dict, limit: float | None = None) -> None:
-        self.limit = (math.inf if inside() else run_limit()) if limit is None else limit
+    def __init__(self, python: str, request: dict | None = None, limit: float | None = None) -> None:
+        self.given_limit = limit
+        self.limit = math.inf
         self.timed_out = False
+        self.timer: threading.Timer | None = None
         self.stderr = tempfile.TemporaryFile()
         self.proc = subprocess.Popen([python, str(CHILD)], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                     stderr=self.stderr, env={**CHILD_THREADS, **os.environ, PARENT: str(os.getpid())},
-                                     start_new_session=True)
+                                     stderr=self.stderr, env=_child_env(), start_new_session=True)
+        if request is not None:
+            self.ask(request, last=True)
+
+    def ask(self, request: dict, last: bool = False) -> bool:
+        """Send one request (one line) and start its run's clock; ``last``: close stdin after it. False when the
+        child is gone before reading it (its exit code says why, ``failure``)."""
+        self.limit = (math.inf if inside() else run_limit()) if self.given_limit is None else self.given_limit
+        self.timed_out = False
         self.timer = threading.Timer(self.limit, self._time_up)
         self.timer.daemon = True
         if math.isfinite(self.limit):
             self.timer.start()
         try:
-            self.proc.stdin.write(json.dumps(request).encode())
-            self.proc.stdin.close()
-        except BrokenPipeError:  # it died before reading: its exit code says why
-            pass
+            self.proc.stdin.write(json.dumps(request).encode() + b"\n")
+            if last:
+                self.proc.stdin.close()
+            else:
+                self.proc.stdin.flush()
+        except BrokenPipeError:  # it died before reading
+            return False
+        return True
+
+    def answered(self) -> None:
+        """The request's end frame is read: its clock stops (a kept child waits for the next request)."""
+        if self.timer is not None:
+            self.timer.cancel()
 
     def _time_up(self) -> None:
         self.timed_out = True
@@ -179,10 +201,18 @@ class Child:
         return self
 
     def __exit__(self, *exc) -> None:
-        self.timer.cancel()
+        self.close()
+
+    def close(self) -> None:
+        """Kill the child (its whole session) and free its pipes."""
+        self.answered()
         self.kill()
         self.proc.wait()
-        self.proc.stdout.close()
+        for pipe in (self.proc.stdin, self.proc.stdout):
+            try:
+                pipe.close()
+            except OSError:  # a write buffer the dead child can no longer take
+                pass
         self.stderr.close()
 
     def failure(self, why: str = "") -> SiconosFailure:
@@ -211,6 +241,63 @@ class Child:
         else:
             exit_ = f"exited with code {code}"
         return kind("; ".join(filter(None, (f"the Siconos child {exit_}", why, last))))
+
+
+def _child_env() -> dict[str, str]:
+    """A child's environment: this one, one BLAS thread unless it says otherwise, and this process's pid."""
+    return {**CHILD_THREADS, **os.environ, PARENT: str(os.getpid())}
+
+
+# The children kept for the next run: per (process, thread, interpreter, environment), one waiting for a request.
+# A strike batch is tens of short runs (a tune strikes each candidate at 50 to 120 places): a child each cost 0.11 s
+# of start per run, most of a Siconos candidate's time. A thread's own: Linux kills a child when the thread that
+# started it ends (``child.die_with_parent``), and a forked process never uses its parent's.
+_KEPT: dict[tuple, Child] = {}
+_KEPT_LOCK = threading.Lock()
+
+
+def _key(python: str) -> tuple:
+    return os.getpid(), threading.get_ident(), python, tuple(sorted(_child_env().items()))
+
+
+def kept(python: str, request: dict) -> tuple[Child, tuple]:
+    """A child that has been sent ``request``: this thread's kept child for ``python`` (and this environment) when it
+    is alive, else a new one; with its key, to give it back (``give_back``) once the request's end frame is read."""
+    key = _key(python)
+    with _KEPT_LOCK:
+        child = _KEPT.pop(key, None)
+    if child is not None:
+        if child.proc.poll() is None and child.ask(request):
+            return child, key
+        child.close()  # died while it waited (its thread's end), or before this request: start another
+    child = Child(python)
+    child.ask(request)
+    return child, key
+
+
+def give_back(key: tuple, child: Child) -> None:
+    """Keep ``child`` (its request answered) for this thread's next run."""
+    child.answered()
+    with _KEPT_LOCK:
+        old = _KEPT.pop(key, None)
+        _KEPT[key] = child
+    if old is not None:
+        old.close()
+
+
+@atexit.register
+def _close_kept() -> None:
+    """Close this process's kept children (each exits 0 at the end of its stdin; killed, as any, if it lingers)."""
+    with _KEPT_LOCK:
+        children = [c for k, c in _KEPT.items() if k[0] == os.getpid()]
+        _KEPT.clear()
+    for child in children:
+        try:
+            child.proc.stdin.close()
+            child.proc.wait(timeout=EXIT_GRACE)
+        except (OSError, subprocess.TimeoutExpired):
+            pass
+        child.close()
 
 
 def _request(scene: Scene, settings: SiconosSettings, steps: int, bare: bool = False) -> dict:
@@ -243,27 +330,32 @@ class SiconosEngine(EngineAdapter):
         width = 2 * ndof + len(walls)
         first = np.array([*req["q0"], *req["v0"], *np.zeros(len(walls))])[None, :]
         k = 0
-        with Child(_python(), req) as child:
-            try:
-                for frame in read_frames(child.proc.stdout, width):
-                    if not len(frame):  # ready: the child's start is behind it
-                        yield None
-                        continue
-                    rows = np.vstack([first, frame]) if k == 0 else frame
-                    t = scene.initial.t + s.dt * np.arange(k, k + len(rows))
-                    k += len(rows)
-                    force = {w: rows[:, 2 * ndof + i] / s.dt for i, w in enumerate(walls)}
-                    if ndof == 1:
-                        chunk = Samples(t, force, y=rows[:, 0], vy=rows[:, 1])
-                    else:
-                        chunk = Samples(t, force, x1=rows[:, 0], x2=rows[:, 1], v1=rows[:, 2], v2=rows[:, 3])
-                    if (yield chunk) is False:
-                        break
-                else:  # the end frame: the child exits 0
-                    if child.proc.wait() != 0:
-                        raise child.failure()
-            except ProtocolError as exc:
-                raise child.failure(str(exc)) from None
+        child, key = kept(_python(), req)
+        answered = False
+        try:
+            for frame in read_frames(child.proc.stdout, width):
+                if not len(frame):  # ready: the child's start is behind it
+                    yield None
+                    continue
+                rows = np.vstack([first, frame]) if k == 0 else frame
+                t = scene.initial.t + s.dt * np.arange(k, k + len(rows))
+                k += len(rows)
+                force = {w: rows[:, 2 * ndof + i] / s.dt for i, w in enumerate(walls)}
+                if ndof == 1:
+                    chunk = Samples(t, force, y=rows[:, 0], vy=rows[:, 1])
+                else:
+                    chunk = Samples(t, force, x1=rows[:, 0], x2=rows[:, 1], v1=rows[:, 2], v2=rows[:, 3])
+                if (yield chunk) is False:
+                    break
+            else:  # the end frame: the child waits for the next request
+                answered = True
+        except ProtocolError as exc:
+            raise child.failure(str(exc)) from None
+        finally:  # a run cut short (a blow-up, an exception, a closed generator) leaves its child mid-answer: killed
+            if answered:
+                give_back(key, child)
+            else:
+                child.close()
 
     def record(self, scene: Scene, settings: SiconosSettings) -> dict:
         """The interpreter that runs Siconos."""

@@ -234,3 +234,64 @@ def _state(proc: Path) -> str:
 
 def _parent_of(proc: Path) -> int:
     return int(_stat(proc)[1])
+
+
+def _counting_python(tmp_path) -> tuple[str, Path]:
+    """The real interpreter behind a script that writes a line to ``starts`` each time a child starts."""
+    starts = tmp_path / "starts"
+    return _fake_python(tmp_path, f'echo started >> {starts}; exec {FOUND.path} "$@"'), starts
+
+
+def _strike_scenes() -> list:
+    """Five short runs as a strike batch has them: the bouncing ball restarted from five heights."""
+    return [load_scene("bouncing-ball", [f"initial.y={y}", "duration=0.3"]) for y in (0.05, 0.1, 0.2, 0.3, 0.4)]
+
+
+def test_one_child_answers_a_batch_of_runs_each_as_a_child_of_its_own_would(tmp_path, monkeypatch):
+    # a strike batch is 20 to 120 short runs: a child each paid 0.11 s of start per run, most of a Siconos tune's
+    # time (bouncing-ball at dt = 1 ms: run 0.5 s, its strikes 12 s, measured on this code's parent); one kept child
+    python, starts = _counting_python(tmp_path)
+    monkeypatch.setenv(ENV, python)
+    settings = SiconosSettings(dt=1e-3)
+    kept = registry.run_engine_batch("siconos", [(scene, settings) for scene in _strike_scenes()])
+    assert starts.read_text().split() == ["started"]
+    alone = []
+    for i, scene in enumerate(_strike_scenes()):  # another environment each: a child of its own each
+        monkeypatch.setenv("CHATTERBENCH_TEST_RUN", str(i))
+        alone.append(SiconosEngine().run(scene, settings))
+    assert starts.read_text().split() == ["started"] * 6
+    for a, b in zip(kept, alone):
+        assert a.status == b.status == "ok", (a.message, b.message)
+        for column in ("t", "y", "vy"):
+            assert np.array_equal(getattr(a, column), getattr(b, column))  # bit for bit
+
+
+def test_a_run_cut_short_kills_its_child_and_the_next_run_starts_another(tmp_path, monkeypatch):
+    from chatterbench.engines.recording import Recording
+    from chatterbench.engines.siconos_engine import run as siconos_run
+
+    python, starts = _counting_python(tmp_path)
+    monkeypatch.setenv(ENV, python)
+    scene, settings = load_scene("bouncing-ball", ["duration=2"]), SiconosSettings(dt=1e-4)
+    feed = SiconosEngine().samples(Recording("siconos", scene, settings, {}, None, (0.0, 1.0)))
+    assert next(feed) is None and len(next(feed).t)  # ready, then the first frame of 20,000 steps
+    child = feed.gi_frame.f_locals["child"]
+    assert child.proc.poll() is None
+    feed.close()  # the consumer stops reading mid-run (a blow-up cut): its child is mid-answer
+    assert child.proc.poll() is not None  # killed, not left stepping
+    assert not any(k[2] == python for k in siconos_run._KEPT)  # nor kept
+    traj = SiconosEngine().run(load_scene("bouncing-ball", ["duration=0.1"]), SiconosSettings(dt=1e-3))
+    assert traj.status == "ok" and starts.read_text().split() == ["started"] * 2
+    assert any(k[2] == python for k in siconos_run._KEPT)  # the one that answered is kept
+
+
+def test_the_child_answers_requests_in_turn_one_a_line_or_spanning_lines():
+    req = protocol.request(load_scene("bouncing-ball"), dt=1e-3, steps=5, theta=0.5, solver="lemke", tolerance=1e-12)
+    one = 8 + 5 * 3 * 8 + 16  # ready, 5 rows of 3 values, the end frame
+    out = _child(json.dumps(req) + "\n" + json.dumps({**req, "steps": 2}) + "\n")
+    assert out.returncode == 0 and len(out.stdout) == one + (8 + 2 * 3 * 8 + 16)
+    assert out.stdout[:one] == _child(json.dumps(req)).stdout  # the first answered as alone
+    out = _child(json.dumps(req, indent=2) + "\n" + json.dumps(req, indent=2))  # written by hand, over lines
+    assert out.returncode == 0 and len(out.stdout) == 2 * one
+    out = _child(json.dumps(req) + "\n" + json.dumps({**req, "dt": -1.0}) + "\n")  # the first answered, then refused
+    assert out.returncode == 2 and len(out.stdout) == one and "dt = -1.0" in out.stderr.decode()
