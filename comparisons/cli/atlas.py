@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import math
 import shlex
+from contextlib import contextmanager
 from pathlib import Path
 
 from chatterbench.comparisons.studies.limits import MAX_RUNS, ROBUST_FRACTION
@@ -123,9 +124,15 @@ def _run(out: Path, spec, command: str, client, workers: int | None, budget):
         with Progress(None, "atlas", unit="candidate") as bar:
             return run_atlas(out, spec, command, executor=CountingExecutor(client.get_executor(), bar),
                              started=lambda *a: (started(*a), bar.stage(state["case"])), finished=finished)
-    with Progress(None, "atlas", unit="candidate") as bar, \
-            process_pool(local_workers(workers, budget.max_memory)) as pool:
-        return run_atlas(out, spec, command, executor=CountingExecutor(pool, bar),
+    n = local_workers(workers, budget.max_memory)
+
+    @contextmanager
+    def case_pool():  # a pool of its own per case (``run_atlas``), its candidates counted on the progress line
+        with process_pool(n) as pool:
+            yield CountingExecutor(pool, bar)
+
+    with Progress(None, "atlas", unit="candidate") as bar:
+        return run_atlas(out, spec, command, pool=case_pool,
                          started=lambda *a: (started(*a), bar.stage(state["case"])), finished=finished)
 
 

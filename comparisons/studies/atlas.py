@@ -35,9 +35,10 @@ import math
 import platform
 import re
 import time
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterator, Mapping
+from typing import Any, Callable, ContextManager, Iterator, Mapping
 
 from chatterbench.reference.catalogue import CATALOGUE
 from chatterbench.reference.errors import InputError
@@ -281,11 +282,15 @@ def run_case(spec: AtlasSpec, scene_name: str, engine: str, executor=None, worke
 
 def run_atlas(out: Path, spec: AtlasSpec, command: str = "", executor=None, workers: int | None = None,
               started: Callable[[str, str, int, int], None] | None = None,
-              finished: Callable[[dict[str, Any]], None] | None = None
+              finished: Callable[[dict[str, Any]], None] | None = None,
+              pool: Callable[[], ContextManager[Any]] | None = None
               ) -> tuple[dict[str, Any], dict[tuple[str, str], dict[str, Any]]]:
     """Run every case of ``spec`` not yet done under ``out`` (module docstring), each written as it finishes;
     returns the atlas's provenance (``open_atlas``: opened once, before any case) and every finished case under
-    ``out``. ``started(scene, engine, k, n)`` as case k of the n to run begins, ``finished(case)`` as it ends."""
+    ``out``. ``started(scene, engine, k, n)`` as case k of the n to run begins, ``finished(case)`` as it ends.
+    ``pool``: makes each case's executor (a context manager), a pool of its own per case: its workers hold one
+    engine's libraries and what its runs left (Drake keeps ~0.1 MB of every diagram it builds), not every case's
+    so far; else ``executor`` serves every case (a Dask cluster's), else each case's ``tune`` makes its own."""
     out.mkdir(parents=True, exist_ok=True)
     made = open_atlas(out, spec, command)
     done = done_cases(out)
@@ -294,7 +299,8 @@ def run_atlas(out: Path, spec: AtlasSpec, command: str = "", executor=None, work
     for k, (source, engine) in enumerate(todo, 1):
         if started is not None:
             started(names[source], engine, k, len(todo))
-        case, table = run_case(spec, source, engine, executor=executor, workers=workers)
+        with pool() if pool is not None else nullcontext(executor) as case_executor:
+            case, table = run_case(spec, source, engine, executor=case_executor, workers=workers)
         write_case(out, case, table)
         done[(names[source], engine)] = case
         if finished is not None:

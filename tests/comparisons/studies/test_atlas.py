@@ -313,3 +313,26 @@ def test_a_case_names_the_machine_and_code_it_ran_on(tmp_path):
     case, _ = run_case(spec, "bouncing-ball", "pybullet")  # refused at once: a failed case, still saying where
     assert case["status"] == "failed" and "no_such_knob" in case["message"] and case["machine"] == machine_name() and case["code"] == code_version()
     assert machine_name().endswith(" cores") and machine_name().count(", ") == 2
+
+
+def test_each_case_runs_in_a_pool_of_its_own(tmp_path):
+    # before: one pool served every case, so each worker held every engine it had run and what their runs left
+    # (Drake keeps ~0.1 MB of every diagram it builds): 1.48 GB for one process of a four-engine spring-pair atlas
+    from contextlib import contextmanager
+
+    from chatterbench.comparisons.studies.atlas import AtlasSpec, run_atlas
+    from chatterbench.comparisons.studies.pools import process_pool
+
+    workers = []
+
+    @contextmanager
+    def pool():
+        with process_pool(1) as executor:
+            yield executor
+            workers.append(executor.submit(os.getpid).result())  # the process that ran the case's candidates
+
+    spec = AtlasSpec(scenes=("bouncing-ball",), engines=("pybullet", "mujoco"), max_runs=40, max_cost=300.0,
+                     fixed=dict(ATLAS_FIXED))
+    _, done = run_atlas(tmp_path / "atlas", spec, pool=pool)
+    assert [done[("bouncing-ball", e)]["status"] for e in ("pybullet", "mujoco")] == ["ok", "ok"]
+    assert len(workers) == 2 and workers[0] != workers[1] and os.getpid() not in workers
