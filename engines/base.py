@@ -112,9 +112,6 @@ class EngineAdapter:
     compliant: ClassVar[bool] = False  # a contact law with its own time scale (True) or a rigid impulse law
     precision: ClassVar[str] = "float64"  # the arithmetic the engine steps in
     batches: ClassVar[bool] = False  # does run_batch do better than one run after another?
-    # does a batch step its runs together, as worlds of one model (a step of many costs little more than one's)? tune
-    # then hands it each search pass at once (``comparisons/studies/tune/runs.batches_on_device``)
-    worlds: ClassVar[bool] = False
     # [B] per step of a run: the memory it holds, samples and engine state (measured); ``--max-memory`` reads it
     # (``comparisons/pipeline/budget.py``: a run's estimate is a base cost + steps x bytes_per_step, refused over it)
     bytes_per_step: ClassVar[float] = 500.0

@@ -90,7 +90,6 @@ class MujocoWarpEngine(EngineAdapter):
     compliant = True
     precision = "float32"
     batches = True
-    worlds = True  # 16 worlds a call step 13x the world-steps of one on the CPU device (docs/explanation/engines.md)
     bytes_per_step = 250.0  # per world: MuJoCo's samples (float64 on the host) and float32 copies on the device
     bench_step_cap = 20_000  # a repeat of the benchmark: enough steps for the captured loop to show its rate
     same_model_as = "mujoco"  # MuJoCo's own MjSpec model (mujoco_common), stepped by warp in float32

@@ -130,7 +130,7 @@ def tune(
         ``solve(scene)`` when the caller already has it (the CLI solves once for every engine's space).
     batched : bool, optional
         Each search pass's candidates run here as one batch of the engine, only their judging in the workers;
-        None: where the engine steps a batch as worlds of one model (``batches_on_device``: MuJoCo Warp). The rows
+        None: where the engine runs thousands at once (``batches_on_device``: MuJoCo Warp on cuda). The rows
         are the same either way (a batch's run is the run alone).
     transfer : bool
         Recheck the answer and every frontier point on the scene's family (``studies.transfer``: other energies

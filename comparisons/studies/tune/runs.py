@@ -7,9 +7,9 @@ the engine, its cost in steps and of the budget, and its timed reruns.
     ('dt=0.001, mujoco.w0_dt=0.1', 0.1)
 
 A search pass's candidates go to the engine one by one in the workers (each run, struck and judged
-there), or, where the engine steps a batch's runs as worlds of one model (``batches_on_device``: MuJoCo
-Warp, on cuda and on the CPU device), as one batch here (``batch_runs``: the runs and their strikes under
-the scene's forces), only the judging in the workers; a batch's run is the run alone, so the rows are the same.
+there), or, where the engine takes thousands of runs at once and cannot be forked (``batches_on_device``:
+MuJoCo Warp on cuda), as one batch here (``batch_runs``: the runs and their strikes under the scene's
+forces), only the judging in the workers; a batch's run is the run alone, so the rows are the same.
 """
 
 from __future__ import annotations
@@ -117,11 +117,9 @@ def _alone(ref: ReferenceSolution, engine: str, settings: Any, tol: Tolerances, 
 
 
 def batches_on_device(engine: str) -> bool:
-    """Whether tune hands ``engine`` a search pass's candidates as one batch: an engine that steps a batch's runs as
-    worlds of one model (``EngineAdapter.worlds``: MuJoCo Warp, on cuda, where its runs cannot be forked into the
-    workers, and on the CPU device, where 16 worlds a call step 13x the world-steps of one: a bouncing-ball tune
-    of 60 runs took 30 s batched against 62 s a run a worker, the same rows)."""
-    return can_batch(engine) and adapter(engine).worlds
+    """Whether tune hands ``engine`` a search pass's candidates as one batch: an engine that takes thousands of runs
+    at once (``EngineAdapter.unit_runs``: MuJoCo Warp on cuda), whose runs cannot be forked into the workers."""
+    return can_batch(engine) and adapter(engine).unit_runs(make_settings(engine)) is not None
 
 
 def time_runs(scene: Scene, engine: str, candidates: list[dict], repeats: int) -> list[list[float]]:
