@@ -109,7 +109,7 @@ def _command_line(args: argparse.Namespace) -> str:
 def _run(out: Path, spec, command: str, client, workers: int | None, budget):
     """Every case not done, each through a pool of its own (or the Dask cluster), with a progress line per case."""
     from chatterbench.comparisons.studies.atlas import run_atlas
-    from chatterbench.comparisons.studies.pools import process_pool
+    from chatterbench.comparisons.studies.pools import RENEW_TASKS, process_pool
 
     state = {}
 
@@ -128,7 +128,7 @@ def _run(out: Path, spec, command: str, client, workers: int | None, budget):
 
     @contextmanager
     def case_pool():  # a pool of its own per case (``run_atlas``), its candidates counted on the progress line
-        with process_pool(n) as pool:
+        with process_pool(n, renew=RENEW_TASKS) as pool:
             yield CountingExecutor(pool, bar)
 
     with Progress(None, "atlas", unit="candidate") as bar:

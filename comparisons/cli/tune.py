@@ -19,7 +19,7 @@ from pathlib import Path
 
 from chatterbench.comparisons.pipeline.budget import check_engine_run, check_reference
 from chatterbench.comparisons.studies.limits import MAX_RUNS, ROBUST_FRACTION
-from chatterbench.comparisons.studies.pools import process_pool
+from chatterbench.comparisons.studies.pools import RENEW_TASKS, process_pool
 from chatterbench.reference.scene import split_assignment
 
 from .commands import COMMANDS
@@ -75,7 +75,7 @@ def cmd_tune(args: argparse.Namespace) -> int:
     results = []
     for engine in engines:
         with Progress(None, f"tune {engine} on {scene.name}", unit="candidate") as bar, \
-                process_pool(local_workers(args.workers, budget.max_memory)) as pool:
+                process_pool(local_workers(args.workers, budget.max_memory), renew=RENEW_TASKS) as pool:
             bar.stage("the search")
             bar.set_postfix(budget=f"{args.max_runs} runs")
             result = tune(scene, engine, tol, space=spaces[engine], executor=CountingExecutor(pool, bar),

@@ -45,7 +45,7 @@ from ..limits import MAX_RUNS, ROBUST_FRACTION  # the budget's default, shown by
 from ...pipeline.solution import ReferenceSolution, solve
 from ...pipeline.tolerances import Tolerances
 from ..phases import PHASES
-from ..pools import process_pool
+from ..pools import RENEW_TASKS, process_pool
 from ..transfer import attach_transfer
 from .choice import TIE_BAND, choose, cost_key, fragile, passing, reachable, tied
 from .frontier import answers, frontier_entries, json_value, tightest, tightest_point
@@ -149,7 +149,7 @@ def tune(
     grid = _grid(space, limits)
     points = ladder.points(tol) if ladder is not None else (tol,)
     asked = points.index(tol)
-    with nullcontext(executor) if executor is not None else process_pool(workers) as executor:
+    with nullcontext(executor) if executor is not None else process_pool(workers, renew=RENEW_TASKS) as executor:
         batched = batches_on_device(engine) if batched is None else batched
         done = search(evaluator(executor, ref, engine, points, asked, batched, per_point), grid, max_runs, tie_band,
                       check_robust, weight=lambda p: run_weight(scene, p["dt"]),

@@ -1,0 +1,69 @@
+"""The renewed pool of tune and atlas: every ``renew`` tasks a fresh pool, so what an engine leaves in a worker (Drake:
+about 90 kB a diagram) does not pile up; the same results; killed at once, the pools it left behind included."""
+
+from __future__ import annotations
+
+import os
+import time
+
+import pytest
+
+from chatterbench.comparisons.studies.pools import RenewedPool, _processes, process_pool, stop_pool
+
+
+def _square(x: int) -> tuple[int, int]:
+    return os.getpid(), x * x
+
+
+def _rss_after_diagrams(n: int) -> tuple[int, float]:
+    """This worker's pid and its resident memory [MB] after building ``n`` bare Drake diagrams (a plant and a scene
+    graph: what every Drake run builds)."""
+    from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
+    from pydrake.systems.framework import DiagramBuilder
+
+    for _ in range(n):
+        builder = DiagramBuilder()
+        plant, _ = AddMultibodyPlantSceneGraph(builder, 1e-3)
+        plant.Finalize()
+        builder.Build()
+    with open("/proc/self/statm") as f:
+        return os.getpid(), int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+
+
+def test_every_renew_tasks_go_to_fresh_workers_with_the_same_results():
+    with process_pool(2, renew=3) as pool:
+        done = [pool.submit(_square, x).result() for x in range(8)]
+    assert [r for _, r in done] == [x * x for x in range(8)]
+    groups = [{pid for pid, _ in done[i:i + 3]} for i in (0, 3, 6)]
+    assert not groups[0] & groups[1] and not groups[1] & groups[2] and not groups[0] & groups[2]
+    with process_pool(2) as pool:  # without renew: one pool, its two workers at most
+        assert len({pool.submit(_square, x).result()[0] for x in range(8)}) <= 2
+
+
+def test_a_renewed_worker_has_given_back_what_drake_kept():
+    pytest.importorskip("pydrake", reason="Drake (the drake extra) is not installed")
+    with process_pool(1, renew=2) as pool:
+        (pid1, first), (pid2, second), (pid3, third) = (pool.submit(_rss_after_diagrams, 150).result() for _ in range(3))
+    assert pid1 == pid2 != pid3
+    assert second - first > 5.0  # 150 more diagrams kept by the same worker: ~13 MB
+    assert third < second - 5.0  # a fresh worker: back where the first one began
+
+
+def test_a_stopped_renewed_pool_kills_the_workers_of_every_pool_it_left():
+    pool = RenewedPool(1, renew=1)
+    futures = [pool.submit(time.sleep, 60) for _ in range(3)]  # three pools, one sleeping worker each
+    deadline = time.monotonic() + 30
+    while len(_processes(pool)) < 3 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    workers = _processes(pool)
+    assert len(workers) == 3
+    stop_pool(pool, interrupted=True)
+    for worker in workers:
+        worker.join(timeout=10)
+        assert worker.exitcode is not None  # killed, not left sleeping
+    assert all(f.done() for f in futures)
+
+
+def test_a_renew_below_one_is_refused_naming_it():
+    with pytest.raises(ValueError, match="renew = 0: must be an integer >= 1"):
+        RenewedPool(1, renew=0)
