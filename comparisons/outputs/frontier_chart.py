@@ -68,7 +68,10 @@ def frontier_figure(frontiers: Mapping[str, Sequence[dict[str, Any]]], scene: st
     ``labels`` False: no point labelled (many engines: the atlas's table lists the points)."""
     fig = Figure(figsize=(10.5, 4.8), layout="constrained")
     axes = fig.subplots(1, 2)
+    labelled: list[tuple] = []  # per axes, each point's label: (tolerance, cost, text, colour, at the asked tolerances)
     for ax, (axis, label, other, short) in zip(axes, AXES):
+        marks: list[tuple] = []
+        labelled.append((ax, marks))
         for k, (engine, entries) in enumerate(frontiers.items()):
             colour, marker = engine_colour(engine), MARKERS[k % len(MARKERS)]
             size = 9.0 - 2.0 * (k % 3)  # a later engine's marker smaller, so a point under it still shows
@@ -87,9 +90,7 @@ def frontier_figure(frontiers: Mapping[str, Sequence[dict[str, Any]]], scene: st
             for e in entries if labels else ():
                 at_asked = asked is not None and all(e["tolerances"].get(a) == asked.get(a) for a in ("stick", "restitution"))
                 text = f"{short} {_pct(e['tolerances'][other])}, {e['cost_steps_per_s']:,.0f}/s" + (" (asked)" if at_asked else "")
-                ax.annotate(text, (e["tolerances"][axis], e["cost_steps_per_s"]), textcoords="offset points",
-                            xytext=(6, 5 - 11 * k), fontsize=7, color=colour,
-                            fontweight="bold" if at_asked else "normal")
+                marks.append((e["tolerances"][axis], e["cost_steps_per_s"], text, colour, at_asked))
         if any(frontiers.values()):
             ax.plot([], [], "o", mfc="none", color="0.3", label="other frontier points (tighter on the other axis)")
         else:
@@ -111,7 +112,28 @@ def frontier_figure(frontiers: Mapping[str, Sequence[dict[str, Any]]], scene: st
     fig.legend(handles, labels, loc="outside lower center", ncol=min(len(labels), 3), fontsize=7, frameon=False)
     fig.suptitle(f"{scene}: the cheapest band-robust setting against the tolerance it reaches\n(band-robust: passes "
                  "at every dt of [0.8, 1.25] x dt, at every impact phase and at the knobs' neighbours)", fontsize=9)
+    if any(marks for _, marks in labelled):
+        fig.draw_without_rendering()  # the layout done: the axes' final size, in which the labels are spaced
+        for ax, marks in labelled:
+            _label_points(ax, marks)
     return fig
+
+
+LABEL_GAP = 9.0  # [points] between the labels of one tolerance (7-point text)
+
+
+def _label_points(ax, marks: Sequence[tuple]) -> None:
+    """Each point's label right of it; the labels of one tolerance, lowest first, pushed up so that none overlaps the
+    one below (before: each engine's a fixed 11 points lower than the one before, so the seventh engine's fell 61
+    points below its point, over another's label and off the axes)."""
+    to_px, pt = ax.transData.transform, ax.figure.dpi / 72.0
+    for x in sorted({m[0] for m in marks}):
+        top = -float("inf")
+        for _, y, text, colour, bold in sorted((m for m in marks if m[0] == x), key=lambda m: m[1]):
+            at = float(to_px((x, y))[1])
+            top = max(at - 0.5 * LABEL_GAP * pt, top + LABEL_GAP * pt)  # its centre: at its point, or above the last
+            ax.annotate(text, (x, y), textcoords="offset points", xytext=(6, (top - at) / pt), va="center", fontsize=7,
+                        color=colour, fontweight="bold" if bold else "normal")
 
 
 def _tolerance_ticks(ax, frontiers, axis: str, asked) -> None:

@@ -117,3 +117,26 @@ def test_two_engines_at_one_point_both_show():
     fig = frontier_figure({"pybullet": same}, "bouncing-ball", {"stick": 0.05, "restitution": 0.05})
     drawn = [line for line in fig.axes[0].lines if line.get_marker() not in ("None", None, "") and len(line.get_xdata())]
     assert len({line.get_marker() for line in drawn if list(line.get_ydata()) == [206.0]}) == 1
+
+
+def test_the_labels_of_one_tolerance_neither_overlap_nor_leave_the_axes():
+    # the atlas's impact-damper chart (7 engines, PhysX and Siconos with points): each engine's labels were a fixed
+    # 11 points lower than the one before, so Siconos' (the seventh) fell 61 points below its points, over PhysX's
+    # labels and under the axes; now one tolerance's labels are stacked from the lowest, none over another
+    physx = [point(0.05, 0.05, 2997.0), point(0.05, 0.02, 4682.0), point(0.1, 0.05, 2342.0)]
+    siconos = [point(0.05, 0.05, 2834.0), point(0.05, 0.02, 4566.0), point(0.1, 0.05, 2342.0), point(0.1, 0.02, 4188.0)]
+    frontiers = {"mujoco": [], "pybullet": [], "dart": [], "physx": physx, "drake": [], "mujoco_warp": [],
+                 "siconos": siconos}
+    fig = frontier_figure(frontiers, "impact-damper", {"stick": 0.05, "restitution": 0.05})
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    for ax in fig.axes:
+        boxes = [(t.xy[0], t.get_window_extent(renderer)) for t in ax.texts]
+        assert len(boxes) == len(physx) + len(siconos)
+        inside = ax.get_window_extent(renderer)
+        for x, box in boxes:
+            assert inside.y0 <= box.y0 and box.y1 <= inside.y1, box  # within the axes' height
+        for i, (x, a) in enumerate(boxes):
+            for y, b in boxes[i + 1:]:
+                assert x != y or not a.overlaps(b), (a, b)  # the labels of one tolerance apart
