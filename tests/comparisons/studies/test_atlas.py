@@ -331,7 +331,7 @@ def test_each_case_runs_in_a_pool_of_its_own(tmp_path):
             yield executor
             workers.append(executor.submit(os.getpid).result())  # the process that ran the case's candidates
 
-    spec = AtlasSpec(scenes=("bouncing-ball",), engines=("pybullet", "mujoco"), max_runs=40, max_cost=300.0,
+    spec = AtlasSpec(scenes=("bouncing-ball",), engines=("pybullet", "mujoco"), max_runs=6, max_cost=300.0,
                      fixed=dict(ATLAS_FIXED))
     _, done = run_atlas(tmp_path / "atlas", spec, pool=pool)
     assert [done[("bouncing-ball", e)]["status"] for e in ("pybullet", "mujoco")] == ["ok", "ok"]
