@@ -15,7 +15,7 @@ were running is wanted any more (a killed atlas resumes from its finished cases)
 A pool that ``renew``s itself (``RenewedPool``) hands every ``renew`` tasks to a fresh pool of fresh workers, so
 what an engine leaves in a worker does not pile up over a search: Drake keeps about 90 kB of every diagram it
 builds (a bare ``AddMultibodyPlantSceneGraph`` + ``Build``, pydrake 1.51.1), and a tune builds one a run and one
-a strike, 50 to 120 strikes a candidate: a worker of an atlas's Drake spring pair held 1.1 GB after 26 minutes.
+a strike, 20 to 120 strikes a candidate: a worker of an atlas's Drake spring pair held 1.1 GB after 26 minutes.
 A task's result does not depend on the worker it ran in, so the rows are the same.
 """
 

@@ -249,7 +249,7 @@ def _child_env() -> dict[str, str]:
 
 
 # The children kept for the next run: per (process, thread, interpreter, environment), one waiting for a request.
-# A strike batch is tens of short runs (a tune strikes each candidate at 50 to 120 places): a child each cost 0.11 s
+# A strike batch is tens of short runs (a tune strikes each candidate at 20 to 120 places): a child each cost 0.11 s
 # of start per run, most of a Siconos candidate's time. A thread's own: Linux kills a child when the thread that
 # started it ends (``child.die_with_parent``), and a forked process never uses its parent's.
 _KEPT: dict[tuple, Child] = {}

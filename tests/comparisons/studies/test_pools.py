@@ -11,6 +11,7 @@ from concurrent.futures import wait
 import pytest
 
 from chatterbench.comparisons.studies.pools import RenewedPool, _processes, process_pool, stop_pool
+from helpers import needs_engine
 
 
 def _square(x: int) -> tuple[int, int]:
@@ -51,7 +52,7 @@ def test_every_renew_tasks_go_to_fresh_workers_with_the_same_results():
 
 
 def test_a_renewed_worker_has_given_back_what_drake_kept():
-    pytest.importorskip("pydrake", reason="Drake (the drake extra) is not installed")
+    needs_engine("drake")
     if not hasattr(ctypes.CDLL(None), "mallinfo2"):
         pytest.skip("no glibc mallinfo2 (glibc 2.33 or later) to count the memory a worker holds")
     with process_pool(1, renew=2) as pool:
