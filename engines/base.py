@@ -194,6 +194,12 @@ class EngineAdapter:
         ``"accuracy"`` for an error-controlled integrator (charts label their points with it)."""
         return "dt"
 
+    def unread_fields(self, settings: Any) -> frozenset[str]:
+        """The settings fields a run at ``settings`` does not read (Drake in discrete mode: the integrator's
+        ``accuracy``, ``integrator`` and ``max_step``): settings that differ only there give the same run, bit for
+        bit, so ``tune`` runs one of them (``tune.rows.evaluator``). The base: none (every field read)."""
+        return frozenset()
+
     # -- what the base does for every engine ------------------------------------------------------
     def simulate(self, run: Recording) -> None:
         """Step the whole run into ``run``: the base's step loop over ``build`` and ``step`` (``stepping.run_steps``),

@@ -246,3 +246,8 @@ class DrakeEngine(EngineAdapter):
     def cost_lever(self, settings: DrakeSettings) -> str:
         """``"accuracy"`` in continuous mode, ``"dt"`` in discrete mode."""
         return settings.cost_lever
+
+    def unread_fields(self, settings: DrakeSettings) -> frozenset[str]:
+        """Discrete mode reads neither the integrator nor its ``accuracy`` and ``max_step`` (the plant steps at dt, the
+        simulator integrates nothing); continuous mode reads no discrete ``solver``."""
+        return settings.unread

@@ -86,6 +86,11 @@ class DrakeSettings:
         return "accuracy" if self.mode == "continuous" else "dt"
 
     @property
+    def unread(self) -> frozenset[str]:
+        """The fields this mode does not read: the integrator's in discrete mode, the contact solver in continuous."""
+        return frozenset(("integrator", "accuracy", "max_step")) if self.mode == "discrete" else frozenset(("solver",))
+
+    @property
     def law(self) -> str:
         """The contact's dissipation law: ``"hunt_crossley"`` (continuous, TAMSI, similar, lagged) or
         ``"kelvin_voigt"`` (SAP's relaxation time)."""

@@ -33,7 +33,7 @@ from .. import waits
 from ..phases import phase_solution
 from .checks import RATIO_COLUMNS, STRIKE_COLUMNS, check_ratios, describe_failures, misses_of, strike_summary
 from .ladder import judge_levels, reference_levels
-from .runs import batch_runs, candidate_settings, run_and_strike, settings_label, steps_per_sim_s
+from .runs import batch_runs, candidate_settings, run_and_strike, run_key, settings_label, steps_per_sim_s
 from .passes import need
 from .search import SEARCH_COLUMNS
 
@@ -76,16 +76,63 @@ def refused(params: dict, exc: Exception) -> dict[str, Any]:
 
 
 def evaluator(executor: Executor, ref: ReferenceSolution, engine: str, points: tuple[Tolerances, ...], asked: int,
-              batched: bool = False, per_point: bool = False):
+              batched: bool = False, per_point: bool = False, shared: bool = True):
     """A function running a batch of candidates in parallel, one row each, in order; ``batched``: the candidates'
-    runs and strikes made here as one batch of the engine (``batch_runs``), only their judging in parallel."""
-    def run_batch(batch: list[dict], stage: str, bounds: list[float] | None = None) -> list[dict]:
+    runs and strikes made here as one batch of the engine (``batch_runs``), only their judging in parallel.
+
+    ``shared``: candidates of one run (``runs.run_key``: they differ only in settings fields the run does not read,
+    Drake's integrator in discrete mode) make one run, in the search so far or in the batch; the others take its row
+    (``shared_row``), the same, value for value, as their own run would give. False: each makes its own (the check)."""
+    made: dict[tuple, dict] = {}  # run key -> the row of the run made for it (not refused)
+
+    def submit(batch: list[dict], bounds: list[float] | None) -> list[dict]:
         ran = batch_runs(ref, engine, batch, points[asked]) if batched else [None] * len(batch)
         futures = [r if isinstance(r, InputError) else executor.submit(evaluate, ref, engine, p, points, asked, bounds, r,
                                                                              per_point)
                    for p, r in zip(batch, ran)]  # a refusal of the batch's own checks stands in for its future
-        return [{**_row(fut, params), "stage": stage} for fut, params in zip(futures, batch)]
+        return [_row(fut, params) for fut, params in zip(futures, batch)]
+
+    def run_batch(batch: list[dict], stage: str, bounds: list[float] | None = None) -> list[dict]:
+        keys = [run_key(engine, p) if shared else None for p in batch]
+        rows: list[dict | None] = [None] * len(batch)
+        first: dict[tuple, int] = {}  # run key -> the candidate of the batch that runs it
+        for i, (params, key) in enumerate(zip(batch, keys)):
+            if key is not None and key in made:
+                rows[i] = shared_row(made[key], params, engine, len(points), asked, bounds)
+            if rows[i] is None and key is not None and key in first:
+                continue
+            if rows[i] is None and key is not None:
+                first[key] = i
+        runs = [i for i, row in enumerate(rows) if row is None and (keys[i] is None or first.get(keys[i]) == i)]
+        for i, row in zip(runs, submit([batch[i] for i in runs], bounds)):
+            rows[i] = row
+            if keys[i] is not None and row["verdict"] != "refused":
+                made[keys[i]] = row
+        rest = [i for i, row in enumerate(rows) if row is None]  # the batch's others of a run made above
+        for i in rest:
+            rows[i] = shared_row(made[keys[i]], batch[i], engine, len(points), asked, bounds) if keys[i] in made else None
+        again = [i for i in rest if rows[i] is None]  # of a refused run: each refused by itself, by name
+        for i, row in zip(again, submit([batch[i] for i in again], bounds)):
+            rows[i] = row
+        return [{**row, "stage": stage} for row in rows]
     return run_batch
+
+
+def shared_row(made: dict[str, Any], params: dict, engine: str, n_points: int, asked: int,
+               bounds: list[float] | None) -> dict[str, Any] | None:
+    """The row of a candidate whose run is ``made``'s (``runs.run_key``): ``made`` with the candidate's own settings and
+    its ladder judged where the candidate can still matter (``evaluate``'s rule with today's ``bounds``: a subset of
+    where ``made`` was judged, bounds only fall); None where it would be judged at a point ``made`` was not (it runs)."""
+    settings = candidate_settings(engine, params)
+    steps = made["steps_per_sim_s"]
+    fixed = adapter(engine).cost_lever(settings) == "dt" and math.isfinite(steps)
+    judged = set(need(steps, bounds, asked) if bounds is not None and fixed else range(n_points))
+    if judged & set(made["unjudged"]):
+        return None
+    keep = [k for k, p in enumerate(made["passes"]) if p in judged]
+    return {**made, **params, "settings": settings_label(params),
+            **{c: tuple(made[c][k] for k in keep) for c in ("passes", "margins", "limits", "rests")},
+            "unjudged": tuple(i for i in range(n_points) if i not in judged)}
 
 
 def _row(fut, params: dict) -> dict[str, Any]:

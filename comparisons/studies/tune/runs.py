@@ -27,6 +27,7 @@ from ...pipeline.solution import ReferenceSolution
 from ...pipeline.tolerances import Tolerances
 from ..phases import phase_solution
 from .checks import scene_strikes
+from .passes import params_key
 
 UNIT_STEPS = 100_000  # a run of more steps counts as steps / UNIT_STEPS runs of the budget (its work)
 
@@ -47,6 +48,18 @@ def short_label(row: dict[str, Any], defaults: dict[str, Any]) -> str:
     """A candidate as dt and the settings it changes from the engine's defaults, without the engine prefix."""
     changed = [f"{k.split('.', 1)[-1]}={row[k]}" for k, v in defaults.items() if k in row and row[k] != v]
     return ", ".join([f"dt={row['dt']:g}", *changed])
+
+
+def run_key(engine: str, params: dict[str, Any]) -> tuple | None:
+    """What a candidate's run is, as a key: its params (and phase) less the settings fields a run at its settings does
+    not read (``EngineAdapter.unread_fields``: Drake's integrator in discrete mode), so that candidates of one key
+    make one run, bit for bit; None where its settings cannot be made (it runs alone, to be refused by name)."""
+    try:
+        unread = adapter(engine).unread_fields(candidate_settings(engine, params))
+    except InputError:
+        return None
+    return params_key({k: v for k, v in params.items()
+                       if not (k.startswith(f"{engine}.") and k.split(".", 1)[1] in unread)})
 
 
 def steps_per_sim_s(engine: str, settings: Any, run) -> float:
