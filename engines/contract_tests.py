@@ -12,7 +12,8 @@ engines is read from the facts each adapter declares. What they check, in order:
 
 1. registration: the adapter keeps the contract (``contract.problem``), its settings are its
    ``settings_type`` with ``dt`` set, its facts and its optional capabilities
-   (``capabilities.implemented``) have their shapes;
+   (``capabilities.implemented``) have their shapes, and the fields it says a run does not read
+   (``unread_fields``) leave the run bit for bit as it is;
 2. the run's grid: ``run`` samples ``base.sample_times`` (sample 0 the initial state, sample k
    after k steps), with body 1 of infinite mass filled in by the base and the contact scales
    the adapter declares;
@@ -100,6 +101,36 @@ def test_the_optional_capabilities_answer_in_their_shapes(contract_engine):
     if "ExportedModel" in has:
         files = a.export(scene, settings)
         assert a.exports and a.export_kind and set(files) == set(a.exports) and all(files.values())
+
+
+def test_the_fields_a_run_does_not_read_leave_it_bit_for_bit(contract_engine):
+    # ``unread_fields``: at each searched value of each setting, the fields the adapter says a run does not read
+    # (tune makes one run of candidates that differ only there), set to each of their searched values, give the same
+    # run, bit for bit; an engine that declares none is checked for the shape of its answer only
+    name = contract_engine
+    a = adapter(name)
+    scene = _scene("bouncing-ball", "duration=0.6")  # the first impact at 0.452 s: the contact is in the run
+    knobs = {k: v for k, v in (a.tuning_space(scene) or {}).items() if k != "dt"}
+    fields = {f.name for f in dataclasses.fields(make_settings(name, DT))}
+    for key, values in knobs.items():
+        for value in values:
+            unread = a.unread_fields(make_settings(name, DT, overrides={key: value}))
+            assert isinstance(unread, frozenset) and unread <= fields, unread
+            others = [k for k in knobs if k != key and k.split(".", 1)[1] in unread]
+            if not others:
+                continue
+            first = run_engine(name, scene, make_settings(name, DT, overrides={key: value}))
+            assert first.status == "ok", first.message
+            for other in others:
+                for v in knobs[other]:
+                    traj = run_engine(name, scene, make_settings(name, DT, overrides={key: value, other: v}))
+                    same = [np.array_equal(x, y) for x, y in zip(_state(first), _state(traj))]
+                    assert all(same), f"{key}={value}: {other}={v} changed the run"
+
+
+def _state(traj) -> list[np.ndarray]:
+    """A trajectory's samples: times, both bodies' states, each wall's contact."""
+    return [traj.t, traj.x1, traj.v1, traj.y, traj.vy, *(traj.contact[w] for w in sorted(traj.contact))]
 
 
 # -- 2. the run's grid ---------------------------------------------------------------------------------

@@ -168,3 +168,16 @@ def test_the_engine_rows_list_every_built_in_engine():
     for name, row in rows.items():
         assert (row.status == "ok") == (name in INSTALLED) and (row.status == "ok") == (row.reason == "")
         assert row.status in ("ok", "not installed") and (row.version != "-") == (row.status == "ok")
+
+
+def test_a_field_called_unread_that_the_run_reads_fails_the_contract(monkeypatch):
+    # the other way of the shipped suite's unread-fields test: MuJoCo's adapter made to say that at the implicitfast
+    # integrator its runs do not read w0 dt (they do: the contact's stiffness) fails it, naming the setting
+    from chatterbench.engines.contract_tests import test_the_fields_a_run_does_not_read_leave_it_bit_for_bit as check
+
+    mujoco = adapter("mujoco")
+    check("mujoco")  # as declared (nothing unread): passes
+    monkeypatch.setattr(type(mujoco), "unread_fields",
+                        lambda self, s: frozenset({"w0_dt"}) if s.integrator == "implicitfast" else frozenset())
+    with pytest.raises(AssertionError, match=r"mujoco.integrator=implicitfast: mujoco.w0_dt=.* changed the run"):
+        check("mujoco")

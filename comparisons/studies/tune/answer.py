@@ -234,6 +234,8 @@ def searched_text(result: TuneResult) -> str:
     cap = (f"; capped at {x['max_cost']:,.0f} steps per simulated s ({x['capped']} lattice settings dearer, not run)"
            if x.get("max_cost") is not None else "")
     band = f" ({x['band_runs']} of them the band's checks, outside the budget)" if x.get("band_runs") else ""
+    if x.get("shared_runs"):
+        band += f" ({x['shared_runs']} of them another's run: settings it does not read)"
     return (f"{x['runs']} runs{band} covering {', '.join(parts)}{cap}; {_coverage(x)}; judged at every point of the ladder "
             f"{ladder_text(result)}; budget {x['max_runs']} runs of up to {UNIT_STEPS:,} steps, "
             f"{x['budget_used']:g} used" + (" (spent)" if x["budget_spent"] else "")

@@ -114,7 +114,9 @@ def evaluator(executor: Executor, ref: ReferenceSolution, engine: str, points: t
         again = [i for i in rest if rows[i] is None]  # of a refused run: each refused by itself, by name
         for i, row in zip(again, submit([batch[i] for i in again], bounds)):
             rows[i] = row
+        run_batch.shared += len(batch) - len(runs) - len(again)
         return [{**row, "stage": stage} for row in rows]
+    run_batch.shared = 0  # rows that took another candidate's run (the search's ``searched["shared_runs"]``)
     return run_batch
 
 

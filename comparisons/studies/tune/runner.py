@@ -151,11 +151,13 @@ def tune(
     asked = points.index(tol)
     with nullcontext(executor) if executor is not None else process_pool(workers, renew=RENEW_TASKS) as executor:
         batched = batches_on_device(engine) if batched is None else batched
-        done = search(evaluator(executor, ref, engine, points, asked, batched, per_point), grid, max_runs, tie_band,
+        run_batch = evaluator(executor, ref, engine, points, asked, batched, per_point)
+        done = search(run_batch, grid, max_runs, tie_band,
                       check_robust, weight=lambda p: run_weight(scene, p["dt"]),
                       levels=[(p.stick, p.restitution) for p in points], asked=asked, max_cost=max_cost,
                       phases=limits.phases, fraction=robust_fraction)
         result = _result(scene, engine, tol, ref, done, space, grid, points, ladder, batched, started, limits)
+        result.extra["searched"]["shared_runs"] = run_batch.shared
         if transfer and check_robust:
             attach_transfer(result, executor)
         return result
