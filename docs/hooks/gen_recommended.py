@@ -60,7 +60,8 @@ TOP = {
                 "(null: none)",
     "ladder": "the tolerance levels searched: stick and restitution, in fractions",
     "searched": "how far the search looked: runs, band runs, the budget, the dt range, the lattice and how much of it "
-                "ran, what was skipped, whether it was exhaustive, the band rule, batched runs, wall time [s]",
+                "ran, what was skipped, whether it was exhaustive, the band rule, batched runs, shared_runs (rows that took "
+                "another candidate's run: settings that run does not read), wall time [s]",
     "same_model": "for an engine that steps another's model (MuJoCo Warp: MuJoCo's), each answer rerun there: "
                   "against, holds, sentence, answers (one row per answer); null otherwise",
     "best_reachable": "where nothing is robust at the asked tolerances: the closest fragile candidate (dt, settings, "

@@ -56,7 +56,8 @@ Promises (``search``):
   only fall, so the points left out never matter to it: ``unjudged`` lists them).
 - ``budget`` at most, each run counting ``weight(params)`` (one by default; ``tune`` counts a
   long run as several: its work); a neighbourhood once begun is completed; no candidate
-  runs twice; every run is returned, refused ones included, each row with ``stage`` and
+  runs twice (and candidates of one run, differing only in settings it does not read, make it
+  once: ``tune.rows.evaluator``; each still counts its weight, so the search is the same); every run is returned, refused ones included, each row with ``stage`` and
   ``level`` (its lattice level: 0 the coarse grid, k the k-th refinement; NaN off the lattice).
 """
 
