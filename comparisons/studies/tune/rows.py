@@ -58,13 +58,21 @@ def evaluate(ref: ReferenceSolution, engine: str, params: dict, points: tuple[To
     misses = misses_of(strikes, tol)  # once, for the check and the row's words
     ratios = check_ratios(table, impacts, tol, tol.penetration * ref.length_scale, misses)
     steps = steps_per_sim_s(engine, settings, run)
-    fixed = adapter(engine).cost_lever(settings) == "dt" and math.isfinite(steps)
-    judged = need(steps, bounds, asked) if bounds is not None and fixed else range(len(points))
+    judged = judged_points(engine, settings, steps, bounds, asked, len(points))
     levels = (reference_levels if per_point else judge_levels)(ref, engine, settings, run.trajectory, points,
                                                                known={asked: (run, table, impacts)}, only=judged)
     return {**params, "settings": settings_label(params), **metrics(table), **ratios, **strike_summary(misses), **levels,
             "failed": describe_failures(table, ratios, tol), "steps_per_sim_s": steps,
             "cost_per_sim_s": run.cost_per_sim_s, "cost_repeats": 1, "status": run.status, "message": run.trajectory.message}
+
+
+def judged_points(engine: str, settings: Any, steps: float, bounds: list[float] | None, asked: int,
+                  n_points: int) -> list[int]:
+    """The ladder points a run of ``steps`` steps per simulated second is judged at: where it can still matter
+    (``tune.passes.need`` of the search's ``bounds``), or all ``n_points`` without bounds or for an engine whose
+    steps are not 1 / dt (its cost is not known before it runs)."""
+    fixed = adapter(engine).cost_lever(settings) == "dt" and math.isfinite(steps)
+    return need(steps, bounds, asked) if bounds is not None and fixed else list(range(n_points))
 
 
 def refused(params: dict, exc: Exception) -> dict[str, Any]:
@@ -97,13 +105,13 @@ def evaluator(executor: Executor, ref: ReferenceSolution, engine: str, points: t
         rows: list[dict | None] = [None] * len(batch)
         first: dict[tuple, int] = {}  # run key -> the candidate of the batch that runs it
         for i, (params, key) in enumerate(zip(batch, keys)):
-            if key is not None and key in made:
-                rows[i] = shared_row(made[key], params, engine, len(points), asked, bounds)
-            if rows[i] is None and key is not None and key in first:
+            if key is None:
                 continue
-            if rows[i] is None and key is not None:
-                first[key] = i
-        runs = [i for i, row in enumerate(rows) if row is None and (keys[i] is None or first.get(keys[i]) == i)]
+            if key in made:
+                rows[i] = shared_row(made[key], params, engine, len(points), asked, bounds)
+            if rows[i] is None:
+                first.setdefault(key, i)
+        runs = [i for i, row in enumerate(rows) if row is None and (keys[i] is None or first[keys[i]] == i)]
         for i, row in zip(runs, submit([batch[i] for i in runs], bounds)):
             rows[i] = row
             if keys[i] is not None and row["verdict"] != "refused":
@@ -125,10 +133,8 @@ def shared_row(made: dict[str, Any], params: dict, engine: str, n_points: int, a
     """The row of a candidate whose run is ``made``'s (``runs.run_key``): ``made`` with the candidate's own settings and
     its ladder judged where the candidate can still matter (``evaluate``'s rule with today's ``bounds``: a subset of
     where ``made`` was judged, bounds only fall); None where it would be judged at a point ``made`` was not (it runs)."""
-    settings = candidate_settings(engine, params)
-    steps = made["steps_per_sim_s"]
-    fixed = adapter(engine).cost_lever(settings) == "dt" and math.isfinite(steps)
-    judged = set(need(steps, bounds, asked) if bounds is not None and fixed else range(n_points))
+    judged = set(judged_points(engine, candidate_settings(engine, params), made["steps_per_sim_s"], bounds, asked,
+                               n_points))
     if judged & set(made["unjudged"]):
         return None
     keep = [k for k, p in enumerate(made["passes"]) if p in judged]

@@ -91,19 +91,15 @@ def test_a_shared_row_is_the_row_its_own_run_gives_where_it_can_still_matter():
     assert shared_row(shared, {**DISCRETE, "drake.accuracy": 1e-4}, "drake", len(points), asked, None) is None
 
 
-def test_a_tune_makes_one_run_of_candidates_of_one_run_and_the_same_table():
+def test_a_tune_makes_one_run_of_candidates_of_one_run_and_the_same_table(monkeypatch):
     # Drake's bouncing ball, a budget of 40 runs: its discrete slice searches accuracy (unread there) at 3 values
     needs_engine("drake")
     scene = load_scene("bouncing-ball")
     tables, tasks = {}, {}
     for shared in (True, False):
         pool = InProcess()
-        original = runner.evaluator
-        runner.evaluator = lambda *args, **kw: original(*args, **kw, shared=shared)
-        try:
-            result = runner.tune(scene, "drake", ASKED, executor=pool, max_runs=40, transfer=False)
-        finally:
-            runner.evaluator = original
+        monkeypatch.setattr(runner, "evaluator", lambda *args, shared=shared, **kw: evaluator(*args, **kw, shared=shared))
+        result = runner.tune(scene, "drake", ASKED, executor=pool, max_runs=40, transfer=False)
         tables[shared] = result.table.drop(columns=["cost_per_sim_s"]).sort_values(["settings", "stage"]).reset_index(drop=True)
         tasks[shared] = pool.tasks
         assert result.extra["searched"]["shared_runs"] == len(result.table) - pool.tasks  # said in recommended.json
