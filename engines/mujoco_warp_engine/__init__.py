@@ -17,6 +17,7 @@ Modules: ``settings`` (``MujocoWarpSettings``: MuJoCo's fields plus ``precision`
 ``device``), ``worlds`` (many runs as one MuJoCo Warp model of many worlds: one compiled
 structure, per-world timestep and solref set on the device), ``kernels`` (the step and the
 per-step recording: kernels loaded and timed, steps captured as a graph and replayed),
+``rigs`` (a block's device set-up and captured steps, kept per process for the next block of its shape),
 ``samples`` (controls out and samples back, per chunk, for all worlds at once), ``batch``
 (compatible runs grouped, in blocks within the host's memory), ``run`` (the adapter).
 

@@ -12,7 +12,8 @@
 read to its own end) are grouped; each group goes in blocks of ``BlockPlan.worlds`` worlds
 (``block_plan``: every world's recorded samples and the chunk read back within
 ``HOST_BYTES``), and each block is one model of that many worlds (``worlds.put_worlds``)
-stepped ``BlockPlan.chunk`` steps at a time (``kernels.Stepper``: captured where warp can)
+stepped ``BlockPlan.chunk`` steps at a time (``kernels.Stepper``: captured where warp can; its
+set-up and capture kept for the next block of its shape, ``rigs``)
 and read back after each chunk (``samples.hand_over``), a generator the base drives, times
 and records (``batch_recording.record_block``; a run alone: ``wholerun.one_of_block``). Each block's trajectories are handed
 on as soon as it is done, so a caller that keeps only a summary of each (``bench``, a sweep)
@@ -43,8 +44,9 @@ from ..mujoco_common import Prepared, prepare, warning_note
 from ..trajectory import Trajectory
 from ..wholerun import BlockSamples
 from ..window import CHUNK
-from .kernels import STEPS_PER_GRAPH, Stepper, load_kernels
-from .samples import Before, controls_of, hand_over
+from . import rigs
+from .kernels import STEPS_PER_GRAPH, KernelLoad
+from .samples import controls_of, hand_over
 from .worlds import Incompatible, Worlds, put_worlds, warp_model, warp_modules
 
 HOST_BYTES = 2e9  # [B] what one block may hold on the host: its worlds' recorded samples and a chunk read back
@@ -85,44 +87,38 @@ def roll_worlds(worlds: Worlds, ps: Sequence[Prepared], runs: Sequence[Recording
     samples for the runs (``samples.hand_over``), None once set up (the kernels loaded, the data put, the steps
     captured). Returns ``warned`` (per world: MuJoCo's mjWARN_BADQACC), ``load`` (``kernels.KernelLoad``) and
     ``capture_s``."""
-    wp, mjw = warp_modules()
+    wp, _ = warp_modules()
     mjm = warp_model(ps[0].structure.model)
     nw, nstep = len(ps), max(p.nstep for p in ps)
     warned = [False] * nw
     with wp.ScopedDevice(worlds.device):
-        load = load_kernels(worlds.model, mjw.put_data(mjm, mujoco.MjData(mjm)), worlds.device)
-        d = mjw.put_data(mjm, mujoco.MjData(mjm), nworld=nw)
-        before = Before(ps)
-        d.qpos.assign(before.qpos.astype(np.float32))
-        d.qvel.assign(before.qvel.astype(np.float32))
-        d.time.assign(np.array([p.scene.initial.t for p in ps], np.float32))
-        out = [wp.zeros((nw, chunk, size), dtype=wp.float32) for size in (mjm.nq, mjm.nv, mjm.nsensordata)]
-        ctrl_in = wp.zeros((chunk, nw, mjm.nu), dtype=wp.float32)
-        mocap_in = wp.zeros((chunk, nw, mjm.nmocap), dtype=wp.vec3)
-        bad_acc = wp.array(np.full(nw, nstep, np.int32), dtype=wp.int32)
-        stepper = Stepper(worlds.model, d, nw, [d.qpos, d.qvel, d.qacc, d.sensordata, d.ctrl, d.mocap_pos, ctrl_in,
-                                                mocap_in, *out, bad_acc], worlds.device)
+        rig, key = rigs.take(worlds, mjm, nw, chunk)  # kept from a block of its shape, or made (kernels, capture)
+        fresh = not rig.used
+        before = rig.start(worlds, ps, nstep)
+        d, out = rig.data, rig.out
         yield None
         for k0 in range(0, nstep, chunk):
             k1 = min(nstep, k0 + chunk)
             if all(r.stopped or r.recorder.count == r.n + 1 for r in runs):  # every run cut, or at its end
                 break
-            ctrl, mocap = controls_of(ps, k0, k1, chunk)
-            ctrl_in.assign(ctrl)
-            mocap_in.assign(mocap)
+            ctrl, mocap = rig.controls(*controls_of(ps, k0, k1, rig.steps))
+            rig.ctrl_in.assign(ctrl)
+            rig.mocap_in.assign(mocap)
             if mjm.nu:
                 d.ctrl.assign(ctrl[0])
             if mjm.nmocap:
                 d.mocap_pos.assign(mocap[0])
-            stepper.start(k0)
-            stepper.run(k1 - k0)
-            qpos, qvel, sens = (a.numpy()[:, : k1 - k0] for a in out)
-            samples, chunk_warned = hand_over(runs, ps, k0, before, qpos, qvel, sens, bad_acc.numpy())
+            rig.stepper.start(k0)
+            rig.stepper.run(k1 - k0)
+            qpos, qvel, sens = (a.numpy()[:nw, : k1 - k0] for a in out)
+            samples, chunk_warned = hand_over(runs, ps, k0, before, qpos, qvel, sens, rig.bad_acc.numpy()[:nw])
             yield samples
             warned = [a or b for a, b in zip(warned, chunk_warned)]
             if all(r.stopped for r in runs):
                 break
-    return {"warned": warned, "load": load, "capture_s": stepper.capture_s}
+    rigs.give_back(rig, key)
+    load = rig.load if fresh else KernelLoad(worlds.device, 0.0, False, rig.load.cache)
+    return {"warned": warned, "load": load, "capture_s": rig.capture_s if fresh else 0.0}
 
 
 def run_block(runs: Sequence[Recording], ps: Sequence[Prepared], device: str, chunk: int) -> list[Exception | None]:

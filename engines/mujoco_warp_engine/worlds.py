@@ -126,6 +126,8 @@ class Worlds:
     nworld: int
     device: str
     varying: tuple[str, ...]
+    rows: tuple[str, ...] = ()  # the fields set per world from each run's law: timestep, the contact's solref
+    base: Any = None  # the kept device model every other field is from (None: rows of several structures stacked)
 
 
 def device_model(model: mujoco.MjModel, device: str) -> Any:
@@ -151,7 +153,7 @@ def put_worlds(ps: Sequence[Prepared], device: str) -> Worlds:
         raise Incompatible("the runs hold their contact in different fields (a joint limit and geoms)")
     with wp.ScopedDevice(device):
         kept = [device_model(st.model, device) for st in uniques]
-        model = _copied(kept[0])
+        model = copied(kept[0])
         varying: list[str] = []
         if len(kept) > 1:
             _stack(model, kept, index, device, "", varying)
@@ -160,17 +162,18 @@ def put_worlds(ps: Sequence[Prepared], device: str) -> Worlds:
         rows = np.stack([u.model.__getattribute__(st.solref) for u in uniques])[index]  # (nworld, n, 2) float64
         rows[:, st.rows] = np.array([p.law[1:] for p in ps])[:, None, :]
         _set_rows(model, st.solref, rows, device, varying)
-    return Worlds(model, len(ps), device, tuple(varying))
+    law = ("opt.timestep", st.solref)
+    return Worlds(model, len(ps), device, tuple(varying), law, kept[0] if set(varying) <= set(law) else None)
 
 
-def _copied(obj: Any) -> Any:
+def copied(obj: Any) -> Any:
     """A copy of a mujoco_warp dataclass and of the dataclasses in it, sharing their arrays (rows are then set on the
     copy, never on a kept model)."""
     out = copy.copy(obj)
     for f in dataclasses.fields(out):
         value = getattr(out, f.name)
         if dataclasses.is_dataclass(value) and not isinstance(value, type):
-            setattr(out, f.name, _copied(value))
+            setattr(out, f.name, copied(value))
     return out
 
 

@@ -23,6 +23,7 @@ pytest.importorskip("mujoco_warp")
 from chatterbench.engines.mujoco_warp_engine import MujocoWarpEngine, MujocoWarpSettings, world_steps_per_s  # noqa: E402
 
 run, run_batch, mujoco_batch = MujocoWarpEngine().run, MujocoWarpEngine().run_batch, MujocoEngine().run_batch
+from chatterbench.engines.mujoco_warp_engine import kernels, rigs  # noqa: E402
 from chatterbench.engines.mujoco_warp_engine.worlds import device_name  # noqa: E402
 
 DT = 1e-3  # [s] short runs: 2000 steps of the bouncing ball
@@ -230,6 +231,59 @@ def test_captured_steps_are_the_launched_steps_bit_for_bit(monkeypatch):
     assert captured.settings["capture_s"] > 0.0 and launched.settings["capture_s"] == 0.0
     for k in ("t", "x1", "x2", "v1", "v2"):
         np.testing.assert_array_equal(getattr(captured, k), getattr(launched, k))
+
+
+@pytest.mark.parametrize("name", ["bouncing-ball", "feigin-pair", "impact-damper", "spring-pair"])
+def test_a_run_in_a_kept_rig_is_the_run_in_a_fresh_one_bit_for_bit(name):
+    # a tune's runs one after another in a worker: the second, at another dt (within the same chunk capacity) and
+    # another w0 dt (its contact rows), steps in the first's rig (its captured steps reused, its data reset), and
+    # gives the bits of a fresh rig: walls, springs, a driven body 1 (controls, mocap)
+    scene = load_scene(name, ["duration=0.3"])
+    first, second = dataclasses.replace(WARP, w0_dt=0.1), dataclasses.replace(WARP, dt=9e-4, w0_dt=0.3)
+    assert rigs.capacity(300) == rigs.capacity(334)  # 300 and 334 steps: arrays of one size
+    rigs.drop_all()
+    run(scene, first)
+    (rig,) = rigs.idle()
+    _spoil(rig.data)  # whatever a run leaves in its data (forces applied, warm starts) must not reach the next
+    kept = run(scene, second)
+    rigs.drop_all()
+    fresh = run(scene, second)
+    if kernels.graphs("cpu"):
+        assert kept.settings["capture_s"] == 0.0 < fresh.settings["capture_s"]  # reused, not captured again
+    assert kept.status == fresh.status == "ok"
+    for k in ("t", "x1", "x2", "v1", "v2"):
+        np.testing.assert_array_equal(getattr(kept, k), getattr(fresh, k))
+    for wall in fresh.normal_force:
+        np.testing.assert_array_equal(kept.normal_force[wall], fresh.normal_force[wall])
+    # the comparison can fail: the first run's bits are not the second's
+    assert not np.array_equal(run(scene, first).x2, kept.x2)
+
+
+def _spoil(data) -> None:
+    """Every array of a ``mujoco_warp.Data`` filled with 7 (nested dataclasses too)."""
+    for f in dataclasses.fields(data):
+        value = getattr(data, f.name)
+        if dataclasses.is_dataclass(value):
+            _spoil(value)
+        elif hasattr(value, "fill_"):
+            value.fill_(7)
+
+
+def test_a_block_of_fewer_worlds_than_its_rig_steps_each_run_as_alone():
+    # 3 worlds step in a rig of 16 (the others copies of the last, unread), after a block of 5 used it
+    scene = load_scene("bouncing-ball", ["duration=0.3"])
+    jobs = [(scene, dataclasses.replace(WARP, w0_dt=w)) for w in (0.1, 0.2, 0.3, 0.15, 0.25)]
+    rigs.drop_all()
+    run_batch(jobs)
+    three = run_batch(jobs[:3])
+    assert {t.settings["batch_size"] for t in three} == {3} and rigs.world_slots(3) == rigs.world_slots(5) == 16
+    if kernels.graphs("cpu"):
+        assert three[0].settings["capture_s"] == 0.0
+    for (sc, st), traj in zip(jobs, three):
+        rigs.drop_all()
+        alone = run(sc, st)
+        for k in ("t", "x1", "x2", "v1", "v2"):
+            np.testing.assert_array_equal(getattr(alone, k), getattr(traj, k))
 
 
 def test_a_batch_larger_than_the_host_budget_goes_in_blocks_with_the_same_runs():

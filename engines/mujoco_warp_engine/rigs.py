@@ -1,0 +1,196 @@
+"""A block's device set-up (model rows, worlds' data, recording arrays, captured steps), kept for the next like block.
+
+    >>> from chatterbench.engines.mujoco_warp_engine.rigs import capacity, world_slots
+    >>> capacity(2_001), capacity(16_384)      # [steps] a chunk's arrays: the next power of two, at least one graph
+    (2048, 16384)
+    >>> world_slots(1), world_slots(37)        # a block of 37 worlds steps 48: a rig for 33 to 48
+    (1, 48)
+
+A block of worlds (``batch.roll_worlds``) needs a MuJoCo Warp model with its per-world rows (timestep
+and contact solref, ``worlds.put_worlds``), a ``Data`` of its worlds, the recording's arrays and the
+steps captured as a graph (``kernels.Stepper``). On the CPU device the capture costs more than a
+short run's steps: 0.33 s of APIC capture per run of bouncing-ball at the default settings against
+0.14 s for everything else of the run (a tune of bouncing-ball, 40 runs, profiled on this code). So a
+``Rig`` is kept per process and reused by the next block of the same shape: the same kept device
+model (``worlds.device_model``: one compiled structure), worlds (``world_slots``), chunk capacity
+(``capacity``), rows shared or per world, and capture. The graph points at the rig's arrays, so a
+new block writes into them, never replaces them: its rows (``Rig.load``), its data reset to a fresh
+``put_data``'s (the template's arrays copied: the solver's warm start and every counter as a new
+run has them) and its initial states. Worlds beyond the block's (``world_slots`` rounds up) step
+copies of its last world, unread; chunk arrays beyond the chunk are never stepped into (a chunk's
+launches are its own steps).
+
+Promises: a run in a kept rig is the run in a fresh one bit for bit, and a world's run does not
+depend on the other worlds stepped beside it (``tests/engines/test_mujoco_warp.py``); a rig is used
+by one block at a time (taken from the table while in use); rigs are this process's own (a forked
+child makes its own); blocks of several structures or of more than ``MOST_RIG_BYTES`` of arrays get
+a rig of their own, not kept.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import os
+import threading
+from collections import OrderedDict
+from typing import Any, Sequence
+
+import mujoco
+import numpy as np
+
+from ..mujoco_common import Prepared
+from . import kernels
+from .kernels import STEPS_PER_GRAPH, Stepper, load_kernels
+from .samples import Before
+from .worlds import Worlds, copied, warp_modules
+
+MOST_RIGS = 8  # rigs kept per process (a tune's slices and strike batches: a few structures and sizes)
+WORLD_ROUND = 16  # [worlds] a block of more than one world takes a rig of the next multiple of this
+MOST_RIG_BYTES = 64e6  # [B] a block whose chunk arrays pass this gets a rig of its own (a GPU's thousands of worlds)
+
+_IDLE: OrderedDict[tuple, "Rig"] = OrderedDict()
+_LOCK = threading.Lock()
+
+
+def capacity(chunk: int) -> int:
+    """Steps a rig's chunk arrays hold for a chunk of ``chunk`` steps: the next power of two, at least one graph."""
+    return max(STEPS_PER_GRAPH, 1 << (max(1, chunk) - 1).bit_length())
+
+
+def world_slots(nworld: int) -> int:
+    """Worlds a rig steps for a block of ``nworld``: one alone, else the next multiple of ``WORLD_ROUND``."""
+    return 1 if nworld == 1 else -(-nworld // WORLD_ROUND) * WORLD_ROUND
+
+
+class Rig:
+    """One block's device set-up (module docstring): ``model`` (rows of ``slots`` worlds or one shared row), ``data``
+    of ``slots`` worlds, ``out`` (qpos, qvel, sensors: (slots, steps, size) float32), ``ctrl_in`` (steps, slots, nu),
+    ``mocap_in``, ``bad_acc`` (slots,), the ``stepper``; ``load`` and ``capture_s``: what making it cost."""
+
+    def __init__(self, worlds: Worlds, mjm: mujoco.MjModel, slots: int, steps: int) -> None:
+        wp, mjw = warp_modules()
+        self.slots, self.steps, self.base, self.used = slots, steps, worlds.base, False
+        self.model = copied(worlds.model)  # its own rows (below), the kept model's other arrays
+        for path in worlds.rows:
+            old = _field(worlds.model, path)
+            new = wp.zeros((old.shape[0] if old.shape[0] == 1 else slots, *old.shape[1:]), dtype=old.dtype)
+            new._is_batched = True  # as mujoco_warp marks its per-world arrays
+            _set_field(self.model, path, new)
+        self.load = load_kernels(worlds.model, mjw.put_data(mjm, mujoco.MjData(mjm)), worlds.device)
+        self.template = mjw.put_data(mjm, mujoco.MjData(mjm), nworld=slots)
+        self.data = mjw.put_data(mjm, mujoco.MjData(mjm), nworld=slots)
+        d = self.data
+        self.out = [wp.zeros((slots, steps, size), dtype=wp.float32) for size in (mjm.nq, mjm.nv, mjm.nsensordata)]
+        self.ctrl_in = wp.zeros((steps, slots, mjm.nu), dtype=wp.float32)
+        self.mocap_in = wp.zeros((steps, slots, mjm.nmocap), dtype=wp.vec3)
+        self.bad_acc = wp.zeros(slots, dtype=wp.int32)
+        self.rows = worlds.rows
+        self.load_rows(worlds)
+        self.stepper = Stepper(self.model, d, slots, [d.qpos, d.qvel, d.qacc, d.sensordata, d.ctrl, d.mocap_pos,
+                                                      self.ctrl_in, self.mocap_in, *self.out, self.bad_acc],
+                               worlds.device)
+        self.capture_s = self.stepper.capture_s
+
+    def load_rows(self, worlds: Worlds) -> None:
+        """The block's per-world rows (``worlds.rows``) into the rig's, the last world's repeated to ``slots``."""
+        for path in self.rows:
+            mine = _field(self.model, path)
+            mine.assign(_padded(_field(worlds.model, path).numpy(), mine.shape[0]))
+
+    def start(self, worlds: Worlds, ps: Sequence[Prepared], nstep: int) -> Before:
+        """Ready for the block ``ps`` of ``worlds``: its rows, a fresh data (a used rig's reset to the template's), its
+        initial states and times, ``bad_acc`` at ``nstep`` (no bad step); returns the states before the first chunk."""
+        wp, _ = warp_modules()
+        if self.used:
+            self.load_rows(worlds)
+            _restore(self.data, self.template)
+        self.used = True
+        before, d = Before(ps), self.data
+        d.qpos.assign(_padded(before.qpos.astype(np.float32), self.slots))
+        d.qvel.assign(_padded(before.qvel.astype(np.float32), self.slots))
+        d.time.assign(_padded(np.array([p.scene.initial.t for p in ps], np.float32), self.slots))
+        self.bad_acc.assign(np.full(self.slots, nstep, np.int32))
+        return before
+
+    def controls(self, ctrl: np.ndarray, mocap: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """A chunk's controls (chunk, nworld, nu) and mocap positions as the rig's arrays take them."""
+        return (_padded(ctrl.swapaxes(0, 1), self.slots).swapaxes(0, 1),
+                _padded(mocap.swapaxes(0, 1), self.slots).swapaxes(0, 1))
+
+
+def key_of(worlds: Worlds, slots: int, steps: int) -> tuple | None:
+    """What a rig for ``worlds`` must share with it: process, kept device model, worlds, steps, which rows are shared,
+    capture; None for a block that gets a rig of its own (several structures, or arrays past ``MOST_RIG_BYTES``)."""
+    if worlds.base is None:
+        return None
+    m = worlds.base
+    row_floats = m.nq + m.nv + m.nsensordata
+    if slots * steps * 4 * (row_floats + m.nu + 3 * m.nmocap) > MOST_RIG_BYTES:
+        return None
+    shared = tuple(_field(worlds.model, path).shape[0] == 1 for path in worlds.rows)
+    return os.getpid(), id(worlds.base), worlds.device, slots, steps, worlds.rows, shared, kernels.graphs(worlds.device)
+
+
+def take(worlds: Worlds, mjm: mujoco.MjModel, nworld: int, chunk: int) -> tuple[Rig, tuple | None]:
+    """A rig for a block of ``nworld`` worlds stepped ``chunk`` steps at a time: an idle kept one of its shape, else a
+    new one; with its key, to give it back (``give_back``) when the block is done (None: not kept)."""
+    slots = world_slots(nworld) if worlds.base is not None else nworld
+    steps = capacity(chunk) if worlds.base is not None else chunk
+    key = key_of(worlds, slots, steps)
+    with _LOCK:
+        rig = _IDLE.pop(key, None) if key is not None else None
+    if rig is None or rig.base is not worlds.base:
+        rig = Rig(worlds, mjm, slots if key is not None else nworld, steps if key is not None else chunk)
+    return rig, key
+
+
+def give_back(rig: Rig, key: tuple | None) -> None:
+    """Keep a rig whose block is done for the next block of its shape (the oldest dropped past ``MOST_RIGS``)."""
+    if key is None:
+        return
+    with _LOCK:
+        _IDLE[key] = rig
+        _IDLE.move_to_end(key)
+        while len(_IDLE) > MOST_RIGS:
+            _IDLE.popitem(last=False)
+
+
+def idle() -> list[Rig]:
+    """The rigs this process keeps, idle, oldest first."""
+    with _LOCK:
+        return list(_IDLE.values())
+
+
+def drop_all() -> None:
+    """Forget every kept rig of this process (a test's fresh start)."""
+    with _LOCK:
+        _IDLE.clear()
+
+
+def _padded(rows: np.ndarray, slots: int) -> np.ndarray:
+    """``rows`` (n, ...) with its last row repeated to ``slots`` rows (as it is when n is already that, or 1)."""
+    n = rows.shape[0]
+    if n in (1, slots):
+        return np.ascontiguousarray(rows)
+    return np.ascontiguousarray(np.concatenate([rows, np.repeat(rows[-1:], slots - n, axis=0)]))
+
+
+def _field(obj: Any, path: str) -> Any:
+    return functools.reduce(getattr, path.split("."), obj)
+
+
+def _set_field(obj: Any, path: str, value: Any) -> None:
+    *outer, name = path.split(".")
+    setattr(functools.reduce(getattr, outer, obj), name, value)
+
+
+def _restore(dst: Any, src: Any) -> None:
+    """Every array of a ``mujoco_warp.Data`` (and of the dataclasses in it) copied from ``src``'s, in place."""
+    wp, _ = warp_modules()
+    for f in dataclasses.fields(dst):
+        mine = getattr(dst, f.name)
+        if isinstance(mine, wp.array):
+            wp.copy(mine, getattr(src, f.name))
+        elif dataclasses.is_dataclass(mine) and not isinstance(mine, type):
+            _restore(mine, getattr(src, f.name))
