@@ -3,6 +3,8 @@
     >>> from chatterbench.engines.mujoco_warp_engine.rigs import capacity, world_slots
     >>> capacity(2_001), capacity(16_384)      # [steps] a chunk's arrays: the next power of two, at least one graph
     (2048, 16384)
+    >>> capacity(2_001, slots=1, row_bytes=40), capacity(2_001, slots=128, row_bytes=40)  # what 4 MB holds
+    (16384, 2048)
     >>> world_slots(1), world_slots(37)        # a block of 37 worlds steps 48: a rig for 33 to 48
     (1, 48)
 
@@ -13,8 +15,9 @@ short run's steps: 0.33 s of APIC capture per run of bouncing-ball at the defaul
 0.14 s for everything else of the run (a tune of bouncing-ball, 40 runs, profiled on this code). So a
 ``Rig`` is kept per process and reused by the next block of the same shape: the same kept device
 model (``worlds.device_model``: one compiled structure), worlds (``world_slots``), chunk capacity
-(``capacity``), rows shared or per world, and capture. The graph points at the rig's arrays, so a
-new block writes into them, never replaces them: its rows (``Rig.load``), its data reset to a fresh
+(``capacity``: a world alone holds ``window.CHUNK`` steps, whatever its dt), rows shared or per
+world, and capture. The graph points at the rig's arrays, so a new block writes into them, never
+replaces them: its rows (``Rig.load_rows``), its data reset to a fresh
 ``put_data``'s (the template's arrays copied: the solver's warm start and every counter as a new
 run has them) and its initial states. Worlds beyond the block's (``world_slots`` rounds up) step
 copies of its last world, unread; chunk arrays beyond the chunk are never stepped into (a chunk's
@@ -40,22 +43,28 @@ import mujoco
 import numpy as np
 
 from ..mujoco_common import Prepared
+from ..window import CHUNK
 from . import kernels
 from .kernels import STEPS_PER_GRAPH, Stepper, load_kernels
 from .samples import Before
 from .worlds import Worlds, copied, warp_modules
 
-MOST_RIGS = 8  # rigs kept per process (a tune's slices and strike batches: a few structures and sizes)
+MOST_RIGS = 32  # rigs kept per process (a tune's slices, each with its runs' rig and its strike batches')
 WORLD_ROUND = 16  # [worlds] a block of more than one world takes a rig of the next multiple of this
+LEAST_RIG_BYTES = 4e6  # [B] a rig's chunk arrays hold at least the steps that fit in this (up to ``window.CHUNK``)
 MOST_RIG_BYTES = 64e6  # [B] a block whose chunk arrays pass this gets a rig of its own (a GPU's thousands of worlds)
 
 _IDLE: OrderedDict[tuple, "Rig"] = OrderedDict()
 _LOCK = threading.Lock()
 
 
-def capacity(chunk: int) -> int:
-    """Steps a rig's chunk arrays hold for a chunk of ``chunk`` steps: the next power of two, at least one graph."""
-    return max(STEPS_PER_GRAPH, 1 << (max(1, chunk) - 1).bit_length())
+def capacity(chunk: int, slots: int = 0, row_bytes: int = 0) -> int:
+    """Steps a rig's chunk arrays hold for a chunk of ``chunk`` steps: the next power of two, at least one graph, and
+    at least the power of two of steps of ``slots`` worlds of ``row_bytes`` [B] a step that fit in ``LEAST_RIG_BYTES``
+    (up to ``window.CHUNK``: a run's length, and so its dt, then picks no rig of its own)."""
+    fit = int(LEAST_RIG_BYTES // (slots * row_bytes)) if slots and row_bytes else 0
+    least = min(CHUNK, 1 << (fit.bit_length() - 1)) if fit else 0
+    return max(STEPS_PER_GRAPH, least, 1 << (max(1, chunk) - 1).bit_length())
 
 
 def world_slots(nworld: int) -> int:
@@ -124,9 +133,7 @@ def key_of(worlds: Worlds, slots: int, steps: int) -> tuple | None:
     capture; None for a block that gets a rig of its own (several structures, or arrays past ``MOST_RIG_BYTES``)."""
     if worlds.base is None:
         return None
-    m = worlds.base
-    row_floats = m.nq + m.nv + m.nsensordata
-    if slots * steps * 4 * (row_floats + m.nu + 3 * m.nmocap) > MOST_RIG_BYTES:
+    if slots * steps * 4 * _row_floats(worlds.base) > MOST_RIG_BYTES:
         return None
     shared = tuple(_field(worlds.model, path).shape[0] == 1 for path in worlds.rows)
     return os.getpid(), id(worlds.base), worlds.device, slots, steps, worlds.rows, shared, kernels.graphs(worlds.device)
@@ -136,7 +143,7 @@ def take(worlds: Worlds, mjm: mujoco.MjModel, nworld: int, chunk: int) -> tuple[
     """A rig for a block of ``nworld`` worlds stepped ``chunk`` steps at a time: an idle kept one of its shape, else a
     new one; with its key, to give it back (``give_back``) when the block is done (None: not kept)."""
     slots = world_slots(nworld) if worlds.base is not None else nworld
-    steps = capacity(chunk) if worlds.base is not None else chunk
+    steps = capacity(chunk, slots, 4 * _row_floats(worlds.base)) if worlds.base is not None else chunk
     key = key_of(worlds, slots, steps)
     with _LOCK:
         rig = _IDLE.pop(key, None) if key is not None else None
@@ -166,6 +173,11 @@ def drop_all() -> None:
     """Forget every kept rig of this process (a test's fresh start)."""
     with _LOCK:
         _IDLE.clear()
+
+
+def _row_floats(m: Any) -> int:
+    """Floats a world's step takes in a rig's chunk arrays: qpos, qvel, sensors read back, controls and mocap in."""
+    return m.nq + m.nv + m.nsensordata + m.nu + 3 * m.nmocap
 
 
 def _padded(rows: np.ndarray, slots: int) -> np.ndarray:
