@@ -48,7 +48,10 @@ Promises (``search``):
   main knob's finest lattice; for every other real-valued setting, the values half-way (in its
   scale) to its adjacent searched values. A pass is robust at a ladder point when every neighbour
   also passes there (``robust_at``); at the asked point ``robust`` is True or False and
-  ``neighbourhood`` names the neighbours that fail. At the
+  ``neighbourhood`` names the neighbours that fail. The band's runs at a phase (free of the budget)
+  are run only while the candidate is robust at a point it could still be the answer of: one left
+  robust only where a cheaper answer is robust already is stopped there (robust nowhere, ``robust``
+  None at the asked point unless a neighbour fails there); the answers are those of the whole band. At the
   end of a range only the neighbour inside it is taken; integer and named settings (solver
   iterations, an integrator) are choices, not neighbourhoods.
 - **Judged where it can matter** (``tune.passes.need``): a run is judged at the asked point and at every
@@ -184,11 +187,18 @@ class _Search:
         return c <= self.max_cost and c <= max(bounds)
 
     def could_answer(self, row: dict, bounds: list[float], found: list[tuple | None]) -> bool:
-        """Whether ``row`` could still be the answer of a point it passes at: within the point's bound and, beside
-        the asked point, ranked before the point's answer so far."""
+        """Whether ``row`` could still be the answer of a point it passes at (``answerable``)."""
+        return bool(self.answerable(row, bounds, found))
+
+    def answerable(self, row: dict, bounds: list[float], found: list[tuple | None]) -> set[int]:
+        """The points ``row`` passes at where it could still be the answer: within the point's bound and, beside the
+        asked point, ranked before the point's answer so far (bounds only fall and answers only improve: a point
+        left out never comes back)."""
         c = cost(row)
-        return c <= self.max_cost and any(c <= bounds[p] and (p == self.asked or found[p] is None
-                                                              or self.rank(row) < found[p]) for p in self.passes(row))
+        if c > self.max_cost:
+            return set()
+        return {p for p in self.passes(row) if c <= bounds[p] and (p == self.asked or found[p] is None
+                                                                    or self.rank(row) < found[p])}
 
     def unchecked(self) -> list[dict]:
         """The passes whose neighbourhood is not run yet and that could still be an answer: first those that could
@@ -221,25 +231,45 @@ class _Search:
     def check(self, batch: list[dict]) -> None:
         """Run the neighbourhoods of ``batch``'s candidates group by group (``Grid.neighbourhood``: the band's ends,
         the knobs, the band's inner dts, the other phases), each group only for the candidates with a ladder point
-        still robust, and settle them."""
+        still robust, and settle them. A group the budget does not pay for (the band's runs at a ``phase``:
+        ``cost_of``) is run only for a candidate still robust at a point it could be the answer of (``answerable``,
+        as the check began: no answer changes during it); one robust only where a cheaper answer is already
+        robust is *stopped* there (``settle``), so the search, its budget and its answers are those of the whole
+        band, with fewer runs."""
         groups = {id(r): self.grid.neighbourhood(self.params(r), self.phases) for r in batch}
         near = {id(r): [n for g in groups[id(r)] for n in g] for r in batch}
+        found = self.answers()
+        bounds = self.bounds(found)
+        open_points = {id(r): self.answerable(r, bounds, found) for r in batch}
+        stopped: set[int] = set()
         for k in range(max(len(g) for g in groups.values())):
-            alive = [r for r in batch if self.surviving(r, near[id(r)])]
+            alive = []
+            for r in batch:
+                left = self.surviving(r, near[id(r)])
+                if id(r) in stopped or not left:
+                    continue
+                if k < len(groups[id(r)]) and groups[id(r)][k] and not sum(map(self.cost_of, groups[id(r)][k])) \
+                        and not left & open_points[id(r)]:
+                    stopped.add(id(r))
+                    continue
+                alive.append(r)
             self.run([n for r in alive for n in groups[id(r)][k]], "neighbourhood", self.grid.depth, force=True)
         for r in batch:
-            self.settle(r, near[id(r)])
+            self.settle(r, near[id(r)], id(r) in stopped)
 
-    def settle(self, r: dict, near: list[dict]) -> None:
+    def settle(self, r: dict, near: list[dict], stopped: bool = False) -> None:
         """A candidate's robust points, what its band checked and passed at each (``band``), and at the asked point its
-        verdict: robust, or the neighbours that fail."""
-        r["robust_at"] = tuple(sorted(self.surviving(r, near)))
+        verdict: robust, or the neighbours that fail. ``stopped`` (``check``): its band was left unfinished where it
+        could answer nothing; robust nowhere, and at the asked point False where a neighbour fails there, else None
+        (not checked)."""
+        surviving = self.surviving(r, near)
+        r["robust_at"] = () if stopped else tuple(sorted(surviving))
         ran = [self.seen[params_key(n)] for n in near if params_key(n) in self.seen]
         r["band"] = self.band_record(r, near, ran)
         if self.asked not in self.passes(r):
             return
         failing = [n for n in ran if self.asked not in self.passes(n)]
-        r["robust"] = self.asked in r["robust_at"]
+        r["robust"] = None if stopped and self.asked in surviving else self.asked in r["robust_at"]
         words = [f"{_moved(self.params(r), n)}: {n['verdict']}" for n in failing]
         r["neighbourhood"] = "; ".join(words[:MOST_NAMED]) + (
             f"; and {len(words) - MOST_NAMED} more of {len(near)}" if len(words) > MOST_NAMED else "")
@@ -249,7 +279,8 @@ class _Search:
     def band_record(self, r: dict, near: list[dict], ran: list[dict]) -> dict[str, Any]:
         """What a candidate's neighbourhood checked and the share that passed at each ladder point it passes at:
         ``dts`` (the band's, ascending, its own among them), ``phases``, ``knobs`` (knob neighbours), ``runs``
-        (the neighbourhood's runs, itself included), ``ran`` (of them run: a failure stops the rest) and
+        (the neighbourhood's runs, itself included), ``ran`` (of them run: a failure, or no point left that it could
+        answer, stops the rest) and
         ``passed`` (point -> the share of all its runs passing there, itself included: 1.0 is every one)."""
         p = self.params(r)
         dts = sorted({p["dt"], *(n["dt"] for n in near)})  # a knob's neighbours keep the candidate's dt

@@ -231,3 +231,40 @@ def test_the_reserve_is_handed_back_when_no_unchecked_pass_remains():
     assert len(done.rows) >= 79, len(done.rows)  # the whole budget (one run each), not four fifths of it
     # the other way: with a budget the refinement cannot use up, it stops when nothing is left to split
     assert len(search(run_batch, grid, budget=1000).rows) < 1000
+
+
+def _band_stand_in(batch, stage, bounds):
+    """A stand-in judge for the search alone: a dt of 5 ms or more passes at the loose point (1) only, wherever it
+    runs; a finer dt passes at both points (0: asked, 1), but a band run (one at a ``phase``) at the loose one only."""
+    return [{**p, "verdict": "match", "passes": (1,) if p["dt"] >= 5e-3 or "phase" in p else (0, 1)} for p in batch]
+
+
+def _answers(rows) -> dict[int, float]:
+    """Per ladder point, its answer's cost (the cheapest row robust there), as the search ranks them."""
+    out: dict[int, float] = {}
+    for r in rows:
+        for p in r["robust_at"] or ():
+            out[p] = min(out.get(p, math.inf), 1.0 / r["dt"])
+    return out
+
+
+def test_a_band_robust_only_where_a_cheaper_answer_is_stops_with_the_same_answers(monkeypatch):
+    # before: a candidate whose band failed at the only point it could answer (the asked one) ran the rest of its
+    # band (57 runs at the other phases, free of the budget) for the loose point, whose answer was already a cheaper
+    # candidate's: most of a PhysX case's 7,449 runs were such band runs. Now it stops: the same answers, fewer runs
+    from chatterbench.comparisons.studies.tune import search as search_module
+
+    grid = Grid.make({"dt": (1e-2, 1e-3), "e.w": (1.0, 2.0)}, 2)
+    kwargs = dict(budget=30, levels=[(0.05, 0.05), (0.2, 0.3)], asked=0, phases=(0.0, 0.25, 0.5, 0.75))
+    done = search_module.search(_band_stand_in, grid, **kwargs)
+    stopped = [r for r in done.rows if r["dt"] == 1e-3 and r["band"] is not None]
+    assert stopped and all(r["robust_at"] == () and r["robust"] is False for r in stopped)  # failed at 0 (dt x1.03)
+    assert all(r["band"]["ran"] < r["band"]["runs"] for r in stopped)
+    assert not any(r.get("phase") and 8e-4 <= r["dt"] <= 1.25e-3 for r in done.rows)  # no phase run of theirs
+    # the other way: every band run to its end (each pass answerable wherever it passes)
+    monkeypatch.setattr(search_module._Search, "answerable", lambda self, row, bounds, found: set(self.passes(row)))
+    whole = search_module.search(_band_stand_in, grid, **kwargs)
+    assert len(whole.rows) > len(done.rows)
+    finished = [r for r in whole.rows if r["dt"] == 1e-3 and r["band"] is not None]
+    assert finished and all(r["robust_at"] == (1,) and r["band"]["ran"] == r["band"]["runs"] for r in finished)
+    assert _answers(whole.rows) == _answers(done.rows) and set(_answers(done.rows)) == {1}
