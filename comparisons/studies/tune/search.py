@@ -80,6 +80,7 @@ AROUND = 3  # the best candidates whose lattice neighbours each refinement level
 COARSE_SHARE = 0.6  # [-] of the budget the coarse grid may take before refining (finer rows cost more)
 CHECK_SHARE = 0.4  # [-] of the budget the refinement leaves for the neighbourhoods of the passes it found
 PER_STAGE = 4  # passes whose neighbourhood is run after each stage (after the last: until the budget is spent)
+BAND_PART = 8  # band runs of a candidate run together, at most (two candidates a check: 16 runs for the workers)
 MOST_NAMED = 4  # failing neighbours named in a candidate's ``neighbourhood`` (the rest counted)
 SEARCH_COLUMNS = ["level", "robust", "neighbourhood", "neighbourhood_worst_ratio", "band"]
 
@@ -230,13 +231,13 @@ class _Search:
 
     def check(self, batch: list[dict]) -> None:
         """Run the neighbourhoods of ``batch``'s candidates group by group (``Grid.neighbourhood``: the band's ends,
-        the knobs, the band's inner dts, the other phases), each group only for the candidates with a ladder point
-        still robust, and settle them. A group the budget does not pay for (the band's runs at a ``phase``:
+        the knobs, the band's inner dts, the other phases; the last two in parts, ``split``), each group only for the
+        candidates with a ladder point still robust, and settle them. A group the budget does not pay for (the band's runs at a ``phase``:
         ``cost_of``) is run only for a candidate still robust at a point it could be the answer of (``answerable``,
         as the check began: no answer changes during it); one robust only where a cheaper answer is already
         robust is *stopped* there (``settle``), so the search, its budget and its answers are those of the whole
         band, with fewer runs."""
-        groups = {id(r): self.grid.neighbourhood(self.params(r), self.phases) for r in batch}
+        groups = {id(r): self.split(self.grid.neighbourhood(self.params(r), self.phases)) for r in batch}
         near = {id(r): [n for g in groups[id(r)] for n in g] for r in batch}
         found = self.answers()
         bounds = self.bounds(found)
@@ -256,6 +257,15 @@ class _Search:
             self.run([n for r in alive for n in groups[id(r)][k]], "neighbourhood", self.grid.depth, force=True)
         for r in batch:
             self.settle(r, near[id(r)], id(r) in stopped)
+
+    def split(self, groups: list[list[dict]]) -> list[list[dict]]:
+        """A neighbourhood's groups with each group the budget does not pay for (``cost_of``: the band's runs at a
+        phase) cut into runs of at most ``BAND_PART``, so that a failure stops the rest of it too."""
+        out = []
+        for g in groups:
+            free = bool(g) and not sum(map(self.cost_of, g))
+            out += [g[i:i + BAND_PART] for i in range(0, len(g), BAND_PART)] if free else [g]
+        return out
 
     def settle(self, r: dict, near: list[dict], stopped: bool = False) -> None:
         """A candidate's robust points, what its band checked and passed at each (``band``), and at the asked point its
