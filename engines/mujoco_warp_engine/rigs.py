@@ -110,7 +110,6 @@ class Rig:
     def start(self, worlds: Worlds, ps: Sequence[Prepared], nstep: int) -> Before:
         """Ready for the block ``ps`` of ``worlds``: its rows, a fresh data (a used rig's reset to the template's), its
         initial states and times, ``bad_acc`` at ``nstep`` (no bad step); returns the states before the first chunk."""
-        wp, _ = warp_modules()
         if self.used:
             self.load_rows(worlds)
             _restore(self.data, self.template)
