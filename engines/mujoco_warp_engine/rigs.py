@@ -87,7 +87,7 @@ class Rig:
             new._is_batched = True  # as mujoco_warp marks its per-world arrays
             _set_field(self.model, path, new)
         self.load = load_kernels(worlds.model, mjw.put_data(mjm, mujoco.MjData(mjm)), worlds.device)
-        self.template = mjw.put_data(mjm, mujoco.MjData(mjm), nworld=slots)
+        self.mjm, self.template = mjm, None  # a fresh data to reset to, made when the rig is first reused
         self.data = mjw.put_data(mjm, mujoco.MjData(mjm), nworld=slots)
         d = self.data
         self.out = [wp.zeros((slots, steps, size), dtype=wp.float32) for size in (mjm.nq, mjm.nv, mjm.nsensordata)]
@@ -111,6 +111,9 @@ class Rig:
         """Ready for the block ``ps`` of ``worlds``: its rows, a fresh data (a used rig's reset to the template's), its
         initial states and times, ``bad_acc`` at ``nstep`` (no bad step); returns the states before the first chunk."""
         if self.used:
+            if self.template is None:
+                _, mjw = warp_modules()
+                self.template = mjw.put_data(self.mjm, mujoco.MjData(self.mjm), nworld=self.slots)
             self.load_rows(worlds)
             _restore(self.data, self.template)
         self.used = True
@@ -141,14 +144,16 @@ def key_of(worlds: Worlds, slots: int, steps: int) -> tuple | None:
 def take(worlds: Worlds, mjm: mujoco.MjModel, nworld: int, chunk: int) -> tuple[Rig, tuple | None]:
     """A rig for a block of ``nworld`` worlds stepped ``chunk`` steps at a time: an idle kept one of its shape, else a
     new one; with its key, to give it back (``give_back``) when the block is done (None: not kept)."""
-    slots = world_slots(nworld) if worlds.base is not None else nworld
-    steps = capacity(chunk, slots, 4 * _row_floats(worlds.base)) if worlds.base is not None else chunk
-    key = key_of(worlds, slots, steps)
+    slots, steps, key = nworld, chunk, None
+    if worlds.base is not None:
+        kept_slots = world_slots(nworld)
+        kept_steps = capacity(chunk, kept_slots, 4 * _row_floats(worlds.base))
+        key = key_of(worlds, kept_slots, kept_steps)
+        if key is not None:
+            slots, steps = kept_slots, kept_steps
     with _LOCK:
         rig = _IDLE.pop(key, None) if key is not None else None
-    if rig is None or rig.base is not worlds.base:
-        rig = Rig(worlds, mjm, slots if key is not None else nworld, steps if key is not None else chunk)
-    return rig, key
+    return rig or Rig(worlds, mjm, slots, steps), key  # the key holds id(base), the rig holds base: no other model
 
 
 def give_back(rig: Rig, key: tuple | None) -> None:

@@ -249,8 +249,7 @@ class _Search:
                 left = self.surviving(r, near[id(r)])
                 if id(r) in stopped or not left:
                     continue
-                if k < len(groups[id(r)]) and groups[id(r)][k] and not sum(map(self.cost_of, groups[id(r)][k])) \
-                        and not left & open_points[id(r)]:
+                if k < len(groups[id(r)]) and self.free(groups[id(r)][k]) and not left & open_points[id(r)]:
                     stopped.add(id(r))
                     continue
                 alive.append(r)
@@ -263,9 +262,12 @@ class _Search:
         phase) cut into runs of at most ``BAND_PART``, so that a failure stops the rest of it too."""
         out = []
         for g in groups:
-            free = bool(g) and not sum(map(self.cost_of, g))
-            out += [g[i:i + BAND_PART] for i in range(0, len(g), BAND_PART)] if free else [g]
+            out += [g[i:i + BAND_PART] for i in range(0, len(g), BAND_PART)] if self.free(g) else [g]
         return out
+
+    def free(self, group: list[dict]) -> bool:
+        """Whether a group of neighbours is one the budget does not pay for (``cost_of``: the band's runs at a phase)."""
+        return bool(group) and not sum(map(self.cost_of, group))
 
     def settle(self, r: dict, near: list[dict], stopped: bool = False) -> None:
         """A candidate's robust points, what its band checked and passed at each (``band``), and at the asked point its
