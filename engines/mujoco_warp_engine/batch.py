@@ -44,8 +44,8 @@ from ..mujoco_common import Prepared, prepare, warning_note
 from ..trajectory import Trajectory
 from ..wholerun import BlockSamples
 from ..window import CHUNK
-from . import rigs
 from .kernels import STEPS_PER_GRAPH, KernelLoad
+from .rigs import give_back, take
 from .samples import controls_of, hand_over
 from .worlds import Incompatible, Worlds, put_worlds, warp_model, warp_modules
 
@@ -92,7 +92,7 @@ def roll_worlds(worlds: Worlds, ps: Sequence[Prepared], runs: Sequence[Recording
     nw, nstep = len(ps), max(p.nstep for p in ps)
     warned = [False] * nw
     with wp.ScopedDevice(worlds.device):
-        rig, key = rigs.take(worlds, mjm, nw, chunk)  # kept from a block of its shape, or made (kernels, capture)
+        rig, key = take(worlds, mjm, nw, chunk)  # kept from a block of its shape, or made (kernels, capture)
         fresh = not rig.used
         before = rig.start(worlds, ps, nstep)
         d, out = rig.data, rig.out
@@ -116,7 +116,7 @@ def roll_worlds(worlds: Worlds, ps: Sequence[Prepared], runs: Sequence[Recording
             warned = [a or b for a, b in zip(warned, chunk_warned)]
             if all(r.stopped for r in runs):
                 break
-    rigs.give_back(rig, key)
+    give_back(rig, key)
     load = rig.load if fresh else KernelLoad(worlds.device, 0.0, False, rig.load.cache)
     return {"warned": warned, "load": load, "capture_s": rig.capture_s if fresh else 0.0}
 

@@ -42,9 +42,10 @@ from typing import Any, Sequence
 import mujoco
 import numpy as np
 
+import chatterbench.engines.mujoco_warp_engine.kernels as kernels  # graphs() read at each call (a test sets it)
+
 from ..mujoco_common import Prepared
 from ..window import CHUNK
-from . import kernels
 from .kernels import STEPS_PER_GRAPH, Stepper, load_kernels
 from .samples import Before
 from .worlds import Worlds, copied, warp_modules

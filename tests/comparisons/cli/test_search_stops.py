@@ -3,10 +3,11 @@ cancelled CI job, ``kill``) and SIGINT (Ctrl-C), their workers killed, not waite
 
 Before: the pool's shutdown waited for every candidate already handed to it, so a killed atlas of Drake's spring pair
 ran on for minutes (seen: still running 50 s after SIGTERM, the main thread in ``ProcessPoolExecutor.shutdown``).
-The signal is sent by the command's own process just before it reads the first row of a pass of 20 candidates or
-more (all of the pass handed out to the pool), so the moment is the same on every machine, and each judged candidate
-writes a line after it: at most the two the workers were running may finish once the signal is sent. Each candidate
-runs 400 simulated seconds (about 2 s), so a pass run out took a minute or more (65-71 s), an interrupted one a second.
+The signal is sent by the command's own process just before it reads the first row of a pass of 16 candidates or
+more (two candidates' band runs at a phase, ``2 * BAND_PART``; all of the pass handed out to the pool), so the moment
+is the same on every machine, and each judged candidate writes a line after it: at most the two the workers were
+running may finish once the signal is sent. Each candidate runs 400 simulated seconds (about a second), so a pass run
+out took seconds more and 14 candidates or more after the signal; an interrupted one stops at once.
 """
 
 from __future__ import annotations
@@ -27,7 +28,9 @@ HOOK = """
 import os, signal, sys
 sys.argv[0] = "chatterbench"  # as the console script: the command's own signal handling
 from chatterbench.comparisons.studies.tune import rows, runner
+from chatterbench.comparisons.studies.tune.search import BAND_PART
 sig, log, handed = int(sys.argv[1]), sys.argv[2], []
+WHOLE = 2 * BAND_PART  # a pass this long or longer: two candidates' band runs at a phase, or a grid's pass
 real_evaluator, real_row, real_evaluate = runner.evaluator, rows._row, rows.evaluate
 
 def note(word):  # one line a write, appended: whole lines from every process
@@ -41,8 +44,8 @@ def evaluator(*args, **kwargs):
         return run_batch(batch, *more)
     return counted
 
-def signal_first(*args, **kwargs):  # a row waited for once a pass of 20 candidates or more is all handed out
-    if handed and handed[-1] >= 20:
+def signal_first(*args, **kwargs):  # a row waited for once a pass of WHOLE candidates or more is all handed out
+    if handed and handed[-1] >= WHOLE:
         handed.clear()
         note("signal")
         os.kill(os.getpid(), sig)  # delivered at once, as a user's Ctrl-C or a CI job's kill would be
@@ -88,7 +91,7 @@ def test_a_search_interrupted_mid_pass_stops_without_running_the_pass_out(tmp_pa
     events = log.read_text().split()
     after = events[events.index("signal") + 1:]
     # at most the two candidates the workers were running finish in the moment before they are killed; before, the
-    # rest of the pass ran: 18 or more candidates after the signal
+    # rest of the pass ran: 14 or more candidates after the signal
     assert len(after) <= 2, f"{command} ran {len(after)} candidates after the signal"
     for _ in range(50):  # a killed worker is reaped by the system a moment after its parent's exit
         left = _left_running(str(out))
