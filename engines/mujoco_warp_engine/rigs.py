@@ -33,7 +33,6 @@ a rig of their own, not kept.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import os
 import threading
 from collections import OrderedDict
@@ -48,7 +47,7 @@ from ..mujoco_common import Prepared
 from ..window import CHUNK
 from .kernels import STEPS_PER_GRAPH, Stepper, load_kernels
 from .samples import Before
-from .worlds import Worlds, copied, warp_modules
+from .worlds import Worlds, copied, field, set_field, warp_modules
 
 MOST_RIGS = 32  # rigs kept per process (a tune's slices, each with its runs' rig and its strike batches')
 WORLD_ROUND = 16  # [worlds] a block of more than one world takes a rig of the next multiple of this
@@ -83,10 +82,10 @@ class Rig:
         self.slots, self.steps, self.base, self.used = slots, steps, worlds.base, False
         self.model = copied(worlds.model)  # its own rows (below), the kept model's other arrays
         for path in worlds.rows:
-            old = _field(worlds.model, path)
+            old = field(worlds.model, path)
             new = wp.zeros((old.shape[0] if old.shape[0] == 1 else slots, *old.shape[1:]), dtype=old.dtype)
             new._is_batched = True  # as mujoco_warp marks its per-world arrays
-            _set_field(self.model, path, new)
+            set_field(self.model, path, new)
         self.load = load_kernels(worlds.model, mjw.put_data(mjm, mujoco.MjData(mjm)), worlds.device)
         self.mjm, self.template = mjm, None  # a fresh data to reset to, made when the rig is first reused
         self.data = mjw.put_data(mjm, mujoco.MjData(mjm), nworld=slots)
@@ -105,8 +104,8 @@ class Rig:
     def load_rows(self, worlds: Worlds) -> None:
         """The block's per-world rows (``worlds.rows``) into the rig's, the last world's repeated to ``slots``."""
         for path in self.rows:
-            mine = _field(self.model, path)
-            mine.assign(_padded(_field(worlds.model, path).numpy(), mine.shape[0]))
+            mine = field(self.model, path)
+            mine.assign(_padded(field(worlds.model, path).numpy(), mine.shape[0]))
 
     def start(self, worlds: Worlds, ps: Sequence[Prepared], nstep: int) -> Before:
         """Ready for the block ``ps`` of ``worlds``: its rows, a fresh data (a used rig's reset to the template's), its
@@ -138,7 +137,7 @@ def key_of(worlds: Worlds, slots: int, steps: int) -> tuple | None:
         return None
     if slots * steps * 4 * _row_floats(worlds.base) > MOST_RIG_BYTES:
         return None
-    shared = tuple(_field(worlds.model, path).shape[0] == 1 for path in worlds.rows)
+    shared = tuple(field(worlds.model, path).shape[0] == 1 for path in worlds.rows)
     return os.getpid(), id(worlds.base), worlds.device, slots, steps, worlds.rows, shared, kernels.graphs(worlds.device)
 
 
@@ -191,15 +190,6 @@ def _padded(rows: np.ndarray, slots: int) -> np.ndarray:
     if n in (1, slots):
         return np.ascontiguousarray(rows)
     return np.ascontiguousarray(np.concatenate([rows, np.repeat(rows[-1:], slots - n, axis=0)]))
-
-
-def _field(obj: Any, path: str) -> Any:
-    return functools.reduce(getattr, path.split("."), obj)
-
-
-def _set_field(obj: Any, path: str, value: Any) -> None:
-    *outer, name = path.split(".")
-    setattr(functools.reduce(getattr, outer, obj), name, value)
 
 
 def _restore(dst: Any, src: Any) -> None:

@@ -181,16 +181,25 @@ def _set_rows(model: Any, path: str, values: np.ndarray, device: str, varying: l
     """Field ``path`` of ``model`` as one row per world (``values``: shape (nworld, ...)), or one shared row when the
     worlds agree; converted to the field's dtype as ``put_model`` converts MuJoCo's float64 (``wp.array``)."""
     wp, _ = warp_modules()
-    *outer, name = path.split(".")
-    owner = functools.reduce(getattr, outer, model)
-    old = getattr(owner, name)
+    old = field(model, path)
     same = bool((values == values[:1]).all())
     rows = values[:1] if same else values
     new = wp.array(np.ascontiguousarray(rows), dtype=old.dtype, shape=(len(rows), *old.shape[1:]), device=device)
     new._is_batched = True  # as mujoco_warp marks its per-world arrays
-    setattr(owner, name, new)
+    set_field(model, path, new)
     if not same:
         varying.append(path)
+
+
+def field(obj: Any, path: str) -> Any:
+    """The attribute at dotted ``path`` of ``obj`` (``"opt.timestep"``: ``obj.opt.timestep``)."""
+    return functools.reduce(getattr, path.split("."), obj)
+
+
+def set_field(obj: Any, path: str, value: Any) -> None:
+    """Set the attribute at dotted ``path`` of ``obj`` to ``value``."""
+    *outer, name = path.split(".")
+    setattr(field(obj, ".".join(outer)) if outer else obj, name, value)
 
 
 def _per_world(spec: Any) -> bool:

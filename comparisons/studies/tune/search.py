@@ -232,11 +232,11 @@ class _Search:
     def check(self, batch: list[dict]) -> None:
         """Run the neighbourhoods of ``batch``'s candidates group by group (``Grid.neighbourhood``: the band's ends,
         the knobs, the band's inner dts, the other phases; the last two in parts, ``split``), each group only for the
-        candidates with a ladder point still robust, and settle them. A group the budget does not pay for (the band's runs at a ``phase``:
-        ``cost_of``) is run only for a candidate still robust at a point it could be the answer of (``answerable``,
-        as the check began: no answer changes during it); one robust only where a cheaper answer is already
-        robust is *stopped* there (``settle``), so the search, its budget and its answers are those of the whole
-        band, with fewer runs."""
+        candidates with a ladder point still robust (``_goes_on``), and settle them. A group the budget does not pay
+        for (the band's runs at a ``phase``: ``cost_of``) is run only for a candidate still robust at a point it could
+        be the answer of (``answerable``, as the check began: no answer changes during it); one robust only where a
+        cheaper answer is already robust is *stopped* there (``settle``), so the search, its budget and its answers
+        are those of the whole band, with fewer runs."""
         groups = {id(r): self.split(self.grid.neighbourhood(self.params(r), self.phases)) for r in batch}
         near = {id(r): [n for g in groups[id(r)] for n in g] for r in batch}
         found = self.answers()
@@ -244,18 +244,24 @@ class _Search:
         open_points = {id(r): self.answerable(r, bounds, found) for r in batch}
         stopped: set[int] = set()
         for k in range(max(len(g) for g in groups.values())):
-            alive = []
-            for r in batch:
-                left = self.surviving(r, near[id(r)])
-                if id(r) in stopped or not left:
-                    continue
-                if k < len(groups[id(r)]) and self.free(groups[id(r)][k]) and not left & open_points[id(r)]:
-                    stopped.add(id(r))
-                    continue
-                alive.append(r)
+            alive = [r for r in batch if self._goes_on(r, groups[id(r)][k:k + 1], near[id(r)], open_points[id(r)],
+                                                       stopped)]
             self.run([n for r in alive for n in groups[id(r)][k]], "neighbourhood", self.grid.depth, force=True)
         for r in batch:
             self.settle(r, near[id(r)], id(r) in stopped)
+
+    def _goes_on(self, r: dict, group: list[list[dict]], near: list[dict], open_points: set[int],
+                 stopped: set[int]) -> bool:
+        """Whether ``r``'s check runs its next ``group`` (a list of one group; none left: empty): not while it is
+        stopped or robust nowhere; a free group (``free``) only while it is robust at a point it could answer
+        (``open_points``), else it is stopped here (added to ``stopped``)."""
+        left = self.surviving(r, near) if group and id(r) not in stopped else set()
+        if not left:
+            return False
+        if self.free(group[0]) and not left & open_points:
+            stopped.add(id(r))
+            return False
+        return True
 
     def split(self, groups: list[list[dict]]) -> list[list[dict]]:
         """A neighbourhood's groups with each group the budget does not pay for (``cost_of``: the band's runs at a
