@@ -33,10 +33,12 @@ from .. import waits
 from ..phases import phase_solution
 from .checks import RATIO_COLUMNS, STRIKE_COLUMNS, check_ratios, describe_failures, misses_of, strike_summary
 from .ladder import judge_levels, reference_levels
-from .runs import batch_runs, candidate_settings, run_and_strike, run_key, settings_label, steps_per_sim_s
+from .runs import (batch_runs, batches_in_workers, candidate_settings, run_and_strike, run_key, settings_label,
+                   steps_per_sim_s)
 from .passes import need
 from .search import SEARCH_COLUMNS
 
+PART_RUNS = 8  # candidates a worker runs as one batch of the engine at most (``evaluator``: MuJoCo Warp's worlds)
 TUNE_COLUMNS = ["stage", "dt", "phase", "settings", "verdict", "n_episodes", "n_match", "failed", *SEARCH_COLUMNS, "passes",
                 "robust_at", "margins", "limits", "rests", "unjudged", *RATIO_COLUMNS,
                 *STRIKE_COLUMNS,
@@ -66,6 +68,35 @@ def evaluate(ref: ReferenceSolution, engine: str, params: dict, points: tuple[To
             "cost_per_sim_s": run.cost_per_sim_s, "cost_repeats": 1, "status": run.status, "message": run.trajectory.message}
 
 
+def evaluate_part(ref: ReferenceSolution, engine: str, part: list[dict], points: tuple[Tolerances, ...], asked: int,
+                  bounds: list[float] | None = None, per_point: bool = False) -> list[dict[str, Any]]:
+    """The rows of ``part``'s candidates, their runs made as one batch of the engine (``batch_runs``: each the run
+    alone) and each judged (``evaluate``); a refused candidate's row is ``refused``'s. In a worker process."""
+    rows = []
+    for params, ran in zip(part, batch_runs(ref, engine, part, points[asked])):
+        try:
+            if isinstance(ran, InputError):
+                raise ran
+            rows.append(evaluate(ref, engine, params, points, asked, bounds, ran, per_point))
+        except InputError as exc:
+            rows.append(refused(params, exc))
+    return rows
+
+
+def parts_of(n: int) -> list[tuple[int, int]]:
+    """``n`` candidates cut into parts for the workers, as (start, stop): at most ``PART_RUNS`` a part and at least
+    two parts where there are two candidates (two workers busy), of sizes that differ by one at most.
+
+        >>> parts_of(1), parts_of(3), parts_of(16)
+        ([(0, 1)], [(0, 2), (2, 3)], [(0, 8), (8, 16)])
+        >>> [b - a for a, b in parts_of(57)]
+        [7, 7, 7, 7, 7, 7, 7, 8]
+    """
+    count = max(min(2, n), math.ceil(n / PART_RUNS))
+    bounds = [round(k * n / count) for k in range(count + 1)]
+    return list(zip(bounds[:-1], bounds[1:]))
+
+
 def judged_points(engine: str, settings: Any, steps: float, bounds: list[float] | None, asked: int,
                   n_points: int) -> list[int]:
     """The ladder points a run of ``steps`` steps per simulated second is judged at: where it can still matter
@@ -84,16 +115,25 @@ def refused(params: dict, exc: Exception) -> dict[str, Any]:
 
 
 def evaluator(executor: Executor, ref: ReferenceSolution, engine: str, points: tuple[Tolerances, ...], asked: int,
-              batched: bool = False, per_point: bool = False, shared: bool = True):
+              batched: bool = False, per_point: bool = False, shared: bool = True, parts: bool | None = None):
     """A function running a batch of candidates in parallel, one row each, in order; ``batched``: the candidates'
     runs and strikes made here as one batch of the engine (``batch_runs``), only their judging in parallel.
+    ``parts``: the candidates cut into parts (``parts_of``), each part's runs one batch of the engine in a worker
+    (``evaluate_part``); None: where the engine batches on the CPU (``runs.batches_in_workers``). The rows are the
+    same every way (a batch's run is the run alone).
 
     ``shared``: candidates of one run (``runs.run_key``: they differ only in settings fields the run does not read,
     Drake's integrator in discrete mode) make one run, in the search so far or in the batch; the others take its row
     (``shared_row``), the same, value for value, as their own run would give. False: each makes its own (the check)."""
     made: dict[tuple, dict] = {}  # run key -> the row of the run made for it (not refused)
 
+    in_parts = (not batched and batches_in_workers(engine)) if parts is None else parts
+
     def submit(batch: list[dict], bounds: list[float] | None) -> list[dict]:
+        if in_parts and not batched and len(batch) > 1:
+            futures = [(executor.submit(evaluate_part, ref, engine, batch[a:b], points, asked, bounds, per_point), a, b)
+                       for a, b in parts_of(len(batch))]
+            return [row for fut, a, b in futures for row in _rows(fut, batch[a:b])]
         ran = batch_runs(ref, engine, batch, points[asked]) if batched else [None] * len(batch)
         futures = [r if isinstance(r, InputError) else executor.submit(evaluate, ref, engine, p, points, asked, bounds, r,
                                                                              per_point)
@@ -151,6 +191,15 @@ def _row(fut, params: dict) -> dict[str, Any]:
         return waits.result(fut)  # in slices: a Ctrl-C is acted on while the workers run
     except InputError as exc:
         return refused(params, exc)
+
+
+def _rows(fut, part: list[dict]) -> list[dict[str, Any]]:
+    """A part's rows from its future (``evaluate_part``), or each candidate's refused row where the part was refused
+    as a whole."""
+    try:
+        return waits.result(fut)  # in slices: a Ctrl-C is acted on while the workers run
+    except InputError as exc:
+        return [refused(params, exc) for params in part]
 
 
 def table_of(rows: list[dict], space: dict[str, tuple]) -> pd.DataFrame:

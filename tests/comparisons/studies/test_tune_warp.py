@@ -6,11 +6,12 @@ import math
 import subprocess
 import sys
 import textwrap
+from concurrent.futures import ThreadPoolExecutor
 
 import pandas as pd
 import pytest
 
-from chatterbench.comparisons.studies.tune import Tolerances, tune
+from chatterbench.comparisons.studies.tune import Tolerances, rows, tune
 from chatterbench.comparisons.studies.tune.conformance import same_model_check
 from chatterbench.reference.scene import load_scene
 
@@ -116,18 +117,31 @@ def test_an_engine_that_steps_its_own_model_has_no_same_model_check():
 
 
 @pytest.mark.slow
-def test_a_batched_search_is_row_for_row_the_search_of_runs_alone():
-    # the must-show for a study: a search pass's candidates as the worlds of one batch (as on cuda) give the
-    # rows of the same candidates run one by one in the workers (MuJoCo Warp: a world is bit for bit the run alone);
-    # two integrators: two compiled structures, a block each
+def test_a_batched_search_is_row_for_row_the_search_of_runs_alone(monkeypatch):
+    # the must-show for a study: a search pass's candidates as the worlds of one batch (as on cuda), or cut
+    # into parts each one batch in a worker (on the CPU, the default: ``rows.parts_of``), give the rows of the same
+    # candidates run one by one in the workers (MuJoCo Warp: a world is bit for bit the run alone); two integrators:
+    # two compiled structures, a block each
     space = {"dt": (1e-3,), "mujoco_warp.w0_dt": (0.1, 0.3), "mujoco_warp.integrator": ("euler", "implicitfast"),
              "mujoco_warp.impedance": (0.95,)}  # at 0.99 the contact flickers after the stick: buzz everywhere
-    runs = {b: tune(BALL, "mujoco_warp", LOOSE, space=space, workers=1, refine_steps=0, ladder=None, check_robust=False,
-                    batched=b) for b in (False, True)}
-    assert runs[True].extra["searched"]["batched"] and not runs[False].extra["searched"]["batched"]
+    ways, parts, real_part = {}, [], rows.evaluate_part
+    monkeypatch.setattr(rows, "evaluate_part", lambda ref, engine, part, *a: parts.append(len(part)) or
+                        real_part(ref, engine, part, *a))
+    for way in ("parts", "batched", "alone"):
+        if way == "alone":  # each candidate its own run in a worker, as before parts
+            monkeypatch.setattr(rows, "batches_in_workers", lambda engine: False)
+        with ThreadPoolExecutor(1) as worker:  # a worker in this process: the parts it is handed are counted
+            ways[way] = tune(BALL, "mujoco_warp", LOOSE, space=space, executor=worker, refine_steps=0, ladder=None,
+                             check_robust=False, batched=way == "batched")
+        if way == "parts":
+            assert parts == [2, 2]  # the pass of 4 in two parts of two worlds
+    assert parts == [2, 2]  # neither the batched search nor the one of runs alone ran parts
+    assert ways["batched"].extra["searched"]["batched"] and not ways["alone"].extra["searched"]["batched"]
     timing = ["cost_per_sim_s", "cost_repeats"]
     # rows in the order of their settings (candidates of equal steps are ordered by wall time, which is the load's)
-    alone, batched = (runs[b].table.drop(columns=timing).sort_values("settings", ignore_index=True) for b in (False, True))
+    alone, batched, parts = (ways[w].table.drop(columns=timing).sort_values("settings", ignore_index=True)
+                             for w in ("alone", "batched", "parts"))
     assert len(alone) == 4 and set(alone["verdict"]) >= {"match"}  # the lattice, one batch; something passes
     pd.testing.assert_frame_equal(alone, batched)
+    pd.testing.assert_frame_equal(alone, parts)
     assert not math.isnan(alone["stick_error_max"].abs().max())  # errors measured, so equal frames say something
