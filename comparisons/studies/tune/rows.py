@@ -39,6 +39,7 @@ from .passes import need
 from .search import SEARCH_COLUMNS
 
 PART_RUNS = 8  # candidates a worker runs as one batch of the engine at most (``evaluator``: MuJoCo Warp's worlds)
+PART_DT_RATIO = 1.6  # [-] the largest dt over the smallest in a part (a band's dts span 1.25 / 0.8 = 1.5625)
 TUNE_COLUMNS = ["stage", "dt", "phase", "settings", "verdict", "n_episodes", "n_match", "failed", *SEARCH_COLUMNS, "passes",
                 "robust_at", "margins", "limits", "rests", "unjudged", *RATIO_COLUMNS,
                 *STRIKE_COLUMNS,
@@ -83,18 +84,32 @@ def evaluate_part(ref: ReferenceSolution, engine: str, part: list[dict], points:
     return rows
 
 
-def parts_of(n: int) -> list[tuple[int, int]]:
-    """``n`` candidates cut into parts for the workers, as (start, stop): at most ``PART_RUNS`` a part and at least
-    two parts where there are two candidates (two workers busy), of sizes that differ by one at most.
+def parts_of(dts: list[float]) -> list[list[int]]:
+    """Candidates of timesteps ``dts`` [s] cut into parts for the workers, as lists of their indices: candidates whose
+    dts are within ``PART_DT_RATIO`` of each other (a batch steps its longest run: a world of a coarser dt steps on
+    unread), at most ``PART_RUNS`` a part, of sizes that differ by one at most, and at least two parts where there
+    are two candidates (two workers busy).
 
-        >>> parts_of(1), parts_of(3), parts_of(16)
-        ([(0, 1)], [(0, 2), (2, 3)], [(0, 8), (8, 16)])
-        >>> [b - a for a, b in parts_of(57)]
-        [7, 7, 7, 7, 7, 7, 7, 8]
+        >>> from chatterbench.comparisons.studies.tune.rows import parts_of
+        >>> parts_of([1e-3]), parts_of([1e-3] * 3), parts_of([1e-3, 1e-5, 1.2e-3, 1e-5])
+        ([[0]], [[0], [1, 2]], [[1, 3], [0, 2]])
+        >>> [len(part) for part in parts_of([1e-3] * 16)], [len(part) for part in parts_of([1e-3] * 57)]
+        ([8, 8], [7, 7, 7, 7, 7, 7, 7, 8])
     """
-    count = max(min(2, n), math.ceil(n / PART_RUNS))
-    bounds = [round(k * n / count) for k in range(count + 1)]
-    return list(zip(bounds[:-1], bounds[1:]))
+    order = sorted(range(len(dts)), key=lambda i: dts[i])
+    groups: list[list[int]] = []
+    for i in order:
+        if groups and dts[i] <= PART_DT_RATIO * dts[groups[-1][0]]:
+            groups[-1].append(i)
+        else:
+            groups.append([i])
+    whole = len(groups) == 1
+    out = []
+    for g in groups:
+        count = max(min(2, len(g)) if whole else 1, math.ceil(len(g) / PART_RUNS))
+        cuts = [k * len(g) // count for k in range(count + 1)]
+        out += [g[c0:c1] for c0, c1 in zip(cuts[:-1], cuts[1:])]
+    return out
 
 
 def judged_points(engine: str, settings: Any, steps: float, bounds: list[float] | None, asked: int,
@@ -131,9 +146,11 @@ def evaluator(executor: Executor, ref: ReferenceSolution, engine: str, points: t
 
     def submit(batch: list[dict], bounds: list[float] | None) -> list[dict]:
         if in_parts and not batched and len(batch) > 1:
-            futures = [(executor.submit(evaluate_part, ref, engine, batch[a:b], points, asked, bounds, per_point), a, b)
-                       for a, b in parts_of(len(batch))]
-            return [row for fut, a, b in futures for row in _rows(fut, batch[a:b])]
+            parts = [[batch[i] for i in part] for part in parts_of([p["dt"] for p in batch])]
+            futures = [executor.submit(evaluate_part, ref, engine, part, points, asked, bounds, per_point)
+                       for part in parts]
+            made = {id(params): row for fut, part in zip(futures, parts) for params, row in zip(part, _rows(fut, part))}
+            return [made[id(params)] for params in batch]
         ran = batch_runs(ref, engine, batch, points[asked]) if batched else [None] * len(batch)
         futures = [r if isinstance(r, InputError) else executor.submit(evaluate, ref, engine, p, points, asked, bounds, r,
                                                                              per_point)
