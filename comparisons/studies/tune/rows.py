@@ -40,6 +40,7 @@ from .search import SEARCH_COLUMNS
 
 PART_RUNS = 8  # candidates a worker runs as one batch of the engine at most (``evaluator``: MuJoCo Warp's worlds)
 PART_DT_RATIO = 1.6  # [-] the largest dt over the smallest in a part (a band's dts span 1.25 / 0.8 = 1.5625)
+PART_SAMPLES = 2_000_000  # samples of a part's runs at most (about 100 MB recorded; a longer run goes alone)
 TUNE_COLUMNS = ["stage", "dt", "phase", "settings", "verdict", "n_episodes", "n_match", "failed", *SEARCH_COLUMNS, "passes",
                 "robust_at", "margins", "limits", "rests", "unjudged", *RATIO_COLUMNS,
                 *STRIKE_COLUMNS,
@@ -73,8 +74,9 @@ def evaluate_part(ref: ReferenceSolution, engine: str, part: list[dict], points:
                   bounds: list[float] | None = None, per_point: bool = False) -> list[dict[str, Any]]:
     """The rows of ``part``'s candidates, their runs made as one batch of the engine (``batch_runs``: each the run
     alone) and each judged (``evaluate``); a refused candidate's row is ``refused``'s. In a worker process."""
-    rows = []
-    for params, ran in zip(part, batch_runs(ref, engine, part, points[asked])):
+    rows, made = [], batch_runs(ref, engine, part, points[asked])
+    for k, params in enumerate(part):
+        ran, made[k] = made[k], None  # each run let go once judged: a part holds its runs, not their judgements too
         try:
             if isinstance(ran, InputError):
                 raise ran
@@ -84,17 +86,20 @@ def evaluate_part(ref: ReferenceSolution, engine: str, part: list[dict], points:
     return rows
 
 
-def parts_of(dts: list[float]) -> list[list[int]]:
-    """Candidates of timesteps ``dts`` [s] cut into parts for the workers, as lists of their indices: candidates whose
-    dts are within ``PART_DT_RATIO`` of each other (a batch steps its longest run: a world of a coarser dt steps on
-    unread), at most ``PART_RUNS`` a part, of sizes that differ by one at most, and at least two parts where there
-    are two candidates (two workers busy).
+def parts_of(dts: list[float], duration: float) -> list[list[int]]:
+    """Candidates of timesteps ``dts`` [s] of a scene of ``duration`` [s] cut into parts for the workers, as lists of
+    their indices: candidates whose dts are within ``PART_DT_RATIO`` of each other (a batch steps its longest run: a
+    world of a coarser dt steps on unread), at most ``PART_RUNS`` a part and ``PART_SAMPLES`` samples (a longer run
+    alone: a part holds what its longest run alone would), of sizes that differ by one at most, and at least two
+    parts where there are two candidates (two workers busy).
 
         >>> from chatterbench.comparisons.studies.tune.rows import parts_of
-        >>> parts_of([1e-3]), parts_of([1e-3] * 3), parts_of([1e-3, 1e-5, 1.2e-3, 1e-5])
+        >>> parts_of([1e-3], 2.0), parts_of([1e-3] * 3, 2.0), parts_of([1e-3, 1e-5, 1.2e-3, 1e-5], 2.0)
         ([[0]], [[0], [1, 2]], [[1, 3], [0, 2]])
-        >>> [len(part) for part in parts_of([1e-3] * 16)], [len(part) for part in parts_of([1e-3] * 57)]
+        >>> [len(part) for part in parts_of([1e-3] * 16, 2.0)], [len(part) for part in parts_of([1e-3] * 57, 2.0)]
         ([8, 8], [7, 7, 7, 7, 7, 7, 7, 8])
+        >>> [len(part) for part in parts_of([1e-4] * 8, 40.0)]      # 400,001 samples a run: 4 of them at most
+        [4, 4]
     """
     order = sorted(range(len(dts)), key=lambda i: dts[i])
     groups: list[list[int]] = []
@@ -106,7 +111,8 @@ def parts_of(dts: list[float]) -> list[list[int]]:
     whole = len(groups) == 1
     out = []
     for g in groups:
-        count = max(min(2, len(g)) if whole else 1, math.ceil(len(g) / PART_RUNS))
+        most = max(1, min(PART_RUNS, int(PART_SAMPLES // (duration / dts[g[0]] + 1))))  # the group's longest run
+        count = max(min(2, len(g)) if whole else 1, math.ceil(len(g) / most))
         cuts = [k * len(g) // count for k in range(count + 1)]
         out += [g[c0:c1] for c0, c1 in zip(cuts[:-1], cuts[1:])]
     return out
@@ -146,7 +152,7 @@ def evaluator(executor: Executor, ref: ReferenceSolution, engine: str, points: t
 
     def submit(batch: list[dict], bounds: list[float] | None) -> list[dict]:
         if in_parts and not batched and len(batch) > 1:
-            parts = [[batch[i] for i in part] for part in parts_of([p["dt"] for p in batch])]
+            parts = [[batch[i] for i in part] for part in parts_of([p["dt"] for p in batch], ref.scene.duration)]
             futures = [executor.submit(evaluate_part, ref, engine, part, points, asked, bounds, per_point)
                        for part in parts]
             made = {id(params): row for fut, part in zip(futures, parts) for params, row in zip(part, _rows(fut, part))}
