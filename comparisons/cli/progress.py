@@ -265,15 +265,24 @@ class Progress:
 
 
 class CountingExecutor(Executor):
-    """An executor that counts each finished task on a ``Progress`` (work whose size is known only as it goes)."""
+    """An executor that counts each finished task on a ``Progress`` (work whose size is known only as it goes): a
+    task whose result is a list counts its items (tune's part of a pass: one row per candidate)."""
 
     def __init__(self, inner: Executor, progress: Progress):
         self.inner, self.progress = inner, progress
 
     def submit(self, fn: Callable, /, *args: Any, **kwargs: Any) -> Future:
         future = self.inner.submit(fn, *args, **kwargs)
-        future.add_done_callback(lambda f: self.progress.done())
+        future.add_done_callback(lambda f: self.progress.done(_items(f)))
         return future
 
     def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
         self.inner.shutdown(wait=wait, cancel_futures=cancel_futures)
+
+
+def _items(future: Future) -> int:
+    """What a finished task counts: a list result its length, anything else (a failure, a cancel) one."""
+    if future.cancelled() or future.exception() is not None:
+        return 1
+    result = future.result()
+    return len(result) if isinstance(result, list) else 1

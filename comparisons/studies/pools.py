@@ -16,7 +16,9 @@ A pool that ``renew``s itself (``RenewedPool``) hands every ``renew`` tasks to a
 what an engine leaves in a worker does not pile up over a search: Drake keeps about 90 kB of every diagram it
 builds (a bare ``AddMultibodyPlantSceneGraph`` + ``Build``, pydrake 1.51.1), and a tune builds one a run and one
 a strike, 20 to 120 strikes a candidate: a worker of an atlas's Drake spring pair held 1.1 GB after 26 minutes.
-A task's result does not depend on the worker it ran in, so the rows are the same.
+A task's result does not depend on the worker it ran in, so the rows are the same. A function that does several
+tasks' work at once says how many (its ``tasks`` attribute, called with the task's arguments: tune's part of a pass,
+``rows.evaluate_part``, counts its candidates), so a pool of parts is renewed as often as one of candidates.
 """
 
 from __future__ import annotations
@@ -45,7 +47,8 @@ class RenewedPool(Executor):
             self.left = [w for w in self.left if w.is_alive()] + _processes(self.pool)
             self.pool.shutdown(wait=False)  # its workers end once its tasks are done
             self.pool, self.handed = ProcessPoolExecutor(max_workers=self.max_workers), 0
-        self.handed += 1
+        count = getattr(fn, "tasks", None)  # a task of several (tune's part of a pass) counts each of them
+        self.handed += count(*args, **kwargs) if count is not None else 1
         return self.pool.submit(fn, *args, **kwargs)
 
     def workers(self) -> list:

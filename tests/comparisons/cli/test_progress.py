@@ -69,3 +69,23 @@ def test_compare_says_each_run_as_it_starts():
     said = []
     compare(load_scene("bouncing-ball", ["duration=0.6"]), settings=settings_for(("pybullet", "mujoco"), 1e-3), progress=said.append)
     assert said == ["reference", "pybullet", "mujoco"]
+
+
+def test_a_counted_task_of_several_candidates_counts_each():
+    # tune hands a worker a part of a pass (``rows.evaluate_part``: a list of rows); the bar counts candidates, so a
+    # part of three counts three, a lone candidate one, and a failed task one (before: a part counted one)
+    from concurrent.futures import ThreadPoolExecutor
+
+    from chatterbench.comparisons.cli.progress import CountingExecutor
+
+    def fail():
+        raise ValueError("a candidate's failure")
+
+    bar = Progress(None, "tune", unit="candidate", enabled=False)
+    with ThreadPoolExecutor(1) as pool:
+        counted = CountingExecutor(pool, bar)
+        futures = [counted.submit(lambda: [{"dt": 1e-3}] * 3), counted.submit(lambda: {"dt": 1e-3}), counted.submit(fail)]
+        for f in futures:
+            f.exception()
+    bar.close()
+    assert bar.n == 5
