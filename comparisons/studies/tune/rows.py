@@ -86,9 +86,6 @@ def evaluate_part(ref: ReferenceSolution, engine: str, part: list[dict], points:
     return rows
 
 
-evaluate_part.tasks = lambda ref, engine, part, *args, **kwargs: len(part)  # a renewed pool counts its candidates
-
-
 def parts_of(dts: list[float], duration: float) -> list[list[int]]:
     """Candidates of timesteps ``dts`` [s] of a scene of ``duration`` [s] cut into parts for the workers, as lists of
     their indices: candidates whose dts are within ``PART_DT_RATIO`` of each other (a batch steps its longest run: a

@@ -10,7 +10,7 @@ from concurrent.futures import wait
 
 import pytest
 
-from chatterbench.comparisons.studies.pools import RenewedPool, _processes, process_pool, stop_pool
+from chatterbench.comparisons.studies.pools import RenewedPool, _processes, process_pool, resident_mb, stop_pool
 from helpers import needs_engine
 
 
@@ -51,21 +51,39 @@ def test_every_renew_tasks_go_to_fresh_workers_with_the_same_results():
         assert len({pool.submit(_square, x).result()[0] for x in range(8)}) <= 2
 
 
-def _squares(xs: list[int]) -> list[tuple[int, int]]:
-    return [_square(x) for x in xs]
+_KEPT: list[bytes] = []  # what a worker holds on to (as MuJoCo Warp's kept rigs and caches over a long search)
 
 
-_squares.tasks = lambda xs: len(xs)  # several tasks' work at once (as tune's part of a pass): counted as them
+def _swell(mb: int) -> tuple[int, float]:
+    """This worker's pid after it keeps ``mb`` MiB more, written so that it is resident."""
+    _KEPT.append(b"\x01" * (mb * 2**20))
+    return os.getpid(), resident_mb(os.getpid())
 
 
-def test_a_task_of_several_counts_them_toward_the_renewal():
-    # tune's parts of a pass (``rows.evaluate_part``) hold up to 8 candidates: counted as one task each, a worker ran
-    # 8 times the candidates before its renewal (seen: 850 MB workers in a MuJoCo Warp atlas case, 650 MB before)
-    with process_pool(2, renew=4) as pool:
-        done = [pool.submit(_squares, [2 * k, 2 * k + 1]).result() for k in range(4)]  # 2 + 2 renew, 2 + 2 renew
-    assert [r for part in done for _, r in part] == [x * x for x in range(8)]
-    pids = [{pid for pid, _ in part} for part in done]
-    assert not (pids[0] | pids[1]) & (pids[2] | pids[3])
+def test_a_worker_grown_past_the_limit_is_renewed_at_the_next_task():
+    # tune's parts of a pass (up to 8 candidates a task) let a worker live through 8 times the candidates before the
+    # count renewed it (seen: 850 MB workers in a MuJoCo Warp atlas case); the pool now also renews a grown worker
+    limit = resident_mb(os.getpid()) + 100.0  # [MiB] a fresh fork holds about what this process holds
+    with process_pool(1, renew=1000) as pool:
+        pool.most_mb = limit
+        first, grown = pool.submit(_swell, 200).result()
+        assert grown > limit
+        after = pool.submit(_square, 3).result()[0]
+    assert after != first
+    with process_pool(1, renew=1000) as pool:  # the other way: a worker under the limit is kept
+        pool.most_mb = limit
+        kept = {pool.submit(_swell, 1).result()[0] for _ in range(3)} | {pool.submit(_square, 2).result()[0]}
+    assert len(kept) == 1
+
+
+def test_resident_memory_is_read_from_the_process_status(tmp_path):
+    (tmp_path / "42").mkdir()
+    (tmp_path / "42" / "status").write_text("Name:\tpython\nVmHWM:\t  9999 kB\nVmRSS:\t  2048 kB\n")
+    assert resident_mb(42, proc=str(tmp_path)) == 2.0
+    assert resident_mb(43, proc=str(tmp_path)) == 0.0  # gone (an exited worker): nothing to renew for
+    assert resident_mb(None, proc=str(tmp_path)) == 0.0
+    if os.path.exists(f"/proc/{os.getpid()}/status"):
+        assert resident_mb(os.getpid()) > 1.0
 
 
 def test_a_renewed_worker_has_given_back_what_drake_kept():
