@@ -17,7 +17,8 @@ what an engine leaves in a worker does not pile up over a search: Drake keeps ab
 builds (a bare ``AddMultibodyPlantSceneGraph`` + ``Build``, pydrake 1.51.1), and a tune builds one a run and one
 a strike, 20 to 120 strikes a candidate: a worker of an atlas's Drake spring pair held 1.1 GB after 26 minutes.
 A task's result does not depend on the worker it ran in, so the rows are the same. It renews sooner when a worker
-has grown past ``MOST_WORKER_MB`` resident (read from ``/proc``; not on a system without it): tune's parts of a pass
+has grown past ``MOST_WORKER_MB`` resident, or past half of it over what the forking process holds (read from
+``/proc``; not on a system without it): tune's parts of a pass
 (``rows.evaluate_part``: up to 8 candidates a task) let a worker live through 8 times the candidates, and an
 atlas's MuJoCo Warp bouncing-ball case then peaked at 850 MB a worker (648 MB with a task a candidate); counted as
 their candidates instead, the parts renewed MuJoCo Warp's workers 8 times as often, each fresh worker loading its
@@ -26,31 +27,38 @@ kernels and capturing its rigs again (the case 124.8 s -> 169.5 s).
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Iterator
 from concurrent.futures import Executor, Future, ProcessPoolExecutor
 from contextlib import contextmanager
 from typing import Any
 
 RENEW_TASKS = 100  # tasks a tune's or an atlas's pool runs before a fresh one takes the next (50 a worker of two)
-MOST_WORKER_MB = 640.0  # [MiB] resident: a worker past this has its pool renewed at the next task handed out
+MOST_WORKER_MB = 640.0  # [MiB] resident: a worker past this has its pool renewed at the next task handed out, or
+# past half of it over what the process that forks the workers holds (a fork starts with up to its parent's pages)
 
 
 class RenewedPool(Executor):
     """A ``ProcessPoolExecutor`` of ``max_workers`` that hands every ``renew`` tasks to a fresh one (module
     docstring); the one it leaves runs what it was handed, then its workers exit."""
 
-    def __init__(self, max_workers: int | None, renew: int, most_mb: float = MOST_WORKER_MB) -> None:
+    def __init__(self, max_workers: int | None, renew: int) -> None:
         if renew < 1:
             raise ValueError(f"renew = {renew!r}: must be an integer >= 1")
-        self.max_workers, self.renew, self.most_mb = max_workers, renew, most_mb
-        self.pool, self.handed = ProcessPoolExecutor(max_workers=max_workers), 0
+        self.max_workers, self.renew = max_workers, renew
         self.left: list = []  # the workers of the pools left behind (a pool shut down forgets its own)
+        self._fresh()
+
+    def _fresh(self) -> None:
+        """A fresh pool, and the resident size [MiB] past which its workers are renewed (``MOST_WORKER_MB``)."""
+        self.pool, self.handed = ProcessPoolExecutor(max_workers=self.max_workers), 0
+        self.limit_mb = max(MOST_WORKER_MB, resident_mb(os.getpid()) + MOST_WORKER_MB / 2)
 
     def submit(self, fn: Callable, /, *args: Any, **kwargs: Any) -> Future:
-        if self.handed >= self.renew or any(resident_mb(w.pid) > self.most_mb for w in _processes(self.pool)):
+        if self.handed >= self.renew or any(resident_mb(w.pid) > self.limit_mb for w in _processes(self.pool)):
             self.left = [w for w in self.left if w.is_alive()] + _processes(self.pool)
             self.pool.shutdown(wait=False)  # its workers end once its tasks are done
-            self.pool, self.handed = ProcessPoolExecutor(max_workers=self.max_workers), 0
+            self._fresh()
         self.handed += 1
         return self.pool.submit(fn, *args, **kwargs)
 
