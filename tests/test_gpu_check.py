@@ -22,7 +22,7 @@ def _check_module():
 
 
 def test_the_map_is_a_valid_64_by_64_sweep_in_64_gpu_units(tmp_path):
-    pytest.importorskip("mujoco_warp")
+    pytest.importorskip("mujoco_warp", reason="the warp extra is not installed: pip install \".[warp]\"")
     path = tmp_path / "map.toml"
     path.write_text(_check_module().map_spec(64))
     sweep = load_sweep(path)  # every point's settings checked: w0 dt within Euler's limit for R = 0.5, the budget
@@ -37,7 +37,7 @@ def test_the_map_is_a_valid_64_by_64_sweep_in_64_gpu_units(tmp_path):
 
 @pytest.mark.slow
 def test_the_script_says_pass_or_fail_with_its_number_and_keeps_it(tmp_path):
-    pytest.importorskip("mujoco_warp")
+    pytest.importorskip("mujoco_warp", reason="the warp extra is not installed: pip install \".[warp]\"")
     env = {**os.environ, "OUT": str(tmp_path)}
     proc = subprocess.run([str(ROOT / "examples" / "gpu" / "check.sh"), "env", "one_world", "--dry-run"], env=env,
                           capture_output=True, text=True, timeout=600)

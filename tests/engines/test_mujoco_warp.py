@@ -18,7 +18,7 @@ from chatterbench.engines.registry import make_settings, settings_for
 from chatterbench.engines.settings import SettingsError
 from chatterbench.reference.scene import load_scene
 
-pytest.importorskip("mujoco_warp")
+pytest.importorskip("mujoco_warp", reason="the warp extra is not installed: pip install \".[warp]\"")
 
 from chatterbench.engines.mujoco_warp_engine import MujocoWarpEngine, MujocoWarpSettings, world_steps_per_s  # noqa: E402
 

@@ -4,7 +4,7 @@ import math
 
 import pytest
 
-pytest.importorskip("mujoco_warp")
+pytest.importorskip("mujoco_warp", reason="the warp extra is not installed: pip install \".[warp]\"")
 
 from chatterbench.comparisons.studies.bench import bench_warp  # noqa: E402
 

@@ -31,7 +31,7 @@ def test_an_engines_strikes_go_as_batches_with_the_column_of_single_runs(monkeyp
     # own end): the column is that of the strikes run one at a time
     import pytest
 
-    pytest.importorskip("mujoco_warp")
+    pytest.importorskip("mujoco_warp", reason="the warp extra is not installed: pip install \".[warp]\"")
     from chatterbench.comparisons.studies import plate_map as pm
 
     scene = load_scene("feigin-pair")
