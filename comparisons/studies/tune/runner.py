@@ -204,6 +204,7 @@ def _searched(table: pd.DataFrame, scene: Scene, grid: Grid, done, batched: bool
             "budget_spent": work >= limits.max_runs - 1, "exhaustive": done.exhaustive, "lattice": done.lattice,
             "lattice_run": done.lattice_run, "skipped_costlier": done.costlier, "max_cost": json_value(limits.max_cost),
             "capped": done.capped, "unchecked_passes": done.unchecked,
+            "skipped_stalled": done.stalled, "stalled_dt": done.stalled_dt,
             "levels": sorted({int(v) for v in table["level"].dropna()}), "robustness_checked": limits.check_robust,
             "batched": batched, "band": band_rule(limits.phases, limits.robust_fraction) if limits.check_robust else None}
 

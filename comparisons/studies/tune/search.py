@@ -27,7 +27,14 @@ Promises (``search``):
   every ladder point's bound (``bounds``: its answer so far, the tie band added at the asked
   point, and below the answer of any point as tight on both axes) is not run: it costs more
   steps, so it cannot be an answer; nor once the grid has taken ``COARSE_SHARE`` of the budget,
-  nor beyond ``max_cost``. Nothing else is pruned: no verdict is assumed from another dt's.
+  nor beyond ``max_cost``; **nor past a stall** (``stall``): once ``STALL_ROWS`` rows in a row, each
+  ``DT_RATIO ** 4`` finer than the last, bring the grid no closer to an answer than the rows before
+  them (no more ladder points passed, no more matching episodes, a worst error over its tolerance
+  not below ``1 / STALL_GAIN`` of the best so far), the finer rows are not run, by the grid, its
+  refinement or the reserve's rounds: what is left is the contact model's error, not the step's (a
+  first-order step's error falls 2.4x a row). This one rule assumes something of dts not run; the
+  row it stopped at and the settings it left are in ``Searched`` (``stalled_dt``, ``stalled``).
+  Nothing else is pruned: no verdict is assumed from another dt's.
 - **Refinement where verdicts change** (``sweep.refine.split_points`` per slice, level
   1..depth, as an adaptive sweep does; a run's label is its verdict and the ladder points it
   passes at): a cell whose corners' labels differ runs its centre
@@ -81,6 +88,8 @@ COARSE_SHARE = 0.6  # [-] of the budget the coarse grid may take before refining
 CHECK_SHARE = 0.4  # [-] of the budget the refinement leaves for the neighbourhoods of the passes it found
 PER_STAGE = 4  # passes whose neighbourhood is run after each stage (after the last: until the budget is spent)
 BAND_PART = 8  # band runs of a candidate run together, at most (two candidates a check: 16 runs for the workers)
+STALL_ROWS = 2  # coarse dt rows in a row that bring the grid no closer before the finer ones are left (``stall``)
+STALL_GAIN = 1.5  # [-] a row gets closer when its least worst error (over its tolerance) is this much below the best
 MOST_NAMED = 4  # failing neighbours named in a candidate's ``neighbourhood`` (the rest counted)
 SEARCH_COLUMNS = ["level", "robust", "neighbourhood", "neighbourhood_worst_ratio", "band"]
 
@@ -96,6 +105,8 @@ class Searched:
     costlier: int  # of those not run: costlier than every ladder point's robust answer (none could be one)
     capped: int  # lattice settings over the cost cap, never run
     unchecked: int  # passes that could still be an answer whose neighbourhood the budget left unrun
+    stalled: int = 0  # lattice settings not run: finer than the row where the grid stalled (``stall``)
+    stalled_dt: float | None = None  # [s] the coarse dt of that row (the finest the grid and refinement ran), None: none
 
 
 class _Search:
@@ -404,18 +415,45 @@ class _Search:
         todo += sorted(split, key=promise)  # the budget may end the level: the most promising cells first
         bounds = self.bounds()
         batch = [g.params(*c) for c in dict.fromkeys(todo)]
-        self.run([p for p in batch if self.affordable(1.0 / p["dt"], bounds)], f"refine {level}", level, keep=keep)
+        self.run([p for p in batch if self.affordable(1.0 / p["dt"], bounds) and not self.past_stall(p["dt"])],
+                 f"refine {level}", level, keep=keep)
 
     def coarse(self, floor: float, check_robust: bool) -> None:
         """The coarse grid's rows, coarse to fine, while the budget is above ``floor`` and a row could hold an answer;
         after each, the neighbourhoods of its passes (a robust answer makes the finer rows dearer than it)."""
         g = self.grid
         for i in g.coarse(g.dt):
-            if self.left <= floor or not self.affordable(1.0 / g.dt[i], self.bounds()):
+            if self.left <= floor or not self.affordable(1.0 / g.dt[i], self.bounds()) or self.past_stall(g.dt[i]):
                 break
             self.run([g.params(s, i, j) for s in range(len(g.slices)) for j in g.coarse(g.knob_values)], "grid", 0)
             if check_robust:
                 self.neighbourhoods()
+
+    def stall(self) -> float | None:
+        """The coarse dt [s] of the grid row where the grid stalled (module docstring), None while it has not: walking
+        the coarse rows from coarse to fine while each is wholly run, a row gets closer when it passes at more ladder
+        points than any before, or matches more episodes, or its least worst error over its tolerance is below the
+        best so far / ``STALL_GAIN``; the ``STALL_ROWS``-th row in a row that does not is the stall."""
+        g = self.grid
+        best_points, best_match, best_worst, still = -1, -1, math.inf, 0
+        for i in g.coarse(g.dt):
+            row = [self.seen.get(params_key(g.params(s, i, j))) for s in range(len(g.slices)) for j in g.coarse(g.knob_values)]
+            if any(r is None for r in row):
+                return None
+            points = max(len(self.passes(r)) for r in row)
+            match = max(_finite(r.get("n_match"), 0.0) for r in row)
+            worst = min((_finite(r.get("worst_ratio")) for r in row), default=math.inf)
+            closer = points > best_points or match > best_match or worst < best_worst / STALL_GAIN
+            best_points, best_match, best_worst = max(best_points, points), max(best_match, match), min(best_worst, worst)
+            still = 0 if closer else still + 1
+            if still >= STALL_ROWS:
+                return g.dt[i]
+        return None
+
+    def past_stall(self, dt: float) -> bool:
+        """Whether a lattice ``dt`` [s] is finer than the row where the grid stalled (``stall``): it is not run."""
+        stalled = self.stall()
+        return stalled is not None and dt < stalled
 
     def lattice(self) -> list[dict]:
         """Every setting of the lattice within the cost cap, coarse dt first."""
@@ -429,8 +467,16 @@ class _Search:
         top = max(self.bounds())
         g = self.grid
         capped = len(g.dt) * len(g.slices) * len(g.knob_values) - len(lattice)
+        stalled_dt = None if exhaustive else self.stall()
+        stalled = sum(1 for p in unrun if 1.0 / p["dt"] <= top and stalled_dt is not None and p["dt"] < stalled_dt)
         return Searched(rows=self.rows, exhaustive=exhaustive, lattice=len(lattice), lattice_run=len(lattice) - len(unrun),
-                        costlier=sum(1 for p in unrun if 1.0 / p["dt"] > top), capped=capped, unchecked=len(self.unchecked()))
+                        costlier=sum(1 for p in unrun if 1.0 / p["dt"] > top), capped=capped, unchecked=len(self.unchecked()), stalled=stalled,
+                        stalled_dt=stalled_dt)
+
+
+def _finite(x: Any, missing: float = math.inf) -> float:
+    """A row's measure as a number, ``missing`` where it has none (None, NaN): a worst error ratio infinitely far."""
+    return missing if x is None or isinstance(x, float) and math.isnan(x) else float(x)
 
 
 def _moved(p: dict, n: dict) -> str:
