@@ -27,13 +27,16 @@ Promises (``search``):
   every ladder point's bound (``bounds``: its answer so far, the tie band added at the asked
   point, and below the answer of any point as tight on both axes) is not run: it costs more
   steps, so it cannot be an answer; nor once the grid has taken ``COARSE_SHARE`` of the budget,
-  nor beyond ``max_cost``; **nor past a stall** (``stall``): once ``STALL_ROWS`` rows in a row, each
-  ``DT_RATIO ** 4`` finer than the last, bring the grid no closer to an answer than the rows before
-  them (no more ladder points passed, no more matching episodes, a worst error over its tolerance
-  not below ``1 / STALL_GAIN`` of the best so far), the finer rows are not run, by the grid, its
-  refinement or the reserve's rounds: what is left is the contact model's error, not the step's (a
-  first-order step's error falls 2.4x a row). This one rule assumes something of dts not run; the
-  row it stopped at and the settings it left are in ``Searched`` (``stalled_dt``, ``stalled``).
+  nor beyond ``max_cost``; **nor past a stall** (``note_rows``): once ``STALL_ROWS`` rows in a row (the
+  space's coarse dts, ``DT_RATIO ** 4`` = 2.44x apart in ``tune.space``'s) bring the grid no closer
+  to an answer than the rows before them (no pass that could still be an answer at its ladder
+  point, no more matching episodes, a least worst error over its tolerance not below ``1 /
+  STALL_GAIN`` of the best so far; counted from the first row that measured something), the
+  finer rows are not run, by the grid, its refinement or the reserve's rounds: what is left is
+  the contact model's error, not the step's (a first-order step's error falls 2.4x a row).
+  This one rule assumes something of dts not run; the row it stopped at and the lattice
+  settings it left are in ``Searched`` (``stalled_dt``, ``stalled``). Neighbourhoods and the
+  bisection are not limited by it.
   Nothing else is pruned: no verdict is assumed from another dt's.
 - **Refinement where verdicts change** (``sweep.refine.split_points`` per slice, level
   1..depth, as an adaptive sweep does; a run's label is its verdict and the ladder points it
@@ -106,7 +109,7 @@ class Searched:
     capped: int  # lattice settings over the cost cap, never run
     unchecked: int  # passes that could still be an answer whose neighbourhood the budget left unrun
     stalled: int = 0  # lattice settings not run: finer than the row where the grid stalled (``stall``)
-    stalled_dt: float | None = None  # [s] the coarse dt of that row (the finest the grid and refinement ran), None: none
+    stalled_dt: float | None = None  # [s] the coarse dt of that row (no lattice dt finer is run after it), None: none
 
 
 class _Search:
@@ -122,6 +125,8 @@ class _Search:
         self.rows: list[dict] = []
         self.seen: dict[tuple, dict] = {}
         self.inferred: dict[int, dict] = {s: {} for s in range(len(grid.slices))}
+        self.walk: dict[str, float] = {"next": 0, "match": 0.0, "worst": math.inf, "still": 0}  # ``note_rows``'s place
+        self.stalled_dt: float | None = None  # [s] the row where the grid stalled (``note_rows``), None: not (yet)
 
     def run(self, batch: list[dict], stage: str, level: int | None, force: bool = False, keep: float = 0.0) -> None:
         new = list({params_key(p): p for p in batch if params_key(p) not in self.seen}.values())
@@ -428,32 +433,40 @@ class _Search:
             self.run([g.params(s, i, j) for s in range(len(g.slices)) for j in g.coarse(g.knob_values)], "grid", 0)
             if check_robust:
                 self.neighbourhoods()
+            self.note_rows()
 
-    def stall(self) -> float | None:
-        """The coarse dt [s] of the grid row where the grid stalled (module docstring), None while it has not: walking
-        the coarse rows from coarse to fine while each is wholly run, a row gets closer when it passes at more ladder
-        points than any before, or matches more episodes, or its least worst error over its tolerance is below the
-        best so far / ``STALL_GAIN``; the ``STALL_ROWS``-th row in a row that does not is the stall."""
-        g = self.grid
-        best_points, best_match, best_worst, still = -1, -1, math.inf, 0
-        for i in g.coarse(g.dt):
+    def note_rows(self) -> None:
+        """Walk the coarse rows run since the last call, in order, each wholly run, and latch ``stalled_dt`` at the
+        stall (module docstring). Each row is judged once, as it is run (with its neighbourhoods): a row gets closer
+        when one of its runs could still be an answer at a ladder point it passes at (``answerable``: no cheaper
+        robust answer there; a pass, fragile or unchecked, may turn robust finer), or it matches more episodes than
+        any row before, or its least worst error over its tolerance is below the best so far / ``STALL_GAIN``. Rows
+        count only from the first that measured something (a match or a finite worst error: a refused, unresolved or
+        unstable coarse row says nothing of the step's error); the ``STALL_ROWS``-th row in a row that does not get
+        closer is the stall."""
+        g, walk = self.grid, self.walk
+        rows = g.coarse(g.dt)
+        while self.stalled_dt is None and walk["next"] < len(rows):
+            i = rows[walk["next"]]
             row = [self.seen.get(params_key(g.params(s, i, j))) for s in range(len(g.slices)) for j in g.coarse(g.knob_values)]
             if any(r is None for r in row):
-                return None
-            points = max(len(self.passes(r)) for r in row)
+                return
+            found = self.answers()
+            bounds = self.bounds(found)
             match = max(_finite(r.get("n_match"), 0.0) for r in row)
-            worst = min((_finite(r.get("worst_ratio")) for r in row), default=math.inf)
-            closer = points > best_points or match > best_match or worst < best_worst / STALL_GAIN
-            best_points, best_match, best_worst = max(best_points, points), max(best_match, match), min(best_worst, worst)
-            still = 0 if closer else still + 1
-            if still >= STALL_ROWS:
-                return g.dt[i]
-        return None
+            worst = min(_finite(r.get("worst_ratio")) for r in row)
+            started = walk["match"] > 0 or math.isfinite(walk["worst"])
+            closer = (any(self.answerable(r, bounds, found) for r in row) or match > walk["match"]
+                      or worst < walk["worst"] / STALL_GAIN)
+            walk["match"], walk["worst"] = max(walk["match"], match), min(walk["worst"], worst)
+            walk["still"] = 0 if closer or not started else walk["still"] + 1
+            walk["next"] += 1
+            if walk["still"] >= STALL_ROWS:
+                self.stalled_dt = g.dt[i]
 
     def past_stall(self, dt: float) -> bool:
-        """Whether a lattice ``dt`` [s] is finer than the row where the grid stalled (``stall``): it is not run."""
-        stalled = self.stall()
-        return stalled is not None and dt < stalled
+        """Whether a lattice ``dt`` [s] is finer than the row where the grid stalled (``note_rows``): not run."""
+        return self.stalled_dt is not None and dt < self.stalled_dt
 
     def lattice(self) -> list[dict]:
         """Every setting of the lattice within the cost cap, coarse dt first."""
@@ -467,8 +480,8 @@ class _Search:
         top = max(self.bounds())
         g = self.grid
         capped = len(g.dt) * len(g.slices) * len(g.knob_values) - len(lattice)
-        stalled_dt = None if exhaustive else self.stall()
-        stalled = sum(1 for p in unrun if 1.0 / p["dt"] <= top and stalled_dt is not None and p["dt"] < stalled_dt)
+        stalled_dt = self.stalled_dt
+        stalled = sum(1 for p in unrun if 1.0 / p["dt"] <= top and self.past_stall(p["dt"]))
         return Searched(rows=self.rows, exhaustive=exhaustive, lattice=len(lattice), lattice_run=len(lattice) - len(unrun),
                         costlier=sum(1 for p in unrun if 1.0 / p["dt"] > top), capped=capped, unchecked=len(self.unchecked()), stalled=stalled,
                         stalled_dt=stalled_dt)
