@@ -27,16 +27,18 @@ Promises (``search``):
   every ladder point's bound (``bounds``: its answer so far, the tie band added at the asked
   point, and below the answer of any point as tight on both axes) is not run: it costs more
   steps, so it cannot be an answer; nor once the grid has taken ``COARSE_SHARE`` of the budget,
-  nor beyond ``max_cost``; **nor past a stall** (``note_rows``): once ``STALL_ROWS`` rows in a row (the
-  space's coarse dts, ``DT_RATIO ** 4`` = 2.44x apart in ``tune.space``'s) bring the grid no closer
-  to an answer than the rows before them (no pass that could still be an answer at its ladder
-  point, no more matching episodes, a least worst error over its tolerance not below ``1 /
-  STALL_GAIN`` of the best so far; counted from the first row that measured something), the
-  finer rows are not run, by the grid, its refinement or the reserve's rounds: what is left is
-  the contact model's error, not the step's (a first-order step's error falls 2.4x a row).
-  This one rule assumes something of dts not run; the row it stopped at and the lattice
-  settings it left are in ``Searched`` (``stalled_dt``, ``stalled``). Neighbourhoods and the
-  bisection are not limited by it.
+  nor beyond ``max_cost``; **nor past a stall** (``note_rows``): once ``STALL_ROWS`` steps in a row
+  (a step: the rows that make ``STALL_STEP`` = 2.44x of dt, one coarse row of ``tune.space``'s
+  spaces) bring the grid no closer to an answer than the steps before them (no run that is now
+  an answer or could still be one at a ladder point it passes, no more matching episodes, a
+  least worst error over its tolerance not below ``1 / STALL_GAIN`` of the best so far; counted
+  from the first step that measured something), the finer rows are not run, by the grid, its
+  refinement or the reserve's rounds, from then on: what is left is the contact model's error,
+  not the step's (a first-order step's error falls 2.44x a step). Without neighbourhoods
+  (``check_robust`` False) nothing is robust, every pass could be an answer, and a grid that
+  passes anywhere does not stall. This one rule assumes something of dts not run; the row it
+  stopped at and the lattice settings it left are in ``Searched`` (``stalled_dt``, ``stalled``).
+  Neighbourhoods and the bisection are not limited by it.
   Nothing else is pruned: no verdict is assumed from another dt's.
 - **Refinement where verdicts change** (``sweep.refine.split_points`` per slice, level
   1..depth, as an adaptive sweep does; a run's label is its verdict and the ladder points it
@@ -83,7 +85,7 @@ from typing import Any, Callable
 
 from ..limits import ROBUST_FRACTION  # [-] the share of a candidate's neighbourhood that must pass where it is robust
 from ..sweep.refine import split_points
-from .grid import Grid, band_dts
+from .grid import DT_RATIO, Grid, band_dts
 from .passes import cost, params_key, passes, reach_key
 
 AROUND = 3  # the best candidates whose lattice neighbours each refinement level adds
@@ -91,8 +93,10 @@ COARSE_SHARE = 0.6  # [-] of the budget the coarse grid may take before refining
 CHECK_SHARE = 0.4  # [-] of the budget the refinement leaves for the neighbourhoods of the passes it found
 PER_STAGE = 4  # passes whose neighbourhood is run after each stage (after the last: until the budget is spent)
 BAND_PART = 8  # band runs of a candidate run together, at most (two candidates a check: 16 runs for the workers)
-STALL_ROWS = 2  # coarse dt rows in a row that bring the grid no closer before the finer ones are left (``stall``)
-STALL_GAIN = 1.5  # [-] a row gets closer when its least worst error (over its tolerance) is this much below the best
+STALL_ROWS = 2  # steps of coarse rows in a row that bring the grid no closer before the finer ones are left (``note_rows``)
+STALL_GAIN = 1.5  # [-] a step gets closer when its least worst error (over its tolerance) is this much below the best
+STALL_STEP = DT_RATIO ** 4  # [-] a step of the walk spans at least this dt ratio (2.44x: a coarse row of tune's spaces)
+STEP_SLACK = 1.01  # [-] the coarse dts are rounded to 3 significant digits: a row 2.43x finer still ends a step
 MOST_NAMED = 4  # failing neighbours named in a candidate's ``neighbourhood`` (the rest counted)
 SEARCH_COLUMNS = ["level", "robust", "neighbourhood", "neighbourhood_worst_ratio", "band"]
 
@@ -108,7 +112,7 @@ class Searched:
     costlier: int  # of those not run: costlier than every ladder point's robust answer (none could be one)
     capped: int  # lattice settings over the cost cap, never run
     unchecked: int  # passes that could still be an answer whose neighbourhood the budget left unrun
-    stalled: int = 0  # lattice settings not run: finer than the row where the grid stalled (``stall``)
+    stalled: int = 0  # lattice settings not run: finer than the row where the grid stalled (``note_rows``)
     stalled_dt: float | None = None  # [s] the coarse dt of that row (no lattice dt finer is run after it), None: none
 
 
@@ -125,7 +129,9 @@ class _Search:
         self.rows: list[dict] = []
         self.seen: dict[tuple, dict] = {}
         self.inferred: dict[int, dict] = {s: {} for s in range(len(grid.slices))}
-        self.walk: dict[str, float] = {"next": 0, "match": 0.0, "worst": math.inf, "still": 0}  # ``note_rows``'s place
+        # ``note_rows``'s place: the next coarse row, the step's rows so far, the dt that ended the last step, the
+        # best match and worst error of the steps walked, the steps in a row that got no closer
+        self.walk: dict[str, Any] = {"next": 0, "step": [], "last_dt": None, "match": 0.0, "worst": math.inf, "still": 0}
         self.stalled_dt: float | None = None  # [s] the row where the grid stalled (``note_rows``), None: not (yet)
 
     def run(self, batch: list[dict], stage: str, level: int | None, force: bool = False, keep: float = 0.0) -> None:
@@ -437,13 +443,17 @@ class _Search:
 
     def note_rows(self) -> None:
         """Walk the coarse rows run since the last call, in order, each wholly run, and latch ``stalled_dt`` at the
-        stall (module docstring). Each row is judged once, as it is run (with its neighbourhoods): a row gets closer
-        when one of its runs could still be an answer at a ladder point it passes at (``answerable``: no cheaper
-        robust answer there; a pass, fragile or unchecked, may turn robust finer), or it matches more episodes than
-        any row before, or its least worst error over its tolerance is below the best so far / ``STALL_GAIN``. Rows
-        count only from the first that measured something (a match or a finite worst error: a refused, unresolved or
-        unstable coarse row says nothing of the step's error); the ``STALL_ROWS``-th row in a row that does not get
-        closer is the stall."""
+        stall (module docstring). The rows are taken in *steps*: the first row alone, then each run of rows that
+        ends ``STALL_STEP`` (2.44x) or more finer than the step before (one row of ``tune.space``'s spaces at the
+        default depth; four at depth 0; as many as it takes in a space of closer dts), so that the gain asked of a
+        step is that of a first-order error over the same span whatever the rows' spacing. A step is judged once,
+        as its last row is run (with its neighbourhoods). It gets closer when one of its runs is now a ladder
+        point's answer or could still be one at a point it passes (``answerable``: a pass, fragile or unchecked,
+        may turn robust finer), or it matches more episodes than any step before, or its least worst error over its
+        tolerance is below the best so far / ``STALL_GAIN``. Steps count only from the first that measured
+        something (a match or a finite worst error: a refused, unresolved or unstable coarse row says nothing of
+        the step's error); the ``STALL_ROWS``-th step in a row that does not get closer is the stall, at its last
+        row."""
         g, walk = self.grid, self.walk
         rows = g.coarse(g.dt)
         while self.stalled_dt is None and walk["next"] < len(rows):
@@ -451,16 +461,21 @@ class _Search:
             row = [self.seen.get(params_key(g.params(s, i, j))) for s in range(len(g.slices)) for j in g.coarse(g.knob_values)]
             if any(r is None for r in row):
                 return
+            walk["next"] += 1
+            walk["step"] += row
+            if walk["last_dt"] is not None and walk["last_dt"] / g.dt[i] < STALL_STEP / STEP_SLACK:
+                continue  # the step goes on to the next row
+            step, walk["step"], walk["last_dt"] = walk["step"], [], g.dt[i]
             found = self.answers()
             bounds = self.bounds(found)
-            match = max(_finite(r.get("n_match"), 0.0) for r in row)
-            worst = min(_finite(r.get("worst_ratio")) for r in row)
+            answers = {id(r) for r in self.answer_rows().values()}
+            match = max(_finite(r.get("n_match"), 0.0) for r in step)
+            worst = min(_finite(r.get("worst_ratio")) for r in step)
             started = walk["match"] > 0 or math.isfinite(walk["worst"])
-            closer = (any(self.answerable(r, bounds, found) for r in row) or match > walk["match"]
-                      or worst < walk["worst"] / STALL_GAIN)
+            closer = (any(id(r) in answers or self.answerable(r, bounds, found) for r in step)
+                      or match > walk["match"] or worst < walk["worst"] / STALL_GAIN)
             walk["match"], walk["worst"] = max(walk["match"], match), min(walk["worst"], worst)
             walk["still"] = 0 if closer or not started else walk["still"] + 1
-            walk["next"] += 1
             if walk["still"] >= STALL_ROWS:
                 self.stalled_dt = g.dt[i]
 
@@ -480,11 +495,10 @@ class _Search:
         top = max(self.bounds())
         g = self.grid
         capped = len(g.dt) * len(g.slices) * len(g.knob_values) - len(lattice)
-        stalled_dt = self.stalled_dt
         stalled = sum(1 for p in unrun if 1.0 / p["dt"] <= top and self.past_stall(p["dt"]))
         return Searched(rows=self.rows, exhaustive=exhaustive, lattice=len(lattice), lattice_run=len(lattice) - len(unrun),
                         costlier=sum(1 for p in unrun if 1.0 / p["dt"] > top), capped=capped, unchecked=len(self.unchecked()), stalled=stalled,
-                        stalled_dt=stalled_dt)
+                        stalled_dt=self.stalled_dt)
 
 
 def _finite(x: Any, missing: float = math.inf) -> float:

@@ -13,7 +13,7 @@ import math
 
 from chatterbench.comparisons.studies.tune.answer import _coverage
 from chatterbench.comparisons.studies.tune.grid import DT_RATIO, Grid, round_dt
-from chatterbench.comparisons.studies.tune.search import STALL_GAIN, STALL_ROWS, search
+from chatterbench.comparisons.studies.tune.search import STALL_GAIN, STALL_ROWS, STALL_STEP, search
 
 # five coarse rows 2.44x apart, as tune.space makes them (DT_RATIO ** 4), 17 dts x 5 knob values at depth 2
 SPACE = {"dt": tuple(round_dt(1e-2 / DT_RATIO ** (4 * k)) for k in range(5)), "e.w": (1.0, 2.0)}
@@ -123,6 +123,60 @@ def test_fragile_passes_keep_the_grid_going_and_robust_ones_let_it_stall():
     assert done.stalled_dt == coarse[STALL_ROWS]
     assert any(r["robust_at"] == (1,) and r["dt"] == coarse[0] for r in done.rows)
     assert min(r["dt"] for r in done.rows if "phase" not in r and r["stage"] != "neighbourhood") >= coarse[STALL_ROWS]
+
+
+def test_a_step_that_matches_more_episodes_gets_closer():
+    grid = Grid.make(SPACE, 2)
+    coarse = _coarse(grid)
+    matches = dict(zip(coarse, [0, 0, 1, 1, 2]))  # the error flat, a matching episode more every other row
+
+    def run_batch(batch, stage, bounds):
+        return [{**p, "verdict": "late", "worst_ratio": 3.0, "n_match": matches.get(p["dt"], 0)} for p in batch]
+    done = search(run_batch, grid, budget=30)
+    assert done.stalled_dt is None and min(r["dt"] for r in done.rows if r["stage"] == "grid") == coarse[-1]
+    flat = search(_judge(lambda dt: 3.0), grid, budget=30)  # the other way: no more matches, the same error
+    assert flat.stalled_dt == coarse[STALL_ROWS]
+
+
+def test_a_row_that_answers_a_ladder_point_gets_closer():
+    grid = Grid.make(SPACE, 2)
+    coarse = _coarse(grid)
+
+    def run_batch(batch, stage, bounds):
+        # the asked point (0) passes from the fourth row on (its neighbours too); the loose one (1) from the third,
+        # robustly; the error over the asked tolerance 3.0, 3.0, 2.5, then 0.9
+        rows = []
+        for p in batch:
+            asked = p["dt"] <= coarse[3] * 1.3
+            worst = 0.9 if asked else 2.5 if p["dt"] <= coarse[2] * 1.3 else 3.0
+            loose = p["dt"] <= coarse[2] * 1.3
+            rows.append({**p, "verdict": "match" if asked else "late", "worst_ratio": worst, "n_match": int(asked),
+                         "passes": tuple(q for q, ok in ((0, asked), (1, loose)) if ok)})
+        return rows
+    # before: the third row's run became the loose point's answer after its neighbourhood ran, so it could no longer
+    # be "an answer still to come" there, and the grid stalled at it: the asked point was never answered
+    done = search(run_batch, grid, budget=60, levels=LEVELS, asked=0)
+    assert done.stalled_dt is None
+    assert any(r["robust_at"] and 0 in r["robust_at"] and r["dt"] == coarse[3] for r in done.rows)
+
+
+CLOSE = {"dt": tuple(round_dt(1e-2 / 1.2 ** k) for k in range(12)), "e.w": (1.0, 2.0)}  # rows 1.2x apart
+
+
+def test_rows_closer_than_a_step_are_walked_in_steps_of_the_same_span():
+    # before: a space of dts 1.2x apart (or refine_steps 0, 1.25x) asked each row for a 1.5x gain, which a
+    # first-order error (1.2x a row) never makes: the grid stalled at its third row and the finest never ran
+    grid = Grid.make(CLOSE, 0)
+    assert len(grid.dt) == 12 and grid.depth == 0
+    done = search(_judge(lambda dt: dt / grid.dt[-1]), grid, budget=36)
+    assert done.stalled_dt is None
+    assert any(r["verdict"] == "match" and r["dt"] == grid.dt[-1] for r in done.rows)
+    # the other way: a flat error stalls after the first row and two steps of at least STALL_STEP of dt
+    done = search(_judge(lambda dt: 3.0), grid, budget=36)
+    first_step_end = next(d for d in grid.dt if grid.dt[0] / d >= STALL_STEP / 1.01)
+    second_step_end = next(d for d in grid.dt if first_step_end / d >= STALL_STEP / 1.01)
+    assert done.stalled_dt == second_step_end == grid.dt[10]
+    assert min(r["dt"] for r in done.rows) == second_step_end
 
 
 def test_the_search_record_says_where_the_grid_stalled():
