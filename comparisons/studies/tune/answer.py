@@ -50,7 +50,7 @@ from .grid import DT_RATIO, Grid
 from .ladder import at_point, level_text
 from .result import TuneResult
 from .runs import UNIT_STEPS
-from .search import STALL_ROWS
+from .stall import STALL_ROWS
 from .passes import agrees
 
 FRAME_COLUMNS = ["stick %", "exit %", "first_impact %", "restitution %", "dt", "settings", "steps_per_sim_s", "margin",

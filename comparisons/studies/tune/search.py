@@ -27,18 +27,10 @@ Promises (``search``):
   every ladder point's bound (``bounds``: its answer so far, the tie band added at the asked
   point, and below the answer of any point as tight on both axes) is not run: it costs more
   steps, so it cannot be an answer; nor once the grid has taken ``COARSE_SHARE`` of the budget,
-  nor beyond ``max_cost``; **nor past a stall** (``note_rows``): once ``STALL_ROWS`` steps in a row
-  (a step: the rows that make ``STALL_STEP`` = 2.44x of dt, one coarse row of ``tune.space``'s
-  spaces) bring the grid no closer to an answer than the steps before them (no run that is now
-  an answer or could still be one at a ladder point it passes, no more matching episodes, a
-  least worst error over its tolerance not below ``1 / STALL_GAIN`` of the best so far; counted
-  from the first step that measured something), the finer rows are not run, by the grid, its
-  refinement or the reserve's rounds, from then on: what is left is the contact model's error,
-  not the step's (a first-order step's error falls 2.44x a step). Without neighbourhoods
-  (``check_robust`` False) nothing is robust, every pass could be an answer, and a grid that
-  passes anywhere does not stall. This one rule assumes something of dts not run; the row it
-  stopped at and the lattice settings it left are in ``Searched`` (``stalled_dt``, ``stalled``).
-  Neighbourhoods and the bisection are not limited by it.
+  nor beyond ``max_cost``; **nor past a stall** (``tune.stall``): once two steps of 2.44x of dt in
+  a row bring the grid no closer to an answer, the finer rows are not run, by the grid, its
+  refinement or the reserve's rounds (``Searched.stalled_dt``, ``stalled``); the one rule that
+  assumes something of dts not run. Neighbourhoods and the bisection are not limited by it.
   Nothing else is pruned: no verdict is assumed from another dt's.
 - **Refinement where verdicts change** (``sweep.refine.split_points`` per slice, level
   1..depth, as an adaptive sweep does; a run's label is its verdict and the ladder points it
@@ -85,18 +77,16 @@ from typing import Any, Callable
 
 from ..limits import ROBUST_FRACTION  # [-] the share of a candidate's neighbourhood that must pass where it is robust
 from ..sweep.refine import split_points
-from .grid import DT_RATIO, Grid, band_dts
+from .grid import Grid
 from .passes import cost, params_key, passes, reach_key
+from .stall import StallWalk
+from .bisection import below_lattice
 
 AROUND = 3  # the best candidates whose lattice neighbours each refinement level adds
 COARSE_SHARE = 0.6  # [-] of the budget the coarse grid may take before refining (finer rows cost more)
 CHECK_SHARE = 0.4  # [-] of the budget the refinement leaves for the neighbourhoods of the passes it found
 PER_STAGE = 4  # passes whose neighbourhood is run after each stage (after the last: until the budget is spent)
 BAND_PART = 8  # band runs of a candidate run together, at most (two candidates a check: 16 runs for the workers)
-STALL_ROWS = 2  # steps of coarse rows in a row that bring the grid no closer before the finer ones are left (``note_rows``)
-STALL_GAIN = 1.5  # [-] a step gets closer when its least worst error (over its tolerance) is this much below the best
-STALL_STEP = DT_RATIO ** 4  # [-] a step of the walk spans at least this dt ratio (2.44x: a coarse row of tune's spaces)
-STEP_SLACK = 1.01  # [-] the coarse dts are rounded to 3 significant digits: a row 2.43x finer still ends a step
 MOST_NAMED = 4  # failing neighbours named in a candidate's ``neighbourhood`` (the rest counted)
 SEARCH_COLUMNS = ["level", "robust", "neighbourhood", "neighbourhood_worst_ratio", "band"]
 
@@ -112,7 +102,7 @@ class Searched:
     costlier: int  # of those not run: costlier than every ladder point's robust answer (none could be one)
     capped: int  # lattice settings over the cost cap, never run
     unchecked: int  # passes that could still be an answer whose neighbourhood the budget left unrun
-    stalled: int = 0  # lattice settings not run: finer than the row where the grid stalled (``note_rows``)
+    stalled: int = 0  # lattice settings not run: finer than the row where the grid stalled (``tune.stall``)
     stalled_dt: float | None = None  # [s] the coarse dt of that row (no lattice dt finer is run after it), None: none
 
 
@@ -129,10 +119,7 @@ class _Search:
         self.rows: list[dict] = []
         self.seen: dict[tuple, dict] = {}
         self.inferred: dict[int, dict] = {s: {} for s in range(len(grid.slices))}
-        # ``note_rows``'s place: the next coarse row, the step's rows so far, the dt that ended the last step, the
-        # best match and worst error of the steps walked, the steps in a row that got no closer
-        self.walk: dict[str, Any] = {"next": 0, "step": [], "last_dt": None, "match": 0.0, "worst": math.inf, "still": 0}
-        self.stalled_dt: float | None = None  # [s] the row where the grid stalled (``note_rows``), None: not (yet)
+        self.walk = StallWalk()  # where the grid stalls (``tune.stall``)
 
     def run(self, batch: list[dict], stage: str, level: int | None, force: bool = False, keep: float = 0.0) -> None:
         new = list({params_key(p): p for p in batch if params_key(p) not in self.seen}.values())
@@ -340,36 +327,8 @@ class _Search:
         return out
 
     def bisect(self) -> None:
-        """Below the lattice: between each answer's dt and the next coarser lattice dt (``DT_RATIO`` apart), the
-        coarsest dt that is still robust at the answer's points, by bisection over the band's dts in between
-        (``BAND_RATIO`` apart; module docstring). A trial is a candidate like any other: run, judged at the points
-        where it can matter, its neighbourhood checked where it passes; a robust one becomes the answer of the
-        points where it is robust and cheapest."""
-        done: set[tuple] = set()
-        while True:
-            todo = [(r, {p for p, a in self.answer_rows().items() if a is r}) for r in
-                    {id(a): a for a in self.answer_rows().values()}.values() if self.on_lattice(r)]
-            todo = [(r, points) for r, points in todo if params_key(self.params(r)) not in done]
-            if not todo:
-                return
-            r, points = min(todo, key=lambda item: self.rank(item[0]))
-            done.add(params_key(self.params(r)))
-            i = self.grid.dt.index(r["dt"])
-            if i == 0:
-                continue
-            trials = [d for d in band_dts(r["dt"], self.grid.dt[i - 1]) if r["dt"] < d < self.grid.dt[i - 1]]
-            lo, hi = -1, len(trials)
-            while hi - lo > 1:
-                mid = (lo + hi) // 2
-                params = {**self.params(r), "dt": trials[mid]}
-                if 1.0 / params["dt"] > self.max_cost:
-                    hi = mid
-                    continue
-                self.run([params], "bisect", None, force=True)
-                trial = self.seen[params_key(params)]
-                if trial["robust_at"] is None and points & set(self.passes(trial)):
-                    self.check([trial])
-                lo, hi = (mid, hi) if points & set(trial["robust_at"] or ()) else (lo, mid)
+        """Below the lattice, the coarsest dt still robust at each answer's points (``tune.bisection``)."""
+        below_lattice(self)
 
     def labels(self, s: int) -> dict[tuple[int, int], tuple]:
         """Slice ``s``'s runs on the lattice -> their label: the verdict and the ladder points passed."""
@@ -442,46 +401,24 @@ class _Search:
             self.note_rows()
 
     def note_rows(self) -> None:
-        """Walk the coarse rows run since the last call, in order, each wholly run, and latch ``stalled_dt`` at the
-        stall (module docstring). The rows are taken in *steps*: the first row alone, then each run of rows that
-        ends ``STALL_STEP`` (2.44x) or more finer than the step before (one row of ``tune.space``'s spaces at the
-        default depth; four at depth 0; as many as it takes in a space of closer dts), so that the gain asked of a
-        step is that of a first-order error over the same span whatever the rows' spacing. A step is judged once,
-        as its last row is run (with its neighbourhoods). It gets closer when one of its runs is now a ladder
-        point's answer or could still be one at a point it passes (``answerable``: a pass, fragile or unchecked,
-        may turn robust finer), or it matches more episodes than any step before, or its least worst error over its
-        tolerance is below the best so far / ``STALL_GAIN``. Steps count only from the first that measured
-        something (a match or a finite worst error: a refused, unresolved or unstable coarse row says nothing of
-        the step's error); the ``STALL_ROWS``-th step in a row that does not get closer is the stall, at its last
-        row."""
+        """Walk the coarse rows run since the last call, in order, each wholly run (``tune.stall``): a step is judged
+        as its last row is run with its neighbourhoods, closer when a run of it is now an answer or could still be one."""
         g, walk = self.grid, self.walk
         rows = g.coarse(g.dt)
-        while self.stalled_dt is None and walk["next"] < len(rows):
-            i = rows[walk["next"]]
+        while walk.stalled_dt is None and walk.rows_walked < len(rows):
+            i = rows[walk.rows_walked]
             row = [self.seen.get(params_key(g.params(s, i, j))) for s in range(len(g.slices)) for j in g.coarse(g.knob_values)]
             if any(r is None for r in row):
                 return
-            walk["next"] += 1
-            walk["step"] += row
-            if walk["last_dt"] is not None and walk["last_dt"] / g.dt[i] < STALL_STEP / STEP_SLACK:
-                continue  # the step goes on to the next row
-            step, walk["step"], walk["last_dt"] = walk["step"], [], g.dt[i]
-            found = self.answers()
-            bounds = self.bounds(found)
-            answers = {id(r) for r in self.answer_rows().values()}
-            match = max(_finite(r.get("n_match"), 0.0) for r in step)
-            worst = min(_finite(r.get("worst_ratio")) for r in step)
-            started = walk["match"] > 0 or math.isfinite(walk["worst"])
-            closer = (any(id(r) in answers or self.answerable(r, bounds, found) for r in step)
-                      or match > walk["match"] or worst < walk["worst"] / STALL_GAIN)
-            walk["match"], walk["worst"] = max(walk["match"], match), min(walk["worst"], worst)
-            walk["still"] = 0 if closer or not started else walk["still"] + 1
-            if walk["still"] >= STALL_ROWS:
-                self.stalled_dt = g.dt[i]
+            step = walk.add_row(g.dt[i], row)
+            if step is not None:
+                found = self.answers()
+                bounds, answers = self.bounds(found), {id(r) for r in self.answer_rows().values()}
+                walk.judge(g.dt[i], step, any(id(r) in answers or self.answerable(r, bounds, found) for r in step))
 
     def past_stall(self, dt: float) -> bool:
-        """Whether a lattice ``dt`` [s] is finer than the row where the grid stalled (``note_rows``): not run."""
-        return self.stalled_dt is not None and dt < self.stalled_dt
+        """Whether a lattice ``dt`` [s] is finer than the row where the grid stalled (``tune.stall``): not run."""
+        return self.walk.past(dt)
 
     def lattice(self) -> list[dict]:
         """Every setting of the lattice within the cost cap, coarse dt first."""
@@ -498,12 +435,7 @@ class _Search:
         stalled = sum(1 for p in unrun if 1.0 / p["dt"] <= top and self.past_stall(p["dt"]))
         return Searched(rows=self.rows, exhaustive=exhaustive, lattice=len(lattice), lattice_run=len(lattice) - len(unrun),
                         costlier=sum(1 for p in unrun if 1.0 / p["dt"] > top), capped=capped, unchecked=len(self.unchecked()), stalled=stalled,
-                        stalled_dt=self.stalled_dt)
-
-
-def _finite(x: Any, missing: float = math.inf) -> float:
-    """A row's measure as a number, ``missing`` where it has none (None, NaN): a worst error ratio infinitely far."""
-    return missing if x is None or isinstance(x, float) and math.isnan(x) else float(x)
+                        stalled_dt=self.walk.stalled_dt)
 
 
 def _moved(p: dict, n: dict) -> str:

@@ -13,7 +13,8 @@ import math
 
 from chatterbench.comparisons.studies.tune.answer import _coverage
 from chatterbench.comparisons.studies.tune.grid import DT_RATIO, Grid, round_dt
-from chatterbench.comparisons.studies.tune.search import STALL_GAIN, STALL_ROWS, STALL_STEP, search
+from chatterbench.comparisons.studies.tune.search import search
+from chatterbench.comparisons.studies.tune.stall import STALL_GAIN, STALL_ROWS, STALL_STEP
 
 # five coarse rows 2.44x apart, as tune.space makes them (DT_RATIO ** 4), 17 dts x 5 knob values at depth 2
 SPACE = {"dt": tuple(round_dt(1e-2 / DT_RATIO ** (4 * k)) for k in range(5)), "e.w": (1.0, 2.0)}
