@@ -50,7 +50,7 @@ from .grid import DT_RATIO, Grid
 from .ladder import at_point, level_text
 from .result import TuneResult
 from .runs import UNIT_STEPS
-from .stall import STALL_ROWS
+from .stall import STALL_ROWS, STALL_STEP
 from .passes import agrees
 
 FRAME_COLUMNS = ["stick %", "exit %", "first_impact %", "restitution %", "dt", "settings", "steps_per_sim_s", "margin",
@@ -260,7 +260,7 @@ def _coverage(x: dict[str, Any]) -> str:
     return (f"adaptive: {x['lattice_run']} of {x['lattice']} lattice settings ran, refined {levels} of "
             f"{x['refine_depth']} levels where verdicts change at any ladder point and around the best; skipped "
             f"{skipped}: {costlier} dearer than every ladder point's robust answer, "
-            + (f"{stalled} finer than dt {x['stalled_dt']:.3g} s, where the grid stalled ({STALL_ROWS} rows in a row "
-               "got no closer to an answer), " if stalled else "")
+            + (f"{stalled} finer than dt {x['stalled_dt']:.3g} s, where the grid stalled ({STALL_ROWS} steps of "
+               f"{STALL_STEP:.3g}x of dt in a row got no closer to an answer), " if stalled else "")
             + f"{skipped - costlier - stalled} not reached (in cells whose corners agreed at every point, or left by "
             "the budget)")

@@ -184,5 +184,5 @@ def test_the_search_record_says_where_the_grid_stalled():
     x = {"exhaustive": False, "lattice": 85, "lattice_run": 40, "levels": [0, 1, 2], "refine_depth": 2,
          "skipped_costlier": 5, "skipped_stalled": 30, "stalled_dt": 0.00125}
     text = _coverage(x)
-    assert "30 finer than dt 0.00125 s, where the grid stalled (2 rows in a row" in text and "10 not reached" in text
+    assert "30 finer than dt 0.00125 s, where the grid stalled (2 steps of 2.44x of dt in a row got no closer" in text and "10 not reached" in text
     assert "stalled" not in _coverage({**x, "skipped_stalled": 0, "stalled_dt": None})
