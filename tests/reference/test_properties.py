@@ -299,6 +299,44 @@ def _exits(result) -> tuple[np.ndarray, np.ndarray]:
     return ex.t.to_numpy(), ex.wall.to_numpy()
 
 
+def _exit_shift_bound(scene: Scene, feigin, exhaustive) -> float:
+    """Largest first-order shift [s] of the first exit that the chatter's state difference causes.
+
+    Stuck on a wall, both runs follow the same linear motion of the pair (mass M = m1 + m2)
+    on body 1's spring k and damper c. The Feigin run enters it at the plate; the exhaustive
+    run at the end of its chatter, with body 1 moved by ~m2/M of the chatter height. Their
+    difference (dx, dv) in (x1, v1) at the exhaustive run's stick is a free damped oscillation
+    whose energy M dv^2/2 + k dx^2/2 never grows (c >= 0), so along the stick |dx1| <= A =
+    hypot(dx, sqrt(M/k) dv) and |dv1| <= sqrt(k/M) A. (3.1) = -F1/m1 then differs by at most
+    (k + c sqrt(k/M)) A / m1, and the exit, a root of (3.1) with slope J, moves by that over
+    |J| (J from (3.1) at 1e-3 of the period before the Feigin exit, where (3.1) is ~J h).
+    0 where (3.1) does not depend on x1 or v1 (no spring or damper on body 1: spring-pair)
+    or where the exhaustive run has no stick before its first exit (both start stuck).
+    """
+    k = sum(f.stiffness for f in scene.forces if f.kind == "spring" and f.on == "body1")
+    c = sum(f.damping for f in scene.forces if f.kind == "damper" and f.on == "body1")
+    log = exhaustive.log.reset_index(drop=True)
+    first_exit = int(np.flatnonzero(log.kind.to_numpy() == "exit")[0])
+    sticks = log.iloc[:first_exit][log.kind.iloc[:first_exit] == "stick"]
+    if k <= 0.0 or sticks.empty:
+        return 0.0
+    stick = sticks.iloc[-1]
+    ref = sample(scene, feigin.log, [stick.t]).iloc[0]
+    mass = scene.mass1 + scene.mass2
+    amp = math.hypot(stick.x1 - ref.x1, math.sqrt(mass / k) * (stick.v1 - ref.v1))
+    da = (k + c * math.sqrt(k / mass)) * amp / scene.mass1
+    t_exit = _exits(feigin)[0][0]
+    h = 1e-3 * scene.time_scale
+    p = sample(scene, feigin.log, [t_exit - h]).iloc[0]
+    jerk = abs(relative_acceleration(scene, t_exit - h, p.x1, p.v1, p.y, p.vy)) / h
+    return da / jerk if jerk > 0.0 else math.inf
+
+
+def _exit_tolerance(scene: Scene, feigin, exhaustive) -> float:
+    """1e-4 of the period (rounding of the roots) + twice the first-order shift (its second order)."""
+    return 1e-4 * scene.time_scale + 2.0 * _exit_shift_bound(scene, feigin, exhaustive)
+
+
 @pytest.mark.parametrize("family", FAMILIES)
 @given(data=st.data())
 def test_modes_agree_on_exits(family, data):
@@ -314,8 +352,9 @@ def test_modes_agree_on_exits(family, data):
     chatter height, which shifts the exit; the catalogue impact-damper measures 2.7e-6 s.
     After a shifted exit the runs are different trajectories (a later graze may be a strike
     in one and a miss in the other), so only the first exit is compared, within 1e-4 of
-    the forcing period: the shift is of order (chatter height) x (stiffness) / (jerk of (3.1)),
-    and these draws keep the chatter height under a few 1e-4 of the gap.
+    the forcing period plus twice the shift that the chatter's own state difference can
+    cause (``_exit_shift_bound``). A fixed 1e-4 of the period failed on a draw whose chatter
+    rose 0.26% of the gap (``test_tall_chatter_shifts_the_exit_within_its_bound``).
     """
     scene = data.draw(SCENES[family], label="scene")
     f, e = _run(scene, "feigin"), _run(scene, "exhaustive")
@@ -329,7 +368,7 @@ def test_modes_agree_on_exits(family, data):
         # the first stretch: if either run has an exit, compare the first one of each
         if len(tf) and len(te):
             assert wf[0] == we[0]
-            assert abs(tf[0] - te[0]) <= 1e-4 * scene.time_scale, (tf[0], te[0], tf[0] - te[0])
+            assert abs(tf[0] - te[0]) <= _exit_tolerance(scene, f, e), (tf[0], te[0], tf[0] - te[0])
 
 
 @pytest.mark.parametrize("mode", MODES)
@@ -344,6 +383,41 @@ def test_bit_identical_reruns(mode, family, data):
 
 
 # -- bugs the draws found (kept as regression tests) ---------------------
+# the draw that failed a fresh-clone CI run (stop 58): its chatter, 0.034 m/s after the first
+# strike, rose 0.16 mm (0.26% of the gap) and lasted 30 ms, so the exhaustive run sticks with
+# body 1 6.4e-5 m/s off the Feigin run's constrained motion and exits 5.48e-5 s earlier.
+TALL_CHATTER = {
+    "name": "impact-damper", "mass1": 1.0, "mass2": 0.28125, "restitution": 0.3125,
+    "gap": {"lower": -0.03125, "upper": 0.03125},
+    "forces": [{"kind": "spring", "on": "body1", "stiffness": 179.0, "rest": 0.0},
+               {"kind": "damper", "on": "body1", "damping": 0.0},
+               {"kind": "harmonic", "on": "body1", "amplitude": 4.0, "omega": 12.124798645235309, "phase": 2.5}],
+    "gravity": 0.0, "initial": {"t": 1.15625, "x1": -0.048828125, "v1": 0.0, "y": -0.03125, "vy": 0.125},
+    "duration": 0.5182094557626896,
+}
+
+
+def test_tall_chatter_shifts_the_exit_within_its_bound():
+    scene = scene_from_dict(TALL_CHATTER)
+    f = simulate(scene, "feigin", Options(chatter="feigin", max_events=MAX_EVENTS))
+    e = simulate(scene, "exhaustive", Options(chatter="exhaustive", max_events=MAX_EVENTS))
+    shift = abs(_exits(f)[0][0] - _exits(e)[0][0])
+    bound = _exit_shift_bound(scene, f, e)
+    # the fixed 1e-4 of the period fails it; the first-order estimate from the chatter's
+    # state difference is of the shift's size (5.8e-5 s against 5.5e-5 s), not a blanket allowance
+    assert shift > 1e-4 * scene.time_scale
+    assert 0.5 * shift < bound < 2.0 * shift
+    assert shift <= _exit_tolerance(scene, f, e)
+
+
+def test_catalogue_damper_exit_bound_is_small():
+    # the catalogue's chatter is low: the bound stays near the measured 2.7e-6 s, far below 1e-4 T
+    scene = load_scene("impact-damper")
+    f = simulate(scene, "feigin", Options(chatter="feigin", max_events=MAX_EVENTS))
+    e = simulate(scene, "exhaustive", Options(chatter="exhaustive", max_events=MAX_EVENTS))
+    shift = abs(_exits(f)[0][0] - _exits(e)[0][0])
+    assert shift <= _exit_shift_bound(scene, f, e) * 2.0 + 1e-9
+    assert _exit_shift_bound(scene, f, e) < 1e-5 * scene.time_scale
 @pytest.mark.parametrize("mode", MODES)
 @pytest.mark.parametrize("start", [0.0, 2.0 * math.pi])
 @pytest.mark.parametrize("overrides", [["initial.y=-0.1"], ["initial.y=-0.1", "restitution=0.0"],
