@@ -3,7 +3,7 @@
     >>> from chatterbench.engines.mujoco_warp_engine.batch import block_plan
     >>> plan = block_plan(nworld=65_536, samples=6_285, walls=2, row_floats=5)
     >>> plan.worlds, plan.chunk     # feigin-pair over 2 pi s at dt = 1e-3: 65,536 worlds in 19 blocks of 3,450
-    (3450, 1136)
+    (3450, 1148)
 
 ``iter_blocks(engine, jobs)`` is the adapter's batch: every job is checked and prepared first
 (``mujoco_common.prepare``: its compiled structure, no compile of its own, no MjData;
@@ -92,7 +92,7 @@ def roll_worlds(worlds: Worlds, ps: Sequence[Prepared], runs: Sequence[Recording
     nw, nstep = len(ps), max(p.nstep for p in ps)
     warned = [False] * nw
     with wp.ScopedDevice(worlds.device):
-        rig, key = take(worlds, mjm, nw, chunk)  # kept from a block of its shape, or made (kernels, capture)
+        rig, key = take(worlds, mjm, nw, chunk, nstep)  # kept from a block of its shape, or made (kernels, capture)
         fresh = not rig.used
         before = rig.start(worlds, ps, nstep)
         d, out = rig.data, rig.out

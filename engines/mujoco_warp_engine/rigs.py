@@ -7,6 +7,8 @@
     (16384, 2048)
     >>> world_slots(1), world_slots(3), world_slots(37)    # a block of 37 worlds steps 48: a rig for 33 to 48
     (1, 4, 48)
+    >>> world_slots(2, nstep=288), world_slots(2, nstep=20_000)  # a short block steps 16: one rig for its strikes
+    (16, 2)
 
 A block of worlds (``batch.roll_worlds``) needs a MuJoCo Warp model with its per-world rows (timestep
 and contact solref, ``worlds.put_worlds``), a ``Data`` of its worlds, the recording's arrays and the
@@ -51,6 +53,7 @@ from .worlds import Worlds, copied, field, set_field, warp_modules
 
 MOST_RIGS = 32  # rigs kept per process (a tune's slices, each with its runs' rig and its strike batches')
 WORLD_ROUND = 16  # [worlds] a block takes a rig of the next power of two up to this, then of the next multiple of it
+SHORT_STEPS = 1024  # [steps] a block of at most this many and fewer than WORLD_ROUND worlds takes a rig of WORLD_ROUND
 LEAST_RIG_BYTES = 4e6  # [B] a rig's chunk arrays hold at least the steps that fit in this (up to ``window.CHUNK``)
 MOST_RIG_BYTES = 64e6  # [B] a block whose chunk arrays pass this gets a rig of its own (a GPU's thousands of worlds)
 
@@ -67,10 +70,17 @@ def capacity(chunk: int, slots: int = 0, row_bytes: int = 0) -> int:
     return max(STEPS_PER_GRAPH, least, 1 << (max(1, chunk) - 1).bit_length())
 
 
-def world_slots(nworld: int) -> int:
-    """Worlds a rig steps for a block of ``nworld``: the next power of two up to ``WORLD_ROUND``, then the next
-    multiple of it (few shapes of rig, and a small block steps few worlds: on the CPU device a step of 16 worlds
-    costs 3.7 times one world's, of 8 worlds 2.2 times, ``bench sweep --only warp``)."""
+def world_slots(nworld: int, nstep: int | None = None) -> int:
+    """Worlds a rig steps for a block of ``nworld`` worlds of up to ``nstep`` steps: the next power of two up to
+    ``WORLD_ROUND``, then the next multiple of it (few shapes of rig, and a small block steps few worlds: on the CPU
+    device a step of 16 worlds costs 3.7 times one world's, of 8 worlds 2.2 times, ``bench sweep --only warp``).
+
+    A short block (at most ``SHORT_STEPS``: a tune's strikes, 288 steps in batches of 2 to 12 worlds) takes
+    ``WORLD_ROUND`` worlds whatever its size, so that one rig serves every short block of a structure: a new rig's
+    first capture costs ~0.2 s on the CPU device (APIC packs every kernel's arguments on fresh arrays, whatever the
+    steps captured), 1,024 steps of 14 extra worlds ~0.05 s (3.6 us a world-step)."""
+    if nstep is not None and nstep <= SHORT_STEPS and nworld <= WORLD_ROUND:
+        return WORLD_ROUND
     return 1 << (nworld - 1).bit_length() if nworld <= WORLD_ROUND else -(-nworld // WORLD_ROUND) * WORLD_ROUND
 
 
@@ -143,12 +153,14 @@ def key_of(worlds: Worlds, slots: int, steps: int) -> tuple | None:
     return os.getpid(), id(worlds.base), worlds.device, slots, steps, worlds.rows, shared, kernels.graphs(worlds.device)
 
 
-def take(worlds: Worlds, mjm: mujoco.MjModel, nworld: int, chunk: int) -> tuple[Rig, tuple | None]:
-    """A rig for a block of ``nworld`` worlds stepped ``chunk`` steps at a time: an idle kept one of its shape, else a
-    new one; with its key, to give it back (``give_back``) when the block is done (None: not kept)."""
+def take(worlds: Worlds, mjm: mujoco.MjModel, nworld: int, chunk: int,
+         nstep: int | None = None) -> tuple[Rig, tuple | None]:
+    """A rig for a block of ``nworld`` worlds of up to ``nstep`` steps, stepped ``chunk`` steps at a time: an idle kept
+    one of its shape (``world_slots``, ``capacity``), else a new one; with its key, to give it back (``give_back``)
+    when the block is done (None: not kept)."""
     slots, steps, key = nworld, chunk, None
     if worlds.base is not None:
-        kept_slots = world_slots(nworld)
+        kept_slots = world_slots(nworld, nstep)
         kept_steps = capacity(chunk, kept_slots, 4 * _row_floats(worlds.base))
         key = key_of(worlds, kept_slots, kept_steps)
         if key is not None:
@@ -187,9 +199,11 @@ def _row_floats(m: Any) -> int:
 
 
 def _padded(rows: np.ndarray, slots: int) -> np.ndarray:
-    """``rows`` (n, ...) with its last row repeated to ``slots`` rows (as it is when n is already that, or 1)."""
+    """``rows`` (n, ...) with its last row repeated to ``slots`` rows (as it is when n is already that: a shared row
+    of a rig's model is one row of one). A block of one world in a rig of more (a short block, ``world_slots``) is
+    padded too: its one row of states assigned to 16 worlds' arrays left them wrong (``test_mujoco_warp.py``)."""
     n = rows.shape[0]
-    if n in (1, slots):
+    if n == slots:
         return np.ascontiguousarray(rows)
     return np.ascontiguousarray(np.concatenate([rows, np.repeat(rows[-1:], slots - n, axis=0)]))
 

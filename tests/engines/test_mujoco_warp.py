@@ -162,7 +162,8 @@ def test_world_steps_per_second_is_measured_on_the_device_found():
     assert plain["world_steps_per_s"] == pytest.approx(8 * 21 / plain["seconds"])
     captured = world_steps_per_s(scene, WARP, nworld=8, repeats=1)  # whole graphs of STEPS_PER_GRAPH steps
     if captured["captured"]:
-        assert captured["steps"] == 32 and captured["world_steps_per_s"] == pytest.approx(8 * 32 / captured["seconds"])
+        whole = -(-21 // kernels.STEPS_PER_GRAPH) * kernels.STEPS_PER_GRAPH  # 24: six graphs of 4 steps
+        assert captured["steps"] == whole and captured["world_steps_per_s"] == pytest.approx(8 * whole / captured["seconds"])
 
 
 # -- one device model for many worlds, captured steps, blocks within the host's memory ------------------------
@@ -236,11 +237,13 @@ def test_captured_steps_are_the_launched_steps_bit_for_bit(monkeypatch):
 
 @pytest.mark.parametrize("name", ["bouncing-ball", "feigin-pair", "impact-damper", "spring-pair"])
 def test_a_run_in_a_kept_rig_is_the_run_in_a_fresh_one_bit_for_bit(name):
-    # a tune's runs one after another in a worker: the second, at another dt (1,500 steps, not 300: a world's chunk
-    # arrays hold both) and another w0 dt (its contact rows), steps in the first's rig (its captured steps reused,
-    # its data reset), and gives the bits of a fresh rig: walls, springs, a driven body 1 (controls, mocap)
+    # a tune's runs one after another in a worker: the second, at another dt (1,500 steps, not 1,200: a world's chunk
+    # arrays hold both; both past rigs.SHORT_STEPS, so one world each) and another w0 dt (its contact rows), steps in
+    # the first's rig (its captured steps reused, its data reset), and gives the bits of a fresh rig: walls, springs,
+    # a driven body 1 (controls, mocap)
     scene = load_scene(name, ["duration=0.3"])
-    first, second = dataclasses.replace(WARP, w0_dt=0.1), dataclasses.replace(WARP, dt=2e-4, w0_dt=0.3)
+    first, second = dataclasses.replace(WARP, dt=2.5e-4, w0_dt=0.1), dataclasses.replace(WARP, dt=2e-4, w0_dt=0.3)
+    assert 0.3 / first.dt > rigs.SHORT_STEPS
     rigs.drop_all()
     run(scene, first)
     (rig,) = rigs.idle()
@@ -284,6 +287,32 @@ def test_a_block_of_fewer_worlds_than_its_rig_steps_each_run_as_alone():
         alone = run(sc, st)
         for k in ("t", "x1", "x2", "v1", "v2"):
             np.testing.assert_array_equal(getattr(alone, k), getattr(traj, k))
+
+
+def test_short_blocks_of_two_to_sixteen_worlds_share_one_rig_and_each_runs_as_alone():
+    # a tune's strikes come in blocks of 2 to 12 worlds of a few hundred steps: each size once took a rig of its
+    # own (2, 8, 16 worlds), each rig a first capture; a short block (rigs.SHORT_STEPS) now steps 16 worlds
+    # 1,000 steps: a block of one world in a rig of 16 once had its controls and states assigned as one world's
+    # rows to 16 worlds' arrays, its run wrong from step 513 (padding skipped a single row)
+    scene = load_scene("bouncing-ball", ["duration=1.0"])
+    jobs = [(scene, dataclasses.replace(WARP, w0_dt=0.1 + 0.015 * i)) for i in range(12)]
+    assert 512 < 1.0 / WARP.dt <= rigs.SHORT_STEPS
+    rigs.drop_all()
+    run_batch(jobs[:2])
+    twelve = run_batch(jobs)
+    assert [r.slots for r in rigs.idle()] == [16]  # one rig served both blocks
+    if kernels.graphs("cpu"):
+        assert twelve[0].settings["capture_s"] == 0.0
+    for k in (0, 11):
+        rigs.drop_all()
+        one = run_batch([jobs[k]])[0]  # a block of one world, stepped in a rig of 16
+        assert [r.slots for r in rigs.idle()] == [16]
+        alone = run(*jobs[k])  # the engine's own single run
+        for name in ("t", "x1", "x2", "v1", "v2"):
+            np.testing.assert_array_equal(getattr(alone, name), getattr(twelve[k], name))
+            np.testing.assert_array_equal(getattr(alone, name), getattr(one, name))
+    # a long block keeps its own size: 20,000 steps of 2 worlds step 2
+    assert rigs.world_slots(2, nstep=20_000) == 2 and rigs.world_slots(2, nstep=rigs.SHORT_STEPS) == 16
 
 
 def test_a_batch_larger_than_the_host_budget_goes_in_blocks_with_the_same_runs():
