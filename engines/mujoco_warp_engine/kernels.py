@@ -39,7 +39,8 @@ from .worlds import warp_modules
 # [steps] captured in one graph (~90 kernel nodes a step); a chunk is a multiple of it. On the CPU device a capture
 # costs ~11 ms a step captured (APIC packs each launch's arguments), a replay the same ~44 us a step of 8 worlds
 # whether it holds 1, 4 or 16 steps (spring-pair, warp 1.19): 4 captures in 46 ms, not 169 ms for 16, and replays
-# within 1% of 16's. A MuJoCo Warp tune of spring-pair or impact-damper (atlas, --max-runs 60) took 17 to 19% less CPU.
+# within 1% of 16's. With the short blocks' shared rig (rigs.world_slots), MuJoCo Warp's atlas cases took 10 to 26% less
+# CPU at --max-runs 100 and its spring pair 18% less wall time (docs/how-to/atlas.md).
 STEPS_PER_GRAPH = 4
 
 
