@@ -7,8 +7,8 @@
     (16384, 2048)
     >>> world_slots(1), world_slots(3), world_slots(37)    # a block of 37 worlds steps 48: a rig for 33 to 48
     (1, 4, 48)
-    >>> world_slots(2, nstep=288), world_slots(2, nstep=20_000)  # a short block steps 16: one rig for its strikes
-    (16, 2)
+    >>> world_slots(2, nstep=288), world_slots(2, nstep=20_000), world_slots(1, nstep=288)  # a short block steps 16
+    (16, 2, 1)
 
 A block of worlds (``batch.roll_worlds``) needs a MuJoCo Warp model with its per-world rows (timestep
 and contact solref, ``worlds.put_worlds``), a ``Data`` of its worlds, the recording's arrays and the
@@ -53,7 +53,8 @@ from .worlds import Worlds, copied, field, set_field, warp_modules
 
 MOST_RIGS = 32  # rigs kept per process (a tune's slices, each with its runs' rig and its strike batches')
 WORLD_ROUND = 16  # [worlds] a block takes a rig of the next power of two up to this, then of the next multiple of it
-SHORT_STEPS = 1024  # [steps] a block of at most this many and fewer than WORLD_ROUND worlds takes a rig of WORLD_ROUND
+SHORT_STEPS = 1024  # [steps] a block of 2 to WORLD_ROUND worlds of at most this many steps (nstep: samples) takes a rig
+# of WORLD_ROUND worlds
 LEAST_RIG_BYTES = 4e6  # [B] a rig's chunk arrays hold at least the steps that fit in this (up to ``window.CHUNK``)
 MOST_RIG_BYTES = 64e6  # [B] a block whose chunk arrays pass this gets a rig of its own (a GPU's thousands of worlds)
 
@@ -75,11 +76,12 @@ def world_slots(nworld: int, nstep: int | None = None) -> int:
     ``WORLD_ROUND``, then the next multiple of it (few shapes of rig, and a small block steps few worlds: on the CPU
     device a step of 16 worlds costs 3.7 times one world's, of 8 worlds 2.2 times, ``bench sweep --only warp``).
 
-    A short block (at most ``SHORT_STEPS``: a tune's strikes, 288 steps in batches of 2 to 12 worlds) takes
-    ``WORLD_ROUND`` worlds whatever its size, so that one rig serves every short block of a structure: a new rig's
-    first capture costs ~0.2 s on the CPU device (APIC packs every kernel's arguments on fresh arrays, whatever the
-    steps captured), 1,024 steps of 14 extra worlds ~0.05 s (3.6 us a world-step)."""
-    if nstep is not None and nstep <= SHORT_STEPS and nworld <= WORLD_ROUND:
+    A short block of 2 to ``WORLD_ROUND`` worlds (at most ``SHORT_STEPS``: a tune's strikes, 288 steps in batches of
+    2 to 12 worlds) takes ``WORLD_ROUND`` worlds whatever its size, so that one rig serves every such block of a
+    structure: a rig's first capture costs ~0.05 s on the CPU device (~11 ms a step of ``kernels.STEPS_PER_GRAPH``),
+    its set-up as much again, 1,024 steps of 14 extra worlds ~0.05 s (3.6 us a world-step). A run alone keeps a rig of
+    one world: once its rig is kept, 15 extra worlds would cost it three times its steps for nothing."""
+    if nstep is not None and nstep <= SHORT_STEPS and 1 < nworld <= WORLD_ROUND:
         return WORLD_ROUND
     return 1 << (nworld - 1).bit_length() if nworld <= WORLD_ROUND else -(-nworld // WORLD_ROUND) * WORLD_ROUND
 
@@ -200,8 +202,12 @@ def _row_floats(m: Any) -> int:
 
 def _padded(rows: np.ndarray, slots: int) -> np.ndarray:
     """``rows`` (n, ...) with its last row repeated to ``slots`` rows (as it is when n is already that: a shared row
-    of a rig's model is one row of one). A block of one world in a rig of more (a short block, ``world_slots``) is
-    padded too: its one row of states assigned to 16 worlds' arrays left them wrong (``test_mujoco_warp.py``)."""
+    of a rig's model is one row of one). One row is padded too: one world's states assigned to 16 worlds' arrays left
+    them wrong from step 513 when a block of one world stepped in a rig of 16 (``test_mujoco_warp.py``).
+
+        >>> _padded(np.zeros((1, 3)), 4).shape, _padded(np.zeros((1, 3)), 1).shape
+        ((4, 3), (1, 3))
+    """
     n = rows.shape[0]
     if n == slots:
         return np.ascontiguousarray(rows)

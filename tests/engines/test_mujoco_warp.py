@@ -291,12 +291,11 @@ def test_a_block_of_fewer_worlds_than_its_rig_steps_each_run_as_alone():
 
 def test_short_blocks_of_two_to_sixteen_worlds_share_one_rig_and_each_runs_as_alone():
     # a tune's strikes come in blocks of 2 to 12 worlds of a few hundred steps: each size once took a rig of its
-    # own (2, 8, 16 worlds), each rig a first capture; a short block (rigs.SHORT_STEPS) now steps 16 worlds
-    # 1,000 steps: a block of one world in a rig of 16 once had its controls and states assigned as one world's
-    # rows to 16 worlds' arrays, its run wrong from step 513 (padding skipped a single row)
+    # own (2, 8, 16 worlds), each rig a first capture; a short block (rigs.SHORT_STEPS) now steps 16 worlds, and a
+    # run alone keeps a rig of one world (16 would triple its steps once its rig is kept)
     scene = load_scene("bouncing-ball", ["duration=1.0"])
     jobs = [(scene, dataclasses.replace(WARP, w0_dt=0.1 + 0.015 * i)) for i in range(12)]
-    assert 512 < 1.0 / WARP.dt <= rigs.SHORT_STEPS
+    assert 0.0 < 1.0 / WARP.dt <= rigs.SHORT_STEPS
     rigs.drop_all()
     run_batch(jobs[:2])
     twelve = run_batch(jobs)
@@ -305,14 +304,28 @@ def test_short_blocks_of_two_to_sixteen_worlds_share_one_rig_and_each_runs_as_al
         assert twelve[0].settings["capture_s"] == 0.0
     for k in (0, 11):
         rigs.drop_all()
-        one = run_batch([jobs[k]])[0]  # a block of one world, stepped in a rig of 16
-        assert [r.slots for r in rigs.idle()] == [16]
-        alone = run(*jobs[k])  # the engine's own single run
+        alone = run(*jobs[k])
+        assert [r.slots for r in rigs.idle()] == [1]
         for name in ("t", "x1", "x2", "v1", "v2"):
             np.testing.assert_array_equal(getattr(alone, name), getattr(twelve[k], name))
-            np.testing.assert_array_equal(getattr(alone, name), getattr(one, name))
     # a long block keeps its own size: 20,000 steps of 2 worlds step 2
     assert rigs.world_slots(2, nstep=20_000) == 2 and rigs.world_slots(2, nstep=rigs.SHORT_STEPS) == 16
+
+
+def test_a_block_of_one_world_in_a_rig_of_sixteen_is_its_run_alone(monkeypatch):
+    # the first short-block rule put one world in a rig of 16 and assigned its states and controls as one row
+    # to 16 worlds' arrays (rigs._padded left a single row as it was): its run went wrong from step 513
+    scene = load_scene("bouncing-ball", ["duration=1.0"])  # 1,000 steps: past 512
+    job = (scene, dataclasses.replace(WARP, w0_dt=0.3))
+    rigs.drop_all()
+    alone = run(*job)
+    rigs.drop_all()
+    monkeypatch.setattr(rigs, "world_slots", lambda nworld, nstep=None: 16)
+    (one,) = run_batch([job])
+    assert [r.slots for r in rigs.idle()] == [16] and one.settings["batch_size"] == 1
+    for name in ("t", "x1", "x2", "v1", "v2"):
+        np.testing.assert_array_equal(getattr(alone, name), getattr(one, name))
+    rigs.drop_all()
 
 
 def test_a_batch_larger_than_the_host_budget_goes_in_blocks_with_the_same_runs():
