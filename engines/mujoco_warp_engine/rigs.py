@@ -205,6 +205,8 @@ def _padded(rows: np.ndarray, slots: int) -> np.ndarray:
     of a rig's model is one row of one). One row is padded too: one world's states assigned to 16 worlds' arrays left
     them wrong from step 513 when a block of one world stepped in a rig of 16 (``test_mujoco_warp.py``).
 
+        >>> import numpy as np
+        >>> from chatterbench.engines.mujoco_warp_engine.rigs import _padded
         >>> _padded(np.zeros((1, 3)), 4).shape, _padded(np.zeros((1, 3)), 1).shape
         ((4, 3), (1, 3))
     """
