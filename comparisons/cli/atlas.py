@@ -14,10 +14,12 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import shlex
 from contextlib import contextmanager
 from pathlib import Path
 
+from chatterbench.comparisons.pipeline.budget import GIB
 from chatterbench.comparisons.studies.limits import MAX_RUNS, ROBUST_FRACTION
 from chatterbench.reference.scene import load_scene, split_assignment
 
@@ -65,13 +67,16 @@ def cmd_atlas(args: argparse.Namespace) -> int:
             case_name(source)
     except AtlasError as exc:
         raise UsageError(str(exc)) from None
+    if args.dask and args.cases_at_once not in (None, 1):
+        raise UsageError(f"--cases-at-once {args.cases_at_once} with --dask: a cluster runs the cases one after "
+                         "another (its workers take every candidate of a case at once); leave it out or give 1")
     budget = budget_of(args)
     command = _command_line(args)
     client = dask_client(args.dask)
     try:
         with writing("--out", out):
             try:  # another search in the folder, or a link in it: refused before any case runs
-                provenance, cases = _run(out, spec, command, client, args.workers, budget)
+                provenance, cases = _run(out, spec, command, client, args.workers, budget, args.cases_at_once)
             except AtlasError as exc:
                 raise UsageError(str(exc)) from None
             provenance = provenance | {"wall_s": sum(c.get("wall_s") or 0 for c in cases.values())}
@@ -106,25 +111,30 @@ def _command_line(args: argparse.Namespace) -> str:
     return " ".join(shlex.quote(w) for w in [*words, "--out", args.out])
 
 
-def _run(out: Path, spec, command: str, client, workers: int | None, budget):
-    """Every case not done, each through a pool of its own (or the Dask cluster), with a progress line per case."""
+def _run(out: Path, spec, command: str, client, workers: int | None, budget, at_once: int | None):
+    """Every case not done, each through a pool of its own, ``at_once`` side by side (or the Dask cluster's, one after
+    another), with a progress line per case."""
     from chatterbench.comparisons.studies.atlas import run_atlas
     from chatterbench.comparisons.studies.pools import RENEW_TASKS, process_pool
 
-    state = {}
+    running: dict[str, str] = {}
 
-    def started(scene: str, engine: str, k: int, n: int) -> None:
-        state["case"] = f"case {k} of {n}: tune {scene} --engines {engine}"
+    def started(scene: str, engine: str, k: int, n: int) -> str:
+        running[f"{scene}/{engine}"] = f"{k}"
+        return f"case{'s' if len(running) > 1 else ''} {', '.join(running.values())} of {n}: " + \
+            "; ".join(f"tune {c.replace('/', ' --engines ')}" for c in running)
 
     def finished(case: dict) -> None:
+        running.pop(f"{case['scene']}/{case['engine']}", None)
         print(f"{case['scene']} / {case['engine']}: {case['status']}, {case['runs']} runs, {case['wall_s']:.1f} s"
               + (f"; {case['message']}" if case.get("message") else ""), flush=True)
 
     if client is not None:
         with Progress(None, "atlas", unit="candidate") as bar:
             return run_atlas(out, spec, command, executor=CountingExecutor(client.get_executor(), bar),
-                             started=lambda *a: (started(*a), bar.stage(state["case"])), finished=finished)
+                             started=lambda *a: bar.stage(started(*a)), finished=finished)
     n = local_workers(workers, budget.max_memory)
+    at_once = cases_at_once(at_once, n, budget.max_memory)
 
     @contextmanager
     def case_pool():  # a pool of its own per case (``run_atlas``), its candidates counted on the progress line
@@ -132,8 +142,32 @@ def _run(out: Path, spec, command: str, client, workers: int | None, budget):
             yield CountingExecutor(pool, bar)
 
     with Progress(None, "atlas", unit="candidate") as bar:
-        return run_atlas(out, spec, command, pool=case_pool,
-                         started=lambda *a: (started(*a), bar.stage(state["case"])), finished=finished)
+        return run_atlas(out, spec, command, pool=case_pool, at_once=at_once, expected=_kept_walls() if at_once > 1 else None,
+                         started=lambda *a: bar.stage(started(*a)), finished=finished)
+
+
+def _kept_walls() -> dict[tuple[str, str], float]:
+    """(scene, engine) -> the wall time [s] of the case in the atlas kept with chatterbench (none: empty)."""
+    from chatterbench.comparisons.outputs.atlas_section import packaged_atlas
+
+    kept = packaged_atlas()
+    return {} if kept is None else {(c["scene"], c["engine"]): c["wall_s"] for c in kept.cases
+                                    if c.get("status") == "ok" and c.get("wall_s")}
+
+
+def cases_at_once(requested: int | None, workers: int, max_memory: float) -> int:
+    """``--cases-at-once``: ``requested`` (None: ``CASES_AT_ONCE``) when this machine's memory holds that many cases'
+    pools of ``workers`` at ``max_memory`` [B] a worker, else a UsageError (None: as many as it holds, at least 1)."""
+    memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    fits = max(1, int(memory // (max_memory * workers)))
+    if requested is not None and requested > fits:
+        raise UsageError(f"--cases-at-once {requested}: must be in [1, {fits}] on this machine ({memory / GIB:.0f} GiB "
+                         f"of memory, {workers} workers a case at {max_memory / GIB:g} GiB per worker)")
+    return requested or min(CASES_AT_ONCE, fits)
+
+
+MOST_AT_ONCE = 8  # cases side by side at most (each a pool of --workers: more only fight for the cores)
+CASES_AT_ONCE = 2  # cases side by side by default (``studies.side_by_side``: the second takes the first's idle stretches)
 
 
 def register(sub, formatter) -> None:
@@ -147,6 +181,9 @@ def register(sub, formatter) -> None:
     p.set_defaults(tolerance=None)
     p.add_argument("--workers", type=positive_int, default=None,
                    help="parallel candidate runs of a case; None: all cores (with --dask: the cluster's)")
+    p.add_argument("--cases-at-once", type=integer_type(1, MOST_AT_ONCE), default=None, metavar="K",
+                   help=f"cases run side by side, each with a pool of --workers, in [1, {MOST_AT_ONCE}]; None: "
+                        f"{CASES_AT_ONCE} (a case leaves workers idle between its passes; the next one takes them)")
     p.add_argument("--dask", metavar="ADDRESS", default=None,
                    help="run each case's candidates on a Dask cluster (tcp://host:8786) instead of local processes")
     p.add_argument("--max-runs", type=integer_type(1, 100_000), default=MAX_RUNS,

@@ -232,12 +232,26 @@ def _number(v: float) -> str:
 def provenance_sentence(p: dict[str, Any]) -> str:
     """Where the atlas comes from, in one sentence: the command, the machine, the date, the versions, the wall time."""
     versions = ", ".join(f"{k} {v}" for k, v in (p.get("versions") or {}).items())
-    wall = p.get("wall_s")
     return (f"Made by: {p.get('command', '?')} ({p.get('code', 'code version not recorded')}); on {p.get('machine', '?')}, started {p.get('started', '?')}"
-            + (f", {wall / 60:.1f} min of wall time over its cases" if isinstance(wall, (int, float)) else "")
+            + _wall_words(p)
             + f"; versions: {versions}; tolerances asked: "
             + json.dumps({k: v for k, v in ((p.get("search") or {}).get("tolerances") or {}).items()
                           if k in ("stick", "exit", "first_impact", "restitution")}))
+
+
+def _wall_words(p: dict[str, Any]) -> str:
+    """The atlas's wall time in words: its own (``elapsed_s``, when recorded) and its cases' summed (``wall_s``),
+    which overlap when cases ran side by side (``cases_at_once``)."""
+    wall, elapsed, at_once = p.get("wall_s"), p.get("elapsed_s"), p.get("cases_at_once")
+    cases = (f"{wall / 60:.1f} min of wall time over its cases" if _real(wall) else "")
+    if not _real(elapsed):
+        return f", {cases}" if cases else ""
+    side = f", up to {at_once} side by side" if isinstance(at_once, int) and at_once > 1 else ""
+    return f", {elapsed / 60:.1f} min of wall time" + (f" ({cases}{side})" if cases else "")
+
+
+def _real(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
 def write_atlas_files(out: Path, cases: Sequence[dict[str, Any]], provenance: dict[str, Any]) -> list[str]:

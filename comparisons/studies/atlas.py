@@ -18,7 +18,7 @@ atlas goes on.
 
 The folder (``DIR``)::
 
-    atlas.json                          the spec and its provenance (versions, date, machine, command)
+    atlas.json                          the spec and its provenance (versions, date, machine, command, wall time)
     cases/SCENE/ENGINE/case.json        the case's outcome (above), written last: its presence says the case is done
     cases/SCENE/ENGINE/candidates.parquet  every run of the case's search (``tune``'s table)
 
@@ -46,6 +46,7 @@ from chatterbench.reference.errors import InputError
 from ..pipeline.atomic import staged, write_frame
 from ..pipeline.tolerances import Tolerances
 from .limits import MAX_RUNS, ROBUST_FRACTION
+from .side_by_side import side_by_side
 
 SPEC_FILE = "atlas.json"
 CASE_FILE = "case.json"
@@ -283,29 +284,80 @@ def run_case(spec: AtlasSpec, scene_name: str, engine: str, executor=None, worke
 def run_atlas(out: Path, spec: AtlasSpec, command: str = "", executor=None, workers: int | None = None,
               started: Callable[[str, str, int, int], None] | None = None,
               finished: Callable[[dict[str, Any]], None] | None = None,
-              pool: Callable[[], ContextManager[Any]] | None = None
+              pool: Callable[[], ContextManager[Any]] | None = None, at_once: int = 1,
+              expected: Mapping[tuple[str, str], float] | None = None
               ) -> tuple[dict[str, Any], dict[tuple[str, str], dict[str, Any]]]:
     """Run every case of ``spec`` not yet done under ``out`` (module docstring), each written as it finishes;
     returns the atlas's provenance (``open_atlas``: opened once, before any case) and every finished case under
     ``out``. ``started(scene, engine, k, n)`` as case k of the n to run begins, ``finished(case)`` as it ends.
     ``pool``: makes each case's executor (a context manager), a pool of its own per case: its workers hold one
     engine's libraries and what its runs left (Drake keeps ~0.1 MB of every diagram it builds), not every case's
-    so far; else ``executor`` serves every case (a Dask cluster's), else each case's ``tune`` makes its own."""
+    so far; else ``executor`` serves every case (a Dask cluster's), else each case's ``tune`` makes its own.
+    ``at_once``: cases run side by side (``side_by_side``: each in a thread, with its own pool), written in the
+    order they end; the same cases whatever it is. As each case is written, ``atlas.json`` gets the atlas's
+    ``elapsed_s`` (wall time [s] from this call to the case's end, added to a resumed atlas's before) and
+    ``cases_at_once`` (the most that ran side by side): the cases' own ``wall_s`` overlap when they ran together.
+    ``expected``: (scene name, engine) -> the wall time [s] a case is expected to take (a kept atlas's): the cases
+    run longest first (``longest_first``), so that side by side no long case runs alone at the end."""
     out.mkdir(parents=True, exist_ok=True)
     made = open_atlas(out, spec, command)
     done = done_cases(out)
     names = {source: case_name(source) for source in spec.scenes}
     todo = [(source, engine) for source, engine in spec.cases() if (names[source], engine) not in done]
-    for k, (source, engine) in enumerate(todo, 1):
-        if started is not None:
-            started(names[source], engine, k, len(todo))
+    if expected:
+        todo = longest_first(todo, {(source, engine): (names[source], engine) for source, engine in todo}, expected)
+    number = {item: k for k, item in enumerate(todo, 1)}
+    begun, before = time.perf_counter(), made.get("elapsed_s") or 0.0
+
+    def one(item: tuple[str, str]) -> tuple[dict[str, Any], Any]:
         with pool() if pool is not None else nullcontext(executor) as case_executor:
-            case, table = run_case(spec, source, engine, executor=case_executor, workers=workers)
+            return run_case(spec, item[0], item[1], executor=case_executor, workers=workers)
+
+    def begin(item: tuple[str, str]) -> None:
+        if started is not None:
+            started(names[item[0]], item[1], number[item], len(todo))
+
+    def end(item: tuple[str, str], outcome: tuple[dict[str, Any], Any]) -> None:
+        case, table = outcome
         write_case(out, case, table)
-        done[(names[source], engine)] = case
+        done[(names[item[0]], item[1])] = case
+        made.update(elapsed_s=round(before + time.perf_counter() - begun, 1),
+                    cases_at_once=max(at_once, made.get("cases_at_once") or 1))
+        _write_json(out, SPEC_FILE, made)  # the atlas's own wall time so far, kept by a kill as its cases are
         if finished is not None:
             finished(case)
+
+    side_by_side(todo, at_once, one, started=begin, finished=end)
     return made, done
+
+
+def longest_first(todo: list[tuple[str, str]], named: Mapping[tuple[str, str], tuple[str, str]],
+                  expected: Mapping[tuple[str, str], float]) -> list[tuple[str, str]]:
+    """``todo``'s cases, the longest expected first (ties and unknowns in their order): a case's ``expected`` wall time
+    [s] under its (scene name, engine) (``named``), else the median of its engine's, else of every one's.
+
+        >>> from chatterbench.comparisons.studies.atlas import longest_first
+        >>> longest_first([("a", "x"), ("b", "x"), ("c", "y")], {c: c for c in [("a", "x"), ("b", "x"), ("c", "y")]},
+        ...               {("a", "x"): 10.0, ("b", "x"): 300.0, ("z", "y"): 50.0})
+        [('b', 'x'), ('c', 'y'), ('a', 'x')]
+    """
+    import statistics
+
+    known = {k: float(v) for k, v in expected.items() if isinstance(v, (int, float)) and math.isfinite(v)}
+    if not known:
+        return list(todo)
+    every = statistics.median(known.values())
+    by_engine: dict[str, list[float]] = {}
+    for (_, engine), wall in known.items():
+        by_engine.setdefault(engine, []).append(wall)
+
+    def guess(item: tuple[str, str]) -> float:
+        key = named[item]
+        if key in known:
+            return known[key]
+        return statistics.median(by_engine[key[1]]) if key[1] in by_engine else every
+
+    return sorted(todo, key=lambda item: -guess(item))  # stable: equal guesses keep their order
 
 
 def write_case(out: Path, case: dict[str, Any], table) -> None:

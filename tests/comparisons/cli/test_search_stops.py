@@ -29,7 +29,7 @@ import os, signal, sys
 sys.argv[0] = "chatterbench"  # as the console script: the command's own signal handling
 from chatterbench.comparisons.studies.tune import rows, runner
 from chatterbench.comparisons.studies.tune.search import BAND_PART
-sig, log, handed = int(sys.argv[1]), sys.argv[2], []
+sig, log, handed, sent = int(sys.argv[1]), sys.argv[2], [], []
 WHOLE = 2 * BAND_PART  # a pass this long or longer: two candidates' band runs at a phase, or a grid's pass
 real_evaluator, real_row, real_evaluate = runner.evaluator, rows._row, rows.evaluate
 
@@ -45,8 +45,9 @@ def evaluator(*args, **kwargs):
     return counted
 
 def signal_first(*args, **kwargs):  # a row waited for once a pass of WHOLE candidates or more is all handed out
-    if handed and handed[-1] >= WHOLE:
+    if handed and handed[-1] >= WHOLE and not sent:  # once (cases side by side: the first of them)
         handed.clear()
+        sent.append(True)
         note("signal")
         os.kill(os.getpid(), sig)  # delivered at once, as a user's Ctrl-C or a CI job's kill would be
     return real_row(*args, **kwargs)
@@ -75,13 +76,18 @@ def _left_running(marker: str) -> list[int]:
 
 @pytest.mark.slow
 @pytest.mark.parametrize("sig, code", [(signal.SIGTERM, 143), (signal.SIGINT, 130)], ids=["SIGTERM", "SIGINT"])
-@pytest.mark.parametrize("command", ["tune", "atlas"])
+@pytest.mark.parametrize("command", ["tune", "atlas", "atlas-side-by-side"])
 def test_a_search_interrupted_mid_pass_stops_without_running_the_pass_out(tmp_path, command, sig, code):
-    scene = tmp_path / "long-ball.toml"  # the built-in ball run for 400 s, as a scene file (the atlas takes no --set)
-    ball = dataclasses.replace(load_scene("bouncing-ball", ["duration=400"]), name="long-ball")
-    scene.write_text(scene_toml(ball, "the built-in ball, run for 400 s: a candidate takes seconds"))
+    ball = load_scene("bouncing-ball", ["duration=400"])
+    scenes = []  # the built-in ball run for 400 s, as scene files (the atlas takes no --set): a candidate takes seconds
+    for name in ("long-ball", "long-ball-2")[:2 if command == "atlas-side-by-side" else 1]:
+        scenes.append(tmp_path / f"{name}.toml")
+        scenes[-1].write_text(scene_toml(dataclasses.replace(ball, name=name), "the built-in ball, run for 400 s"))
     out, log = tmp_path / f"{command}-out", tmp_path / "events.txt"
-    argv = [command, str(scene), "--engines", "pybullet", "--workers", "2", "--out", str(out)]
+    # the atlas one case at a time, and two cases side by side, each with its pool of 2 workers
+    at_once = {"atlas": ["--cases-at-once", "1"], "atlas-side-by-side": ["--cases-at-once", "2"]}.get(command, [])
+    argv = [command.split("-")[0], *map(str, scenes), "--engines", "pybullet", "--workers", "2", *at_once,
+            "--out", str(out)]
     try:
         done = subprocess.run([sys.executable, "-c", HOOK, str(int(sig)), str(log), *argv], capture_output=True,
                               text=True, timeout=240)
@@ -90,13 +96,14 @@ def test_a_search_interrupted_mid_pass_stops_without_running_the_pass_out(tmp_pa
     assert done.returncode == code, done.stdout + done.stderr
     events = log.read_text().split()
     after = events[events.index("signal") + 1:]
-    # at most the two candidates the workers were running finish in the moment before they are killed; before, the
-    # rest of the pass ran: 14 or more candidates after the signal
-    assert len(after) <= 2, f"{command} ran {len(after)} candidates after the signal"
+    # at most the candidates the workers were running (2 a case) finish in the moment before they are killed;
+    # before, the rest of the pass ran: 14 or more candidates after the signal
+    assert len(after) <= 2 * len(scenes), f"{command} ran {len(after)} candidates after the signal"
     for _ in range(50):  # a killed worker is reaped by the system a moment after its parent's exit
         left = _left_running(str(out))
         if not left:
             break
         time.sleep(0.1)
     assert not left, f"workers left running after {command} exited: {left}"
+    assert not list(out.glob("cases/*/*/case.json"))  # no case finished: none written as if it had
     assert not (out / "recommended.json").exists()  # nothing finished, nothing written as if it had

@@ -191,12 +191,19 @@ def test_bad_input_is_refused_before_any_case_runs(tmp_path, capsys):
     out = tmp_path / "atlas"
     for words, said in ((["--engines", "pybullet", "--set", "pybullet.nope=1"], "--set pybullet.nope=1: pybullet searches"),
                         (["--engines", "pybullet", "--set", "restitution=0.3"], "scene fields belong in a scene file"),
-                        (["--engines", "bogus"], "engine 'bogus'")):
+                        (["--engines", "bogus"], "engine 'bogus'"),
+                        (["--engines", "pybullet", "--cases-at-once", "2", "--dask", "tcp://127.0.0.1:9"],
+                         "--cases-at-once 2 with --dask")):
         argv = ["atlas", "bouncing-ball", *words, "--out", str(out)]
         assert main(argv) == 2
         assert said in capsys.readouterr().err
         assert not out.exists()  # nothing written, nothing run
     assert main(["atlas", "bouncing-ball", "--engines", "pybullet"]) == 2 and "--out DIR is needed" in capsys.readouterr().err
+    for k in ("0", "9"):
+        with pytest.raises(SystemExit) as stop:
+            main(["atlas", "bouncing-ball", "--engines", "pybullet", "--cases-at-once", k, "--out", str(out)])
+        assert stop.value.code == 2 and f"--cases-at-once: '{k}': must be an integer in [1, 8]" in capsys.readouterr().err
+        assert not out.exists()
 
 
 # -- the report's section -------------------------------------------------------------------------------------------
@@ -336,3 +343,83 @@ def test_each_case_runs_in_a_pool_of_its_own(tmp_path):
     _, done = run_atlas(tmp_path / "atlas", spec, pool=pool)
     assert [done[("bouncing-ball", e)]["status"] for e in ("pybullet", "mujoco")] == ["ok", "ok"]
     assert len(workers) == 2 and workers[0] != workers[1] and os.getpid() not in workers
+
+
+def _case_times(tmp_path, at_once: int) -> dict[str, tuple[float, float]]:
+    """The events of a two-case atlas run ``at_once`` side by side ("made": a case's pool made, "done": shut down),
+    in their order, and each case's rows."""
+    from contextlib import contextmanager
+
+    from chatterbench.comparisons.studies.atlas import AtlasSpec, run_atlas
+    from chatterbench.comparisons.studies.pools import process_pool
+
+    events = []
+
+    @contextmanager
+    def pool():
+        events.append("made")
+        with process_pool(1) as executor:
+            yield executor
+        events.append("done")
+
+    spec = AtlasSpec(scenes=("bouncing-ball",), engines=("pybullet", "mujoco"), max_runs=6, max_cost=300.0,
+                     fixed=dict(ATLAS_FIXED))
+    out = tmp_path / f"at-once-{at_once}"
+    _, done = run_atlas(out, spec, pool=pool, at_once=at_once)
+    assert [done[("bouncing-ball", e)]["status"] for e in ("pybullet", "mujoco")] == ["ok", "ok"]
+    made = json.loads((out / "atlas.json").read_text())  # the atlas's own wall time, not its cases' summed
+    assert isinstance(made["elapsed_s"], float) and made["cases_at_once"] == at_once
+    rows = {e: pd.read_parquet(out / "cases" / "bouncing-ball" / e / "candidates.parquet").drop(
+        columns=["cost_per_sim_s"]) for e in ("pybullet", "mujoco")}
+    return events, rows
+
+
+def test_cases_side_by_side_overlap_and_give_the_rows_of_cases_one_after_another(tmp_path):
+    # the cases of an atlas ran one after another: a case's pool left its workers idle between passes and through
+    # a pass's last candidates (the kept atlas ran at 166% CPU with 2 workers on 2 cores)
+    alone, rows_alone = _case_times(tmp_path, 1)
+    together, rows_together = _case_times(tmp_path, 2)
+    assert alone == ["made", "done", "made", "done"]  # one after another: the second pool made once the first is done
+    assert together == ["made", "made", "done", "done"]  # side by side: the second made while the first runs
+    for engine in rows_alone:  # every row the same but the measured time
+        pd.testing.assert_frame_equal(rows_alone[engine], rows_together[engine])
+
+
+@pytest.mark.slow
+def test_a_small_atlas_one_case_at_a_time_gives_the_side_by_side_tables(tmp_path, small_atlas):
+    out = tmp_path / "one-at-a-time"
+    assert main(["atlas", *SMALL, "--workers", "2", "--cases-at-once", "1", "--out", str(out)]) == 0
+    for mine, together in zip(_tables(out), _tables(small_atlas)):
+        pd.testing.assert_frame_equal(mine, together)
+
+
+def test_the_provenance_names_the_atlas_wall_time_and_its_cases_summed():
+    from chatterbench.comparisons.outputs.atlas_files import provenance_sentence
+
+    kept = {"command": "chatterbench atlas", "wall_s": 4812.0}  # an atlas made before elapsed_s was recorded
+    assert ", 80.2 min of wall time over its cases;" in provenance_sentence(kept)
+    side = provenance_sentence({**kept, "elapsed_s": 3480.0, "cases_at_once": 2})
+    assert ", 58.0 min of wall time (80.2 min of wall time over its cases, up to 2 side by side);" in side
+    alone = provenance_sentence({**kept, "elapsed_s": 4830.0, "cases_at_once": 1})
+    assert ", 80.5 min of wall time (80.2 min of wall time over its cases);" in alone
+    for bogus in ("3480", None, float("nan"), True):  # a hand-edited atlas.json: the cases' sum only
+        assert ", 80.2 min of wall time over its cases;" in provenance_sentence({**kept, "elapsed_s": bogus})
+
+
+def test_cases_expected_longest_run_first_and_the_kept_atlas_sets_the_order(tmp_path):
+    # side by side, a long case started last runs alone at the end: the ball's seven cases in the scene's order put
+    # MuJoCo Warp's (the longest) last, and it ran alone for 2 of the 8 minutes
+    from chatterbench.comparisons.cli.atlas import _kept_walls
+    from chatterbench.comparisons.studies.atlas import AtlasSpec, run_atlas
+
+    spec = AtlasSpec(scenes=("bouncing-ball",), engines=("pybullet", "mujoco"), max_runs=6, max_cost=300.0,
+                     fixed=dict(ATLAS_FIXED))
+    for expected, first in (({("bouncing-ball", "mujoco"): 90.0, ("bouncing-ball", "pybullet"): 20.0}, "mujoco"),
+                            ({("bouncing-ball", "mujoco"): 20.0, ("bouncing-ball", "pybullet"): 90.0}, "pybullet"),
+                            (None, "pybullet")):  # none expected: the order asked
+        began = []
+        run_atlas(tmp_path / f"{first}-{expected is None}", spec, at_once=2, expected=expected,
+                  started=lambda scene, engine, k, n: began.append(engine))
+        assert began[0] == first
+    kept = _kept_walls()  # the kept atlas: each of its 28 cases' wall time
+    assert len(kept) == 28 and kept[("bouncing-ball", "mujoco_warp")] > kept[("bouncing-ball", "drake")] > 0
