@@ -142,7 +142,8 @@ def _run(out: Path, spec, command: str, client, workers: int | None, budget, at_
             yield CountingExecutor(pool, bar)
 
     with Progress(None, "atlas", unit="candidate") as bar:
-        return run_atlas(out, spec, command, pool=case_pool, at_once=at_once, expected=_kept_walls() if at_once > 1 else None,
+        return run_atlas(out, spec, command, pool=case_pool, at_once=at_once,
+                         expected=_kept_walls() if at_once > 1 else None,
                          started=lambda *a: bar.stage(started(*a)), finished=finished)
 
 
@@ -167,7 +168,7 @@ def cases_at_once(requested: int | None, workers: int, max_memory: float) -> int
 
 
 MOST_AT_ONCE = 8  # cases side by side at most (each a pool of --workers: more only fight for the cores)
-CASES_AT_ONCE = 2  # cases side by side by default (``studies.side_by_side``: the second takes the first's idle stretches)
+CASES_AT_ONCE = 2  # cases side by side by default (``studies.side_by_side``: the second takes the first's idle time)
 
 
 def register(sub, formatter) -> None:

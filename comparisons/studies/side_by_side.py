@@ -23,9 +23,10 @@ Promises:
   half-written file there).
 - **Stopped at once.** An exception here (Ctrl-C, ``cli.Terminated``) or in a job kills every
   process this one started through ``multiprocessing`` (the jobs' pool workers: their runs die
-  with them, ``isolate.die_with_parent``), again until the jobs have ended (``STOP_S`` at most), and is raised here. No job's result is reported after
-  it: a job still running is dropped, whatever the kill made of it (the atlas's case runs again
-  when it resumes). The threads are daemons: they end with the process.
+  with them, ``isolate.die_with_parent``), again until the jobs have ended (``STOP_S`` at most),
+  and is raised here. No job's result is reported after it: a job still running is dropped,
+  whatever the kill made of it (the atlas's case runs again when it resumes). The threads are
+  daemons: they end with the process.
 """
 
 from __future__ import annotations
