@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
 import shlex
 from contextlib import contextmanager
 from pathlib import Path
@@ -25,7 +24,7 @@ from chatterbench.reference.scene import load_scene, split_assignment
 
 from .commands import COMMANDS
 from .common import (UsageError, add_budget, add_out, add_set, add_tolerance, budget_of, dask_client, engine_list,
-                     integer_type, load_noted, local_workers, parse_tolerances, positive_float, positive_int,
+                     integer_type, load_noted, local_workers, machine_memory, parse_tolerances, positive_float, positive_int,
                      print_table)
 from .paths import check_dir, writing
 from .progress import CountingExecutor, Progress, waited_s
@@ -159,7 +158,7 @@ def _kept_walls() -> dict[tuple[str, str], float]:
 def cases_at_once(requested: int | None, workers: int, max_memory: float) -> int:
     """``--cases-at-once``: ``requested`` (None: ``CASES_AT_ONCE``) when this machine's memory holds that many cases'
     pools of ``workers`` at ``max_memory`` [B] a worker, else a UsageError (None: as many as it holds, at least 1)."""
-    memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    memory = machine_memory()
     fits = max(1, int(memory // (max_memory * workers)))
     if requested is not None and requested > fits:
         raise UsageError(f"--cases-at-once {requested}: must be in [1, {fits}] on this machine ({memory / GIB:.0f} GiB "

@@ -339,9 +339,14 @@ def _cores() -> int:
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
 
 
+def machine_memory() -> int:
+    """This machine's memory [B]."""
+    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+
+
 def worker_limit(max_memory: float = MAX_MEMORY) -> int:
     """Worker processes this machine holds: one per core, and no more than its memory / ``max_memory`` [B]."""
-    memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    memory = machine_memory()
     return max(1, min(_cores(), int(memory // max_memory)))
 
 
@@ -353,7 +358,7 @@ def local_workers(requested: int | None, max_memory: float = MAX_MEMORY) -> int:
     """
     limit = worker_limit(max_memory)
     if requested is not None and requested > limit:
-        memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / GIB
+        memory = machine_memory() / GIB
         raise UsageError(f"--workers {requested}: must be in [1, {limit}] on this machine ({_cores()} cores, "
                          f"{memory:.0f} GiB of memory at {max_memory / GIB:g} GiB per worker)")
     return requested or limit

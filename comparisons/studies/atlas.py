@@ -305,7 +305,7 @@ def run_atlas(out: Path, spec: AtlasSpec, command: str = "", executor=None, work
     names = {source: case_name(source) for source in spec.scenes}
     todo = [(source, engine) for source, engine in spec.cases() if (names[source], engine) not in done]
     if expected:
-        todo = longest_first(todo, {(source, engine): (names[source], engine) for source, engine in todo}, expected)
+        todo = longest_first(todo, names, expected)
     number = {item: k for k, item in enumerate(todo, 1)}
     begun, before = time.perf_counter(), made.get("elapsed_s") or 0.0
 
@@ -331,13 +331,14 @@ def run_atlas(out: Path, spec: AtlasSpec, command: str = "", executor=None, work
     return made, done
 
 
-def longest_first(todo: list[tuple[str, str]], named: Mapping[tuple[str, str], tuple[str, str]],
+def longest_first(todo: list[tuple[str, str]], names: Mapping[str, str],
                   expected: Mapping[tuple[str, str], float]) -> list[tuple[str, str]]:
-    """``todo``'s cases, the longest expected first (ties and unknowns in their order): a case's ``expected`` wall time
-    [s] under its (scene name, engine) (``named``), else the median of its engine's, else of every one's.
+    """``todo``'s (scene source, engine) cases, the longest expected first (equal guesses in their order): a case's
+    ``expected`` wall time [s] under its (scene name, engine) (``names``: source -> name), else the median of its
+    engine's, else of every one's.
 
         >>> from chatterbench.comparisons.studies.atlas import longest_first
-        >>> longest_first([("a", "x"), ("b", "x"), ("c", "y")], {c: c for c in [("a", "x"), ("b", "x"), ("c", "y")]},
+        >>> longest_first([("a", "x"), ("b", "x"), ("c", "y")], {"a": "a", "b": "b", "c": "c"},
         ...               {("a", "x"): 10.0, ("b", "x"): 300.0, ("z", "y"): 50.0})
         [('b', 'x'), ('c', 'y'), ('a', 'x')]
     """
@@ -352,7 +353,7 @@ def longest_first(todo: list[tuple[str, str]], named: Mapping[tuple[str, str], t
         by_engine.setdefault(engine, []).append(wall)
 
     def guess(item: tuple[str, str]) -> float:
-        key = named[item]
+        key = (names[item[0]], item[1])
         if key in known:
             return known[key]
         return statistics.median(by_engine[key[1]]) if key[1] in by_engine else every

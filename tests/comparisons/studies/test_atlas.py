@@ -345,7 +345,7 @@ def test_each_case_runs_in_a_pool_of_its_own(tmp_path):
     assert len(workers) == 2 and workers[0] != workers[1] and os.getpid() not in workers
 
 
-def _case_times(tmp_path, at_once: int) -> dict[str, tuple[float, float]]:
+def _pool_events(tmp_path, at_once: int) -> tuple[list[str], dict[str, pd.DataFrame]]:
     """The events of a two-case atlas run ``at_once`` side by side ("made": a case's pool made, "done": shut down),
     in their order, and each case's rows."""
     from contextlib import contextmanager
@@ -377,8 +377,8 @@ def _case_times(tmp_path, at_once: int) -> dict[str, tuple[float, float]]:
 def test_cases_side_by_side_overlap_and_give_the_rows_of_cases_one_after_another(tmp_path):
     # the cases of an atlas ran one after another: a case's pool left its workers idle between passes and through
     # a pass's last candidates (the kept atlas ran at 166% CPU with 2 workers on 2 cores)
-    alone, rows_alone = _case_times(tmp_path, 1)
-    together, rows_together = _case_times(tmp_path, 2)
+    alone, rows_alone = _pool_events(tmp_path, 1)
+    together, rows_together = _pool_events(tmp_path, 2)
     assert alone == ["made", "done", "made", "done"]  # one after another: the second pool made once the first is done
     assert together == ["made", "made", "done", "done"]  # side by side: the second made while the first runs
     for engine in rows_alone:  # every row the same but the measured time
