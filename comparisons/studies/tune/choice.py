@@ -19,7 +19,8 @@ every episode, and in every episode of each neighbour) of fewest steps; those wi
 ``tie_band`` (10%) of it in steps are tied, and the tie goes to the simplest: fewest settings
 away from the engine's defaults, then the larger dt, then the smaller wall time. Beside it,
 ``fragile``: the cheapest pass whose neighbourhood fails, when it is cheaper than the answer
-(an isolated point: a small change of the model can land on a failure). The margin is the
+(an isolated point: a small change of the model can land on a failure); a tie in steps goes as
+the frontier's does (``TIE_KEYS``), never to the faster-timed run. The margin is the
 answer's worst error over its tolerance among the judge's checks (restitution under the
 scene's forces beside it). When nothing robust passes, ``best_reachable`` is the
 pass whose neighbourhood fails least (fewest failing neighbours, then the smallest worst ratio
@@ -84,7 +85,7 @@ def fragile(table: pd.DataFrame, best: dict[str, Any] | None) -> dict[str, Any] 
     weak = table[passing(table["verdict"]) & (table["robust"] == False)]  # noqa: E712
     if best is not None:
         weak = weak[weak["steps_per_sim_s"] < best["steps_per_sim_s"]]
-    return None if weak.empty else weak.sort_values("steps_per_sim_s").iloc[0].to_dict()
+    return None if weak.empty else first_of(weak, ["steps_per_sim_s"], [True])
 
 
 def reachable(table: pd.DataFrame, max_cost: float = math.inf) -> dict[str, Any] | None:
@@ -105,6 +106,20 @@ def reachable(table: pd.DataFrame, max_cost: float = math.inf) -> dict[str, Any]
         weak = ran[passing(ran["verdict"]) & (ran["robust"] == False)]  # noqa: E712
         if len(weak):
             n_fail = weak["neighbourhood"].str.count(";") + 1
-            return (weak.assign(_n=n_fail).sort_values(["_n", "neighbourhood_worst_ratio", "steps_per_sim_s"])
-                    .drop(columns="_n").iloc[0].to_dict())
-    return ran.sort_values(["n_match", "worst_ratio", "steps_per_sim_s"], ascending=[False, True, True]).iloc[0].to_dict()
+            best = first_of(weak.assign(_n=n_fail), ["_n", "neighbourhood_worst_ratio", "steps_per_sim_s"],
+                            [True, True, True])
+            return {k: v for k, v in best.items() if k != "_n"}
+    return first_of(ran, ["n_match", "worst_ratio", "steps_per_sim_s"], [False, True, True])
+
+
+# a tie in the keys goes as the frontier's does (``frontier.answers``): fewest settings changed from the defaults, the
+# larger dt, the settings' text; never the table's order, which follows measured wall times (``rows.table_of``)
+TIE_KEYS = (("n_non_default", True), ("dt", False), ("settings", True))
+
+
+def first_of(frame: pd.DataFrame, keys: list[str], ascending: list[bool]) -> dict[str, Any]:
+    """The first row of ``frame`` by ``keys``, ties broken by ``TIE_KEYS`` (those ``frame`` has), as a dict."""
+    tail = [(k, a) for k, a in TIE_KEYS if k in frame and k not in keys]
+    order = frame.sort_values([*keys, *(k for k, _ in tail)], ascending=[*ascending, *(a for _, a in tail)],
+                              kind="stable")
+    return order.iloc[0].to_dict()
