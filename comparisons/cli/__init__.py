@@ -84,6 +84,17 @@ def _again() -> None:
 interrupt = _Interrupt()
 
 
+def answered() -> None:
+    """The Ctrl-C is being answered (``main``: "interrupted", then exit 130): a resend still armed (``_again``) is
+    cancelled and, as the command, a later Ctrl-C is ignored; one raised inside that answer had killed the process
+    with SIGINT (-2) and a traceback after the line."""
+    for timer in _resend:
+        timer.cancel()
+    _resend.clear()
+    if _COMMAND:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def _unraisable(hook_args, _default=sys.unraisablehook):
     """A Ctrl-C that Python swallowed (raised in a garbage-collection callback, a ``__del__``, or a fork hook such as
     logging's ``_releaseLock`` while a pool forks its workers) is sent again, to be raised where it can end the work,

@@ -21,7 +21,7 @@ from typing import Iterable
 from chatterbench.engines.isolate import run_limit, set_run_limit
 from chatterbench.reference.errors import InputError
 
-from . import _COMMAND, Terminated, interrupt, quiet_interrupts
+from . import _COMMAND, Terminated, answered, interrupt, quiet_interrupts
 from .commands import COMMANDS
 from .common import HelpFormatter, Parser, UsageError, check_settings, held_warnings, one_line
 from .paths import write_error
@@ -77,6 +77,7 @@ def _run(args) -> int:
         with heartbeat(f"chatterbench {args.command}"):  # a line at least every LINE_EVERY_S s, whatever the output
             code = args.func(args)
         if interrupt.seen:  # a Ctrl-C whose KeyboardInterrupt a garbage-collection callback swallowed
+            answered()  # its resend may still be armed
             raise KeyboardInterrupt
         return code
     except (InputError, UsageError) as exc:  # every refusal of user input
@@ -90,6 +91,7 @@ def _run(args) -> int:
         print(f"chatterbench: error: {one_line(write_error(exc))}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
+        answered()  # no second KeyboardInterrupt inside this answer to the first
         print("chatterbench: interrupted", file=sys.stderr)
         if _COMMAND:  # as the command: leave now, before the interpreter's finalization gives SIGINT its
             # default action again (a Ctrl-C still pending there killed the process: -2 after this line)
