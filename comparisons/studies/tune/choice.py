@@ -20,7 +20,7 @@ every episode, and in every episode of each neighbour) of fewest steps; those wi
 away from the engine's defaults, then the larger dt, then the smaller wall time. Beside it,
 ``fragile``: the cheapest pass whose neighbourhood fails, when it is cheaper than the answer
 (an isolated point: a small change of the model can land on a failure); a tie in steps goes as
-the frontier's does (``TIE_KEYS``), never to the faster-timed run. The margin is the
+the frontier's answers do (``TIE_KEYS``), never to the faster-timed run. The margin is the
 answer's worst error over its tolerance among the judge's checks (restitution under the
 scene's forces beside it). When nothing robust passes, ``best_reachable`` is the
 pass whose neighbourhood fails least (fewest failing neighbours, then the smallest worst ratio
@@ -112,8 +112,9 @@ def reachable(table: pd.DataFrame, max_cost: float = math.inf) -> dict[str, Any]
     return first_of(ran, ["n_match", "worst_ratio", "steps_per_sim_s"], [False, True, True])
 
 
-# a tie in the keys goes as the frontier's does (``frontier.answers``): fewest settings changed from the defaults, the
-# larger dt, the settings' text; never the table's order, which follows measured wall times (``rows.table_of``)
+# a tie in the keys, in the frontier's answers (``frontier.answers``) as in the fragile pass and the best reachable:
+# fewest settings changed from the defaults, the larger dt, the settings' text; never the table's order, which follows
+# measured wall times (``rows.table_of``)
 TIE_KEYS = (("n_non_default", True), ("dt", False), ("settings", True))
 
 

@@ -36,6 +36,7 @@ from typing import Any
 import pandas as pd
 
 from ...pipeline.tolerances import Tolerances
+from .choice import first_of
 from .ladder import at_point, level_text, margin_at
 
 # recommended.json's frontier entries
@@ -51,8 +52,7 @@ def answers(table: pd.DataFrame, points: tuple[Tolerances, ...], max_cost: float
     for i in range(len(points)):
         ok = robust[robust["robust_at"].map(lambda v, i=i: i in v)]
         if len(ok):
-            out[i] = ok.sort_values(["steps_per_sim_s", "n_non_default", "dt", "settings"],
-                                    ascending=[True, True, False, True]).iloc[0].to_dict()
+            out[i] = first_of(ok, ["steps_per_sim_s"], [True])  # ties: choice.TIE_KEYS
     return out
 
 

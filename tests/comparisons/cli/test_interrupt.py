@@ -13,13 +13,22 @@ import sys
 
 import pytest
 
-SWALLOWED = r'''
-import os, signal, sys, weakref
+# a child process running `chatterbench scenes` as the console script, its listing replaced by ``listing`` (the part
+# between: it calls ``real``, the listing itself)
+SCENES_HEAD = r'''
+import os, signal, sys, time, weakref
 sys.argv[0] = "chatterbench"          # as the console script
+from chatterbench.comparisons import cli
 from chatterbench.comparisons.cli import main as cli_main, scenes
 
 real = scenes.cmd_scenes
+'''
+SCENES_TAIL = r'''
+scenes.cmd_scenes = listing
+sys.exit(cli_main.main(["scenes"]))
+'''
 
+SWALLOWED = SCENES_HEAD + r'''
 class Thing:
     pass
 
@@ -28,10 +37,7 @@ def listing(args):
     weakref.finalize(thing, os.kill, os.getpid(), signal.SIGINT)  # the signal arrives in a GC callback
     del thing
     return real(args)
-
-scenes.cmd_scenes = listing
-sys.exit(cli_main.main(["scenes"]))
-'''
+''' + SCENES_TAIL
 
 
 def test_a_ctrl_c_swallowed_by_a_callback_still_exits_130():
@@ -300,14 +306,7 @@ def test_an_isolated_run_hears_a_ctrl_c_another_thread_received(tmp_path):
 
 # the Ctrl-C swallowed at the very end of the work: its resend (``_again``, 20 ms) still armed when ``main`` raises for
 # ``interrupt.seen`` and says "interrupted"; a slow stderr (a loaded machine, a pipe) holds that line past 20 ms
-RESENT_LATE = r'''
-import os, sys, time
-sys.argv[0] = "chatterbench"          # as the console script
-from chatterbench.comparisons import cli
-from chatterbench.comparisons.cli import main as cli_main, scenes
-
-real = scenes.cmd_scenes
-
+RESENT_LATE = SCENES_HEAD + r'''
 class SlowErr:
     def __init__(self, stream):
         self.stream = stream
@@ -323,10 +322,7 @@ def listing(args):
     cli._again()
     sys.stderr = SlowErr(sys.stderr)
     return code
-
-scenes.cmd_scenes = listing
-sys.exit(cli_main.main(["scenes"]))
-'''
+''' + SCENES_TAIL
 
 
 def test_a_ctrl_c_resent_while_main_says_interrupted_still_exits_130():
