@@ -151,7 +151,10 @@ def test_the_cheapest_robust_point_matches_in_a_fresh_compare(small_atlas):
 
 
 @pytest.mark.slow
-def test_a_killed_atlas_resumes_keeping_every_finished_case(tmp_path, small_atlas):
+def test_a_killed_atlas_resumes_one_case_at_a_time_keeping_every_finished_case(tmp_path, small_atlas):
+    # killed after its first case (run with one worker, two cases side by side), then resumed one case at a time with
+    # two: the tables are those of the atlas run whole two cases at a time (small_atlas), so the resume keeps what
+    # was finished and one case at a time gives the side-by-side tables
     out = tmp_path / "killed"
     proc = subprocess.Popen([sys.executable, "-m", "chatterbench.comparisons.cli", "atlas", *SMALL, "--workers", "1",
                              "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
@@ -163,7 +166,7 @@ def test_a_killed_atlas_resumes_keeping_every_finished_case(tmp_path, small_atla
     proc.wait()
     kept = first.read_bytes()
     assert not (out / "atlas.parquet").exists()  # killed before the end
-    assert main(["atlas", *SMALL, "--workers", "2", "--out", str(out)]) == 0
+    assert main(["atlas", *SMALL, "--workers", "2", "--cases-at-once", "1", "--out", str(out)]) == 0
     assert first.read_bytes() == kept  # the finished case was not run again
     assert len(json.loads((out / "atlas.json").read_text())["resumed"]) == 1  # the one rerun
     for mine, whole in zip(_tables(out), _tables(small_atlas)):
@@ -385,14 +388,6 @@ def test_cases_side_by_side_overlap_and_give_the_rows_of_cases_one_after_another
     assert together == ["made", "made", "done", "done"]  # side by side: the second made while the first runs
     for engine in rows_alone:  # every row the same but the measured time
         pd.testing.assert_frame_equal(rows_alone[engine], rows_together[engine])
-
-
-@pytest.mark.slow
-def test_a_small_atlas_one_case_at_a_time_gives_the_side_by_side_tables(tmp_path, small_atlas):
-    out = tmp_path / "one-at-a-time"
-    assert main(["atlas", *SMALL, "--workers", "2", "--cases-at-once", "1", "--out", str(out)]) == 0
-    for mine, together in zip(_tables(out), _tables(small_atlas)):
-        pd.testing.assert_frame_equal(mine, together)
 
 
 def test_the_provenance_names_the_atlas_wall_time_and_its_cases_summed():
