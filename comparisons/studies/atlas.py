@@ -159,20 +159,25 @@ def machine_name() -> str:
     return f"{platform.machine()}, {_cpu_name()}, {_cores()} cores"
 
 
-def code_version() -> str:
+def code_version(source: Path | None = None) -> str:
     """The code that ran: the git commit of the checkout chatterbench runs from (``+changes`` when it has
-    uncommitted ones), else the installed package's version."""
+    uncommitted ones), else the installed package's version. A checkout is one that tracks ``source`` (this file by
+    default): a package installed into a folder that is itself in a git repository (a pyenv, a venv in the user's
+    own project) names the package's version, not that repository's commit."""
     import subprocess
     from importlib.metadata import version
 
-    here = Path(__file__).resolve().parent
+    source = Path(__file__).resolve() if source is None else source
+
+    def git(*args: str) -> subprocess.CompletedProcess:
+        return subprocess.run(["git", "-C", str(source.parent), *args], capture_output=True, text=True, timeout=10)
+
     try:
-        head = subprocess.run(["git", "-C", str(here), "rev-parse", "--short=12", "HEAD"], capture_output=True,
-                              text=True, timeout=10)
-        dirty = subprocess.run(["git", "-C", str(here), "status", "--porcelain", "--untracked-files=no"],
-                               capture_output=True, text=True, timeout=10)
-        if head.returncode == 0:
-            return f"git {head.stdout.strip()}" + ("+changes" if dirty.stdout.strip() else "")
+        if git("ls-files", "--error-unmatch", "--", source.name).returncode == 0:
+            head = git("rev-parse", "--short=12", "HEAD")
+            dirty = git("status", "--porcelain", "--untracked-files=no")
+            if head.returncode == 0:
+                return f"git {head.stdout.strip()}" + ("+changes" if dirty.stdout.strip() else "")
     except (OSError, subprocess.SubprocessError):
         pass
     return f"chatterbench {version('chatterbench')}"

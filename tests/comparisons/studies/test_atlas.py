@@ -327,6 +327,34 @@ def test_a_case_names_the_machine_and_code_it_ran_on(tmp_path):
     assert machine_name().endswith(" cores") and machine_name().count(", ") == 2
 
 
+def test_the_code_is_a_commit_only_of_a_checkout_that_tracks_chatterbench(tmp_path):
+    """Installed (not editable) into a folder inside some other git repository, chatterbench names its own version:
+    before, a pyenv's own git checkout put pyenv's commit (``git f6a5b409e9fd``) in every case.json of an atlas run
+    from ``pip install .``; a venv inside a user's project would have put the project's. Its own checkout, tracking
+    the file: the commit, and ``+changes`` when a tracked file changed."""
+    from importlib.metadata import version
+
+    from chatterbench.comparisons.studies.atlas import code_version
+
+    def git(*args: str) -> str:
+        return subprocess.run(["git", "-C", str(tmp_path), "-c", "user.name=t", "-c", "user.email=t@t", *args],
+                              capture_output=True, text=True, check=True).stdout.strip()
+
+    git("init", "-q")
+    (tmp_path / "README").write_text("someone else's project\n")
+    git("add", "README")
+    git("commit", "-qm", "theirs")
+    installed = tmp_path / "site-packages" / "chatterbench" / "comparisons" / "studies" / "atlas.py"
+    installed.parent.mkdir(parents=True)
+    installed.write_text("# as pip copies it: untracked here\n")
+    assert code_version(installed) == f"chatterbench {version('chatterbench')}"
+    git("add", str(installed))
+    git("commit", "-qm", "tracked: a checkout of chatterbench")
+    assert code_version(installed) == f"git {git('rev-parse', '--short=12', 'HEAD')}"
+    installed.write_text("# changed\n")
+    assert code_version(installed).endswith("+changes")
+
+
 def test_each_case_runs_in_a_pool_of_its_own(tmp_path):
     # before: one pool served every case, so each worker held every engine it had run and what their runs left
     # (Drake keeps ~0.1 MB of every diagram it builds): 1.48 GB for one process of a four-engine spring-pair atlas
